@@ -1,0 +1,55 @@
+# Third-party packages, all from Debian's archive (see README "Setup").
+find_package(Threads REQUIRED)
+find_package(ZLIB REQUIRED)
+find_package(fmt REQUIRED)
+find_package(nlohmann_json REQUIRED)
+find_package(CLI11 REQUIRED)
+find_package(TBB REQUIRED)
+find_package(Imath REQUIRED)
+find_package(OpenEXR REQUIRED)
+find_package(OpenImageIO CONFIG REQUIRED)
+
+# Debian's OpenImageIO target names /usr/include/opencv4, which is not
+# installed; the generate step fails unless that path is removed.
+foreach(prop INTERFACE_INCLUDE_DIRECTORIES INTERFACE_SYSTEM_INCLUDE_DIRECTORIES)
+  get_target_property(dirs OpenImageIO::OpenImageIO ${prop})
+  if(dirs)
+    list(FILTER dirs EXCLUDE REGEX "opencv4")
+    set_target_properties(OpenImageIO::OpenImageIO PROPERTIES ${prop} "${dirs}")
+  endif()
+endforeach()
+
+if(UMBRA_TESTS)
+  find_package(GTest REQUIRED)
+endif()
+if(UMBRA_BENCHMARKS)
+  find_package(benchmark REQUIRED)
+endif()
+
+# umbra_module(NAME DEPS...): a static library umbra_NAME from src/NAME/*.cpp
+# with public headers in include/umbra/NAME/.
+function(umbra_module name)
+  file(GLOB sources CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/*.cpp)
+  if(sources)
+    add_library(umbra_${name} STATIC ${sources})
+    target_include_directories(umbra_${name} PUBLIC ${PROJECT_SOURCE_DIR}/include)
+    target_link_libraries(umbra_${name} PUBLIC ${ARGN})
+  else()  # a module not yet written: headers only
+    add_library(umbra_${name} INTERFACE)
+    target_include_directories(umbra_${name} INTERFACE ${PROJECT_SOURCE_DIR}/include)
+    target_link_libraries(umbra_${name} INTERFACE ${ARGN})
+  endif()
+  add_library(umbra::${name} ALIAS umbra_${name})
+endfunction()
+
+# umbra_test(MODULE): one gtest binary per module from tests/unit/MODULE/*.cpp.
+function(umbra_test module)
+  file(GLOB sources CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/*.cpp)
+  add_executable(test_${module} ${sources})
+  target_link_libraries(test_${module} PRIVATE umbra::${module} ${ARGN} GTest::gtest_main)
+  target_compile_definitions(test_${module} PRIVATE
+    UMBRA_SOURCE_DIR="${PROJECT_SOURCE_DIR}" UMBRA_BINARY_DIR="${PROJECT_BINARY_DIR}")
+  include(GoogleTest)
+  gtest_discover_tests(test_${module} DISCOVERY_TIMEOUT 60
+    WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR} PROPERTIES LABELS unit)
+endfunction()

@@ -1,0 +1,55 @@
+#pragma once
+// The primitive contract every geometric family meets, so the REYES loop
+// (dice/reyes.h) can treat them alike: bound, split, dice.
+
+#include "umbra/geometry/grid.h"
+#include "umbra/scene/scene.h"
+#include "umbra/util/error.h"
+#include "umbra/util/math.h"
+
+#include <memory>
+#include <vector>
+
+namespace umbra::geometry {
+
+class Primitive;
+using PrimitivePtr = std::unique_ptr<Primitive>;
+
+/// A surface that can be bounded, split into smaller surfaces of the same
+/// kind, and diced into a grid. Everything is in the primitive's object
+/// space; the record says where that is (worldFromObject) and what
+/// attributes apply.
+class Primitive {
+public:
+    explicit Primitive(std::shared_ptr<const scene::PrimitiveRecord> record) : m_record(std::move(record)) {}
+    virtual ~Primitive() = default;
+
+    /// Object-space bound of the surface (without displacement; the
+    /// renderer pads it by the displacement bound).
+    virtual Bound3 bound() const = 0;
+    /// Splits into pieces that together cover this surface exactly.
+    /// `splitU` asks for a cut across u (halving the u range) rather than
+    /// v; primitives that cannot honour the direction may ignore it.
+    virtual void split(bool splitU, std::vector<PrimitivePtr>& out) const = 0;
+    /// False when the primitive must be split before it can be diced
+    /// (e.g. a polygon mesh that has not yet been broken into faces).
+    virtual bool diceable() const { return true; }
+    /// Dices into an nu x nv grid of micropolygons (nu, nv >= 1) in object
+    /// space, with every primitive variable interpolated onto it and s, t
+    /// always present (defaulting to u, v as RenderMan does).
+    virtual Grid dice(int nu, int nv) const = 0;
+
+    const scene::PrimitiveRecord& record() const { return *m_record; }
+    const std::shared_ptr<const scene::PrimitiveRecord>& recordPtr() const { return m_record; }
+    const scene::Attributes& attributes() const { return *m_record->attributes; }
+
+private:
+    std::shared_ptr<const scene::PrimitiveRecord> m_record;
+};
+
+/// Creates the primitive(s) a record describes, reporting malformed records
+/// (wrong argument counts, missing P, bad indices) with their location and
+/// returning nothing for them.
+std::vector<PrimitivePtr> makePrimitives(std::shared_ptr<const scene::PrimitiveRecord> record, Diagnostics& diag);
+
+}  // namespace umbra::geometry

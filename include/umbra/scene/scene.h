@@ -1,0 +1,180 @@
+#pragma once
+// Scene records: what the builder (scene/builder.h) makes of RIB requests.
+//
+// Records are plain data: names, parameter lists, transforms and source
+// locations. Nothing here is a renderer object; the render module creates
+// primitives, shader instances and displays from the records of one world
+// (WorldBegin ... WorldEnd) when it renders it.
+
+#include "umbra/ri/param_list.h"
+#include "umbra/util/error.h"
+#include "umbra/util/math.h"
+
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace umbra::scene {
+
+/// A shader as named by `Surface`, `Displacement`, `LightSource`,
+/// `Atmosphere`, `Imager`: its name, its instance parameters, and the
+/// "shader" coordinate system (the current transform when it was named).
+struct ShaderRecord {
+    std::string name;
+    ri::ParamList params;
+    Mat4 worldFromShader;
+    FileLoc loc;
+};
+
+/// A cubic basis for `Patch "bicubic"` and `PatchMesh` (RI spec 3.2 §5.5),
+/// applied to column vectors of control values: the 4x4 matrix of the
+/// `Basis` request, and its step.
+struct Basis {
+    float m[4][4];
+    int step = 3;
+    static Basis bezier();
+    static Basis bspline();
+    static Basis catmullRom();
+    static Basis hermite();
+    static Basis power();
+    /// By RIB name; false if unknown.
+    static bool byName(const std::string& name, Basis* out);
+};
+
+/// The attribute state a primitive carries (immutable once a primitive
+/// references it; the builder copies on write).
+struct Attributes {
+    Color color{1, 1, 1};
+    Color opacity{1, 1, 1};
+    bool matte = false;
+    float shadingRate = 1.0f;        // micropolygon area in pixels
+    int sides = 2;                   // 1: back faces are culled
+    bool outsideIsLeft = false;      // Orientation "inside"/"lh" flips (see geometry::Primitive)
+    std::shared_ptr<const ShaderRecord> surface;       // null: the default surface
+    std::shared_ptr<const ShaderRecord> displacement;  // null: none
+    std::shared_ptr<const ShaderRecord> atmosphere;    // null: none
+    std::vector<int> lights;         // indices into WorldRecord::lights that illuminate this
+    float displacementBound = 0;     // "displacementbound" "sphere" in "object" space units
+    std::string displacementBoundSpace = "object";
+    Basis uBasis = Basis::bezier();
+    Basis vBasis = Basis::bezier();
+    std::string name;                // Attribute "identifier" "name"
+    // Visibility: RenderMan's Attribute "visibility" "camera" / "transmission"
+    // ("shadow" in older RIBs). transmission 0 leaves the object out of
+    // depth-map passes (Reeves' ground plane).
+    bool visibleToCamera = true;
+    bool castsShadows = true;
+    /// Every other `Attribute "class" "name" value` by "class:name", for the
+    /// attribute() shadeop and for modules' own attributes ("umbra:...").
+    std::map<std::string, ri::Param> user;
+};
+
+/// A geometric primitive request: type name ("Sphere", "PointsPolygons",
+/// "PatchMesh", ...), its positional arguments, its parameter list, and the
+/// transform and attributes current when it was given.
+struct PrimitiveRecord {
+    std::string type;
+    std::vector<float> floatArgs;          // e.g. Sphere radius zmin zmax thetamax
+    std::vector<int> intArgs;              // e.g. PointsPolygons nverts then verts
+    std::vector<std::string> stringArgs;   // e.g. Patch "bicubic", PatchMesh "periodic"
+    /// Array arguments in the order they appeared, for requests with more
+    /// than one (PointsGeneralPolygons: nloops, nverts, verts).
+    std::vector<std::vector<int>> intArrays;
+    ri::ParamList params;
+    Mat4 worldFromObject;
+    std::shared_ptr<const Attributes> attributes;
+    FileLoc loc;
+};
+
+/// A light source or area light, with its transform.
+struct LightRecord {
+    ShaderRecord shader;
+    std::string handle;      // the RIB handle (integer or string) as text
+    bool onByDefault = true;
+    std::shared_ptr<const Attributes> attributes;
+};
+
+/// One `Display` request. The first has no '+'; more add outputs.
+struct DisplayRecord {
+    std::string name;        // file name, without a leading '+'
+    std::string driver;      // "file", "tiff", "openexr", "png", "zfile", "shadow", "framebuffer", ...
+    std::string mode;        // "rgb", "rgba", "z", "rgbaz", or AOV: "color myaov"
+    ri::ParamList params;
+    FileLoc loc;
+};
+
+enum class Projection { Orthographic, Perspective };
+
+/// The options of one frame (everything set before WorldBegin).
+struct Options {
+    int xResolution = 640, yResolution = 480;
+    float pixelAspectRatio = 1.0f;
+    float frameAspectRatio = -1.0f;           // -1: xres*pixelAspect/yres
+    bool screenWindowSet = false;
+    float screenWindow[4] = {-1, 1, -1, 1};  // left right bottom top; derived when not set
+    float cropWindow[4] = {0, 1, 0, 1};      // xmin xmax ymin ymax in NDC
+    Projection projection = Projection::Orthographic;
+    float fov = 90.0f;                        // degrees, perspective only
+    float nearClip = 1e-10f, farClip = 1e30f; // RenderMan's RI_EPSILON / RI_INFINITY
+    int pixelSamples[2] = {2, 2};
+    std::string pixelFilter = "gaussian";
+    float filterWidth[2] = {2, 2};
+    float exposureGain = 1.0f, exposureGamma = 1.0f;
+    // Quantize "rgba" one min max dither; (0,0,0,0) means floating point.
+    float quantizeOne = 255, quantizeMin = 0, quantizeMax = 255, quantizeDither = 0.5f;
+    float zQuantizeOne = 0, zQuantizeMin = 0, zQuantizeMax = 0, zQuantizeDither = 0;
+    std::vector<DisplayRecord> displays;
+    std::string hider = "hidden";
+    ri::ParamList hiderParams;                // "jitter", "depthfilter", ...
+    bool jitter = true;
+    std::string depthFilter = "min";
+    int bucketSize[2] = {16, 16};
+    int gridSize = 256;                       // max micropolygons per grid
+    int eyeSplits = 10;
+    std::map<std::string, std::string> searchPaths;  // "shader", "texture", "archive", "resource"
+    bool statisticsEndOfFrame = false;
+    float shutter[2] = {0, 0};
+    /// Every other `Option "class" "name" value` by "class:name".
+    std::map<std::string, ri::Param> user;
+
+    Mat4 cameraFromWorld;                     // the transform at WorldBegin
+    FileLoc loc;                              // where the frame's options began
+};
+
+/// Everything needed to render one world block.
+struct WorldRecord {
+    int frameNumber = -1;                     // FrameBegin number, -1 outside frames
+    Options options;
+    std::vector<LightRecord> lights;
+    std::vector<PrimitiveRecord> primitives;
+    /// CoordinateSystem names -> worldFromNamed, including "world".
+    std::map<std::string, Mat4> coordinateSystems;
+    FileLoc loc;                              // the WorldBegin
+};
+
+/// MakeTexture, MakeShadow, MakeLatLongEnvironment, MakeCubeFaceEnvironment:
+/// file conversions run in request order between worlds.
+struct MakeRecord {
+    std::string request;                 // "MakeShadow", "MakeTexture", ...
+    std::vector<std::string> inputs;     // one, or six for cube faces
+    std::string output;
+    std::vector<std::string> stringArgs; // swrap twrap filter
+    std::vector<float> floatArgs;        // swidth twidth (fov for cube faces)
+    ri::ParamList params;
+    FileLoc loc;
+};
+
+/// What the scene builder hands on, in request order.
+class SceneSink {
+public:
+    virtual ~SceneSink() = default;
+    /// Called at WorldEnd; the record is complete.
+    virtual void renderWorld(const WorldRecord& world) = 0;
+    virtual void make(const MakeRecord& make) = 0;
+    /// FrameBegin/FrameEnd bracket worlds; no-ops by default.
+    virtual void frameBegin(int frameNumber, const FileLoc& loc) {}
+    virtual void frameEnd(const FileLoc& loc) {}
+};
+
+}  // namespace umbra::scene
