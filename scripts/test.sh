@@ -1,0 +1,54 @@
+#!/usr/bin/env bash
+# One command from a bare Debian 12 machine to the whole test suite:
+#  1. Release build, every unit/golden/corpus test (ctest);
+#  2. the same tests built with AddressSanitizer + UndefinedBehaviorSanitizer;
+#  3. the tile cache and scheduler tests under ThreadSanitizer;
+#  4. the RIB and shading-language fuzzers (libFuzzer) for a bounded time.
+# Set UMBRA_QUICK=1 to run step 1 only.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/install-deps.sh
+jobs=$(nproc)
+fuzz_seconds=${UMBRA_FUZZ_SECONDS:-60}
+
+echo "== release build and tests"
+cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
+cmake --build build -j"$jobs"
+ctest --test-dir build -j"$jobs" --output-on-failure --timeout 600
+
+[ "${UMBRA_QUICK:-0}" = 1 ] && exit 0
+
+echo "== AddressSanitizer + UndefinedBehaviorSanitizer"
+cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  -DUMBRA_SANITIZE=address,undefined -DUMBRA_BENCHMARKS=OFF >/dev/null
+cmake --build build-asan -j"$jobs"
+ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+  ctest --test-dir build-asan -j"$jobs" --output-on-failure --timeout 900
+
+echo "== ThreadSanitizer (concurrent tile cache and bucket scheduler)"
+cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  -DUMBRA_SANITIZE=thread -DUMBRA_BENCHMARKS=OFF >/dev/null
+tsan_targets=()
+for t in test_shadow test_render; do
+  if cmake --build build-tsan --target help | grep -q "^$t:"; then tsan_targets+=("$t"); fi
+done
+if [ ${#tsan_targets[@]} -gt 0 ]; then
+  cmake --build build-tsan -j"$jobs" --target "${tsan_targets[@]}"
+  for t in "${tsan_targets[@]}"; do
+    TSAN_OPTIONS=halt_on_error=1 "build-tsan/bin/$t" --gtest_filter='*Concurrent*:*Thread*:*Determinis*'
+  done
+fi
+
+echo "== fuzzers (${fuzz_seconds}s each)"
+CC=clang CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  -DUMBRA_FUZZERS=ON -DUMBRA_TESTS=OFF -DUMBRA_BENCHMARKS=OFF \
+  -DUMBRA_SANITIZE=address,undefined >/dev/null
+cmake --build build-fuzz -j"$jobs" --target fuzzers
+for f in build-fuzz/bin/fuzz_*; do
+  corpus="tests/fuzz/corpus/$(basename "$f")"
+  work=$(mktemp -d)
+  cp -r "$corpus"/. "$work"/ 2>/dev/null || true
+  "$f" -max_total_time="$fuzz_seconds" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 "$work" 2>&1 | tail -3
+  rm -rf "$work"
+done
+echo "umbra: all test stages passed"
