@@ -45,6 +45,9 @@ endfunction()
 # umbra_test(MODULE): one gtest binary per module from tests/unit/MODULE/*.cpp.
 function(umbra_test module)
   file(GLOB sources CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/*.cpp)
+  if(NOT sources)
+    return()
+  endif()
   add_executable(test_${module} ${sources})
   target_link_libraries(test_${module} PRIVATE umbra::${module} ${ARGN} GTest::gtest_main)
   target_compile_definitions(test_${module} PRIVATE

@@ -38,6 +38,10 @@ public:
     /// space, with every primitive variable interpolated onto it and s, t
     /// always present (defaulting to u, v as RenderMan does).
     virtual Grid dice(int nu, int nv) const = 0;
+    /// Only the positions of dice(nu, nv), in the same order: what the
+    /// dicing decision needs to measure a primitive's size on screen.
+    /// Families override it to skip primitive variables.
+    virtual void dicePositions(int nu, int nv, std::vector<Vec3>& P) const { P = dice(nu, nv).P; }
 
     const scene::PrimitiveRecord& record() const { return *m_record; }
     const std::shared_ptr<const scene::PrimitiveRecord>& recordPtr() const { return m_record; }

@@ -1,0 +1,88 @@
+#pragma once
+// The split/dice decision of the REYES loop (Cook, Carpenter, Catmull 1987),
+// independent of any particular primitive family.
+//
+// REYES terms, defined once here:
+//  - bound: a primitive's object-space box (Primitive::bound), taken to
+//    camera space and padded by the displacement bound;
+//  - cull: drop a primitive whose bound cannot reach any visible sample
+//    (outside the raster window, entirely before the near or beyond the far
+//    clipping plane);
+//  - split: replace a primitive by smaller pieces of the same kind
+//    (Primitive::split) when it is too big on screen for one grid, or not
+//    diceable as it is;
+//  - dice: evaluate the primitive on an nu x nv parametric lattice, a
+//    *grid* (geometry/grid.h) whose cells are *micropolygons*, chosen so each
+//    micropolygon covers about `shadingRate` pixels of area;
+//  - eye split: a perspective projection divides by camera z, so geometry
+//    whose bound crosses the eye plane (z near 0) cannot be measured or
+//    projected; it is split until its pieces lie on one side, at most
+//    `maxEyeSplits` times, after which the remaining pieces are culled with
+//    a warning (RenderMan's "eyesplits" limit).
+
+#include "umbra/geometry/primitive.h"
+#include "umbra/util/error.h"
+#include "umbra/util/math.h"
+
+namespace umbra::dice {
+
+/// Everything the decision needs about the camera and the attributes of the
+/// primitive being decided.
+struct DiceParams {
+    Mat4 cameraFromObject;              // affine
+    Mat4 rasterFromCamera;              // projective: camera space -> raster pixels (x right, y down or up)
+    /// The raster region where samples can be affected, in pixels: xmin
+    /// xmax ymin ymax (the crop window plus the pixel filter's radius).
+    float rasterWindow[4] = {-kInfinity, kInfinity, -kInfinity, kInfinity};
+    float shadingRate = 1.0f;           // micropolygon area in pixels
+    int gridSize = 256;                 // max micropolygons per grid
+    float nearClip = 1e-10f, farClip = 1e30f;  // camera-space z
+    int maxEyeSplits = 10;
+    bool orthographic = false;
+    float displacementBound = 0;        // camera-space padding of every bound
+    int testGrid = 8;                   // lattice used to measure a primitive on screen
+};
+
+/// The three outcomes of the REYES loop for one primitive.
+enum class Decision { Cull, Split, Dice };
+
+/// What to do with one primitive.
+struct DiceResult {
+    Decision decision = Decision::Cull;
+    bool splitU = true;   // Split: cut across u (halve the u range) rather than v
+    bool eyeSplit = false;// Split because the bound crosses the eye plane (counts towards maxEyeSplits)
+    int nu = 0, nv = 0;   // Dice: micropolygons along u and v
+};
+
+/// The z of the eye plane below which a perspective projection is not
+/// trusted (camera units): min(nearClip, 1e-3) but at least 1e-6.
+float eyePlaneZ(const DiceParams& p);
+
+/// Camera-space bound of an object-space bound, padded by the
+/// displacement bound.
+Bound3 cameraBound(const Bound3& objectBound, const DiceParams& p);
+
+/// Raster-space bound for bucket assignment: x, y in pixels, z the camera
+/// z range. When the bound crosses the eye plane (perspective) x and y are
+/// unbounded (-inf, inf). Empty for an empty input.
+Bound3 rasterBound(const Bound3& objectBound, const DiceParams& p);
+
+/// True when the camera-space bound cannot reach the raster window or the
+/// clipping range: tested against the window's four side planes in camera
+/// space (no division, so it works for bounds behind the eye too).
+bool outsideView(const Bound3& cameraBound, const DiceParams& p);
+
+/// Decides whether `prim` (with object bound `objectBound`) is culled,
+/// split or diced. `eyeSplits` is how many eye splits produced it; the
+/// caller passes result.eyeSplit ? eyeSplits + 1 : eyeSplits to the pieces.
+/// `diag` (optional) gets a once-per-run warning when the eye-split limit
+/// culls geometry.
+DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, const DiceParams& p, int eyeSplits = 0,
+                  Diagnostics* diag = nullptr);
+
+/// Longest raster lengths along u and along v of an (nu+1) x (nv+1) lattice
+/// of raster positions (row after row, u fastest): the largest polyline
+/// length over rows, and over columns, in pixels (x and y only).
+void rasterLengths(const Vec3* raster, int nu, int nv, float* lenU, float* lenV);
+
+}  // namespace umbra::dice

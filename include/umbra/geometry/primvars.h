@@ -1,0 +1,143 @@
+#pragma once
+// Primitive variables of one record, validated once and shared by every
+// piece the record is split into, and their interpolation onto grids.
+//
+// RenderMan interpolates a primitive variable by its storage class (RI spec
+// 3.2 §5.6): constant (one value), uniform (one per face or patch), varying
+// (one per patch corner, bilinear), vertex (one per control vertex, with the
+// surface's own basis), facevarying (one per face corner, bilinear). Every
+// piece here is diced over a bilinear "corner domain": a quad whose four
+// corners index the varying, vertex and facevarying arrays, in RenderMan's
+// bilinear-patch order
+//
+//      2 ---- 3      corner c sits at (u, v) = (c & 1, c >> 1)
+//      |      |
+//      0 ---- 1  --> u
+
+#include "umbra/geometry/grid.h"
+#include "umbra/ri/param_list.h"
+#include "umbra/scene/scene.h"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace umbra::geometry {
+
+/// Expected value counts of each storage class for one record.
+struct ClassCounts {
+    size_t uniform = 1;
+    size_t varying = 4;
+    size_t vertex = 4;
+    size_t faceVarying = 4;
+    /// How the counts read in error messages, e.g. "one per vertex".
+    const char* uniformWhat = "one per face";
+    const char* varyingWhat = "one per corner";
+    const char* vertexWhat = "one per vertex";
+    const char* faceVaryingWhat = "one per face corner";
+};
+
+/// One primitive variable as stored in the record: element k is the
+/// `components` floats starting at data + k * stride + offset (offset and
+/// stride let "st" feed separate "s" and "t" variables).
+struct PrimVar {
+    std::string name;
+    ri::ParamType type = ri::ParamType::Float;
+    ri::StorageClass storage = ri::StorageClass::Constant;
+    int components = 1;
+    int stride = 1;
+    int offset = 0;
+    const float* data = nullptr;
+    size_t count = 0;
+    bool isNormal = false;  // "N" (or "Np"): goes to Grid::N, not Grid::vars
+
+    const float* at(size_t k) const { return data + k * size_t(stride) + size_t(offset); }
+};
+
+/// The validated primitive variables and positions of one record. Points
+/// into the record's parameter lists, so it lives as long as the record
+/// (pieces keep the record alive through Primitive::recordPtr()).
+struct SurfaceData {
+    /// Positions: `posDim` floats per vertex: 3 (P), or 4 (Pw, homogeneous,
+    /// divided after interpolation). Pz is expanded into `ownedPos`.
+    const float* pos = nullptr;
+    int posDim = 3;
+    size_t posCount = 0;
+    std::vector<float> ownedPos;
+    std::vector<PrimVar> vars;
+    bool hasS = false, hasT = false;
+    Color defaultCs{1, 1, 1}, defaultOs{1, 1, 1};
+    bool hasCs = false, hasOs = false;
+
+    /// Position of vertex k, homogeneous (w = 1 for P).
+    void position(size_t k, float out[4]) const {
+        const float* p = pos + k * size_t(posDim);
+        out[0] = p[0];
+        out[1] = p[1];
+        out[2] = p[2];
+        out[3] = posDim == 4 ? p[3] : 1.0f;
+    }
+    /// Position of vertex k divided by w.
+    Vec3 point(size_t k) const {
+        const float* p = pos + k * size_t(posDim);
+        if (posDim == 4) return Vec3(p[0], p[1], p[2]) / p[3];
+        return {p[0], p[1], p[2]};
+    }
+};
+
+/// Which elements of each class a piece's four corners use.
+struct CornerRefs {
+    int vertex[4] = {0, 1, 2, 3};
+    int varying[4] = {0, 1, 2, 3};
+    int faceVarying[4] = {0, 1, 2, 3};
+    int uniform = 0;
+};
+
+/// A rectangle of the corner domain ([0,1]^2 before any split).
+struct ParamRange {
+    float u0 = 0, u1 = 1, v0 = 0, v1 = 1;
+    ParamRange half(bool splitU, bool second) const {
+        ParamRange r = *this;
+        if (splitU) {
+            float m = 0.5f * (u0 + u1);
+            (second ? r.u0 : r.u1) = m;
+        } else {
+            float m = 0.5f * (v0 + v1);
+            (second ? r.v0 : r.v1) = m;
+        }
+        return r;
+    }
+};
+
+/// Maps the corner domain to the u, v the grid reports (e.g. a patch of a
+/// patch mesh covers [i/n, (i+1)/n] of the mesh's u).
+struct ParamMap {
+    float uOffset = 0, uScale = 1, vOffset = 0, vScale = 1;
+};
+
+/// Reads, validates and shares the primitive variables of `record`.
+/// `posRequired`: P, Pw (or Pz when `allowPz`) must be present with
+/// `counts.vertex` values. Reports problems through `diag` as
+/// "<request>: ..." at record.loc and returns null.
+std::shared_ptr<const SurfaceData> readSurfaceData(const scene::PrimitiveRecord& record, const ClassCounts& counts,
+                                                   bool posRequired, Diagnostics& diag, bool allowPz = false,
+                                                   int pzNu = 0, int pzNv = 0, bool pzPeriodicU = false,
+                                                   bool pzPeriodicV = false);
+
+/// Lays out a grid of nu x nv micropolygons over `range` of the corner
+/// domain: sizes P, u, v, du, dv, and fills `a` (corner-domain u of each
+/// column) and `b` (v of each row).
+void initGrid(Grid& g, int nu, int nv, const ParamRange& range, const ParamMap& map, std::vector<float>& a,
+              std::vector<float>& b);
+
+/// Interpolates every primitive variable onto `g` (already laid out by
+/// initGrid): varying, facevarying and (unless `skipVertex`) vertex classes
+/// bilinearly from the corners, uniform and constant as single values, N
+/// into Grid::N, and default s, t (= grid u, v), Cs and Os.
+void interpolateVars(const SurfaceData& sd, const CornerRefs& refs, const std::vector<float>& a,
+                     const std::vector<float>& b, bool skipVertex, Grid& g);
+
+/// Appends a per-vertex variable to `g` and returns its storage.
+GridVar& addGridVar(Grid& g, const PrimVar& v, bool perVertex);
+
+}  // namespace umbra::geometry

@@ -1,0 +1,277 @@
+#include "umbra/geometry/patch.h"
+#include "umbra/geometry/polygon.h"
+#include "umbra/geometry/primitive.h"
+#include "umbra/geometry/quadric.h"
+
+#include <numeric>
+
+namespace umbra::geometry {
+
+namespace {
+
+using RecordPtr = std::shared_ptr<const scene::PrimitiveRecord>;
+
+// Elements in the position parameter (P, else Pw), or -1 without one.
+long positionCount(const scene::PrimitiveRecord& rec) {
+    for (const char* name : {"P", "Pw"}) {
+        for (const ri::Param& p : rec.params.params())
+            if (p.decl.name == name) {
+                const int e = p.decl.elementSize();
+                return e > 0 ? long(p.floats.size() / size_t(e)) : -1;
+            }
+    }
+    return -1;
+}
+
+void makeQuadric(const RecordPtr& rec, Diagnostics& diag, std::vector<PrimitivePtr>& out) {
+    QuadricShape shape;
+    if (!Quadric::shapeFromRecord(*rec, &shape, diag)) return;
+    ClassCounts counts;  // four corners of the (u, v) domain
+    counts.uniform = 1;
+    counts.uniformWhat = "one for the surface";
+    counts.vertex = counts.varying = counts.faceVarying = 4;
+    counts.vertexWhat = counts.faceVaryingWhat = "one per corner";
+    auto sd = readSurfaceData(*rec, counts, false, diag);
+    if (!sd) return;
+    out.push_back(std::make_unique<Quadric>(rec, shape, std::move(sd)));
+}
+
+// Checks face/loop/vertex index arrays and builds the face table; npoints
+// receives 1 + the largest vertex index.
+std::shared_ptr<PolygonFaces> buildFaces(const scene::PrimitiveRecord& rec, const std::vector<int>* nloops,
+                                         const std::vector<int>& nverts, const std::vector<int>* verts,
+                                         long* npoints, Diagnostics& diag) {
+    auto faces = std::make_shared<PolygonFaces>();
+    const size_t nfaces = nloops ? nloops->size() : (verts ? nverts.size() : 1);
+    size_t loop = 0;
+    long total = 0;
+    faces->faceLoopStart.push_back(0);
+    faces->faceCornerStart.push_back(0);
+    for (size_t f = 0; f < nfaces; ++f) {
+        const long loops = nloops ? (*nloops)[f] : (verts ? 1 : long(nverts.size()));
+        if (loops < 1) {
+            diag.error(rec.loc, "{}: face {} has {} loops, expected at least 1", rec.type, f, loops);
+            return nullptr;
+        }
+        if (loop + size_t(loops) > nverts.size()) {
+            diag.error(rec.loc, "{}: nloops asks for {} loops, but nverts has {}", rec.type,
+                       std::accumulate(nloops->begin(), nloops->end(), 0L), nverts.size());
+            return nullptr;
+        }
+        for (long l = 0; l < loops; ++l, ++loop) {
+            if (nverts[loop] < 3) {
+                diag.error(rec.loc, "{}: loop {} has {} vertices, expected at least 3", rec.type, loop, nverts[loop]);
+                return nullptr;
+            }
+            faces->loopSize.push_back(nverts[loop]);
+            total += nverts[loop];
+        }
+        faces->faceLoopStart.push_back(int(faces->loopSize.size()));
+        faces->faceCornerStart.push_back(int(total));
+    }
+    if (loop != nverts.size()) {
+        diag.error(rec.loc, "{}: nverts has {} entries, expected {} (one per loop)", rec.type, nverts.size(), loop);
+        return nullptr;
+    }
+    if (verts) {
+        if (long(verts->size()) != total) {
+            diag.error(rec.loc, "{}: vertices has {} indices, expected {} (the sum of nverts)", rec.type,
+                       verts->size(), total);
+            return nullptr;
+        }
+        long maxIndex = -1;
+        for (size_t k = 0; k < verts->size(); ++k) {
+            if ((*verts)[k] < 0) {
+                diag.error(rec.loc, "{}: vertex index {} at position {} is negative", rec.type, (*verts)[k], k);
+                return nullptr;
+            }
+            maxIndex = std::max(maxIndex, long((*verts)[k]));
+        }
+        faces->vertices = *verts;
+        *npoints = maxIndex + 1;
+    } else {
+        faces->vertices.resize(size_t(total));
+        std::iota(faces->vertices.begin(), faces->vertices.end(), 0);
+        *npoints = total;
+    }
+    return faces;
+}
+
+void makePolygons(const RecordPtr& rec, Diagnostics& diag, std::vector<PrimitivePtr>& out) {
+    const std::string& t = rec->type;
+    const auto& arrays = rec->intArrays;
+    std::shared_ptr<PolygonFaces> faces;
+    long npoints = 0;
+    if (t == "Polygon") {
+        const long n = positionCount(*rec);
+        if (n < 3) {
+            diag.error(rec->loc, "Polygon: expected \"P\" with at least 3 vertices, got {}", std::max(n, 0L));
+            return;
+        }
+        faces = buildFaces(*rec, nullptr, std::vector<int>{int(n)}, nullptr, &npoints, diag);
+    } else if (t == "GeneralPolygon") {
+        if (arrays.size() != 1) {
+            diag.error(rec->loc, "GeneralPolygon: expected 1 integer array (nverts), got {}", arrays.size());
+            return;
+        }
+        faces = buildFaces(*rec, nullptr, arrays[0], nullptr, &npoints, diag);
+    } else if (t == "PointsPolygons") {
+        if (arrays.size() != 2) {
+            diag.error(rec->loc, "PointsPolygons: expected 2 integer arrays (nverts vertices), got {}", arrays.size());
+            return;
+        }
+        faces = buildFaces(*rec, nullptr, arrays[0], &arrays[1], &npoints, diag);
+    } else {
+        if (arrays.size() != 3) {
+            diag.error(rec->loc, "PointsGeneralPolygons: expected 3 integer arrays (nloops nverts vertices), got {}",
+                       arrays.size());
+            return;
+        }
+        faces = buildFaces(*rec, &arrays[0], arrays[1], &arrays[2], &npoints, diag);
+    }
+    if (!faces) return;
+    const bool single = t == "Polygon" || t == "GeneralPolygon";
+    ClassCounts counts;
+    counts.uniform = size_t(faces->faceCount());
+    counts.uniformWhat = single ? "one for the polygon" : "one per face";
+    counts.varying = counts.vertex = size_t(npoints);
+    counts.varyingWhat = counts.vertexWhat = "one per vertex";
+    counts.faceVarying = faces->vertices.size();
+    counts.faceVaryingWhat = "one per face corner";
+    auto sd = readSurfaceData(*rec, counts, true, diag);
+    if (!sd) return;
+    if (faces->faceCount() == 1) {
+        // Triangles and convex quads are diceable at once; anything else
+        // stays a one-face mesh until the REYES loop splits it.
+        std::vector<PrimitivePtr> pieces;
+        appendFacePieces(rec, sd, *faces, 0, pieces);
+        if (pieces.size() == 1) {
+            out.push_back(std::move(pieces[0]));
+            return;
+        }
+        if (pieces.empty()) return;
+    }
+    const int nfaces = faces->faceCount();
+    out.push_back(std::make_unique<PolygonMesh>(rec, std::move(sd), std::move(faces), 0, nfaces));
+}
+
+bool readWrap(const scene::PrimitiveRecord& rec, const std::string& s, const char* which, bool* periodic,
+              Diagnostics& diag) {
+    if (s == "periodic") *periodic = true;
+    else if (s == "nonperiodic") *periodic = false;
+    else {
+        diag.error(rec.loc, "PatchMesh: {} must be \"periodic\" or \"nonperiodic\", got \"{}\"", which, s);
+        return false;
+    }
+    return true;
+}
+
+void makePatches(const RecordPtr& rec, Diagnostics& diag, std::vector<PrimitivePtr>& out) {
+    const bool mesh = rec->type == "PatchMesh";
+    const auto& sa = rec->stringArgs;
+    if (sa.size() != (mesh ? 3u : 1u)) {
+        if (mesh) diag.error(rec->loc, "PatchMesh: expected 3 string arguments (type uwrap vwrap), got {}", sa.size());
+        else diag.error(rec->loc, "Patch: expected 1 string argument (type), got {}", sa.size());
+        return;
+    }
+    if (sa[0] != "bilinear" && sa[0] != "bicubic") {
+        diag.error(rec->loc, "{}: type must be \"bilinear\" or \"bicubic\", got \"{}\"", rec->type, sa[0]);
+        return;
+    }
+    const bool bicubic = sa[0] == "bicubic";
+    const scene::Basis uBasis = rec->attributes ? rec->attributes->uBasis : scene::Basis::bezier();
+    const scene::Basis vBasis = rec->attributes ? rec->attributes->vBasis : scene::Basis::bezier();
+    int nu = bicubic ? 4 : 2, nv = nu;
+    bool uper = false, vper = false;
+    if (mesh) {
+        if (rec->intArgs.size() != 2) {
+            diag.error(rec->loc, "PatchMesh: expected 2 integer arguments (nu nv), got {}", rec->intArgs.size());
+            return;
+        }
+        nu = rec->intArgs[0];
+        nv = rec->intArgs[1];
+        if (!readWrap(*rec, sa[1], "uwrap", &uper, diag) || !readWrap(*rec, sa[2], "vwrap", &vper, diag)) return;
+    }
+    // Patches along one direction (RI spec 3.2 §5.5, PatchMesh).
+    auto patchCount = [&](int n, bool periodic, int step, const char* dir) -> int {
+        if (!bicubic) {
+            if (n < (periodic ? 1 : 2)) {
+                diag.error(rec->loc, "PatchMesh: n{} is {}, expected at least {} for a {} bilinear mesh", dir, n,
+                           periodic ? 1 : 2, periodic ? "periodic" : "nonperiodic");
+                return 0;
+            }
+            return periodic ? n : n - 1;
+        }
+        if (step < 1) step = 1;
+        if (periodic ? (n < step || n % step != 0) : (n < 4 || (n - 4) % step != 0)) {
+            diag.error(rec->loc, "PatchMesh: n{} is {}, expected {} for a {} bicubic mesh with {}step {}", dir, n,
+                       periodic ? "a positive multiple of the step" : "4 plus a multiple of the step",
+                       periodic ? "periodic" : "nonperiodic", dir, step);
+            return 0;
+        }
+        return periodic ? n / step : (n - 4) / step + 1;
+    };
+    const int ustep = uBasis.step, vstep = vBasis.step;
+    const int nup = patchCount(nu, uper, ustep, "u");
+    if (nup == 0) return;
+    const int nvp = patchCount(nv, vper, vstep, "v");
+    if (nvp == 0) return;
+    const int nuvary = uper ? nup : nup + 1, nvvary = vper ? nvp : nvp + 1;
+
+    ClassCounts counts;
+    counts.uniform = size_t(nup) * size_t(nvp);
+    counts.uniformWhat = mesh ? "one per patch" : "one for the patch";
+    counts.varying = size_t(nuvary) * size_t(nvvary);
+    counts.varyingWhat = "one per patch corner";
+    counts.vertex = size_t(nu) * size_t(nv);
+    counts.vertexWhat = "one per control vertex";
+    counts.faceVarying = 4 * counts.uniform;
+    counts.faceVaryingWhat = "four per patch";
+    auto sd = readSurfaceData(*rec, counts, true, diag, true, nu, nv, uper, vper);
+    if (!sd) return;
+
+    for (int pj = 0; pj < nvp; ++pj)
+        for (int pi = 0; pi < nup; ++pi) {
+            CornerRefs refs;
+            const int patch = pj * nup + pi;
+            for (int c = 0; c < 4; ++c) {
+                const int du = c & 1, dv = c >> 1;
+                refs.varying[c] = ((pj + dv) % nvvary) * nuvary + (pi + du) % nuvary;
+                refs.vertex[c] = ((pj + dv) % nv) * nu + (pi + du) % nu;
+                refs.faceVarying[c] = 4 * patch + c;
+            }
+            refs.uniform = patch;
+            // u, v run over [0, 1] across the whole mesh, patch by patch.
+            ParamMap map{float(pi) / float(nup), 1.0f / float(nup), float(pj) / float(nvp), 1.0f / float(nvp)};
+            if (!bicubic) {
+                out.push_back(std::make_unique<BilinearPatch>(rec, sd, refs, ParamRange{}, map));
+                continue;
+            }
+            std::array<int, 16> ctrl;
+            for (int j = 0; j < 4; ++j)
+                for (int i = 0; i < 4; ++i)
+                    ctrl[size_t(j * 4 + i)] = ((pj * vstep + j) % nv) * nu + (pi * ustep + i) % nu;
+            auto coeffs = BicubicCoeffs::make(*sd, ctrl, uBasis, vBasis);
+            out.push_back(std::make_unique<BicubicPatch>(rec, sd, std::move(coeffs), refs, ParamRange{}, map));
+        }
+}
+
+}  // namespace
+
+std::vector<PrimitivePtr> makePrimitives(std::shared_ptr<const scene::PrimitiveRecord> record, Diagnostics& diag) {
+    std::vector<PrimitivePtr> out;
+    if (!record) return out;
+    const std::string& t = record->type;
+    if (t == "Sphere" || t == "Cylinder" || t == "Cone" || t == "Disk" || t == "Paraboloid" || t == "Hyperboloid" ||
+        t == "Torus")
+        makeQuadric(record, diag, out);
+    else if (t == "Polygon" || t == "GeneralPolygon" || t == "PointsPolygons" || t == "PointsGeneralPolygons")
+        makePolygons(record, diag, out);
+    else if (t == "Patch" || t == "PatchMesh")
+        makePatches(record, diag, out);
+    else
+        diag.warningOnce("geometry:unsupported:" + t, record->loc, "{}: primitive type not supported yet; ignored", t);
+    return out;
+}
+
+}  // namespace umbra::geometry

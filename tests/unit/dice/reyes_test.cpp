@@ -1,0 +1,232 @@
+#include "../geometry/geometry_test_util.h"
+
+#include "umbra/dice/reyes.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+
+using namespace umbra;
+using namespace umbra::dice;
+using namespace umbra::geometry;
+using namespace umbra::testutil;
+
+namespace {
+
+constexpr float kW = 640, kH = 480;
+
+// A 90-degree perspective camera looking down +z: raster = (320 + 320 x/z, 240 - 320 y/z).
+DiceParams perspective(const Mat4& cameraFromObject = Mat4::identity()) {
+    DiceParams p;
+    p.cameraFromObject = cameraFromObject;
+    Mat4& m = p.rasterFromCamera;
+    m = Mat4{};
+    m.m[0][0] = kW / 2; m.m[0][2] = kW / 2;
+    m.m[1][1] = -kW / 2; m.m[1][2] = kH / 2;
+    m.m[2][2] = 1; m.m[2][3] = 0;
+    m.m[3][2] = 1; m.m[3][3] = 0;
+    p.rasterWindow[0] = 0; p.rasterWindow[1] = kW;
+    p.rasterWindow[2] = 0; p.rasterWindow[3] = kH;
+    return p;
+}
+
+PrimitivePtr quad(Vec3 a, Vec3 b, Vec3 c, Vec3 d) {
+    Diagnostics diag;
+    auto prims = makePrimitives(record("Polygon", {}, {pointParam({a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z, d.x, d.y, d.z})}), diag);
+    EXPECT_EQ(prims.size(), 1u);
+    return std::move(prims[0]);
+}
+
+PrimitivePtr make(const std::string& type, std::vector<float> args) {
+    Diagnostics diag;
+    auto prims = makePrimitives(record(type, std::move(args)), diag);
+    EXPECT_EQ(prims.size(), 1u);
+    return std::move(prims[0]);
+}
+
+std::vector<Vec3> toRaster(const Grid& g, const DiceParams& p) {
+    std::vector<Vec3> r;
+    for (const Vec3& q : g.P) r.push_back(p.rasterFromCamera.point(p.cameraFromObject.point(q)));
+    return r;
+}
+
+// Mean raster length of the u edges and of the v edges of a grid.
+void meanEdges(const Grid& g, const DiceParams& p, double* mu, double* mv) {
+    const auto r = toRaster(g, p);
+    double su = 0, sv = 0;
+    for (int j = 0; j <= g.nv; ++j)
+        for (int i = 0; i < g.nu; ++i) su += std::hypot(r[size_t(g.index(i + 1, j))].x - r[size_t(g.index(i, j))].x, r[size_t(g.index(i + 1, j))].y - r[size_t(g.index(i, j))].y);
+    for (int j = 0; j < g.nv; ++j)
+        for (int i = 0; i <= g.nu; ++i) sv += std::hypot(r[size_t(g.index(i, j + 1))].x - r[size_t(g.index(i, j))].x, r[size_t(g.index(i, j + 1))].y - r[size_t(g.index(i, j))].y);
+    *mu = su / ((g.nv + 1) * g.nu);
+    *mv = sv / ((g.nu + 1) * g.nv);
+}
+
+// The REYES loop: bound, cull / split / dice until nothing is left.
+int runReyes(std::vector<PrimitivePtr> prims, const DiceParams& p, Diagnostics* diag,
+             const std::function<void(const Primitive&, const DiceResult&)>& onDice) {
+    std::vector<std::pair<PrimitivePtr, int>> work;
+    for (auto& q : prims) work.emplace_back(std::move(q), 0);
+    int steps = 0;
+    while (!work.empty() && ++steps < 100000) {
+        auto [prim, eye] = std::move(work.back());
+        work.pop_back();
+        const DiceResult r = decide(*prim, prim->bound(), p, eye, diag);
+        if (r.decision == Decision::Dice) onDice(*prim, r);
+        if (r.decision != Decision::Split) continue;
+        std::vector<PrimitivePtr> kids;
+        prim->split(r.splitU, kids);
+        for (auto& k : kids) work.emplace_back(std::move(k), eye + (r.eyeSplit ? 1 : 0));
+    }
+    return steps;
+}
+
+}  // namespace
+
+TEST(Dice, MicropolygonsAreAboutShadingRatePixels) {
+    for (float rate : {1.0f, 4.0f, 0.5f}) {
+        DiceParams p = perspective(Mat4::translate({0, 0, 10}) * Mat4::rotate(40, {0, 1, 0}));
+        p.shadingRate = rate;
+        p.gridSize = 1 << 20;
+        auto q = quad({-0.3f, -0.2f, 0}, {0.3f, -0.2f, 0}, {0.3f, 0.2f, 0}, {-0.3f, 0.2f, 0});
+        const DiceResult r = decide(*q, q->bound(), p);
+        ASSERT_EQ(r.decision, Decision::Dice);
+        double mu, mv;
+        meanEdges(q->dice(r.nu, r.nv), p, &mu, &mv);
+        EXPECT_NEAR(mu / std::sqrt(rate), 1.0, 0.2) << rate;
+        EXPECT_NEAR(mv / std::sqrt(rate), 1.0, 0.2) << rate;
+    }
+}
+
+TEST(Dice, TooBigSplitsAcrossTheLongerDirection) {
+    DiceParams p = perspective(Mat4::translate({0, 0, 10}));
+    auto wide = quad({-2, -0.5f, 0}, {2, -0.5f, 0}, {2, 0.5f, 0}, {-2, 0.5f, 0});
+    DiceResult r = decide(*wide, wide->bound(), p);
+    EXPECT_EQ(r.decision, Decision::Split);
+    EXPECT_TRUE(r.splitU);
+    auto tall = quad({-0.5f, -2, 0}, {0.5f, -2, 0}, {0.5f, 2, 0}, {-0.5f, 2, 0});
+    r = decide(*tall, tall->bound(), p);
+    EXPECT_EQ(r.decision, Decision::Split);
+    EXPECT_FALSE(r.splitU);
+}
+
+TEST(Dice, LoopRespectsGridSizeAndShadingRateOnASphere) {
+    DiceParams p = perspective(Mat4::translate({0.5f, 0, 6}));
+    p.shadingRate = 2;
+    p.gridSize = 64;
+    int grids = 0;
+    runReyes([] { std::vector<PrimitivePtr> v; v.push_back(make("Sphere", {1, -1, 1, 360})); return v; }(), p, nullptr,
+             [&](const Primitive& prim, const DiceResult& r) {
+                 ++grids;
+                 EXPECT_LE(r.nu * r.nv, p.gridSize);
+                 Grid g = prim.dice(r.nu, r.nv);
+                 const auto ras = toRaster(g, p);
+                 float lu, lv;
+                 rasterLengths(ras.data(), g.nu, g.nv, &lu, &lv);
+                 // The longest row and column, shared among nu (nv) edges, come out near sqrt(rate).
+                 EXPECT_LE(lu / float(g.nu), std::sqrt(p.shadingRate) * 1.2f);
+                 EXPECT_LE(lv / float(g.nv), std::sqrt(p.shadingRate) * 1.2f);
+             });
+    EXPECT_GT(grids, 4);
+}
+
+TEST(Dice, CullsOutsideTheViewAndTheClippingRange) {
+    auto sphere = make("Sphere", {1, -1, 1, 360});
+    DiceParams behind = perspective(Mat4::translate({0, 0, -10}));
+    EXPECT_EQ(decide(*sphere, sphere->bound(), behind).decision, Decision::Cull);
+    DiceParams right = perspective(Mat4::translate({30, 0, 10}));
+    EXPECT_EQ(decide(*sphere, sphere->bound(), right).decision, Decision::Cull);
+    DiceParams above = perspective(Mat4::translate({0, 30, 10}));
+    EXPECT_EQ(decide(*sphere, sphere->bound(), above).decision, Decision::Cull);
+    DiceParams far = perspective(Mat4::translate({0, 0, 100}));
+    far.farClip = 50;
+    EXPECT_EQ(decide(*sphere, sphere->bound(), far).decision, Decision::Cull);
+    DiceParams near = perspective(Mat4::translate({0, 0, 3}));
+    near.nearClip = 5;
+    EXPECT_EQ(decide(*sphere, sphere->bound(), near).decision, Decision::Cull);
+    // In view, it is not culled; displacement padding can bring it back in.
+    DiceParams in = perspective(Mat4::translate({0, 0, 100}));
+    EXPECT_NE(decide(*sphere, sphere->bound(), in).decision, Decision::Cull);
+    DiceParams edge = perspective(Mat4::translate({0, 0, -1.5f}));
+    edge.orthographic = false;
+    EXPECT_EQ(decide(*sphere, sphere->bound(), edge).decision, Decision::Cull);
+    edge.displacementBound = 1;
+    EXPECT_NE(decide(*sphere, sphere->bound(), edge).decision, Decision::Cull);
+}
+
+TEST(Dice, NotDiceableSplits) {
+    std::vector<float> P;
+    for (int k = 0; k < 6; ++k) P.insert(P.end(), {std::cos(float(k)), std::sin(float(k)), 5});
+    Diagnostics diag;
+    auto prims = makePrimitives(record("Polygon", {}, {pointParam(P)}), diag);
+    ASSERT_EQ(prims.size(), 1u);
+    EXPECT_EQ(decide(*prims[0], prims[0]->bound(), perspective()).decision, Decision::Split);
+}
+
+TEST(Dice, EyeSplitsStraddlingGeometryThenCullsWithOneWarning) {
+    DiceParams p = perspective();
+    p.maxEyeSplits = 6;
+    // A ground plane from behind the camera to in front of it; v runs along z.
+    auto ground = quad({-1, -1, -5}, {1, -1, -5}, {1, -1, 5}, {-1, -1, 5});
+    const DiceResult first = decide(*ground, ground->bound(), p);
+    EXPECT_EQ(first.decision, Decision::Split);
+    EXPECT_TRUE(first.eyeSplit);
+    EXPECT_FALSE(first.splitU);
+
+    auto loop = [&](PrimitivePtr prim, Diagnostics& diag) {
+        int grids = 0;
+        std::vector<PrimitivePtr> prims;
+        prims.push_back(std::move(prim));
+        const int steps = runReyes(std::move(prims), p, &diag, [&](const Primitive& piece, const DiceResult& r) {
+            ++grids;
+            Grid g = piece.dice(r.nu, r.nv);
+            for (const Vec3& q : g.P) EXPECT_GE(q.z, eyePlaneZ(p));
+            for (const Vec3& q : toRaster(g, p)) EXPECT_TRUE(std::isfinite(q.x) && std::isfinite(q.y));
+        });
+        EXPECT_LT(steps, 100000);
+        EXPECT_GT(grids, 0);
+    };
+    // Where the ground crosses the eye plane it is below the view (visible
+    // only from z = 4/3 on), so the frustum test culls it: no warning.
+    Diagnostics quiet;
+    quiet.setSink([](const Diagnostic&) {});
+    loop(std::move(ground), quiet);
+    EXPECT_EQ(quiet.warningCount(), 0);
+
+    // A plane just below eye level stays in view where it crosses the eye
+    // plane: after the eye-split limit the straddling piece is culled, once warned.
+    Diagnostics diag;
+    diag.setRecord(true);
+    diag.setSink([](const Diagnostic&) {});
+    loop(quad({-1, -0.001f, -5}, {1, -0.001f, -5}, {1, -0.001f, 5}, {-1, -0.001f, 5}), diag);
+    ASSERT_EQ(diag.warningCount(), 1);
+    EXPECT_NE(diag.recorded()[0].message.find("eye plane after 6 eye splits"), std::string::npos);
+}
+
+TEST(Dice, OrthographicNeverEyeSplits) {
+    DiceParams p;
+    p.orthographic = true;
+    p.rasterFromCamera = Mat4::scale({100, 100, 1});
+    p.nearClip = -100;  // orthographic: z below the eye is fine
+    auto ground = quad({-1, -1, -5}, {1, -1, -5}, {1, -1, 5}, {-1, -1, 5});
+    const DiceResult r = decide(*ground, ground->bound(), p);
+    EXPECT_FALSE(r.eyeSplit);
+    EXPECT_NE(r.decision, Decision::Cull);
+}
+
+TEST(Dice, RasterBoundContainsTheProjectedSurface) {
+    DiceParams p = perspective(Mat4::translate({1, 0.5f, 8}) * Mat4::rotate(30, {1, 0, 0}));
+    auto torus = make("Torus", {1, 0.3f, 0, 360, 360});
+    const Bound3 rb = rasterBound(torus->bound(), p);
+    for (const Vec3& q : toRaster(torus->dice(64, 32), p)) {
+        EXPECT_GE(q.x, rb.min.x - 1e-3f);
+        EXPECT_LE(q.x, rb.max.x + 1e-3f);
+        EXPECT_GE(q.y, rb.min.y - 1e-3f);
+        EXPECT_LE(q.y, rb.max.y + 1e-3f);
+    }
+    DiceParams straddle = perspective(Mat4::translate({0, 0, 0.1f}));
+    const Bound3 sb = rasterBound(torus->bound(), straddle);
+    EXPECT_EQ(sb.min.x, -kInfinity);
+    EXPECT_EQ(sb.max.y, kInfinity);
+}

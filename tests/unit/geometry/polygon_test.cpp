@@ -1,0 +1,202 @@
+#include "geometry_test_util.h"
+
+#include "umbra/geometry/polygon.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+using namespace umbra;
+using namespace umbra::geometry;
+using namespace umbra::testutil;
+
+namespace {
+
+std::vector<PrimitivePtr> makeAll(std::shared_ptr<scene::PrimitiveRecord> rec, Diagnostics* out = nullptr) {
+    Diagnostics diag;
+    auto prims = makePrimitives(std::move(rec), out ? *out : diag);
+    if (!out) {
+        EXPECT_EQ(diag.errorCount(), 0);
+    }
+    return prims;
+}
+
+// Shoelace area of a planar loop in the xy plane.
+double loopArea(const std::vector<float>& xyz) {
+    double a = 0;
+    const size_t n = xyz.size() / 3;
+    for (size_t i = 0; i < n; ++i) {
+        const size_t j = (i + 1) % n;
+        a += double(xyz[3 * i]) * xyz[3 * j + 1] - double(xyz[3 * j]) * xyz[3 * i + 1];
+    }
+    return 0.5 * a;
+}
+
+double cross2d(const Vec2& a, const Vec2& b) { return double(a.x) * b.y - double(a.y) * b.x; }
+
+}  // namespace
+
+TEST(Polygon, QuadIsOneDiceableBilinearPatchWithDefaultST) {
+    auto prims = makeAll(record("Polygon", {}, {pointParam({0, 0, 0, 2, 0, 0, 2, 1, 0, 0, 1, 0})}));
+    ASSERT_EQ(prims.size(), 1u);
+    EXPECT_TRUE(prims[0]->diceable());
+    Grid g = prims[0]->dice(4, 2);
+    EXPECT_NEAR(gridArea(g), 2.0, 1e-6);
+    const GridVar* s = g.find("s");
+    const GridVar* t = g.find("t");
+    ASSERT_TRUE(s && t);
+    for (int k = 0; k < g.vertexCount(); ++k) {
+        EXPECT_FLOAT_EQ(g.P[size_t(k)].x, 2 * g.u[size_t(k)]);
+        EXPECT_FLOAT_EQ(g.P[size_t(k)].y, g.v[size_t(k)]);
+        EXPECT_EQ(s->at(k)[0], g.u[size_t(k)]);
+        EXPECT_EQ(t->at(k)[0], g.v[size_t(k)]);
+    }
+    // Counter-clockwise in xy: dPdu x dPdv along +z, like the polygon's winding.
+    EXPECT_GT(cross(g.P[1] - g.P[0], g.P[size_t(g.nu + 1)] - g.P[0]).z, 0);
+}
+
+TEST(Polygon, ConvexPentagonSplitsIntoPiecesOfEqualTotalArea) {
+    std::vector<float> P;
+    for (int k = 0; k < 5; ++k) {
+        const float a = 2 * kPi * float(k) / 5;
+        P.insert(P.end(), {std::cos(a), std::sin(a), 1});
+    }
+    auto prims = makeAll(record("Polygon", {}, {pointParam(P)}));
+    ASSERT_EQ(prims.size(), 1u);
+    EXPECT_FALSE(prims[0]->diceable());
+    auto pieces = splitToDiceable(std::move(prims));
+    EXPECT_EQ(pieces.size(), 2u);  // a quad and a triangle
+    EXPECT_NEAR(totalArea(pieces, 4), 2.5 * std::sin(2 * M_PI / 5), 1e-5);
+    for (const auto& p : pieces) {
+        Grid g = p->dice(3, 3);
+        for (const Vec3& q : g.P) EXPECT_FLOAT_EQ(q.z, 1);
+        EXPECT_GT(cross(g.P[1] - g.P[0], g.P[size_t(g.nu + 1)] - g.P[0]).z, -1e-6f);
+    }
+}
+
+TEST(Polygon, GeneralPolygonWithHolesHasAreaOfOutlineMinusHoles) {
+    const std::vector<float> outer = {0, 0, 0, 4, 0, 0, 4, 4, 0, 0, 4, 0};
+    const std::vector<float> hole1 = {1, 1, 0, 1, 2, 0, 2, 2, 0, 2, 1, 0};                  // clockwise
+    const std::vector<float> hole2 = {2.5f, 2.5f, 0, 3.5f, 2.5f, 0, 3.5f, 3.5f, 0, 2.5f, 3.5f, 0};  // counter-clockwise
+    std::vector<float> P = outer;
+    P.insert(P.end(), hole1.begin(), hole1.end());
+    P.insert(P.end(), hole2.begin(), hole2.end());
+    auto rec = record("GeneralPolygon", {}, {pointParam(P)});
+    rec->intArrays = {{4, 4, 4}};
+    auto pieces = splitToDiceable(makeAll(rec));
+    const double want = loopArea(outer) - std::abs(loopArea(hole1)) - std::abs(loopArea(hole2));
+    EXPECT_NEAR(totalArea(pieces, 2), want, 1e-4);
+    // No piece covers a hole's centre: every triangle keeps the outline's winding (+z).
+    for (const auto& p : pieces) {
+        Grid g = p->dice(1, 1);
+        const Vec3 n = cross(g.P[1] - g.P[0], g.P[2] - g.P[0]) + cross(g.P[3] - g.P[1], g.P[2] - g.P[1]);
+        EXPECT_GE(n.z, -1e-6f);
+    }
+}
+
+TEST(Polygon, ConcaveOutlineIsTriangulated) {
+    // An L shape (area 3) with the reflex corner at (1, 1), wound clockwise.
+    std::vector<float> P = {0, 0, 0, 0, 2, 0, 1, 2, 0, 1, 1, 0, 2, 1, 0, 2, 0, 0};
+    auto rec = record("GeneralPolygon", {}, {pointParam(P)});
+    rec->intArrays = {{6}};
+    auto pieces = splitToDiceable(makeAll(rec));
+    EXPECT_NEAR(totalArea(pieces, 2), 3.0, 1e-5);
+    for (const auto& p : pieces) {
+        Grid g = p->dice(1, 1);
+        EXPECT_LE(cross(g.P[1] - g.P[0], g.P[2] - g.P[0]).z, 1e-6f);  // clockwise kept
+    }
+}
+
+TEST(Polygon, TriangulationOfAComb) {
+    // A comb with three teeth, 3D plane x + y + z = 1 tilted: area is preserved by projection ratios.
+    std::vector<Vec3> pts;
+    const std::vector<Vec2> xy = {{0, 0}, {5, 0}, {5, 3}, {4, 3}, {4, 1}, {3, 1}, {3, 3}, {2, 3}, {2, 1}, {1, 1}, {1, 3}, {0, 3}};
+    for (const Vec2& q : xy) pts.push_back({q.x, q.y, 1 - q.x - q.y});
+    std::vector<std::array<int, 3>> tris;
+    EXPECT_TRUE(triangulatePolygon(pts, {int(pts.size())}, tris));
+    EXPECT_EQ(tris.size(), pts.size() - 2);
+    double projected = 0;
+    for (const auto& t : tris) {
+        const double a = cross2d(xy[size_t(t[1])] - xy[size_t(t[0])], xy[size_t(t[2])] - xy[size_t(t[0])]);
+        EXPECT_GT(a, 0);
+        projected += 0.5 * a;
+    }
+    EXPECT_NEAR(projected, 5 * 3 - 2 * (1 * 2), 1e-6);  // 5x3 minus two 1x2 notches
+}
+
+// Two quads sharing the edge (1,0)-(1,1): six shared vertices, a vertex
+// colour, a uniform float per face and facevarying st per face corner.
+TEST(PointsPolygons, SharedVerticesFaceVaryingAndUniform) {
+    const std::vector<float> P = {0, 0, 0, 1, 0, 0, 2, 0, 0, 0, 1, 0, 1, 1, 0, 2, 1, 0};
+    const std::vector<float> h = {0, 10, 20, 30, 40, 50};  // per vertex
+    const std::vector<float> st = {0, 0, 0.5f, 0, 0.5f, 1, 0, 1,  // face 0 corners
+                                   0.5f, 0, 1, 0, 1, 1, 0.5f, 1};  // face 1 corners
+    auto rec = record("PointsPolygons", {},
+                      {pointParam(P), param("h", ri::StorageClass::Vertex, ri::ParamType::Float, h),
+                       param("id", ri::StorageClass::Uniform, ri::ParamType::Float, {7, 9}),
+                       param("st", ri::StorageClass::FaceVarying, ri::ParamType::Float, st, 2)});
+    rec->intArrays = {{4, 4}, {0, 1, 4, 3, 1, 2, 5, 4}};
+    auto prims = makeAll(rec);
+    ASSERT_EQ(prims.size(), 1u);
+    EXPECT_FALSE(prims[0]->diceable());
+    const Bound3 b = prims[0]->bound();
+    EXPECT_EQ(b.min, Vec3(0, 0, 0));
+    EXPECT_EQ(b.max, Vec3(2, 1, 0));
+    auto faces = splitToDiceable(std::move(prims));
+    ASSERT_EQ(faces.size(), 2u);
+    int seen = 0;
+    for (const auto& f : faces) {
+        Grid g = f->dice(2, 2);
+        const GridVar* id = g.find("id");
+        const GridVar* hv = g.find("h");
+        const GridVar* s = g.find("s");
+        const GridVar* t = g.find("t");
+        ASSERT_TRUE(id && hv && s && t);
+        EXPECT_FALSE(id->perVertex);
+        const bool second = g.P[0].x > 0.5f;
+        seen |= second ? 2 : 1;
+        EXPECT_EQ(id->data[0], second ? 9.0f : 7.0f);
+        for (int k = 0; k < g.vertexCount(); ++k) {
+            const Vec3 p = g.P[size_t(k)];
+            // h is bilinear over the face: h = 10 x + 30 y on this layout.
+            EXPECT_NEAR(hv->at(k)[0], 10 * p.x + 30 * p.y, 1e-5f);
+            // st was laid out as s = x / 2, t = y.
+            EXPECT_NEAR(s->at(k)[0], p.x / 2, 1e-6f);
+            EXPECT_NEAR(t->at(k)[0], p.y, 1e-6f);
+        }
+    }
+    EXPECT_EQ(seen, 3);
+}
+
+TEST(PointsPolygons, WrongPointCountIsReported) {
+    Diagnostics diag;
+    diag.setRecord(true);
+    diag.setSink([](const Diagnostic&) {});
+    auto rec = record("PointsPolygons", {}, {pointParam(std::vector<float>(15, 0.0f))});
+    rec->intArrays = {{4, 4}, {0, 1, 2, 3, 4, 5, 6, 7}};
+    auto prims = makeAll(rec, &diag);
+    EXPECT_TRUE(prims.empty());
+    ASSERT_EQ(diag.recorded().size(), 1u);
+    EXPECT_EQ(diag.recorded()[0].str(), "test.rib:3:1: error: PointsPolygons: \"P\" has 5 values, expected 8 (one per vertex)");
+}
+
+TEST(PointsPolygons, IndexArrayMismatchIsReported) {
+    Diagnostics diag;
+    diag.setRecord(true);
+    diag.setSink([](const Diagnostic&) {});
+    auto rec = record("PointsPolygons", {}, {pointParam(std::vector<float>(12, 0.0f))});
+    rec->intArrays = {{3, 3}, {0, 1, 2, 3}};
+    EXPECT_TRUE(makeAll(rec, &diag).empty());
+    ASSERT_EQ(diag.recorded().size(), 1u);
+    EXPECT_EQ(diag.recorded()[0].message, "PointsPolygons: vertices has 4 indices, expected 6 (the sum of nverts)");
+}
+
+TEST(PointsGeneralPolygons, FaceWithHoleAndPlainTriangle) {
+    // Face 0: a 3x3 square with a 1x1 hole; face 1: a triangle of area 0.5.
+    const std::vector<float> P = {0, 0, 0, 3, 0, 0, 3, 3, 0, 0, 3, 0, 1, 1, 0, 2, 1, 0, 2, 2, 0, 1, 2, 0,
+                                  4, 0, 0, 5, 0, 0, 4, 1, 0};
+    auto rec = record("PointsGeneralPolygons", {}, {pointParam(P)});
+    rec->intArrays = {{2, 1}, {4, 4, 3}, {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10}};
+    auto pieces = splitToDiceable(makeAll(rec));
+    EXPECT_NEAR(totalArea(pieces, 2), 9 - 1 + 0.5, 1e-5);
+}
