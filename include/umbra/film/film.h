@@ -1,0 +1,146 @@
+#pragma once
+// The film: the filtered image of one render, and its output to the
+// `Display` requests of the frame.
+//
+// Pixel coordinates are raster pixels of the full resolution (pixel (x, y)
+// covers [x, x+1) x [y, y+1), y down). The film stores only the crop
+// window's pixels (RenderMan `CropWindow`); see Film::cropPixels.
+
+#include "umbra/film/pixel_filter.h"
+#include "umbra/scene/scene.h"
+#include "umbra/util/error.h"
+#include "umbra/util/math.h"
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace umbra::film {
+
+/// A named arbitrary output variable (AOV) the film stores per pixel, e.g.
+/// {"N", 3} or {"myfloat", 1}. The hider's per-vertex AOV data lists the
+/// film's AOVs in order, components consecutive.
+struct AovChannel {
+    std::string name;
+    int components = 1;
+};
+
+/// A parsed `Display` mode: either a combination of the standard channels
+/// ("rgb", "rgba", "z", "rgbaz", "a", ... : letters out of r g b a z, each at
+/// most once, in the order given) or one AOV ("color myaov", "float foo",
+/// "varying normal N", or a standard variable name alone: "Ci", "N", "s").
+struct DisplayMode {
+    std::string standard;   // the r/g/b/a/z letters; empty for an AOV
+    std::string aovName;    // the AOV's name; empty for standard channels
+    int aovComponents = 0;  // 1 or 3
+    bool isAov() const { return !aovName.empty(); }
+};
+/// Parses a display mode; false (and *error says what was expected) when it
+/// is not one.
+bool parseDisplayMode(const std::string& mode, DisplayMode* out, std::string* error);
+
+/// The AOV channels a film needs so that every AOV display in `displays`
+/// can be written, in first-seen order, each name once. Modes that do not
+/// parse are skipped here (Film::write reports them).
+std::vector<AovChannel> aovChannelsFor(const std::vector<scene::DisplayRecord>& displays);
+
+/// RenderMan's `Quantize`: value = round(one * v + dither * r), r uniform in
+/// [-1, 1) from a hash of the pixel, clamped to [min, max]; one = 0 means
+/// floating-point output (no quantisation).
+struct Quantize {
+    float one = 0, min = 0, max = 0, dither = 0;
+    bool enabled() const { return one != 0; }
+};
+
+/// What the renderer knows about the frame for output metadata.
+struct OutputMetadata {
+    double renderSeconds = -1;          // < 0: not written
+    std::string dateTime;               // "YYYY:MM:DD HH:MM:SS"; empty: not written
+    std::optional<Mat4> cameraFromWorld;  // written as worldToCamera on z outputs
+    std::optional<Mat4> ndcFromWorld;     // written as worldToNDC on z outputs
+};
+
+class Film;
+/// Writes a depth-map display ("zfile", "shadow" drivers); the renderer
+/// wires it to the shadow module. Returns false after reporting an error.
+using DepthWriter = std::function<bool(const scene::DisplayRecord&, const Film&)>;
+
+/// The filtered image of one render: r g b a, z (nearest opaque depth, camera
+/// space, +infinity where nothing was hit), optionally z2 (the depth pass's
+/// second-nearest depth), and the AOV channels, for the crop window's pixels.
+/// Buckets resolve into disjoint pixel ranges, so concurrent writers need no
+/// lock.
+class Film {
+public:
+    Film(int xResolution, int yResolution, const float cropWindow[4], PixelFilter filter,
+         std::vector<AovChannel> aovs = {}, bool depthPair = false);
+    /// From the frame options (resolution, crop window, pixel filter). An
+    /// unknown filter is reported at the options' location and replaced by
+    /// RenderMan's default (gaussian 2 x 2).
+    static Film fromOptions(const scene::Options& options, std::vector<AovChannel> aovs, bool depthPair,
+                            Diagnostics& diag);
+
+    /// The pixels a crop window selects: those whose centres lie in the
+    /// window (PRMan's rule), x in [x0, x1), y in [y0, y1), with
+    /// x0 = clamp(ceil(xres * xmin - 0.5), 0, xres),
+    /// x1 = clamp(ceil(xres * xmax - 0.5), x0, xres), the same for y (NDC y
+    /// is down, as raster y); edges within 1e-4 pixel count as inside.
+    static void cropPixels(int xResolution, int yResolution, const float cropWindow[4], int* x0, int* x1, int* y0,
+                           int* y1);
+
+    int xResolution() const { return m_xres; }
+    int yResolution() const { return m_yres; }
+    int x0() const { return m_x0; }
+    int y0() const { return m_y0; }
+    int x1() const { return m_x0 + m_width; }
+    int y1() const { return m_y0 + m_height; }
+    int width() const { return m_width; }
+    int height() const { return m_height; }
+    bool contains(int x, int y) const { return x >= m_x0 && y >= m_y0 && x < x1() && y < y1(); }
+    const PixelFilter& filter() const { return m_filter; }
+
+    const std::vector<AovChannel>& aovs() const { return m_aovs; }
+    /// Floats per pixel over all AOVs.
+    int aovFloats() const { return m_aovFloats; }
+    /// Index of the AOV called `name`, or -1.
+    int findAov(const std::string& name) const;
+    /// First float of AOV `index` within a pixel's AOV floats.
+    int aovOffset(int index) const { return m_aovOffsets[size_t(index)]; }
+    bool hasDepthPair() const { return m_depthPair; }
+
+    /// Pixel access by raster coordinates (must be inside the crop region).
+    float* rgba(int x, int y) { return &m_rgba[4 * index(x, y)]; }
+    const float* rgba(int x, int y) const { return &m_rgba[4 * index(x, y)]; }
+    float& z(int x, int y) { return m_z[index(x, y)]; }
+    float z(int x, int y) const { return m_z[index(x, y)]; }
+    float& z2(int x, int y) { return m_z2[index(x, y)]; }
+    float z2(int x, int y) const { return m_z2[index(x, y)]; }
+    float* aov(int x, int y) { return m_aov.data() + size_t(m_aovFloats) * index(x, y); }
+    const float* aov(int x, int y) const { return m_aov.data() + size_t(m_aovFloats) * index(x, y); }
+
+    /// Writes every display of the frame (see docs in film.cpp for drivers
+    /// and modes). Each file is written under a temporary name in its
+    /// directory and renamed into place, so no half-written image is left.
+    /// Errors are reported at the display's location; returns false if any
+    /// display failed.
+    bool write(const std::vector<scene::DisplayRecord>& displays, const scene::Options& options,
+               const OutputMetadata& metadata, Diagnostics& diag, const DepthWriter& depthWriter = {}) const;
+    /// Writes one display.
+    bool writeDisplay(const scene::DisplayRecord& display, const scene::Options& options,
+                      const OutputMetadata& metadata, Diagnostics& diag, const DepthWriter& depthWriter = {}) const;
+
+private:
+    size_t index(int x, int y) const { return size_t(y - m_y0) * size_t(m_width) + size_t(x - m_x0); }
+
+    int m_xres, m_yres;
+    int m_x0 = 0, m_y0 = 0, m_width = 0, m_height = 0;
+    PixelFilter m_filter;
+    std::vector<AovChannel> m_aovs;
+    std::vector<int> m_aovOffsets;
+    int m_aovFloats = 0;
+    bool m_depthPair = false;
+    std::vector<float> m_rgba, m_z, m_z2, m_aov;
+};
+
+}  // namespace umbra::film

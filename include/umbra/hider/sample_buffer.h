@@ -1,0 +1,189 @@
+#pragma once
+// The stochastic hider's samples for one bucket.
+//
+// Terms: a *micropolygon* is one cell of four neighbouring grid vertices
+// (geometry/grid.h). A *sample* is a point in raster space where visibility
+// is decided; each pixel holds xs * ys of them, one in each cell (*stratum*)
+// of an xs x ys subdivision of the pixel, jittered inside its stratum.
+//
+// A SampleBuffer covers a bucket's pixels plus a margin of pixels around it
+// (the pixel filter's reach), so the bucket can filter its own pixels
+// without seams. Margin samples are recomputed by both neighbours; sample
+// positions depend only on the global pixel, the sample index and the frame
+// seed, so both compute the same samples.
+//
+//      +---------------------------+  <- sampled region (bucket + margin)
+//      |  margin                   |
+//      |    +-----------------+    |
+//      |    | bucket pixels   |    |  <- resolve() writes only these
+//      |    +-----------------+    |
+//      +---------------------------+
+//
+// Samples are stored row-major over the region's stratum grid: sample
+// (sx, sy) is stratum column sx = px * xs + i, row sy = py * ys + j, so the
+// samples a micropolygon's bound overlaps form a rectangle of indices.
+
+#include "umbra/util/math.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace umbra::film {
+class Film;
+}
+
+namespace umbra::hider {
+
+/// A shaded grid as the hider sees it: (nu+1) x (nv+1) vertices in the
+/// grid's layout (vertex (i, j) at j * (nu+1) + i). Pointers are borrowed
+/// for the duration of SampleBuffer::sample().
+///
+/// Each micropolygon (i, j) is split along its (i, j)-(i+1, j+1) diagonal
+/// into the triangles (v00, v10, v11) and (v00, v11, v01). Non-planar and
+/// bow-tie quads are thus covered by the union of two (possibly
+/// overlapping) triangles, a well defined and crack-free answer. Depth,
+/// colour, opacity and AOVs are interpolated linearly in raster space across
+/// each triangle (Gouraud shading; z is camera-space depth, linear in raster
+/// space for planar micropolygons under an orthographic camera and, for the
+/// sub-pixel micropolygons of REYES, close to it under perspective).
+/// Back-facing micropolygons must be culled by the caller; the hider does not
+/// look at winding.
+struct MicroGrid {
+    int nu = 0, nv = 0;
+    const Vec3* P = nullptr;    // x, y raster (pixels, y down), z camera-space depth
+    const Color* Ci = nullptr;  // per vertex, premultiplied by Oi (RenderMan); null: black
+    const Color* Oi = nullptr;  // per vertex; null: opaque
+    const float* aov = nullptr; // per vertex, aovCount floats each; may be null
+    int aovCount = 0;           // must equal the buffer's aovCount when aov is set
+    bool matte = false;         // Matte 1: hides what is behind, contributes no colour or alpha
+    uint64_t id = 0;            // stable identity (same on every run) for deterministic ties
+};
+
+/// What a SampleBuffer records: the camera pass or a light's depth pass.
+enum class HiderMode {
+    Colour,  // Ci/Oi compositing
+    Depth,   // depth maps: nearest z1 and second-nearest z2 per sample, no colour
+};
+
+/// Everything that fixes a buffer's samples.
+struct SampleBufferConfig {
+    int x0 = 0, y0 = 0, x1 = 0, y1 = 0;  // the bucket's pixels [x0,x1) x [y0,y1), raster
+    int margin = 1;                      // extra pixels sampled on each side (>= the filter's margin)
+    int xSamples = 2, ySamples = 2;      // PixelSamples
+    bool jitter = true;                  // false: samples at the strata centres
+    uint32_t frameSeed = 0;
+    int aovCount = 0;                    // extra floats per sample (the film's AOV floats)
+    HiderMode mode = HiderMode::Colour;
+    float nearClip = 1e-10f, farClip = 1e30f;  // camera-space z range that is visible
+};
+
+/// The visible-surface samples of one bucket (see the file comment). One per
+/// worker thread, reset for each bucket; reset() keeps the memory.
+///
+/// Colour mode keeps per sample the nearest opaque hit (z, Ci, alpha, AOVs)
+/// and a list of transparent fragments (Oi < 1) nearer than it; resolve()
+/// composites them front to back. Depth mode keeps the nearest hit z1 and
+/// z2 = the nearest hit that comes from a different grid (MicroGrid::id) than
+/// the nearest one: the next surface behind, not a seam of the same grid.
+///
+/// Determinism: every hit is ordered by the key (z, grid id, triangle index
+/// in the grid), a total order, so which hit wins and the order fragments are
+/// composited in do not depend on the order grids arrive in.
+class SampleBuffer {
+public:
+    void reset(const SampleBufferConfig& config);
+    const SampleBufferConfig& config() const { return m_cfg; }
+
+    /// Hides one grid's micropolygons against this buffer's samples. Cheap
+    /// when the grid misses the sampled region.
+    void sample(const MicroGrid& grid);
+
+    /// True when every sample of this buffer inside the raster rectangle
+    /// [b.min.x, b.max.x] x [b.min.y, b.max.y] already has an opaque hit
+    /// nearer than b.min.z (in depth mode: a second depth nearer than it), so
+    /// nothing at depth >= b.min.z there can change the image. Conservative:
+    /// may answer false when it could answer true. Rectangles that miss the
+    /// buffer entirely are occluded (nothing to change here).
+    bool occluded(const Bound3& rasterBound) const;
+    /// The largest opaque depth (depth mode: second depth) of the samples in
+    /// the pixels overlapping the raster rectangle [xmin,xmax] x [ymin,ymax];
+    /// +infinity where some sample has none; -infinity if the rectangle
+    /// misses the buffer.
+    float maxOpaqueDepth(float xmin, float ymin, float xmax, float ymax) const;
+
+    /// Filters the samples into the film's pixels of the bucket (not the
+    /// margin) with the film's pixel filter: r g b a, z (nearest opaque
+    /// depth, minimum over the pixel's own samples, unfiltered) and AOVs;
+    /// in depth mode z (z1) and z2 (minima over the pixel's own samples).
+    void resolve(film::Film& film);
+
+    /// The raster position of sample s (0 .. xs*ys-1, row-major in the
+    /// pixel's strata) of pixel (px, py) for the given settings; what the
+    /// buffer uses, exposed for tests and for the shadow lookups' users.
+    static Vec2 samplePosition(int px, int py, int s, int xSamples, int ySamples, bool jitter, uint32_t frameSeed);
+
+    /// Inspection (tests, statistics). Pixel and sample as samplePosition;
+    /// the pixel must lie in the sampled region.
+    Vec2 position(int px, int py, int s) const;
+    float depth(int px, int py, int s) const;        // opaque z / z1; +inf when none
+    float secondDepth(int px, int py, int s) const;  // depth mode z2; +inf when none
+    int fragmentCount(int px, int py, int s) const;  // transparent fragments recorded (colour mode)
+    size_t fragmentsInUse() const { return m_frags.size(); }
+
+private:
+    struct Fragment {
+        float z;
+        uint32_t sub;
+        uint64_t id;
+        Color ci, oi;
+        int32_t next;
+        int32_t aovBase;  // into m_fragAov, or -1
+        bool matte;
+    };
+    struct Tri;
+    struct HitContext;
+
+    int sampleIndex(int px, int py, int s) const;
+    void rasterizeQuad(const MicroGrid& g, const HitContext& ctx, int i, int j, float minx, float miny, float maxx,
+                       float maxy);
+    bool record(const MicroGrid& g, const HitContext& ctx, const Tri& t, size_t s, float w0, float w1, float w2);
+    void markDirty(int sx0, int sy0, int sx1, int sy1);
+    void updatePixelMax() const;
+
+    SampleBufferConfig m_cfg;
+    int m_rx0 = 0, m_ry0 = 0;        // sampled region's first pixel (raster)
+    int m_rw = 0, m_rh = 0;          // sampled region's size in pixels
+    int m_sw = 0, m_sh = 0;          // strata grid size: m_rw * xs, m_rh * ys
+    int m_sx0 = 0, m_sy0 = 0;        // global stratum index of the region's first stratum
+    float m_fx0 = 0, m_fy0 = 0, m_fx1 = 0, m_fy1 = 0;  // region in raster space
+
+    // Per sample (structure of arrays).
+    std::vector<float> m_px, m_py;   // raster position
+    std::vector<float> m_z;          // opaque z (colour) or z1 (depth)
+    std::vector<uint64_t> m_id;      // key of that hit: grid id ...
+    std::vector<uint32_t> m_sub;     // ... and triangle index
+    std::vector<Color> m_ci;         // colour mode: opaque hit's Ci (0 for matte)
+    std::vector<float> m_alpha;      // colour mode: 1, or 0 for matte / no hit
+    std::vector<float> m_aov;        // colour mode: aovCount per sample
+    std::vector<int32_t> m_fragHead; // colour mode: transparent fragment list, -1 none
+    std::vector<float> m_z2;         // depth mode: second depth ...
+    std::vector<uint64_t> m_id2;     // ... its grid id and triangle
+    std::vector<uint32_t> m_sub2;
+
+    std::vector<Fragment> m_frags;
+    std::vector<float> m_fragAov;
+
+    // Occlusion cache: per region pixel the max opaque (depth mode: second)
+    // depth of its samples, recomputed lazily for pixels marked dirty.
+    mutable std::vector<float> m_pixelMax;
+    mutable std::vector<uint8_t> m_pixelDirty;
+    mutable bool m_anyDirty = false;
+
+    // Resolve scratch.
+    std::vector<float> m_res;        // per sample: r g b a, aov...
+    std::vector<float> m_acc;        // per bucket pixel: r g b a aov..., weight
+    std::vector<int32_t> m_order;    // fragment sort scratch
+    std::vector<float> m_scratchAov;
+};
+
+}  // namespace umbra::hider

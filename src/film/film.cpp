@@ -1,0 +1,502 @@
+// Film storage and Display output.
+//
+// Drivers (RenderMan `Display` names):
+//   "tiff"                   TIFF
+//   "openexr", "exr"         OpenEXR; half by default, "string type"
+//                            "float" for 32-bit (z is always float).
+//                            EXR keeps unquantised values: Quantize is an
+//                            integer-format setting (PRMan's openexr driver
+//                            behaves the same).
+//   "png"                    PNG (integers only: unquantised data is written
+//                            as 16-bit, one = 65535)
+//   "file"                   by the name's extension (.exr .png .tif .tiff),
+//                            TIFF otherwise, as RenderMan's "file" is TIFF
+//   "framebuffer"            umbra has no window: the image is written to a
+//                            file named after the display, by its extension,
+//                            ".tif" appended when it has none of the above
+//   "zfile", "shadow"        depth maps, handed to the DepthWriter hook
+// Modes: letters out of r g b a z ("rgb", "rgba", "rgbaz", "z", "a", ...),
+// or one AOV (see parseDisplayMode). Channel names: R G B A Z; an AOV of three
+// components is R G B, a float AOV is named after the AOV.
+// Exposure applies to r g b only: c' = (gain c)^(1/gamma). Quantize "rgba"
+// covers r g b a and AOVs, Quantize "z" covers z; a display's own
+// "quantize" [zero one min max] and "dither" parameters override them. A
+// quantised file stores 8-bit integers when [min, max] fits in [0, 255],
+// 16-bit when it fits in [0, 65535], float otherwise; when some channels are
+// quantised and others not (rgbaz with float z), the integer formats get
+// float data without quantisation (a warning says so).
+
+#include "umbra/film/film.h"
+
+#include "umbra/util/rng.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <system_error>
+#include <unistd.h>
+
+namespace umbra::film {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string lower(std::string s) {
+    for (char& c : s) c = char(std::tolower(static_cast<unsigned char>(c)));
+    return s;
+}
+
+int componentsOfTypeName(const std::string& t) {
+    if (t == "float") return 1;
+    if (t == "color" || t == "point" || t == "vector" || t == "normal") return 3;
+    return 0;
+}
+
+/// Components of the standard shading-language variables a display may name
+/// without a type.
+int standardVariableComponents(const std::string& name) {
+    static const char* kThree[] = {"Ci", "Oi", "Cs", "Os", "P", "N", "Ng", "I", "E", "L", "Cl", "Ol", "dPdu", "dPdv"};
+    static const char* kOne[] = {"s", "t", "u", "v", "du", "dv", "ncomps", "time", "alpha"};
+    for (const char* n : kThree)
+        if (name == n) return 3;
+    for (const char* n : kOne)
+        if (name == n) return 1;
+    return 0;
+}
+
+std::vector<std::string> splitWords(const std::string& s) {
+    std::vector<std::string> words;
+    size_t i = 0;
+    while (i < s.size()) {
+        while (i < s.size() && std::isspace(static_cast<unsigned char>(s[i]))) ++i;
+        size_t j = i;
+        while (j < s.size() && !std::isspace(static_cast<unsigned char>(s[j]))) ++j;
+        if (j > i) words.push_back(s.substr(i, j - i));
+        i = j;
+    }
+    return words;
+}
+
+enum class Format { Tiff, Exr, Png };
+
+const char* oiioFormatName(Format f) {
+    switch (f) {
+    case Format::Tiff: return "tiff";
+    case Format::Exr: return "openexr";
+    case Format::Png: return "png";
+    }
+    return "tiff";
+}
+
+std::optional<Format> formatOfExtension(const std::string& path) {
+    std::string ext = lower(fs::path(path).extension().string());
+    if (ext == ".exr") return Format::Exr;
+    if (ext == ".png") return Format::Png;
+    if (ext == ".tif" || ext == ".tiff") return Format::Tiff;
+    return std::nullopt;
+}
+
+/// One output channel: where its value comes from and how it is encoded.
+struct ChannelSource {
+    enum Kind { R, G, B, A, Z, Aov } kind;
+    int aovFloat = 0;  // for Aov: float offset within the pixel's AOV floats
+    std::string name;
+    Quantize quantize;
+    bool exposure = false;
+};
+
+float ditherNoise(int x, int y, int channel) {
+    // Uniform in [-1, 1), fixed per pixel and channel: the same image every run.
+    uint32_t h = hashKeys(uint32_t(x), uint32_t(y), uint32_t(channel), 0x51ed27u);
+    return 2.0f * hashToUnit(h) - 1.0f;
+}
+
+}  // namespace
+
+bool parseDisplayMode(const std::string& mode, DisplayMode* out, std::string* error) {
+    *out = DisplayMode{};
+    std::vector<std::string> words = splitWords(mode);
+    auto fail = [&](const std::string& msg) {
+        if (error) *error = msg;
+        return false;
+    };
+    if (words.empty()) return fail("empty display mode (expected \"rgb\", \"rgba\", \"z\", \"rgbaz\" or an AOV)");
+    if (words.size() == 1) {
+        const std::string& w = words[0];
+        bool standard = w.find_first_not_of("rgbaz") == std::string::npos;
+        if (standard) {
+            for (char c : std::string("rgbaz"))
+                if (std::count(w.begin(), w.end(), c) > 1)
+                    return fail(fmt::format("display mode \"{}\" repeats a channel", mode));
+            out->standard = w;
+            return true;
+        }
+        int n = standardVariableComponents(w);
+        if (n == 0)
+            return fail(fmt::format("unknown display mode \"{}\" (expected letters of \"rgbaz\", a standard "
+                                    "variable such as \"Ci\" or \"N\", or a typed AOV such as \"color {}\")",
+                                    mode, w));
+        out->aovName = w;
+        out->aovComponents = n;
+        return true;
+    }
+    // [class] type name, e.g. "varying color myaov".
+    size_t k = 0;
+    if (words.size() == 3) {
+        if (words[0] != "varying" && words[0] != "uniform" && words[0] != "vertex" && words[0] != "constant")
+            return fail(fmt::format("display mode \"{}\": expected \"[class] type name\"", mode));
+        k = 1;
+    } else if (words.size() != 2) {
+        return fail(fmt::format("display mode \"{}\": expected \"[class] type name\"", mode));
+    }
+    int n = componentsOfTypeName(words[k]);
+    if (n == 0)
+        return fail(fmt::format("display mode \"{}\": unsupported AOV type \"{}\" (expected float, color, point, "
+                                "vector or normal)",
+                                mode, words[k]));
+    out->aovName = words[k + 1];
+    out->aovComponents = n;
+    return true;
+}
+
+std::vector<AovChannel> aovChannelsFor(const std::vector<scene::DisplayRecord>& displays) {
+    std::vector<AovChannel> aovs;
+    for (const scene::DisplayRecord& d : displays) {
+        DisplayMode m;
+        if (!parseDisplayMode(d.mode, &m, nullptr) || !m.isAov()) continue;
+        bool seen = std::any_of(aovs.begin(), aovs.end(), [&](const AovChannel& a) { return a.name == m.aovName; });
+        if (!seen) aovs.push_back({m.aovName, m.aovComponents});
+    }
+    return aovs;
+}
+
+void Film::cropPixels(int xres, int yres, const float crop[4], int* x0, int* x1, int* y0, int* y1) {
+    // The tolerance keeps decimal windows like 0.1 (stored as 0.100000001)
+    // from losing a pixel whose centre lies exactly on the edge.
+    auto edge = [](int res, float ndc) { return int(std::ceil(double(res) * double(ndc) - 0.5 - 1e-4)); };
+    *x0 = clamp(edge(xres, crop[0]), 0, xres);
+    *x1 = clamp(edge(xres, crop[1]), *x0, xres);
+    *y0 = clamp(edge(yres, crop[2]), 0, yres);
+    *y1 = clamp(edge(yres, crop[3]), *y0, yres);
+}
+
+Film::Film(int xResolution, int yResolution, const float cropWindow[4], PixelFilter filter,
+           std::vector<AovChannel> aovs, bool depthPair)
+    : m_xres(xResolution), m_yres(yResolution), m_filter(std::move(filter)), m_aovs(std::move(aovs)),
+      m_depthPair(depthPair) {
+    UMBRA_CHECK(xResolution > 0 && yResolution > 0, "bad film resolution {}x{}", xResolution, yResolution);
+    int x1, y1;
+    cropPixels(m_xres, m_yres, cropWindow, &m_x0, &x1, &m_y0, &y1);
+    m_width = x1 - m_x0;
+    m_height = y1 - m_y0;
+    for (const AovChannel& a : m_aovs) {
+        UMBRA_CHECK(a.components > 0, "AOV {} has no components", a.name);
+        m_aovOffsets.push_back(m_aovFloats);
+        m_aovFloats += a.components;
+    }
+    size_t n = size_t(m_width) * size_t(m_height);
+    m_rgba.assign(4 * n, 0.0f);
+    m_z.assign(n, kInfinity);
+    if (m_depthPair) m_z2.assign(n, kInfinity);
+    m_aov.assign(n * size_t(m_aovFloats), 0.0f);
+}
+
+Film Film::fromOptions(const scene::Options& o, std::vector<AovChannel> aovs, bool depthPair, Diagnostics& diag) {
+    std::optional<PixelFilter> f = PixelFilter::create(o.pixelFilter, o.filterWidth[0], o.filterWidth[1]);
+    if (!f) {
+        diag.error(o.loc, "unknown pixel filter \"{}\" with widths {} {} (expected box, triangle, gaussian, "
+                   "catmull-rom or sinc with positive widths); using gaussian 2 2",
+                   o.pixelFilter, o.filterWidth[0], o.filterWidth[1]);
+        f = PixelFilter(FilterKind::Gaussian, 2, 2);
+    }
+    return Film(o.xResolution, o.yResolution, o.cropWindow, *f, std::move(aovs), depthPair);
+}
+
+int Film::findAov(const std::string& name) const {
+    for (size_t i = 0; i < m_aovs.size(); ++i)
+        if (m_aovs[i].name == name) return int(i);
+    return -1;
+}
+
+bool Film::write(const std::vector<scene::DisplayRecord>& displays, const scene::Options& options,
+                 const OutputMetadata& metadata, Diagnostics& diag, const DepthWriter& depthWriter) const {
+    bool ok = true;
+    for (const scene::DisplayRecord& d : displays) ok = writeDisplay(d, options, metadata, diag, depthWriter) && ok;
+    return ok;
+}
+
+bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Options& options,
+                        const OutputMetadata& metadata, Diagnostics& diag, const DepthWriter& depthWriter) const {
+    const std::string driver = lower(display.driver);
+    if (driver == "zfile" || driver == "shadow") {
+        if (!depthWriter) {
+            diag.error(display.loc, "display \"{}\": driver \"{}\" writes depth maps, which this render cannot "
+                       "produce here",
+                       display.name, display.driver);
+            return false;
+        }
+        return depthWriter(display, *this);
+    }
+
+    std::string path = display.name;
+    Format format;
+    if (driver == "tiff") {
+        format = Format::Tiff;
+    } else if (driver == "openexr" || driver == "exr") {
+        format = Format::Exr;
+    } else if (driver == "png") {
+        format = Format::Png;
+    } else if (driver == "file") {
+        format = formatOfExtension(path).value_or(Format::Tiff);
+    } else if (driver == "framebuffer") {
+        std::optional<Format> f = formatOfExtension(path);
+        if (!f) path += ".tif";
+        format = f.value_or(Format::Tiff);
+        diag.warningOnce("framebuffer-display", display.loc,
+                         "display driver \"framebuffer\": umbra has no window; writing \"{}\" instead", path);
+    } else {
+        diag.error(display.loc, "display \"{}\": unknown display driver \"{}\" (expected file, tiff, openexr, png, "
+                   "framebuffer, zfile or shadow)",
+                   display.name, display.driver);
+        return false;
+    }
+    if (path.empty()) {
+        diag.error(display.loc, "display has an empty file name (expected a file name)");
+        return false;
+    }
+
+    DisplayMode mode;
+    std::string modeError;
+    if (!parseDisplayMode(display.mode, &mode, &modeError)) {
+        diag.error(display.loc, "display \"{}\": {}", display.name, modeError);
+        return false;
+    }
+
+    Quantize rgbaQ{options.quantizeOne, options.quantizeMin, options.quantizeMax, options.quantizeDither};
+    Quantize zQ{options.zQuantizeOne, options.zQuantizeMin, options.zQuantizeMax, options.zQuantizeDither};
+    if (const ri::Param* q = display.params.find("quantize")) {
+        if (q->floats.size() + q->ints.size() != 4) {
+            diag.error(q->loc, "display \"{}\": \"quantize\" needs 4 values [zero one min max]", display.name);
+            return false;
+        }
+        auto at = [&](size_t i) { return q->floats.empty() ? float(q->intAt(i)) : q->floatAt(i); };
+        rgbaQ.one = at(1);
+        rgbaQ.min = at(2);
+        rgbaQ.max = at(3);
+        zQ = rgbaQ;
+    }
+    if (const ri::Param* d = display.params.find("dither")) {
+        float v = d->floats.empty() ? float(d->intAt(0)) : d->floatAt(0);
+        rgbaQ.dither = v;
+        zQ.dither = v;
+    }
+
+    std::vector<ChannelSource> channels;
+    if (mode.isAov()) {
+        int idx = findAov(mode.aovName);
+        if (idx < 0) {
+            diag.error(display.loc, "display \"{}\": AOV \"{}\" was not rendered (the film has no such channel)",
+                       display.name, mode.aovName);
+            return false;
+        }
+        int comps = m_aovs[size_t(idx)].components;
+        if (comps != mode.aovComponents)
+            diag.warning(display.loc, "display \"{}\": AOV \"{}\" has {} components, the mode asks for {}",
+                         display.name, mode.aovName, comps, mode.aovComponents);
+        static const char* kRgb[] = {"R", "G", "B"};
+        for (int c = 0; c < comps; ++c) {
+            std::string name = comps == 3 ? kRgb[c] : (comps == 1 ? mode.aovName : fmt::format("{}.{}", mode.aovName, c));
+            channels.push_back({ChannelSource::Aov, aovOffset(idx) + c, name, rgbaQ, false});
+        }
+    } else {
+        for (char c : mode.standard) {
+            switch (c) {
+            case 'r': channels.push_back({ChannelSource::R, 0, "R", rgbaQ, true}); break;
+            case 'g': channels.push_back({ChannelSource::G, 0, "G", rgbaQ, true}); break;
+            case 'b': channels.push_back({ChannelSource::B, 0, "B", rgbaQ, true}); break;
+            case 'a': channels.push_back({ChannelSource::A, 0, "A", rgbaQ, false}); break;
+            case 'z': channels.push_back({ChannelSource::Z, 0, "Z", zQ, false}); break;
+            }
+        }
+    }
+    const int nch = int(channels.size());
+
+    // Pixel type: integers when every channel is quantised (and the format
+    // takes them), float otherwise.
+    bool allQuantised = std::all_of(channels.begin(), channels.end(), [](const ChannelSource& c) { return c.quantize.enabled(); });
+    bool anyQuantised = std::any_of(channels.begin(), channels.end(), [](const ChannelSource& c) { return c.quantize.enabled(); });
+    OIIO::TypeDesc pixelType = OIIO::TypeDesc::FLOAT;
+    if (format == Format::Exr) {
+        for (ChannelSource& c : channels) c.quantize = Quantize{};
+        std::string type = lower(display.params.getString("type", "half"));
+        if (type != "half" && type != "float") {
+            diag.error(display.loc, "display \"{}\": \"type\" \"{}\" (expected \"half\" or \"float\")", display.name, type);
+            return false;
+        }
+        pixelType = type == "float" ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::HALF;
+    } else {
+        if (anyQuantised && !allQuantised) {
+            if (format == Format::Png) {
+                diag.error(display.loc, "display \"{}\": PNG cannot mix quantised and floating-point channels (mode "
+                           "\"{}\"); write it to OpenEXR or TIFF",
+                           display.name, display.mode);
+                return false;
+            }
+            diag.warningOnce("mixed-quantize:" + display.name, display.loc,
+                             "display \"{}\": mode \"{}\" mixes quantised and floating-point channels; writing "
+                             "floating point",
+                             display.name, display.mode);
+            for (ChannelSource& c : channels) c.quantize = Quantize{};
+            allQuantised = false;
+        }
+        if (!allQuantised && format == Format::Png) {
+            for (ChannelSource& c : channels) c.quantize = Quantize{65535, 0, 65535, 0.5f};
+            allQuantised = true;
+        }
+        if (allQuantised) {
+            float lo = kInfinity, hi = -kInfinity;
+            for (const ChannelSource& c : channels) {
+                lo = std::min(lo, c.quantize.min);
+                hi = std::max(hi, c.quantize.max);
+            }
+            if (lo >= 0 && hi <= 255)
+                pixelType = OIIO::TypeDesc::UINT8;
+            else if (lo >= 0 && hi <= 65535)
+                pixelType = OIIO::TypeDesc::UINT16;
+            else if (format == Format::Png) {
+                diag.error(display.loc, "display \"{}\": PNG needs quantize min/max within [0, 65535] (have [{}, {}])",
+                           display.name, lo, hi);
+                return false;
+            }
+        }
+    }
+
+    // Convert the pixels.
+    const float gain = options.exposureGain, invGamma = options.exposureGamma != 0 ? 1.0f / options.exposureGamma : 1.0f;
+    const bool exposeIdentity = gain == 1.0f && invGamma == 1.0f;
+    const size_t npix = size_t(m_width) * size_t(m_height);
+    std::vector<float> data(npix * size_t(nch));
+    for (int y = m_y0; y < y1(); ++y) {
+        for (int x = m_x0; x < x1(); ++x) {
+            size_t base = index(x, y) * size_t(nch);
+            const float* p = rgba(x, y);
+            for (int c = 0; c < nch; ++c) {
+                const ChannelSource& src = channels[size_t(c)];
+                float v = 0;
+                switch (src.kind) {
+                case ChannelSource::R: v = p[0]; break;
+                case ChannelSource::G: v = p[1]; break;
+                case ChannelSource::B: v = p[2]; break;
+                case ChannelSource::A: v = p[3]; break;
+                case ChannelSource::Z: v = z(x, y); break;
+                case ChannelSource::Aov: v = aov(x, y)[src.aovFloat]; break;
+                }
+                if (src.exposure && !exposeIdentity) {
+                    v *= gain;
+                    if (invGamma != 1.0f) v = v > 0 ? std::pow(v, invGamma) : 0.0f;
+                }
+                if (src.quantize.enabled()) {
+                    const Quantize& q = src.quantize;
+                    float noise = q.dither != 0 ? q.dither * ditherNoise(x, y, c) : 0.0f;
+                    float qv = std::round(q.one * v + noise);
+                    if (!(qv >= q.min)) qv = q.min;  // NaN goes to min
+                    if (qv > q.max) qv = q.max;
+                    v = qv;
+                }
+                data[base + size_t(c)] = v;
+            }
+        }
+    }
+
+    OIIO::ImageSpec spec(m_width, m_height, nch, pixelType);
+    spec.x = m_x0;
+    spec.y = m_y0;
+    spec.full_x = 0;
+    spec.full_y = 0;
+    spec.full_width = m_xres;
+    spec.full_height = m_yres;
+    spec.channelnames.clear();
+    spec.alpha_channel = -1;
+    spec.z_channel = -1;
+    bool hasZ = false;
+    for (int c = 0; c < nch; ++c) {
+        spec.channelnames.push_back(channels[size_t(c)].name);
+        if (channels[size_t(c)].kind == ChannelSource::A) spec.alpha_channel = c;
+        if (channels[size_t(c)].kind == ChannelSource::Z) {
+            spec.z_channel = c;
+            hasZ = true;
+        }
+    }
+    if (format == Format::Exr && hasZ && pixelType == OIIO::TypeDesc::HALF) {
+        // Half has 11 bits of mantissa: depth needs float.
+        spec.channelformats.assign(size_t(nch), OIIO::TypeDesc::HALF);
+        spec.channelformats[size_t(spec.z_channel)] = OIIO::TypeDesc::FLOAT;
+    }
+    spec.attribute("Software", "umbra 0.1");
+    if (!metadata.dateTime.empty()) spec.attribute("DateTime", metadata.dateTime);
+    if (metadata.renderSeconds >= 0) spec.attribute("umbra:rendertime", fmt::format("{:.3f}", metadata.renderSeconds));
+    if (hasZ) {
+        float m[16];
+        if (metadata.cameraFromWorld) {
+            metadata.cameraFromWorld->toRib(m);  // row-vector order, as EXR/Imath store it
+            spec.attribute("worldtocamera", OIIO::TypeMatrix, m);
+        }
+        if (metadata.ndcFromWorld) {
+            metadata.ndcFromWorld->toRib(m);
+            spec.attribute("worldtoscreen", OIIO::TypeMatrix, m);
+            if (format == Format::Exr) spec.attribute("worldToNDC", OIIO::TypeMatrix, m);
+        }
+    }
+    if (const ri::Param* comp = display.params.find("compression")) spec.attribute("compression", comp->stringAt(0));
+
+    // Integer formats take the quantised integers as they are.
+    std::vector<unsigned char> bytes;
+    const void* pixels = data.data();
+    OIIO::TypeDesc dataType = OIIO::TypeDesc::FLOAT;
+    if (pixelType == OIIO::TypeDesc::UINT8) {
+        bytes.resize(data.size());
+        for (size_t i = 0; i < data.size(); ++i) bytes[i] = static_cast<unsigned char>(data[i]);
+        pixels = bytes.data();
+        dataType = OIIO::TypeDesc::UINT8;
+    } else if (pixelType == OIIO::TypeDesc::UINT16) {
+        bytes.resize(data.size() * 2);
+        auto* u16 = reinterpret_cast<uint16_t*>(bytes.data());
+        for (size_t i = 0; i < data.size(); ++i) u16[i] = static_cast<uint16_t>(data[i]);
+        pixels = bytes.data();
+        dataType = OIIO::TypeDesc::UINT16;
+    }
+
+    // Write under a temporary name in the same directory, then rename.
+    fs::path target(path);
+    fs::path tmp = target.parent_path() / fmt::format(".{}.umbra-tmp-{}", target.filename().string(), ::getpid());
+    auto out = OIIO::ImageOutput::create(oiioFormatName(format));
+    if (!out) {
+        diag.error(display.loc, "display \"{}\": cannot create a {} writer: {}", display.name, oiioFormatName(format),
+                   OIIO::geterror());
+        return false;
+    }
+    std::error_code ec;
+    auto failWith = [&](const std::string& why) {
+        diag.error(display.loc, "display \"{}\": cannot write \"{}\": {}", display.name, path, why);
+        fs::remove(tmp, ec);
+        return false;
+    };
+    if (!out->open(tmp.string(), spec)) return failWith(out->geterror());
+    if (!out->write_image(dataType, pixels)) {
+        std::string err = out->geterror();
+        out->close();
+        return failWith(err);
+    }
+    if (!out->close()) return failWith(out->geterror());
+    out.reset();
+    fs::rename(tmp, target, ec);
+    if (ec) return failWith(ec.message());
+    return true;
+}
+
+}  // namespace umbra::film

@@ -1,0 +1,577 @@
+#include "umbra/hider/sample_buffer.h"
+
+#include "umbra/film/film.h"
+#include "umbra/util/error.h"
+#include "umbra/util/rng.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace umbra::hider {
+
+namespace {
+
+/// The total order on hits: nearer first, then grid id, then triangle.
+inline bool keyLess(float z, uint64_t id, uint32_t sub, float z2, uint64_t id2, uint32_t sub2) {
+    if (z != z2) return z < z2;
+    if (id != id2) return id < id2;
+    return sub < sub2;
+}
+
+/// One triangle edge as an edge function evaluated in a canonical direction
+/// (from the endpoint that is smaller by (y, x) to the larger), so the two
+/// triangles sharing an edge compute bit-identical values of opposite sign.
+/// A sample exactly on the edge belongs to the triangle that runs along the
+/// edge in the canonical direction: exactly one of the two (a top-left
+/// rule), so shared edges are neither missed nor hit twice.
+struct Edge {
+    float bx, by, dx, dy;
+    float sign;
+    bool inclusive;
+
+    void setup(const Vec3& u, const Vec3& v) {
+        bool canonical = u.y < v.y || (u.y == v.y && u.x < v.x);
+        const Vec3& a = canonical ? u : v;
+        const Vec3& b = canonical ? v : u;
+        bx = a.x;
+        by = a.y;
+        dx = b.x - a.x;
+        dy = b.y - a.y;
+        sign = canonical ? 1.0f : -1.0f;
+        inclusive = canonical;
+    }
+    /// Positive inside (for a triangle of positive orientation).
+    float eval(float x, float y) const { return sign * (dx * (y - by) - dy * (x - bx)); }
+    bool inside(float e) const { return e > 0.0f || (e == 0.0f && inclusive); }
+};
+
+inline float mean3(const Color& c) { return (c.x + c.y + c.z) * (1.0f / 3.0f); }
+
+}  // namespace
+
+/// One triangle of a micropolygon, set up for sampling: its vertices in
+/// positive orientation, their grid indices, its edges, and its index
+/// (2 * micropolygon + half) for tie-breaking.
+struct SampleBuffer::Tri {
+    Vec3 p0, p1, p2;
+    int i0, i1, i2;
+    uint32_t sub;
+    Edge e0, e1, e2;  // e0 is opposite p0 (its barycentric weight), and so on
+    bool valid;
+
+    void setup(const MicroGrid& g, int a, int b, int c, uint32_t subIndex) {
+        i0 = a;
+        i1 = b;
+        i2 = c;
+        p0 = g.P[a];
+        p1 = g.P[b];
+        p2 = g.P[c];
+        sub = subIndex;
+        float area = (p1.x - p0.x) * (p2.y - p0.y) - (p1.y - p0.y) * (p2.x - p0.x);
+        valid = area != 0.0f && std::isfinite(area);  // degenerate (or NaN) triangles cover nothing
+        if (!valid) return;
+        if (area < 0) {
+            std::swap(p1, p2);
+            std::swap(i1, i2);
+        }
+        e0.setup(p1, p2);
+        e1.setup(p2, p0);
+        e2.setup(p0, p1);
+    }
+    bool inside(float x, float y, float* w0, float* w1, float* w2) const {
+        *w0 = e0.eval(x, y);
+        if (!e0.inside(*w0)) return false;
+        *w1 = e1.eval(x, y);
+        if (!e1.inside(*w1)) return false;
+        *w2 = e2.eval(x, y);
+        return e2.inside(*w2);
+    }
+};
+
+/// Per-grid constants of sample().
+struct SampleBuffer::HitContext {
+    bool depthMode;
+    bool gridOpaque;  // no Oi, or every Oi >= 1
+};
+
+namespace {
+
+/// floor() without a libm call (x86-64 without SSE4.1 has no rounding
+/// instruction); exact for the magnitudes of raster coordinates.
+inline int floorToInt(float v) {
+    int i = int(v);
+    return float(i) > v ? i - 1 : i;
+}
+
+inline bool opaqueColor(const Color& o) { return o.x >= 1.0f && o.y >= 1.0f && o.z >= 1.0f; }
+
+}  // namespace
+
+namespace {
+
+/// The position of sample s of a pixel given the pixel's hash
+/// hashKeys(frameSeed, px, py) (so hashKeys(frameSeed, px, py, s) is
+/// hashCombine(pixelHash, s)).
+inline Vec2 positionFromHash(uint32_t pixelHash, int px, int py, int s, int xs, int ys, bool jitter) {
+    int i = s % xs, j = s / xs;
+    float jx = 0.5f, jy = 0.5f;
+    if (jitter) {
+        uint32_t h = hashCombine(pixelHash, uint32_t(s));
+        jx = hashToUnit(h);
+        jy = hashToUnit(hash32(h ^ 0x68e31da4u));
+    }
+    const float fxs = float(xs), fys = float(ys);
+    float x = float(px) + (float(i) + jx) / fxs;
+    float y = float(py) + (float(j) + jy) / fys;
+    // Rounding may push a sample onto its stratum's far edge; the rasteriser
+    // finds samples by floor(x * xs), so keep every sample strictly inside.
+    const int tx = px * xs + i, ty = py * ys + j;
+    while (floorToInt(x * fxs) > tx) x = std::nextafter(x, -kInfinity);
+    while (floorToInt(x * fxs) < tx) x = std::nextafter(x, kInfinity);
+    while (floorToInt(y * fys) > ty) y = std::nextafter(y, -kInfinity);
+    while (floorToInt(y * fys) < ty) y = std::nextafter(y, kInfinity);
+    return {x, y};
+}
+
+}  // namespace
+
+Vec2 SampleBuffer::samplePosition(int px, int py, int s, int xs, int ys, bool jitter, uint32_t frameSeed) {
+    return positionFromHash(hashKeys(frameSeed, uint32_t(px), uint32_t(py)), px, py, s, xs, ys, jitter);
+}
+
+void SampleBuffer::reset(const SampleBufferConfig& c) {
+    UMBRA_CHECK(c.x1 > c.x0 && c.y1 > c.y0, "empty bucket [{},{})x[{},{})", c.x0, c.x1, c.y0, c.y1);
+    UMBRA_CHECK(c.xSamples >= 1 && c.ySamples >= 1 && c.margin >= 0 && c.aovCount >= 0, "bad sample buffer settings");
+    m_cfg = c;
+    const int xs = c.xSamples, ys = c.ySamples;
+    m_rx0 = c.x0 - c.margin;
+    m_ry0 = c.y0 - c.margin;
+    m_rw = c.x1 - c.x0 + 2 * c.margin;
+    m_rh = c.y1 - c.y0 + 2 * c.margin;
+    m_sw = m_rw * xs;
+    m_sh = m_rh * ys;
+    m_sx0 = m_rx0 * xs;
+    m_sy0 = m_ry0 * ys;
+    m_fx0 = float(m_rx0);
+    m_fy0 = float(m_ry0);
+    m_fx1 = float(m_rx0 + m_rw);
+    m_fy1 = float(m_ry0 + m_rh);
+
+    const size_t n = size_t(m_sw) * size_t(m_sh);
+    m_px.resize(n);
+    m_py.resize(n);
+    for (int py = 0; py < m_rh; ++py)
+        for (int px = 0; px < m_rw; ++px) {
+            const uint32_t pixelHash = hashKeys(c.frameSeed, uint32_t(m_rx0 + px), uint32_t(m_ry0 + py));
+            for (int s = 0; s < xs * ys; ++s) {
+                Vec2 p = positionFromHash(pixelHash, m_rx0 + px, m_ry0 + py, s, xs, ys, c.jitter);
+                size_t k = size_t(py * ys + s / xs) * size_t(m_sw) + size_t(px * xs + s % xs);
+                m_px[k] = p.x;
+                m_py[k] = p.y;
+            }
+        }
+    m_z.assign(n, kInfinity);
+    m_id.assign(n, 0);
+    m_sub.assign(n, 0);
+    if (c.mode == HiderMode::Colour) {
+        m_ci.assign(n, Color(0.0f));
+        m_alpha.assign(n, 0.0f);
+        m_aov.assign(n * size_t(c.aovCount), 0.0f);
+        m_fragHead.assign(n, -1);
+        m_z2.clear();
+        m_id2.clear();
+        m_sub2.clear();
+    } else {
+        m_z2.assign(n, kInfinity);
+        m_id2.assign(n, 0);
+        m_sub2.assign(n, 0);
+        m_ci.clear();
+        m_alpha.clear();
+        m_aov.clear();
+        m_fragHead.clear();
+    }
+    m_frags.clear();
+    m_fragAov.clear();
+    m_pixelMax.assign(size_t(m_rw) * size_t(m_rh), kInfinity);
+    m_pixelDirty.assign(size_t(m_rw) * size_t(m_rh), 0);
+    m_anyDirty = false;
+}
+
+int SampleBuffer::sampleIndex(int px, int py, int s) const {
+    const int xs = m_cfg.xSamples, ys = m_cfg.ySamples;
+    UMBRA_CHECK(px >= m_rx0 && py >= m_ry0 && px < m_rx0 + m_rw && py < m_ry0 + m_rh && s >= 0 && s < xs * ys,
+                "sample ({},{},{}) outside the buffer", px, py, s);
+    return ((py - m_ry0) * ys + s / xs) * m_sw + (px - m_rx0) * xs + s % xs;
+}
+
+Vec2 SampleBuffer::position(int px, int py, int s) const {
+    int k = sampleIndex(px, py, s);
+    return {m_px[size_t(k)], m_py[size_t(k)]};
+}
+float SampleBuffer::depth(int px, int py, int s) const { return m_z[size_t(sampleIndex(px, py, s))]; }
+float SampleBuffer::secondDepth(int px, int py, int s) const {
+    return m_cfg.mode == HiderMode::Depth ? m_z2[size_t(sampleIndex(px, py, s))] : kInfinity;
+}
+int SampleBuffer::fragmentCount(int px, int py, int s) const {
+    if (m_cfg.mode != HiderMode::Colour) return 0;
+    int count = 0;
+    for (int32_t f = m_fragHead[size_t(sampleIndex(px, py, s))]; f >= 0; f = m_frags[size_t(f)].next) ++count;
+    return count;
+}
+
+void SampleBuffer::sample(const MicroGrid& g) {
+    if (g.nu <= 0 || g.nv <= 0 || !g.P) return;
+    UMBRA_CHECK(!g.aov || g.aovCount == m_cfg.aovCount, "grid has {} AOV floats, the buffer {}", g.aovCount,
+                m_cfg.aovCount);
+    const int nu1 = g.nu + 1;
+    const int nverts = nu1 * (g.nv + 1);
+    const float nearZ = m_cfg.nearClip, farZ = m_cfg.farClip;
+
+    // Whole-grid reject: a grid is handed to every bucket it overlaps.
+    float gx0 = kInfinity, gy0 = kInfinity, gz0 = kInfinity, gx1 = -kInfinity, gy1 = -kInfinity, gz1 = -kInfinity;
+    for (int k = 0; k < nverts; ++k) {
+        const Vec3& p = g.P[k];
+        gx0 = std::min(gx0, p.x);
+        gx1 = std::max(gx1, p.x);
+        gy0 = std::min(gy0, p.y);
+        gy1 = std::max(gy1, p.y);
+        gz0 = std::min(gz0, p.z);
+        gz1 = std::max(gz1, p.z);
+    }
+    if (!(gx1 >= m_fx0 && gx0 < m_fx1 && gy1 >= m_fy0 && gy0 < m_fy1 && gz1 >= nearZ && gz0 <= farZ)) return;
+
+    HitContext ctx;
+    ctx.depthMode = m_cfg.mode == HiderMode::Depth;
+    ctx.gridOpaque = true;
+    if (g.Oi && !ctx.depthMode)
+        for (int k = 0; k < nverts && ctx.gridOpaque; ++k) ctx.gridOpaque = opaqueColor(g.Oi[k]);
+
+    for (int j = 0; j < g.nv; ++j) {
+        const Vec3* row0 = g.P + j * nu1;
+        const Vec3* row1 = row0 + nu1;
+        for (int i = 0; i < g.nu; ++i) {
+            const Vec3 &a = row0[i], &b = row0[i + 1], &c = row1[i], &d = row1[i + 1];
+            float minx = std::min(std::min(a.x, b.x), std::min(c.x, d.x));
+            float maxx = std::max(std::max(a.x, b.x), std::max(c.x, d.x));
+            float miny = std::min(std::min(a.y, b.y), std::min(c.y, d.y));
+            float maxy = std::max(std::max(a.y, b.y), std::max(c.y, d.y));
+            // NaN coordinates fail these tests and are skipped.
+            if (!(maxx >= m_fx0 && minx < m_fx1 && maxy >= m_fy0 && miny < m_fy1)) continue;
+            float minz = std::min(std::min(a.z, b.z), std::min(c.z, d.z));
+            float maxz = std::max(std::max(a.z, b.z), std::max(c.z, d.z));
+            if (!(maxz >= nearZ && minz <= farZ)) continue;
+            rasterizeQuad(g, ctx, i, j, minx, miny, maxx, maxy);
+        }
+    }
+}
+
+void SampleBuffer::rasterizeQuad(const MicroGrid& g, const HitContext& ctx, int i, int j, float minx, float miny,
+                                 float maxx, float maxy) {
+    const int nu1 = g.nu + 1;
+    const int v00 = j * nu1 + i, v10 = v00 + 1, v01 = v00 + nu1, v11 = v01 + 1;
+    const uint32_t mp = uint32_t(j * g.nu + i);
+    Tri ta, tb;
+    ta.setup(g, v00, v10, v11, 2 * mp);
+    tb.setup(g, v00, v11, v01, 2 * mp + 1);
+    if (!ta.valid && !tb.valid) return;
+
+    const int xs = m_cfg.xSamples, ys = m_cfg.ySamples;
+    minx = std::max(minx, m_fx0);
+    maxx = std::min(maxx, m_fx1);
+    miny = std::max(miny, m_fy0);
+    maxy = std::min(maxy, m_fy1);
+    // Samples of stratum column sx satisfy floor(x * xs) == sx (see samplePosition).
+    const int sx0 = std::max(0, floorToInt(minx * float(xs)) - m_sx0);
+    const int sx1 = std::min(m_sw - 1, floorToInt(maxx * float(xs)) - m_sx0);
+    const int sy0 = std::max(0, floorToInt(miny * float(ys)) - m_sy0);
+    const int sy1 = std::min(m_sh - 1, floorToInt(maxy * float(ys)) - m_sy0);
+    if (sx0 > sx1 || sy0 > sy1) return;
+
+    bool wrote = false;
+    for (int sy = sy0; sy <= sy1; ++sy) {
+        const size_t row = size_t(sy) * size_t(m_sw);
+        for (int sx = sx0; sx <= sx1; ++sx) {
+            const size_t s = row + size_t(sx);
+            const float x = m_px[s], y = m_py[s];
+            float w0, w1, w2;
+            // Both halves are tested: a bow-tie's triangles may overlap.
+            if (ta.valid && ta.inside(x, y, &w0, &w1, &w2)) wrote |= record(g, ctx, ta, s, w0, w1, w2);
+            if (tb.valid && tb.inside(x, y, &w0, &w1, &w2)) wrote |= record(g, ctx, tb, s, w0, w1, w2);
+        }
+    }
+    if (wrote) markDirty(sx0, sy0, sx1, sy1);
+}
+
+bool SampleBuffer::record(const MicroGrid& g, const HitContext& ctx, const Tri& t, size_t s, float w0, float w1,
+                          float w2) {
+    const float inv = 1.0f / (w0 + w1 + w2);
+    const float b1 = w1 * inv, b2 = w2 * inv;
+    // Interpolated as v0 + b1 (v1 - v0) + b2 (v2 - v0): exact where the
+    // values are equal (flat surfaces, constant colours).
+    const float z = t.p0.z + b1 * (t.p1.z - t.p0.z) + b2 * (t.p2.z - t.p0.z);
+    if (!(z >= m_cfg.nearClip && z <= m_cfg.farClip)) return false;
+    const uint64_t gid = g.id;
+    const uint32_t sub = t.sub;
+
+    if (ctx.depthMode) {
+        if (keyLess(z, gid, sub, m_z[s], m_id[s], m_sub[s])) {
+            // The nearest hit from another grid than the new nearest is the
+            // old nearest (it was nearer than everything else).
+            if (m_z[s] != kInfinity && m_id[s] != gid) {
+                m_z2[s] = m_z[s];
+                m_id2[s] = m_id[s];
+                m_sub2[s] = m_sub[s];
+            }
+            m_z[s] = z;
+            m_id[s] = gid;
+            m_sub[s] = sub;
+            return true;
+        }
+        if (gid != m_id[s] && keyLess(z, gid, sub, m_z2[s], m_id2[s], m_sub2[s])) {
+            m_z2[s] = z;
+            m_id2[s] = gid;
+            m_sub2[s] = sub;
+            return true;
+        }
+        return false;
+    }
+
+    if (!keyLess(z, gid, sub, m_z[s], m_id[s], m_sub[s])) return false;  // behind the opaque hit
+    const Color kBlack(0.0f), kWhite(1.0f);
+    Color oi = kWhite;
+    bool isOpaque = true;
+    if (!ctx.gridOpaque) {
+        const Color &o0 = g.Oi[t.i0], &o1 = g.Oi[t.i1], &o2 = g.Oi[t.i2];
+        oi = o0 + (o1 - o0) * b1 + (o2 - o0) * b2;
+        isOpaque = opaqueColor(oi);
+    }
+    Color ci = kBlack;
+    if (g.Ci && !g.matte) {
+        const Color &c0 = g.Ci[t.i0], &c1 = g.Ci[t.i1], &c2 = g.Ci[t.i2];
+        ci = c0 + (c1 - c0) * b1 + (c2 - c0) * b2;
+    }
+    const int aovN = m_cfg.aovCount;
+    const bool hasAov = g.aov && aovN > 0 && !g.matte;
+    auto interpolateAov = [&](float* dst) {
+        const float* a0 = g.aov + size_t(t.i0) * size_t(aovN);
+        const float* a1 = g.aov + size_t(t.i1) * size_t(aovN);
+        const float* a2 = g.aov + size_t(t.i2) * size_t(aovN);
+        for (int k = 0; k < aovN; ++k) dst[k] = a0[k] + b1 * (a1[k] - a0[k]) + b2 * (a2[k] - a0[k]);
+    };
+    if (isOpaque) {
+        m_z[s] = z;
+        m_id[s] = gid;
+        m_sub[s] = sub;
+        m_ci[s] = ci;
+        m_alpha[s] = g.matte ? 0.0f : 1.0f;
+        if (aovN > 0) {
+            float* dst = &m_aov[s * size_t(aovN)];
+            if (hasAov)
+                interpolateAov(dst);
+            else
+                std::fill_n(dst, aovN, 0.0f);
+        }
+        return true;
+    }
+    Fragment f;
+    f.z = z;
+    f.sub = sub;
+    f.id = gid;
+    f.matte = g.matte;
+    f.ci = ci;
+    f.oi = oi;
+    f.next = m_fragHead[s];
+    f.aovBase = -1;
+    if (hasAov) {
+        f.aovBase = int32_t(m_fragAov.size());
+        m_fragAov.resize(m_fragAov.size() + size_t(aovN));
+        interpolateAov(&m_fragAov[size_t(f.aovBase)]);
+    }
+    m_fragHead[s] = int32_t(m_frags.size());
+    m_frags.push_back(f);
+    return false;  // transparent fragments do not change the occlusion bound
+}
+
+void SampleBuffer::markDirty(int sx0, int sy0, int sx1, int sy1) {
+    const int xs = m_cfg.xSamples, ys = m_cfg.ySamples;
+    for (int py = sy0 / ys; py <= sy1 / ys; ++py)
+        for (int px = sx0 / xs; px <= sx1 / xs; ++px) m_pixelDirty[size_t(py) * size_t(m_rw) + size_t(px)] = 1;
+    m_anyDirty = true;
+}
+
+void SampleBuffer::updatePixelMax() const {
+    if (!m_anyDirty) return;
+    const int xs = m_cfg.xSamples, ys = m_cfg.ySamples;
+    const std::vector<float>& depth = m_cfg.mode == HiderMode::Depth ? m_z2 : m_z;
+    for (int py = 0; py < m_rh; ++py)
+        for (int px = 0; px < m_rw; ++px) {
+            size_t p = size_t(py) * size_t(m_rw) + size_t(px);
+            if (!m_pixelDirty[p]) continue;
+            float mx = -kInfinity;
+            for (int j = 0; j < ys; ++j) {
+                size_t row = size_t(py * ys + j) * size_t(m_sw) + size_t(px * xs);
+                for (int i = 0; i < xs; ++i) mx = std::max(mx, depth[row + size_t(i)]);
+            }
+            m_pixelMax[p] = mx;
+            m_pixelDirty[p] = 0;
+        }
+    m_anyDirty = false;
+}
+
+float SampleBuffer::maxOpaqueDepth(float xmin, float ymin, float xmax, float ymax) const {
+    if (!(xmax >= m_fx0 && xmin < m_fx1 && ymax >= m_fy0 && ymin < m_fy1)) return -kInfinity;
+    updatePixelMax();
+    const int px0 = std::max(0, int(std::floor(std::max(xmin, m_fx0))) - m_rx0);
+    const int px1 = std::min(m_rw - 1, int(std::floor(std::min(xmax, m_fx1))) - m_rx0);
+    const int py0 = std::max(0, int(std::floor(std::max(ymin, m_fy0))) - m_ry0);
+    const int py1 = std::min(m_rh - 1, int(std::floor(std::min(ymax, m_fy1))) - m_ry0);
+    float mx = -kInfinity;
+    for (int py = py0; py <= py1; ++py)
+        for (int px = px0; px <= px1; ++px) mx = std::max(mx, m_pixelMax[size_t(py) * size_t(m_rw) + size_t(px)]);
+    return mx;
+}
+
+bool SampleBuffer::occluded(const Bound3& b) const {
+    return maxOpaqueDepth(b.min.x, b.min.y, b.max.x, b.max.y) < b.min.z;
+}
+
+void SampleBuffer::resolve(film::Film& film) {
+    const film::PixelFilter& filter = film.filter();
+    UMBRA_CHECK(filter.xMargin() <= m_cfg.margin && filter.yMargin() <= m_cfg.margin,
+                "sample buffer margin {} is smaller than the {} filter's reach ({}, {})", m_cfg.margin, filter.name(),
+                filter.xMargin(), filter.yMargin());
+    const int xs = m_cfg.xSamples, ys = m_cfg.ySamples;
+    const int bx0 = std::max(m_cfg.x0, film.x0()), bx1 = std::min(m_cfg.x1, film.x1());
+    const int by0 = std::max(m_cfg.y0, film.y0()), by1 = std::min(m_cfg.y1, film.y1());
+    if (bx0 >= bx1 || by0 >= by1) return;
+    const size_t n = size_t(m_sw) * size_t(m_sh);
+
+    // Depth and z: minima over each pixel's own samples, unfiltered.
+    auto minOver = [&](const std::vector<float>& v, int px, int py) {
+        float m = kInfinity;
+        for (int j = 0; j < ys; ++j) {
+            size_t row = size_t((py - m_ry0) * ys + j) * size_t(m_sw) + size_t((px - m_rx0) * xs);
+            for (int i = 0; i < xs; ++i) m = std::min(m, v[row + size_t(i)]);
+        }
+        return m;
+    };
+    if (m_cfg.mode == HiderMode::Depth) {
+        for (int py = by0; py < by1; ++py)
+            for (int px = bx0; px < bx1; ++px) {
+                film.z(px, py) = minOver(m_z, px, py);
+                if (film.hasDepthPair()) film.z2(px, py) = minOver(m_z2, px, py);
+            }
+        return;
+    }
+    UMBRA_CHECK(film.aovFloats() == m_cfg.aovCount, "film has {} AOV floats, the sample buffer {}", film.aovFloats(),
+                m_cfg.aovCount);
+
+    // 1. Each sample's composited value: r g b a aov...
+    const int aovN = m_cfg.aovCount;
+    const int stride = 4 + aovN;
+    m_res.resize(n * size_t(stride));
+    m_scratchAov.resize(size_t(aovN));
+    for (size_t s = 0; s < n; ++s) {
+        float* out = &m_res[s * size_t(stride)];
+        const float* opAov = aovN > 0 ? &m_aov[s * size_t(aovN)] : nullptr;
+        if (m_fragHead[s] < 0) {
+            out[0] = m_ci[s].x;
+            out[1] = m_ci[s].y;
+            out[2] = m_ci[s].z;
+            out[3] = m_alpha[s];
+            for (int k = 0; k < aovN; ++k) out[4 + k] = opAov[k];
+            continue;
+        }
+        // Fragments in front of the opaque hit, sorted by the total key order.
+        m_order.clear();
+        for (int32_t f = m_fragHead[s]; f >= 0; f = m_frags[size_t(f)].next) {
+            const Fragment& fr = m_frags[size_t(f)];
+            if (keyLess(fr.z, fr.id, fr.sub, m_z[s], m_id[s], m_sub[s])) m_order.push_back(f);
+        }
+        std::sort(m_order.begin(), m_order.end(), [&](int32_t a, int32_t b) {
+            const Fragment &fa = m_frags[size_t(a)], &fb = m_frags[size_t(b)];
+            return keyLess(fa.z, fa.id, fa.sub, fb.z, fb.id, fb.sub);
+        });
+        Color ci(0.0f), oi(0.0f);
+        float alpha = 0.0f;
+        std::fill(m_scratchAov.begin(), m_scratchAov.end(), 0.0f);
+        for (int32_t f : m_order) {
+            const Fragment& fr = m_frags[size_t(f)];
+            Color through = Color(1.0f) - oi;  // what the layers in front let through
+            if (!fr.matte) {
+                ci += through * fr.ci;
+                float cover = mean3(through * fr.oi);
+                alpha += cover;
+                if (fr.aovBase >= 0)
+                    for (int k = 0; k < aovN; ++k) m_scratchAov[size_t(k)] += cover * m_fragAov[size_t(fr.aovBase + k)];
+            }
+            oi += through * fr.oi;
+        }
+        if (m_z[s] != kInfinity) {
+            Color through = Color(1.0f) - oi;
+            ci += through * m_ci[s];
+            float cover = mean3(through);
+            alpha += cover * m_alpha[s];
+            for (int k = 0; k < aovN; ++k) m_scratchAov[size_t(k)] += cover * opAov[k];
+        }
+        out[0] = ci.x;
+        out[1] = ci.y;
+        out[2] = ci.z;
+        out[3] = alpha;
+        for (int k = 0; k < aovN; ++k) out[4 + k] = m_scratchAov[size_t(k)];
+    }
+
+    // 2. Filter: every sample adds its weighted value to the bucket pixels
+    // its filter support reaches, in a fixed order (deterministic sums).
+    const int bw = bx1 - bx0, bh = by1 - by0;
+    const int accStride = stride + 1;
+    m_acc.assign(size_t(bw) * size_t(bh) * size_t(accStride), 0.0f);
+    const int mx = filter.xMargin(), my = filter.yMargin();
+    const bool separable = filter.separable();
+    float wx[64], wy[64];
+    UMBRA_CHECK(2 * mx + 1 <= 64 && 2 * my + 1 <= 64, "pixel filter too wide ({} x {})", filter.xWidth(),
+                filter.yWidth());
+    // Only samples of pixels within the filter's reach of the bucket matter.
+    const int qy0 = std::max(m_ry0, by0 - my), qy1 = std::min(m_ry0 + m_rh, by1 + my);
+    const int qx0 = std::max(m_rx0, bx0 - mx), qx1 = std::min(m_rx0 + m_rw, bx1 + mx);
+    for (int sy = (qy0 - m_ry0) * ys; sy < (qy1 - m_ry0) * ys; ++sy) {
+        const int qy = m_ry0 + sy / ys;
+        const int ty0 = std::max(by0, qy - my), ty1 = std::min(by1 - 1, qy + my);
+        for (int sx = (qx0 - m_rx0) * xs; sx < (qx1 - m_rx0) * xs; ++sx) {
+            const int qx = m_rx0 + sx / xs;
+            const int tx0 = std::max(bx0, qx - mx), tx1 = std::min(bx1 - 1, qx + mx);
+            const size_t s = size_t(sy) * size_t(m_sw) + size_t(sx);
+            const float x = m_px[s], y = m_py[s];
+            const float* val = &m_res[s * size_t(stride)];
+            if (separable) {
+                for (int tx = tx0; tx <= tx1; ++tx) wx[tx - tx0] = filter.weightX(x - (float(tx) + 0.5f));
+                for (int ty = ty0; ty <= ty1; ++ty) wy[ty - ty0] = filter.weightY(y - (float(ty) + 0.5f));
+            }
+            for (int ty = ty0; ty <= ty1; ++ty) {
+                for (int tx = tx0; tx <= tx1; ++tx) {
+                    float w = separable ? wx[tx - tx0] * wy[ty - ty0]
+                                        : filter.weight(x - (float(tx) + 0.5f), y - (float(ty) + 0.5f));
+                    if (w == 0.0f) continue;
+                    float* acc = &m_acc[(size_t(ty - by0) * size_t(bw) + size_t(tx - bx0)) * size_t(accStride)];
+                    for (int k = 0; k < stride; ++k) acc[k] += w * val[k];
+                    acc[stride] += w;
+                }
+            }
+        }
+    }
+
+    // 3. Normalise into the film.
+    for (int py = by0; py < by1; ++py)
+        for (int px = bx0; px < bx1; ++px) {
+            const float* acc = &m_acc[(size_t(py - by0) * size_t(bw) + size_t(px - bx0)) * size_t(accStride)];
+            const float wsum = acc[stride];
+            const float inv = wsum != 0.0f ? 1.0f / wsum : 0.0f;
+            float* rgba = film.rgba(px, py);
+            for (int k = 0; k < 4; ++k) rgba[k] = acc[k] * inv;
+            float* aov = film.aov(px, py);
+            for (int k = 0; k < aovN; ++k) aov[k] = acc[4 + k] * inv;
+            film.z(px, py) = minOver(m_z, px, py);
+        }
+}
+
+}  // namespace umbra::hider

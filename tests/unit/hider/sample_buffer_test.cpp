@@ -1,0 +1,578 @@
+#include "umbra/film/film.h"
+#include "umbra/hider/sample_buffer.h"
+#include "umbra/util/rng.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <vector>
+
+using namespace umbra;
+using umbra::hider::HiderMode;
+using umbra::hider::MicroGrid;
+using umbra::hider::SampleBuffer;
+using umbra::hider::SampleBufferConfig;
+
+namespace {
+
+/// A grid's storage; MicroGrid borrows from it.
+struct TestGrid {
+    int nu = 1, nv = 1;
+    std::vector<Vec3> P;
+    std::vector<Color> Ci, Oi;
+    std::vector<float> aov;
+    int aovCount = 0;
+    bool matte = false;
+    uint64_t id = 1;
+
+    MicroGrid view() const {
+        MicroGrid g;
+        g.nu = nu;
+        g.nv = nv;
+        g.P = P.data();
+        g.Ci = Ci.empty() ? nullptr : Ci.data();
+        g.Oi = Oi.empty() ? nullptr : Oi.data();
+        g.aov = aov.empty() ? nullptr : aov.data();
+        g.aovCount = aovCount;
+        g.matte = matte;
+        g.id = id;
+        return g;
+    }
+};
+
+/// An axis-aligned rectangle [x0,x1]x[y0,y1] at depth z(x, y), nu x nv
+/// micropolygons, with uniform colour and opacity (Ci premultiplied by the caller).
+template <typename ZFn>
+TestGrid rectGrid(float x0, float y0, float x1, float y1, int nu, int nv, ZFn zf, Color ci = Color(1.0f),
+                  Color oi = Color(1.0f), uint64_t id = 1) {
+    TestGrid g;
+    g.nu = nu;
+    g.nv = nv;
+    g.id = id;
+    for (int j = 0; j <= nv; ++j)
+        for (int i = 0; i <= nu; ++i) {
+            float x = x0 + (x1 - x0) * float(i) / float(nu);
+            float y = y0 + (y1 - y0) * float(j) / float(nv);
+            g.P.push_back({x, y, zf(x, y)});
+            g.Ci.push_back(ci);
+            g.Oi.push_back(oi);
+        }
+    return g;
+}
+TestGrid flatGrid(float x0, float y0, float x1, float y1, int nu, int nv, float z, Color ci = Color(1.0f),
+                  Color oi = Color(1.0f), uint64_t id = 1) {
+    return rectGrid(x0, y0, x1, y1, nu, nv, [z](float, float) { return z; }, ci, oi, id);
+}
+
+SampleBufferConfig config(int x0, int y0, int x1, int y1, int margin, int xs, int ys, bool jitter,
+                          HiderMode mode = HiderMode::Colour) {
+    SampleBufferConfig c;
+    c.x0 = x0;
+    c.y0 = y0;
+    c.x1 = x1;
+    c.y1 = y1;
+    c.margin = margin;
+    c.xSamples = xs;
+    c.ySamples = ys;
+    c.jitter = jitter;
+    c.frameSeed = 1234;
+    c.mode = mode;
+    return c;
+}
+
+film::Film makeFilm(int xres, int yres, const char* filter, float width, std::vector<film::AovChannel> aovs = {},
+                    bool depthPair = false) {
+    const float crop[4] = {0, 1, 0, 1};
+    return film::Film(xres, yres, crop, *film::PixelFilter::create(filter, width, width), std::move(aovs), depthPair);
+}
+
+/// Calls f(px, py, s) for every sample of the buffer's sampled region.
+template <typename F>
+void forEachSample(const SampleBuffer& b, F f) {
+    const SampleBufferConfig& c = b.config();
+    for (int py = c.y0 - c.margin; py < c.y1 + c.margin; ++py)
+        for (int px = c.x0 - c.margin; px < c.x1 + c.margin; ++px)
+            for (int s = 0; s < c.xSamples * c.ySamples; ++s) f(px, py, s);
+}
+
+}  // namespace
+
+TEST(SampleBuffer, PositionsAreStratifiedAndJittered) {
+    const int xs = 4, ys = 3;
+    std::vector<float> offsets;
+    for (int s = 0; s < xs * ys; ++s) {
+        Vec2 p = SampleBuffer::samplePosition(7, -3, s, xs, ys, true, 99);
+        int i = s % xs, j = s / xs;
+        EXPECT_GE(p.x, 7.0f + float(i) / xs);
+        EXPECT_LT(p.x, 7.0f + float(i + 1) / xs);
+        EXPECT_GE(p.y, -3.0f + float(j) / ys);
+        EXPECT_LT(p.y, -3.0f + float(j + 1) / ys);
+        offsets.push_back(p.x - (7.0f + (float(i) + 0.5f) / xs));
+        // The jitter is keyed by (frame seed, pixel, sample index) only.
+        float jx = hashToUnit(hashKeys(99u, 7u, uint32_t(-3), uint32_t(s)));
+        EXPECT_NEAR(p.x, 7.0f + (float(i) + jx) / xs, 1e-5f);
+        // Regular positions are the strata centres.
+        Vec2 r = SampleBuffer::samplePosition(7, -3, s, xs, ys, false, 99);
+        EXPECT_FLOAT_EQ(r.x, 7.0f + (float(i) + 0.5f) / xs);
+        EXPECT_FLOAT_EQ(r.y, -3.0f + (float(j) + 0.5f) / ys);
+    }
+    // Jittered: not all at the centres; a different seed moves them.
+    EXPECT_TRUE(std::any_of(offsets.begin(), offsets.end(), [](float o) { return std::fabs(o) > 1e-3f; }));
+    EXPECT_NE(SampleBuffer::samplePosition(7, -3, 0, xs, ys, true, 99).x,
+              SampleBuffer::samplePosition(7, -3, 0, xs, ys, true, 100).x);
+    // One regular sample per pixel is the pixel centre (depth maps).
+    Vec2 c = SampleBuffer::samplePosition(10, 20, 0, 1, 1, false, 5);
+    EXPECT_EQ(c.x, 10.5f);
+    EXPECT_EQ(c.y, 20.5f);
+}
+
+TEST(SampleBuffer, MarginSamplesMatchTheNeighbourBucket) {
+    SampleBuffer a, b;
+    a.reset(config(0, 0, 16, 16, 2, 3, 3, true));
+    b.reset(config(16, 0, 32, 16, 2, 3, 3, true));
+    // A tilted, sheared grid across the bucket boundary.
+    TestGrid g = rectGrid(10.2f, 3.3f, 22.7f, 11.9f, 9, 7, [](float x, float y) { return 3 + 0.1f * x + 0.02f * y; });
+    for (Vec3& p : g.P) p.x += 0.3f * p.y;
+    a.sample(g.view());
+    b.sample(g.view());
+    int compared = 0, hits = 0;
+    for (int py = -2; py < 18; ++py)
+        for (int px = 14; px < 18; ++px)  // a's pixels 14,15 are b's margin; b's 16,17 are a's margin
+            for (int s = 0; s < 9; ++s) {
+                Vec2 pa = a.position(px, py, s), pb = b.position(px, py, s);
+                Vec2 ref = SampleBuffer::samplePosition(px, py, s, 3, 3, true, 1234);
+                EXPECT_EQ(pa.x, pb.x);
+                EXPECT_EQ(pa.y, pb.y);
+                EXPECT_EQ(pa.x, ref.x);
+                EXPECT_EQ(pa.y, ref.y);
+                EXPECT_EQ(a.depth(px, py, s), b.depth(px, py, s));
+                ++compared;
+                hits += a.depth(px, py, s) < kInfinity;
+            }
+    EXPECT_EQ(compared, 20 * 4 * 9);
+    EXPECT_GT(hits, 100);
+}
+
+TEST(SampleBuffer, CoverageOfASquareIsItsArea) {
+    SampleBuffer b;
+    b.reset(config(0, 0, 16, 16, 1, 4, 4, true));
+    const float x0 = 3.3f, y0 = 2.2f, x1 = 11.7f, y1 = 9.9f;
+    b.sample(flatGrid(x0, y0, x1, y1, 5, 4, 2.0f).view());
+    int hits = 0, inside = 0;
+    forEachSample(b, [&](int px, int py, int s) {
+        Vec2 p = b.position(px, py, s);
+        bool in = p.x > x0 && p.x < x1 && p.y > y0 && p.y < y1;
+        bool hit = b.depth(px, py, s) < kInfinity;
+        EXPECT_EQ(in, hit) << p.x << "," << p.y;
+        inside += in;
+        hits += hit;
+    });
+    EXPECT_EQ(hits, inside);
+    const float area = (x1 - x0) * (y1 - y0);
+    // Stratified sampling: the error comes from the strata the boundary crosses.
+    EXPECT_NEAR(float(hits) / 16.0f, area, 0.5f);
+
+    // Filtered with a box of width 1, the alpha channel sums to the area too.
+    film::Film film = makeFilm(16, 16, "box", 1.0f);
+    b.resolve(film);
+    double alpha = 0;
+    for (int y = 0; y < 16; ++y)
+        for (int x = 0; x < 16; ++x) alpha += film.rgba(x, y)[3];
+    EXPECT_NEAR(alpha, double(hits) / 16.0, 1e-4);
+    EXPECT_EQ(film.rgba(7, 5)[3], 1.0f);
+    EXPECT_EQ(film.rgba(0, 0)[3], 0.0f);
+    EXPECT_EQ(film.z(7, 5), 2.0f);
+    EXPECT_EQ(film.z(0, 0), kInfinity);
+}
+
+/// Counts, with transparent grids (every hit is recorded as a fragment), how
+/// often each sample is hit.
+static void expectEachSampleHitOnce(SampleBuffer& b, float ux0, float uy0, float ux1, float uy1, int* checked) {
+    forEachSample(b, [&](int px, int py, int s) {
+        Vec2 p = b.position(px, py, s);
+        int n = b.fragmentCount(px, py, s);
+        bool strictlyInside = p.x > ux0 && p.x < ux1 && p.y > uy0 && p.y < uy1;
+        bool outside = p.x < ux0 || p.x > ux1 || p.y < uy0 || p.y > uy1;
+        if (strictlyInside) {
+            EXPECT_EQ(n, 1) << "sample at " << p.x << "," << p.y;
+            ++*checked;
+        } else if (outside) {
+            EXPECT_EQ(n, 0) << "sample at " << p.x << "," << p.y;
+        }
+    });
+}
+
+TEST(SampleBuffer, SharedEdgesThroughSamplesAreHitExactlyOnce) {
+    // Regular 4x4 samples sit at k + (i + 0.5)/4; the grids' vertices are
+    // placed on sample positions so edges and diagonals run through samples.
+    SampleBuffer b;
+    b.reset(config(0, 0, 12, 8, 1, 4, 4, false));
+    const Color half(0.5f);
+    TestGrid a = flatGrid(1.125f, 1.125f, 5.375f, 6.125f, 4, 5, 1.0f, half, half, 1);  // spacing 1.0625, 1.0
+    TestGrid c = flatGrid(5.375f, 1.125f, 9.125f, 6.125f, 3, 4, 2.0f, half, half, 2);  // shares x = 5.375
+    b.sample(a.view());
+    b.sample(c.view());
+    int checked = 0;
+    expectEachSampleHitOnce(b, 1.125f, 1.125f, 9.125f, 6.125f, &checked);
+    EXPECT_EQ(checked, 31 * 19);  // sample columns strictly between the outer edges
+}
+
+TEST(SampleBuffer, SharedSkewedEdgesAreHitExactlyOnce) {
+    // Random interior vertices: the shared edges between micropolygons and
+    // between the two grids are skewed; jittered samples.
+    for (uint32_t seed = 0; seed < 20; ++seed) {
+        Rng rng(seed);
+        SampleBuffer b;
+        b.reset(config(0, 0, 8, 8, 1, 5, 5, true));
+        const Color half(0.5f);
+        // Grid A spans x in [1, 4.5] and grid B [4.5, 7.5]; both y in [1, 7].
+        // The shared column is jiggled identically for both.
+        TestGrid a = flatGrid(1, 1, 4.5f, 7, 4, 4, 1.0f, half, half, 1);
+        TestGrid c = flatGrid(4.5f, 1, 7.5f, 7, 3, 4, 1.5f, half, half, 2);
+        std::vector<float> shared(5);
+        for (int j = 1; j < 4; ++j) shared[size_t(j)] = 4.5f + 0.8f * (rng.uniform() - 0.5f);
+        for (int j = 0; j <= 4; ++j)
+            for (int i = 0; i <= 4; ++i) {
+                Vec3& p = a.P[size_t(j * 5 + i)];
+                bool border = i == 0 || j == 0 || j == 4;
+                if (i == 4) {
+                    if (j > 0 && j < 4) p.x = shared[size_t(j)];
+                } else if (!border) {
+                    p.x += 0.6f * (rng.uniform() - 0.5f);
+                    p.y += 0.6f * (rng.uniform() - 0.5f);
+                }
+            }
+        for (int j = 1; j < 4; ++j) c.P[size_t(j * 4)].x = shared[size_t(j)];
+        for (int j = 1; j < 4; ++j)
+            for (int i = 1; i < 3; ++i) {
+                Vec3& p = c.P[size_t(j * 4 + i)];
+                p.x += 0.5f * (rng.uniform() - 0.5f);
+                p.y += 0.5f * (rng.uniform() - 0.5f);
+            }
+        b.sample(c.view());
+        b.sample(a.view());
+        int checked = 0;
+        expectEachSampleHitOnce(b, 1, 1, 7.5f, 7, &checked);
+        EXPECT_GT(checked, 900);
+    }
+}
+
+TEST(SampleBuffer, DepthIsExactForPlanes) {
+    SampleBuffer b;
+    b.reset(config(0, 0, 16, 16, 1, 3, 3, true));
+    auto plane = [](float x, float y) { return 4.0f + 0.25f * x - 0.125f * y; };
+    TestGrid g = rectGrid(0.5f, 0.5f, 15.5f, 15.5f, 7, 6, plane);
+    // Shear it: still a plane in raster space if z follows the new positions.
+    for (Vec3& p : g.P) {
+        p.x += 0.2f * p.y;
+        p.z = plane(p.x, p.y);
+    }
+    b.sample(g.view());
+    int hits = 0;
+    forEachSample(b, [&](int px, int py, int s) {
+        float z = b.depth(px, py, s);
+        if (z == kInfinity) return;
+        Vec2 p = b.position(px, py, s);
+        EXPECT_NEAR(z, plane(p.x, p.y), 2e-6f * plane(p.x, p.y));
+        ++hits;
+    });
+    EXPECT_GT(hits, 1000);
+}
+
+TEST(SampleBuffer, TwoHalfTransparentLayersComposite) {
+    SampleBuffer b;
+    b.reset(config(0, 0, 4, 4, 1, 2, 2, true));
+    const Color half(0.5f);
+    // Premultiplied: red at 50% in front of blue at 50%.
+    b.sample(flatGrid(-2, -2, 6, 6, 2, 2, 2.0f, Color(0, 0, 0.5f), half, 2).view());
+    b.sample(flatGrid(-2, -2, 6, 6, 3, 3, 1.0f, Color(0.5f, 0, 0), half, 1).view());
+    film::Film film = makeFilm(4, 4, "gaussian", 2.0f);
+    b.resolve(film);
+    for (int y = 0; y < 4; ++y)
+        for (int x = 0; x < 4; ++x) {
+            const float* p = film.rgba(x, y);
+            EXPECT_NEAR(p[0], 0.5f, 1e-6f);
+            EXPECT_NEAR(p[1], 0.0f, 1e-6f);
+            EXPECT_NEAR(p[2], 0.25f, 1e-6f);
+            EXPECT_NEAR(p[3], 0.75f, 1e-6f);
+            EXPECT_EQ(film.z(x, y), kInfinity);  // no opaque surface
+        }
+    // An opaque green layer behind both: it adds 0.25 of green; alpha 1.
+    b.sample(flatGrid(-2, -2, 6, 6, 1, 1, 3.0f, Color(0, 1, 0), Color(1.0f), 3).view());
+    b.resolve(film);
+    EXPECT_NEAR(film.rgba(1, 2)[1], 0.25f, 1e-6f);
+    EXPECT_NEAR(film.rgba(1, 2)[3], 1.0f, 1e-6f);
+    EXPECT_EQ(film.z(1, 2), 3.0f);
+    // An opaque layer in front hides everything.
+    b.sample(flatGrid(-2, -2, 6, 6, 1, 1, 0.5f, Color(0.1f, 0.2f, 0.3f), Color(1.0f), 4).view());
+    b.resolve(film);
+    EXPECT_NEAR(film.rgba(3, 0)[0], 0.1f, 1e-6f);
+    EXPECT_NEAR(film.rgba(3, 0)[2], 0.3f, 1e-6f);
+    EXPECT_NEAR(film.rgba(3, 0)[3], 1.0f, 1e-6f);
+}
+
+TEST(SampleBuffer, EqualDepthTiesDoNotDependOnOrder) {
+    const Color half(0.5f);
+    TestGrid a = flatGrid(-1, -1, 5, 5, 3, 3, 1.0f, Color(0.5f, 0, 0), half, 7);
+    TestGrid c = flatGrid(-1, -1, 5, 5, 2, 4, 1.0f, Color(0, 0.5f, 0), half, 3);
+    TestGrid o1 = flatGrid(0.3f, -1, 5, 5, 2, 2, 2.0f, Color(0, 0, 1), Color(1.0f), 11);
+    TestGrid o2 = flatGrid(-1, 1.7f, 5, 5, 3, 1, 2.0f, Color(1, 1, 0), Color(1.0f), 10);
+    auto render = [&](std::vector<const TestGrid*> order) {
+        SampleBuffer b;
+        b.reset(config(0, 0, 4, 4, 1, 3, 3, true));
+        for (const TestGrid* g : order) b.sample(g->view());
+        film::Film film = makeFilm(4, 4, "gaussian", 2.0f);
+        b.resolve(film);
+        std::vector<float> px;
+        for (int y = 0; y < 4; ++y)
+            for (int x = 0; x < 4; ++x) px.insert(px.end(), film.rgba(x, y), film.rgba(x, y) + 4);
+        return px;
+    };
+    std::vector<const TestGrid*> order = {&a, &c, &o1, &o2};
+    std::vector<float> first = render(order);
+    std::sort(order.begin(), order.end());
+    int permutations = 0;
+    do {
+        std::vector<float> other = render(order);
+        ASSERT_EQ(std::memcmp(first.data(), other.data(), first.size() * sizeof(float)), 0);
+        ++permutations;
+    } while (std::next_permutation(order.begin(), order.end()));
+    EXPECT_EQ(permutations, 24);
+    // Grid id 3 (green) is in front of id 7 (red) at equal depth; where
+    // neither opaque grid is (pixel (0,0)), green + 0.5 red, alpha 0.75.
+    SampleBuffer b;
+    b.reset(config(0, 0, 4, 4, 1, 1, 1, false));
+    b.sample(a.view());
+    b.sample(c.view());
+    film::Film film = makeFilm(4, 4, "box", 1.0f);
+    b.resolve(film);
+    EXPECT_FLOAT_EQ(film.rgba(0, 0)[0], 0.25f);
+    EXPECT_FLOAT_EQ(film.rgba(0, 0)[1], 0.5f);
+    EXPECT_FLOAT_EQ(film.rgba(0, 0)[3], 0.75f);
+    // Opaque ties: the lower id wins, whatever the order.
+    for (int k = 0; k < 2; ++k) {
+        TestGrid p = flatGrid(-1, -1, 5, 5, 1, 1, 2.0f, Color(1, 0, 0), Color(1.0f), 5);
+        TestGrid q = flatGrid(-1, -1, 5, 5, 1, 1, 2.0f, Color(0, 0, 1), Color(1.0f), 4);
+        b.reset(config(0, 0, 4, 4, 1, 1, 1, false));
+        b.sample((k ? p : q).view());
+        b.sample((k ? q : p).view());
+        b.resolve(film);
+        EXPECT_EQ(film.rgba(2, 2)[2], 1.0f);
+        EXPECT_EQ(film.rgba(2, 2)[0], 0.0f);
+    }
+}
+
+TEST(SampleBuffer, MatteHoldsOut) {
+    SampleBuffer b;
+    b.reset(config(0, 0, 8, 4, 1, 2, 2, true));
+    b.sample(flatGrid(-1, -1, 9, 5, 2, 2, 2.0f, Color(1, 0, 0)).view());
+    TestGrid matte = flatGrid(-1, -1, 4, 5, 2, 2, 1.0f, Color(0, 1, 0), Color(1.0f), 2);
+    matte.matte = true;
+    b.sample(matte.view());
+    // A matte object behind the red one changes nothing.
+    TestGrid behind = flatGrid(-1, -1, 9, 5, 1, 1, 3.0f, Color(0, 0, 1), Color(1.0f), 3);
+    behind.matte = true;
+    b.sample(behind.view());
+    film::Film film = makeFilm(8, 4, "box", 1.0f);
+    b.resolve(film);
+    for (int y = 0; y < 4; ++y) {
+        for (int x = 0; x < 4; ++x) {
+            for (int k = 0; k < 4; ++k) EXPECT_EQ(film.rgba(x, y)[k], 0.0f);
+            EXPECT_EQ(film.z(x, y), 1.0f);  // the matte surface is still the nearest opaque one
+        }
+        for (int x = 4; x < 8; ++x) {
+            EXPECT_EQ(film.rgba(x, y)[0], 1.0f);
+            EXPECT_EQ(film.rgba(x, y)[1], 0.0f);
+            EXPECT_EQ(film.rgba(x, y)[3], 1.0f);
+        }
+    }
+    // A 50% transparent matte in front: half the colour and half the alpha
+    // of what is behind, and nothing of its own.
+    b.reset(config(0, 0, 8, 4, 1, 2, 2, true));
+    b.sample(flatGrid(-1, -1, 9, 5, 2, 2, 2.0f, Color(1, 0, 0)).view());
+    TestGrid veil = flatGrid(-1, -1, 9, 5, 2, 2, 1.0f, Color(0, 0.5f, 0), Color(0.5f), 2);
+    veil.matte = true;
+    b.sample(veil.view());
+    b.resolve(film);
+    EXPECT_FLOAT_EQ(film.rgba(5, 2)[0], 0.5f);
+    EXPECT_FLOAT_EQ(film.rgba(5, 2)[1], 0.0f);
+    EXPECT_FLOAT_EQ(film.rgba(5, 2)[3], 0.5f);
+}
+
+TEST(SampleBuffer, OcclusionQuery) {
+    SampleBuffer b;
+    b.reset(config(16, 16, 32, 32, 1, 2, 2, true));
+    Bound3 box({18, 18, 6}, {24, 24, 7});
+    EXPECT_FALSE(b.occluded(box));
+    EXPECT_EQ(b.maxOpaqueDepth(18, 18, 24, 24), kInfinity);
+    // An opaque plane z = 5 over part of the buffer.
+    b.sample(flatGrid(14, 14, 26.2f, 26.2f, 4, 4, 5.0f).view());
+    EXPECT_EQ(b.maxOpaqueDepth(18, 18, 24, 24), 5.0f);
+    EXPECT_TRUE(b.occluded(box));
+    EXPECT_FALSE(b.occluded(Bound3({18, 18, 4.5f}, {24, 24, 7})));  // in front of the plane
+    EXPECT_FALSE(b.occluded(Bound3({18, 18, 6}, {27, 24, 7})));      // reaches uncovered samples
+    // Transparent surfaces do not occlude.
+    b.sample(flatGrid(14, 14, 34, 34, 2, 2, 1.0f, Color(0.1f), Color(0.1f), 9).view());
+    EXPECT_FALSE(b.occluded(Bound3({26.5f, 26.5f, 6}, {28, 28, 7})));
+    // A nearer opaque plane lowers the bound.
+    b.sample(flatGrid(14, 14, 34, 34, 2, 2, 3.0f, Color(1.0f), Color(1.0f), 2).view());
+    EXPECT_EQ(b.maxOpaqueDepth(0, 0, 100, 100), 3.0f);
+    EXPECT_TRUE(b.occluded(Bound3({0, 0, 3.5f}, {100, 100, 9})));
+    // Outside the buffer: nothing to change here.
+    EXPECT_TRUE(b.occluded(Bound3({100, 100, 0.1f}, {110, 110, 1})));
+}
+
+TEST(SampleBuffer, DepthModeKeepsNearestAndSecondSurface) {
+    TestGrid near1 = flatGrid(-1, -1, 5, 5, 2, 2, 1.0f, Color(1.0f), Color(1.0f), 1);
+    TestGrid near2 = flatGrid(-1, -1, 5, 5, 2, 2, 1.5f, Color(1.0f), Color(1.0f), 1);  // same grid id: not a new surface
+    TestGrid back = flatGrid(-1, -1, 5, 5, 3, 3, 3.0f, Color(1.0f), Color(1.0f), 2);
+    TestGrid farther = flatGrid(-1, -1, 5, 5, 1, 1, 4.0f, Color(1.0f), Color(1.0f), 3);
+    std::vector<const TestGrid*> order = {&near1, &near2, &back, &farther};
+    std::sort(order.begin(), order.end());
+    do {
+        SampleBuffer b;
+        b.reset(config(0, 0, 4, 4, 1, 1, 1, false, HiderMode::Depth));
+        for (const TestGrid* g : order) b.sample(g->view());
+        film::Film film = makeFilm(4, 4, "box", 1.0f, {}, true);
+        b.resolve(film);
+        for (int y = 0; y < 4; ++y)
+            for (int x = 0; x < 4; ++x) {
+                ASSERT_EQ(film.z(x, y), 1.0f);
+                ASSERT_EQ(film.z2(x, y), 3.0f);
+            }
+        EXPECT_TRUE(b.occluded(Bound3({0, 0, 3.5f}, {4, 4, 5})));
+        EXPECT_FALSE(b.occluded(Bound3({0, 0, 2.5f}, {4, 4, 5})));
+    } while (std::next_permutation(order.begin(), order.end()));
+    // One surface only: z2 stays infinite.
+    SampleBuffer b;
+    b.reset(config(0, 0, 4, 4, 0, 1, 1, false, HiderMode::Depth));
+    b.sample(near1.view());
+    EXPECT_EQ(b.depth(2, 2, 0), 1.0f);
+    EXPECT_EQ(b.secondDepth(2, 2, 0), kInfinity);
+}
+
+TEST(SampleBuffer, ClippingPlanesDiscardHits) {
+    SampleBufferConfig c = config(0, 0, 4, 4, 0, 2, 2, true);
+    c.nearClip = 1.0f;
+    c.farClip = 10.0f;
+    SampleBuffer b;
+    b.reset(c);
+    // z runs from 0 at x = 0 to 20 at x = 4: visible only for 1 <= z <= 10.
+    b.sample(rectGrid(0, 0, 4, 4, 4, 4, [](float x, float) { return 5.0f * x; }).view());
+    forEachSample(b, [&](int px, int py, int s) {
+        Vec2 p = b.position(px, py, s);
+        float z = 5.0f * p.x;
+        bool visible = z >= 1.0f && z <= 10.0f;
+        if (std::fabs(z - 1.0f) > 1e-4f && std::fabs(z - 10.0f) > 1e-4f) {
+            EXPECT_EQ(b.depth(px, py, s) < kInfinity, visible) << p.x;
+        }
+    });
+}
+
+TEST(SampleBuffer, BoxFilterOfAConstantImageIsTheConstant) {
+    SampleBuffer b;
+    b.reset(config(8, 8, 24, 20, 1, 4, 4, true));
+    const Color c(0.3f, 0.6f, 0.9f);
+    b.sample(flatGrid(0, 0, 40, 40, 8, 8, 1.0f, c).view());
+    film::Film film = makeFilm(40, 40, "box", 1.0f);
+    b.resolve(film);
+    for (int y = 8; y < 20; ++y)
+        for (int x = 8; x < 24; ++x) {
+            EXPECT_NEAR(film.rgba(x, y)[0], 0.3f, 1e-6f);
+            EXPECT_NEAR(film.rgba(x, y)[1], 0.6f, 1e-6f);
+            EXPECT_NEAR(film.rgba(x, y)[2], 0.9f, 1e-6f);
+            EXPECT_NEAR(film.rgba(x, y)[3], 1.0f, 1e-6f);
+        }
+    // resolve() leaves pixels outside the bucket alone.
+    EXPECT_EQ(film.rgba(7, 8)[3], 0.0f);
+    EXPECT_EQ(film.rgba(24, 8)[3], 0.0f);
+}
+
+/// Closed forms of RenderMan's filters (RI spec 3.2 appendix, see pixel_filter.h).
+static float referenceFilter(const std::string& name, float x, float y, float w) {
+    float r = w / 2;
+    if (std::fabs(x) > r || std::fabs(y) > r) return 0.0f;
+    if (name == "box") return 1.0f;
+    if (name == "triangle") return (1 - std::fabs(x) / r) * (1 - std::fabs(y) / r);
+    if (name == "gaussian") {
+        float xx = x * 2 / w, yy = y * 2 / w;
+        return std::exp(-2 * (xx * xx + yy * yy));
+    }
+    if (name == "catmull-rom") {
+        float xx = x * 4 / w, yy = y * 4 / w;
+        float rr = std::sqrt(xx * xx + yy * yy);
+        if (rr >= 2) return 0.0f;
+        return rr < 1 ? 3 * rr * rr * rr - 5 * rr * rr + 2 : -rr * rr * rr + 5 * rr * rr - 8 * rr + 4;
+    }
+    auto sinc = [](float t) { return t == 0 ? 1.0f : std::sin(kPi * t) / (kPi * t); };
+    return sinc(x) * sinc(x / r) * sinc(y) * sinc(y / r);
+}
+
+TEST(SampleBuffer, ResolveWeightsFollowTheFilter) {
+    // One regular sample per pixel (at the pixel centre); only pixel (6, 6)'s
+    // sample is lit. Pixel (6+dx, 6+dy) then holds f(-dx,-dy) / sum f over the
+    // sample offsets reaching it.
+    struct Case {
+        const char* name;
+        float width;
+    };
+    for (Case fc : {Case{"box", 3}, Case{"triangle", 4}, Case{"gaussian", 2}, Case{"gaussian", 3},
+                    Case{"catmull-rom", 4}, Case{"sinc", 4}}) {
+        SCOPED_TRACE(fc.name);
+        SampleBuffer b;
+        b.reset(config(0, 0, 13, 13, 2, 1, 1, false));
+        b.sample(flatGrid(6.4f, 6.4f, 6.6f, 6.6f, 1, 1, 1.0f, Color(1.0f)).view());
+        film::Film film = makeFilm(13, 13, fc.name, fc.width);
+        b.resolve(film);
+        float sum = 0;
+        for (int ey = -2; ey <= 2; ++ey)
+            for (int ex = -2; ex <= 2; ++ex) sum += referenceFilter(fc.name, float(ex), float(ey), fc.width);
+        for (int dy = -3; dy <= 3; ++dy)
+            for (int dx = -3; dx <= 3; ++dx) {
+                float expect = referenceFilter(fc.name, float(-dx), float(-dy), fc.width) / sum;
+                EXPECT_NEAR(film.rgba(6 + dx, 6 + dy)[0], expect, 2e-4f) << dx << "," << dy;
+            }
+    }
+}
+
+TEST(SampleBuffer, AovsAreInterpolatedAndFiltered) {
+    SampleBuffer b;
+    SampleBufferConfig c = config(0, 0, 4, 4, 1, 2, 2, true);
+    c.aovCount = 4;
+    b.reset(c);
+    // AOV 0: a constant 2; AOVs 1..3: the raster position and 1 (linear, so
+    // Gouraud interpolation reproduces it at each sample).
+    TestGrid g = flatGrid(-2, -2, 6, 6, 4, 4, 1.0f, Color(0.5f));
+    g.aovCount = 4;
+    for (const Vec3& p : g.P) g.aov.insert(g.aov.end(), {2.0f, p.x, p.y, 1.0f});
+    b.sample(g.view());
+    film::Film film = makeFilm(4, 4, "box", 1.0f, {{"k", 1}, {"Pxy1", 3}});
+    b.resolve(film);
+    for (int y = 0; y < 4; ++y)
+        for (int x = 0; x < 4; ++x) {
+            float ex = 0, ey = 0;
+            for (int s = 0; s < 4; ++s) {
+                ex += b.position(x, y, s).x / 4;
+                ey += b.position(x, y, s).y / 4;
+            }
+            EXPECT_NEAR(film.aov(x, y)[0], 2.0f, 1e-6f);
+            EXPECT_NEAR(film.aov(x, y)[1], ex, 1e-4f);
+            EXPECT_NEAR(film.aov(x, y)[2], ey, 1e-4f);
+            EXPECT_NEAR(film.aov(x, y)[3], 1.0f, 1e-6f);
+        }
+}
+
+TEST(SampleBuffer, ResetReusesTheBufferForAnotherBucket) {
+    SampleBuffer b;
+    film::Film film = makeFilm(32, 16, "gaussian", 2.0f);
+    TestGrid g = flatGrid(-5, -5, 40, 40, 6, 6, 1.0f, Color(0.25f));
+    for (int bx = 0; bx < 32; bx += 16) {
+        b.reset(config(bx, 0, bx + 16, 16, 1, 2, 2, true));
+        b.sample(g.view());
+        b.resolve(film);
+    }
+    for (int y = 0; y < 16; ++y)
+        for (int x = 0; x < 32; ++x) ASSERT_NEAR(film.rgba(x, y)[0], 0.25f, 1e-6f);
+}
