@@ -50,7 +50,14 @@ struct Attributes {
     bool matte = false;
     float shadingRate = 1.0f;        // micropolygon area in pixels
     int sides = 2;                   // 1: back faces are culled
-    bool outsideIsLeft = false;      // Orientation "inside"/"lh" flips (see geometry::Primitive)
+    // Orientation (RI spec 3.2 §4.2): true when the primitive's orientation
+    // disagrees with the handedness of its object coordinate system, so its
+    // "outside" normal is -(dPdu x dPdv) instead of dPdu x dPdv. The builder
+    // computes it per primitive from the Orientation/ReverseOrientation state
+    // and the handedness of cameraFromObject (camera space is left-handed):
+    // false for the default "outside", true after "inside", ReverseOrientation,
+    // or a mirroring transform (negative determinant) given after Orientation.
+    bool outsideIsLeft = false;
     std::shared_ptr<const ShaderRecord> surface;       // null: the default surface
     std::shared_ptr<const ShaderRecord> displacement;  // null: none
     std::shared_ptr<const ShaderRecord> atmosphere;    // null: none
@@ -60,6 +67,13 @@ struct Attributes {
     Basis uBasis = Basis::bezier();
     Basis vBasis = Basis::bezier();
     std::string name;                // Attribute "identifier" "name"
+    bool smoothShading = false;      // ShadingInterpolation "smooth" (false: "constant")
+    // TextureCoordinates s1 t1 s2 t2 s3 t3 s4 t4: default s, t of patch corners.
+    float textureCoordinates[8] = {0, 0, 1, 0, 0, 1, 1, 1};
+    // SolidBegin operation of the innermost solid block ("primitive",
+    // "union", ...); empty outside solids. "primitive" marks a closed solid
+    // for the depth pass.
+    std::string solid;
     // Visibility: RenderMan's Attribute "visibility" "camera" / "transmission"
     // ("shadow" in older RIBs). transmission 0 leaves the object out of
     // depth-map passes (Reeves' ground plane).
@@ -92,6 +106,7 @@ struct LightRecord {
     ShaderRecord shader;
     std::string handle;      // the RIB handle (integer or string) as text
     bool onByDefault = true;
+    bool area = false;       // AreaLightSource (not turned on: area lights are unsupported)
     std::shared_ptr<const Attributes> attributes;
 };
 
@@ -125,6 +140,9 @@ struct Options {
     float quantizeOne = 255, quantizeMin = 0, quantizeMax = 255, quantizeDither = 0.5f;
     float zQuantizeOne = 0, zQuantizeMin = 0, zQuantizeMax = 0, zQuantizeDither = 0;
     std::vector<DisplayRecord> displays;
+    /// DisplayChannel declarations (name: "varying color myaov"; no driver).
+    std::vector<DisplayRecord> displayChannels;
+    std::shared_ptr<const ShaderRecord> imager;  // Imager shader; null: none
     std::string hider = "hidden";
     ri::ParamList hiderParams;                // "jitter", "depthfilter", ...
     bool jitter = true;

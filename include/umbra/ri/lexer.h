@@ -1,0 +1,55 @@
+#pragma once
+// The RIB tokenizer (RI spec 3.2, appendix C "Language binding details"):
+// ASCII RIB only. Tokens are request names, numbers, strings and the array
+// brackets; `#` comments (including `##` structure comments) are skipped.
+
+#include <cstddef>
+#include <string>
+#include <string_view>
+
+namespace umbra::ri {
+
+enum class TokenKind {
+    End,         // end of input
+    Name,        // a request name (any bare word that is not a number)
+    Number,      // integer or float
+    String,      // a quoted string, escapes decoded
+    ArrayBegin,  // [
+    ArrayEnd,    // ]
+    Error,       // malformed input; `text` holds the message
+};
+
+/// One token with its 1-based source position. `text` points into the
+/// input or into the lexer's scratch buffer and stays valid only until the
+/// next call to Lexer::next().
+struct Token {
+    TokenKind kind = TokenKind::End;
+    int line = 0;
+    int column = 0;
+    std::string_view text;
+    double number = 0;
+    bool isInt = false;  // written without '.', exponent, and fits in int
+};
+
+/// Splits RIB text into tokens without allocating per token. Numbers are
+/// read with std::from_chars; a word that starts like a number but is not
+/// one ("1.2.3", "4x") is an Error token, so a typo never silently becomes
+/// a request name.
+class Lexer {
+public:
+    /// `text` must outlive the lexer.
+    explicit Lexer(std::string_view text);
+    Token next();
+
+private:
+    Token makeError(int line, int column, std::string message);
+    Token lexString(int line, int column);
+
+    std::string_view m_text;
+    size_t m_pos = 0;
+    int m_line = 1;
+    size_t m_lineStart = 0;
+    std::string m_scratch;
+};
+
+}  // namespace umbra::ri

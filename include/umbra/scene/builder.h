@@ -1,0 +1,203 @@
+#pragma once
+// The scene builder: keeps RenderMan's graphics state (options, the
+// attribute and transform stacks, lights, named coordinate systems, object
+// definitions) while the RIB parser calls it, and hands finished
+// WorldRecords and MakeRecords to a SceneSink in request order.
+
+#include "umbra/ri/target.h"
+#include "umbra/scene/scene.h"
+#include "umbra/util/error.h"
+
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace umbra::scene {
+
+/// An ri::Target that turns requests into scene records (see docs/rib.md
+/// for what each request does and which ones are reported unsupported).
+///
+/// Transforms: before WorldBegin the current transform maps the current
+/// coordinate system to camera space; at WorldBegin it becomes
+/// Options::cameraFromWorld and is reset to the identity, after which it is
+/// worldFromObject. Concatenating requests (ConcatTransform, Translate,
+/// Rotate, Scale, Skew, Perspective) post-multiply, `C = C * M`, so the new
+/// transform applies to object coordinates first, as in RenderMan.
+/// `Transform`, `Identity` and `CoordSysTransform` inside the world set the
+/// transform relative to world space.
+class Builder : public ri::Target {
+public:
+    Builder(SceneSink& sink, Diagnostics& diag);
+    ~Builder() override;
+
+    /// What '@' stands for in Option "searchpath" `kind` (e.g. "shader").
+    void setDefaultSearchPath(const std::string& kind, const std::string& path);
+
+    /// Current state, for tests and tools.
+    const Options& options() const { return m_options; }
+    const Attributes& attributes() const { return *m_state.attrs; }
+    const Mat4& currentTransform() const { return m_state.transform; }
+    bool inWorld() const { return m_world != nullptr; }
+    /// Orientation as a handedness: true when "outside" is left-handed.
+    bool orientationLeftHanded() const { return m_state.orientationLeft; }
+
+    void unhandled(std::string_view request, const FileLoc& loc) override;
+    std::vector<std::string> archiveSearchPath() const override;
+    void endOfInput(const FileLoc& loc) override;
+
+    void version(float v, const FileLoc& loc) override;
+    void declare(const ri::ParamDecl& decl, const FileLoc& loc) override;
+    void errorHandler(const std::string& name, const FileLoc& loc) override;
+    void readArchive(const std::string& resolvedPath, const FileLoc& loc) override;
+
+    void frameBegin(int frame, const FileLoc& loc) override;
+    void frameEnd(const FileLoc& loc) override;
+    void worldBegin(const FileLoc& loc) override;
+    void worldEnd(const FileLoc& loc) override;
+    void attributeBegin(const FileLoc& loc) override;
+    void attributeEnd(const FileLoc& loc) override;
+    void transformBegin(const FileLoc& loc) override;
+    void transformEnd(const FileLoc& loc) override;
+    void solidBegin(const std::string& operation, const FileLoc& loc) override;
+    void solidEnd(const FileLoc& loc) override;
+    void objectBegin(const std::string& handle, const FileLoc& loc) override;
+    void objectEnd(const FileLoc& loc) override;
+    void objectInstance(const std::string& handle, const FileLoc& loc) override;
+    void motionBegin(const std::vector<float>& times, const FileLoc& loc) override;
+    void motionEnd(const FileLoc& loc) override;
+
+    void identity(const FileLoc& loc) override;
+    void transform(const Mat4& m, const FileLoc& loc) override;
+    void concatTransform(const Mat4& m, const FileLoc& loc) override;
+    void translate(const Vec3& d, const FileLoc& loc) override;
+    void rotate(float angleDeg, const Vec3& axis, const FileLoc& loc) override;
+    void scale(const Vec3& s, const FileLoc& loc) override;
+    void skew(float angleDeg, const Vec3& a, const Vec3& b, const FileLoc& loc) override;
+    void perspective(float fovDeg, const FileLoc& loc) override;
+    void coordinateSystem(const std::string& name, const FileLoc& loc) override;
+    void scopedCoordinateSystem(const std::string& name, const FileLoc& loc) override;
+    void coordSysTransform(const std::string& name, const FileLoc& loc) override;
+
+    void option(const std::string& name, ri::ParamList params, const FileLoc& loc) override;
+    void format(int xres, int yres, float pixelAspect, const FileLoc& loc) override;
+    void frameAspectRatio(float aspect, const FileLoc& loc) override;
+    void screenWindow(float left, float right, float bottom, float top, const FileLoc& loc) override;
+    void cropWindow(float xmin, float xmax, float ymin, float ymax, const FileLoc& loc) override;
+    void projection(const std::string& name, ri::ParamList params, const FileLoc& loc) override;
+    void clipping(float nearZ, float farZ, const FileLoc& loc) override;
+    void clippingPlane(const Vec3& point, const Vec3& normal, const FileLoc& loc) override;
+    void depthOfField(const std::vector<float>& args, const FileLoc& loc) override;
+    void shutter(float open, float close, const FileLoc& loc) override;
+    void pixelVariance(float v, const FileLoc& loc) override;
+    void pixelSamples(float xs, float ys, const FileLoc& loc) override;
+    void pixelFilter(const std::string& name, float xwidth, float ywidth, const FileLoc& loc) override;
+    void exposure(float gain, float gamma, const FileLoc& loc) override;
+    void imager(const std::string& name, ri::ParamList params, const FileLoc& loc) override;
+    void quantize(const std::string& type, float one, float qmin, float qmax, float dither, const FileLoc& loc) override;
+    void display(const std::string& name, const std::string& driver, const std::string& mode, ri::ParamList params,
+                 const FileLoc& loc) override;
+    void displayChannel(const std::string& channel, ri::ParamList params, const FileLoc& loc) override;
+    void hider(const std::string& name, ri::ParamList params, const FileLoc& loc) override;
+    void colorSamples(const std::vector<float>& nRGB, const std::vector<float>& RGBn, const FileLoc& loc) override;
+    void relativeDetail(float v, const FileLoc& loc) override;
+
+    void attribute(const std::string& name, ri::ParamList params, const FileLoc& loc) override;
+    void color(const Color& c, const FileLoc& loc) override;
+    void opacity(const Color& c, const FileLoc& loc) override;
+    void textureCoordinates(const std::array<float, 8>& st, const FileLoc& loc) override;
+    void matte(bool on, const FileLoc& loc) override;
+    void shadingRate(float rate, const FileLoc& loc) override;
+    void shadingInterpolation(const std::string& type, const FileLoc& loc) override;
+    void sides(int n, const FileLoc& loc) override;
+    void orientation(const std::string& o, const FileLoc& loc) override;
+    void reverseOrientation(const FileLoc& loc) override;
+    void basis(const ri::BasisSpec& u, int ustep, const ri::BasisSpec& v, int vstep, const FileLoc& loc) override;
+    void bound(const std::array<float, 6>& b, const FileLoc& loc) override;
+    void detail(const std::array<float, 6>& b, const FileLoc& loc) override;
+    void detailRange(const std::array<float, 4>& r, const FileLoc& loc) override;
+    void geometricApproximation(const std::string& type, float value, const FileLoc& loc) override;
+    void surface(const std::string& name, ri::ParamList params, const FileLoc& loc) override;
+    void displacement(const std::string& name, ri::ParamList params, const FileLoc& loc) override;
+    void atmosphere(const std::string& name, ri::ParamList params, const FileLoc& loc) override;
+    void interior(const std::string& name, ri::ParamList params, const FileLoc& loc) override;
+    void exterior(const std::string& name, ri::ParamList params, const FileLoc& loc) override;
+    void deformation(const std::string& name, ri::ParamList params, const FileLoc& loc) override;
+    void lightSource(const std::string& name, const std::string& handle, ri::ParamList params,
+                     const FileLoc& loc) override;
+    void areaLightSource(const std::string& name, const std::string& handle, ri::ParamList params,
+                         const FileLoc& loc) override;
+    void illuminate(const std::string& handle, bool on, const FileLoc& loc) override;
+    void trimCurve(const ri::RequestArgs& args, const FileLoc& loc) override;
+
+    void primitive(const std::string& type, ri::RequestArgs args, ri::ParamList params, const FileLoc& loc) override;
+
+    void makeTexture(const std::string& picture, const std::string& texture, const std::string& swrap,
+                     const std::string& twrap, const std::string& filter, float swidth, float twidth,
+                     ri::ParamList params, const FileLoc& loc) override;
+    void makeBump(const std::string& picture, const std::string& texture, const std::string& swrap,
+                  const std::string& twrap, const std::string& filter, float swidth, float twidth,
+                  ri::ParamList params, const FileLoc& loc) override;
+    void makeLatLongEnvironment(const std::string& picture, const std::string& texture, const std::string& filter,
+                                float swidth, float twidth, ri::ParamList params, const FileLoc& loc) override;
+    void makeCubeFaceEnvironment(const std::array<std::string, 6>& faces, const std::string& texture, float fov,
+                                 const std::string& filter, float swidth, float twidth, ri::ParamList params,
+                                 const FileLoc& loc) override;
+    void makeShadow(const std::string& picture, const std::string& texture, ri::ParamList params,
+                    const FileLoc& loc) override;
+
+private:
+    enum class Block { Frame, World, Attribute, Transform, Solid, Object, Motion };
+    /// The part of the graphics state AttributeBegin saves.
+    struct State {
+        std::shared_ptr<Attributes> attrs;
+        Mat4 transform;
+        bool orientationLeft = true;  // RenderMan starts "outside" in left-handed camera space
+    };
+    struct OpenBlock {
+        Block kind;
+        FileLoc loc;
+        State saved;
+        std::shared_ptr<Options> savedOptions;                  // Frame only
+        std::shared_ptr<std::map<std::string, Mat4>> savedSpaces;  // Frame only
+    };
+    /// A primitive inside ObjectBegin/ObjectEnd, relative to the object's
+    /// coordinate system (the transform at ObjectBegin).
+    struct ObjectPrim {
+        PrimitiveRecord record;
+        Mat4 objectFromPrim;
+    };
+
+    Attributes& mutableAttributes();
+    std::shared_ptr<ShaderRecord> makeShader(const std::string& name, ri::ParamList params, const FileLoc& loc) const;
+    bool optionsAllowed(const char* request, const FileLoc& loc);
+    bool requireWorld(const std::string& request, const FileLoc& loc);
+    bool skipMotionSample();
+    void concat(const Mat4& m);
+    bool currentIsLeft(const Mat4& transform) const;
+    std::shared_ptr<const Attributes> attributesFor(const Mat4& worldFromObject);
+    void push(Block kind, const FileLoc& loc);
+    /// Pops the innermost block of `kind`; reports and returns false when it
+    /// is not the innermost (Attribute-like blocks) or not open at all.
+    /// World and Frame ends close any blocks left open inside them.
+    bool pop(Block kind, const char* request, const FileLoc& loc, OpenBlock* out);
+    void unsupported(const std::string& key, const FileLoc& loc, const std::string& what);
+    std::string expandSearchPath(const std::string& kind, const std::string& value) const;
+
+    SceneSink& m_sink;
+    Diagnostics& m_diag;
+    Options m_options;
+    State m_state;
+    std::vector<OpenBlock> m_blocks;
+    std::unique_ptr<WorldRecord> m_world;
+    int m_frame = -1;
+    std::map<std::string, Mat4> m_cameraSpaces;  // named before WorldBegin: cameraFromNamed
+    std::map<std::string, int> m_lightHandles;   // handle -> index into m_world->lights
+    std::map<std::string, std::vector<ObjectPrim>> m_objects;
+    std::string m_objectHandle;                  // non-empty while defining an object
+    Mat4 m_objectFromCurrentAtBegin;
+    int m_motionRequests = 0;
+    std::map<std::string, std::string> m_defaultSearchPaths;
+};
+
+}  // namespace umbra::scene

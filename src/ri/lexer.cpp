@@ -1,0 +1,167 @@
+#include "umbra/ri/lexer.h"
+
+#include <fmt/format.h>
+
+#include <charconv>
+#include <climits>
+#include <cmath>
+
+namespace umbra::ri {
+
+namespace {
+inline bool isSpace(unsigned char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\f' || c == '\v'; }
+// Characters that end a bare word (a number or a request name).
+inline bool endsWord(unsigned char c) { return isSpace(c) || c == '[' || c == ']' || c == '"' || c == '#'; }
+}  // namespace
+
+Lexer::Lexer(std::string_view text) : m_text(text) {}
+
+Token Lexer::makeError(int line, int column, std::string message) {
+    m_scratch = std::move(message);
+    Token t;
+    t.kind = TokenKind::Error;
+    t.line = line;
+    t.column = column;
+    t.text = m_scratch;
+    return t;
+}
+
+Token Lexer::next() {
+    const char* s = m_text.data();
+    const size_t n = m_text.size();
+    for (;;) {
+        while (m_pos < n && isSpace(static_cast<unsigned char>(s[m_pos]))) {
+            if (s[m_pos] == '\n') {
+                ++m_line;
+                m_lineStart = m_pos + 1;
+            }
+            ++m_pos;
+        }
+        if (m_pos < n && s[m_pos] == '#') {
+            while (m_pos < n && s[m_pos] != '\n') ++m_pos;
+            continue;
+        }
+        break;
+    }
+    Token t;
+    t.line = m_line;
+    t.column = static_cast<int>(m_pos - m_lineStart) + 1;
+    if (m_pos >= n) return t;
+
+    unsigned char c = static_cast<unsigned char>(s[m_pos]);
+    if (c == '[') {
+        ++m_pos;
+        t.kind = TokenKind::ArrayBegin;
+        return t;
+    }
+    if (c == ']') {
+        ++m_pos;
+        t.kind = TokenKind::ArrayEnd;
+        return t;
+    }
+    if (c == '"') return lexString(t.line, t.column);
+    if (c >= 0x80 || (c < 0x20 && !isSpace(c))) {
+        // Binary RIB encodes requests and values in bytes >= 0x80; skip the
+        // whole run so one stray byte gives one message.
+        while (m_pos < n) {
+            unsigned char d = static_cast<unsigned char>(s[m_pos]);
+            if (!(d >= 0x80 || (d < 0x20 && !isSpace(d)))) break;
+            ++m_pos;
+        }
+        return makeError(t.line, t.column, "unexpected binary data (only ASCII RIB is supported)");
+    }
+
+    size_t start = m_pos;
+    while (m_pos < n && !endsWord(static_cast<unsigned char>(s[m_pos]))) ++m_pos;
+    std::string_view word(s + start, m_pos - start);
+    bool numeric = (c >= '0' && c <= '9') || c == '+' || c == '-' || c == '.';
+    if (!numeric) {
+        t.kind = TokenKind::Name;
+        t.text = word;
+        return t;
+    }
+    std::string_view digits = word;
+    if (!digits.empty() && digits[0] == '+') digits.remove_prefix(1);
+    double v = 0;
+    bool ok = !digits.empty();
+    const char* end = digits.data() + digits.size();
+    auto res = std::from_chars(digits.data(), end, v, std::chars_format::general);
+    ok = ok && res.ec == std::errc() && res.ptr == end && std::isfinite(v);
+    if (!ok) return makeError(t.line, t.column, fmt::format("bad number \"{}\"", word));
+    bool integral = word.find_first_of(".eE") == std::string_view::npos;
+    t.kind = TokenKind::Number;
+    t.number = v;
+    t.isInt = integral && v >= double(INT_MIN) && v <= double(INT_MAX);
+    t.text = word;
+    return t;
+}
+
+Token Lexer::lexString(int line, int column) {
+    const char* s = m_text.data();
+    const size_t n = m_text.size();
+    ++m_pos;  // opening quote
+    size_t start = m_pos;
+    // Fast path: no escapes, the token points into the input.
+    while (m_pos < n && s[m_pos] != '"' && s[m_pos] != '\\' && s[m_pos] != '\n') ++m_pos;
+    if (m_pos < n && s[m_pos] == '"') {
+        Token t;
+        t.kind = TokenKind::String;
+        t.line = line;
+        t.column = column;
+        t.text = std::string_view(s + start, m_pos - start);
+        ++m_pos;
+        return t;
+    }
+    m_scratch.assign(s + start, m_pos - start);
+    while (m_pos < n) {
+        char ch = s[m_pos];
+        if (ch == '"') {
+            ++m_pos;
+            Token t;
+            t.kind = TokenKind::String;
+            t.line = line;
+            t.column = column;
+            t.text = m_scratch;
+            return t;
+        }
+        if (ch == '\n') break;
+        if (ch != '\\') {
+            m_scratch.push_back(ch);
+            ++m_pos;
+            continue;
+        }
+        ++m_pos;
+        if (m_pos >= n) break;
+        char e = s[m_pos++];
+        switch (e) {
+        case 'n': m_scratch.push_back('\n'); break;
+        case 't': m_scratch.push_back('\t'); break;
+        case 'r': m_scratch.push_back('\r'); break;
+        case 'b': m_scratch.push_back('\b'); break;
+        case 'f': m_scratch.push_back('\f'); break;
+        case '\r':
+            // Line continuation with CR LF.
+            if (m_pos < n && s[m_pos] == '\n') ++m_pos;
+            ++m_line;
+            m_lineStart = m_pos;
+            break;
+        case '\n':
+            // Line continuation: the backslash and newline vanish.
+            ++m_line;
+            m_lineStart = m_pos;
+            break;
+        default:
+            if (e >= '0' && e <= '7') {
+                int v = e - '0';
+                for (int k = 0; k < 2 && m_pos < n && s[m_pos] >= '0' && s[m_pos] <= '7'; ++k) v = v * 8 + (s[m_pos++] - '0');
+                m_scratch.push_back(static_cast<char>(v & 0xff));
+            } else {
+                m_scratch.push_back(e);  // \\ \" \' and unknown escapes stand for the character
+            }
+        }
+    }
+    // Resume on the next line so the rest of the file still parses.
+    return makeError(line, column, "unterminated string (a string must end with '\"' on the line it starts)");
+}
+
+}  // namespace umbra::ri

@@ -1,0 +1,958 @@
+#include "umbra/ri/parser.h"
+
+#include "umbra/ri/lexer.h"
+
+#include <zlib.h>
+
+#include <cerrno>
+#include <cmath>
+#include <climits>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <unordered_map>
+
+namespace umbra::ri {
+
+namespace {
+
+/// A value as written in the RIB, before it is matched to an argument or a
+/// parameter.
+struct Value {
+    enum Kind { Number, String, NumArray, StrArray };
+    Kind kind = Number;
+    int line = 0, column = 0;
+    double num = 0;
+    std::string str;
+    std::vector<double> nums;
+    std::vector<std::string> strs;
+};
+
+/// A positional argument matched to a signature code.
+struct Arg {
+    enum Kind { Missing, Number, String, NumArray, StrArray };
+    Kind kind = Missing;
+    bool integer = false;  // matched an integer code (i or I)
+    double num = 0;
+    std::string str;
+    std::vector<double> nums;
+    std::vector<std::string> strs;
+};
+
+bool integral(double v) { return v == std::floor(v) && v >= double(INT_MIN) && v <= double(INT_MAX); }
+
+std::string numberText(double v) {
+    if (integral(v)) return fmt::format("{}", static_cast<long long>(v));
+    return fmt::format("{}", v);
+}
+
+std::string describe(const Value& v) {
+    switch (v.kind) {
+    case Value::Number: return fmt::format("number {}", numberText(v.num));
+    case Value::String: return fmt::format("string \"{}\"", v.str);
+    case Value::NumArray: return fmt::format("an array of {} numbers", v.nums.size());
+    case Value::StrArray: return fmt::format("an array of {} strings", v.strs.size());
+    }
+    return "a value";
+}
+
+/// Reads the matched arguments of one request in signature order.
+class ArgReader {
+public:
+    explicit ArgReader(std::vector<Arg>& args) : m_args(args) {}
+    bool present() const { return m_i < m_args.size() && m_args[m_i].kind != Arg::Missing; }
+    float f() { return static_cast<float>(take().num); }
+    int i() { return static_cast<int>(take().num); }
+    std::string s() { return std::move(take().str); }
+    std::string h() {
+        Arg& a = take();
+        return a.kind == Arg::String ? std::move(a.str) : numberText(a.num);
+    }
+    std::vector<float> F() {
+        Arg& a = take();
+        return std::vector<float>(a.nums.begin(), a.nums.end());
+    }
+    std::vector<std::string> S() { return std::move(take().strs); }
+    Vec3 v3() {
+        float x = f(), y = f(), z = f();
+        return {x, y, z};
+    }
+    Mat4 matrix() {
+        float v[16];
+        for (float& x : v) x = f();
+        return Mat4::fromRib(v);
+    }
+    BasisSpec basis() {
+        Arg& a = take();
+        BasisSpec b;
+        if (a.kind == Arg::String)
+            b.name = std::move(a.str);
+        else
+            for (size_t k = 0; k < 16 && k < a.nums.size(); ++k) b.matrix[k] = static_cast<float>(a.nums[k]);
+        return b;
+    }
+    /// All remaining arguments as geometry arguments.
+    RequestArgs rest() {
+        RequestArgs r;
+        for (; m_i < m_args.size(); ++m_i) {
+            Arg& a = m_args[m_i];
+            switch (a.kind) {
+            case Arg::Missing: break;
+            case Arg::Number:
+                if (a.integer)
+                    r.ints.push_back(static_cast<int>(a.num));
+                else
+                    r.floats.push_back(static_cast<float>(a.num));
+                break;
+            case Arg::String: r.strings.push_back(std::move(a.str)); break;
+            case Arg::StrArray:
+                for (auto& s : a.strs) r.strings.push_back(std::move(s));
+                break;
+            case Arg::NumArray:
+                if (a.integer) {
+                    std::vector<int> v(a.nums.size());
+                    for (size_t k = 0; k < v.size(); ++k) v[k] = static_cast<int>(a.nums[k]);
+                    r.ints.insert(r.ints.end(), v.begin(), v.end());
+                    r.intArrays.push_back(std::move(v));
+                } else {
+                    for (double d : a.nums) r.floats.push_back(static_cast<float>(d));
+                }
+                break;
+            }
+        }
+        return r;
+    }
+
+private:
+    Arg& take() {
+        static Arg missing;
+        return m_i < m_args.size() ? m_args[m_i++] : missing;
+    }
+    std::vector<Arg>& m_args;
+    size_t m_i = 0;
+};
+
+using Handler = void (*)(Target&, const std::string& request, ArgReader&, ParamList&&, const FileLoc&);
+
+/// One RIB request: its positional signature, argument names (for
+/// messages), whether a parameter list may follow, and its dispatch.
+/// Signature codes: f float, i integer, s string, h handle (integer or
+/// string), F/I/S float/integer/string array, M 16 floats, B basis (name or
+/// 16-float array); after '|' the rest is optional (absent when the next
+/// value is a string or there is none). Consecutive f/i codes accept their
+/// numbers bare or grouped in [ ].
+struct RequestSpec {
+    const char* name;
+    const char* sig;
+    const char* argNames;
+    bool params;
+    Handler handler;  // null: handled by the parser itself
+};
+
+#define UMBRA_H(...) [](Target& t, const std::string& req, ArgReader& a, ParamList&& p, const FileLoc& l) { __VA_ARGS__; }
+
+void geometry(Target& t, const std::string& req, ArgReader& a, ParamList&& p, const FileLoc& l) {
+    t.primitive(req, a.rest(), std::move(p), l);
+}
+
+// clang-format off
+const RequestSpec kRequests[] = {
+    {"version", "f", "version", false, UMBRA_H(t.version(a.f(), l))},
+    {"Declare", "ss", "name declaration", false, nullptr},
+    {"ReadArchive", "s", "filename", true, nullptr},
+    {"ErrorHandler", "s", "handler", false, UMBRA_H(t.errorHandler(a.s(), l))},
+    {"FrameBegin", "i", "frame", false, UMBRA_H(t.frameBegin(a.i(), l))},
+    {"FrameEnd", "", "", false, UMBRA_H(t.frameEnd(l))},
+    {"WorldBegin", "", "", false, UMBRA_H(t.worldBegin(l))},
+    {"WorldEnd", "", "", false, UMBRA_H(t.worldEnd(l))},
+    {"AttributeBegin", "", "", false, UMBRA_H(t.attributeBegin(l))},
+    {"AttributeEnd", "", "", false, UMBRA_H(t.attributeEnd(l))},
+    {"TransformBegin", "", "", false, UMBRA_H(t.transformBegin(l))},
+    {"TransformEnd", "", "", false, UMBRA_H(t.transformEnd(l))},
+    {"SolidBegin", "s", "operation", false, UMBRA_H(t.solidBegin(a.s(), l))},
+    {"SolidEnd", "", "", false, UMBRA_H(t.solidEnd(l))},
+    {"ObjectBegin", "h", "handle", false, UMBRA_H(t.objectBegin(a.h(), l))},
+    {"ObjectEnd", "", "", false, UMBRA_H(t.objectEnd(l))},
+    {"ObjectInstance", "h", "handle", false, UMBRA_H(t.objectInstance(a.h(), l))},
+    {"MotionBegin", "F", "times", false, UMBRA_H(t.motionBegin(a.F(), l))},
+    {"MotionEnd", "", "", false, UMBRA_H(t.motionEnd(l))},
+
+    {"Identity", "", "", false, UMBRA_H(t.identity(l))},
+    {"Transform", "M", "matrix", false, UMBRA_H(t.transform(a.matrix(), l))},
+    {"ConcatTransform", "M", "matrix", false, UMBRA_H(t.concatTransform(a.matrix(), l))},
+    {"Translate", "fff", "dx dy dz", false, UMBRA_H(t.translate(a.v3(), l))},
+    {"Rotate", "ffff", "angle dx dy dz", false, UMBRA_H(float ang = a.f(); t.rotate(ang, a.v3(), l))},
+    {"Scale", "fff", "sx sy sz", false, UMBRA_H(t.scale(a.v3(), l))},
+    {"Skew", "fffffff", "angle dx1 dy1 dz1 dx2 dy2 dz2", false,
+     UMBRA_H(float ang = a.f(); Vec3 d1 = a.v3(); t.skew(ang, d1, a.v3(), l))},
+    {"Perspective", "f", "fov", false, UMBRA_H(t.perspective(a.f(), l))},
+    {"CoordinateSystem", "s", "name", false, UMBRA_H(t.coordinateSystem(a.s(), l))},
+    {"ScopedCoordinateSystem", "s", "name", false, UMBRA_H(t.scopedCoordinateSystem(a.s(), l))},
+    {"CoordSysTransform", "s", "name", false, UMBRA_H(t.coordSysTransform(a.s(), l))},
+
+    {"Option", "s", "name", true, UMBRA_H(t.option(a.s(), std::move(p), l))},
+    {"Format", "iif", "xresolution yresolution pixelaspectratio", false,
+     UMBRA_H(int x = a.i(); int y = a.i(); t.format(x, y, a.f(), l))},
+    {"FrameAspectRatio", "f", "aspect", false, UMBRA_H(t.frameAspectRatio(a.f(), l))},
+    {"ScreenWindow", "ffff", "left right bottom top", false,
+     UMBRA_H(float x0 = a.f(); float x1 = a.f(); float y0 = a.f(); t.screenWindow(x0, x1, y0, a.f(), l))},
+    {"CropWindow", "ffff", "xmin xmax ymin ymax", false,
+     UMBRA_H(float x0 = a.f(); float x1 = a.f(); float y0 = a.f(); t.cropWindow(x0, x1, y0, a.f(), l))},
+    {"Projection", "s", "name", true, UMBRA_H(t.projection(a.s(), std::move(p), l))},
+    {"Clipping", "ff", "near far", false, UMBRA_H(float n = a.f(); t.clipping(n, a.f(), l))},
+    {"ClippingPlane", "ffffff", "x y z nx ny nz", false, UMBRA_H(Vec3 pt = a.v3(); t.clippingPlane(pt, a.v3(), l))},
+    {"DepthOfField", "|fff", "fstop focallength focaldistance", false,
+     UMBRA_H(std::vector<float> v; while (a.present()) v.push_back(a.f()); t.depthOfField(v, l))},
+    {"Shutter", "ff", "opentime closetime", false, UMBRA_H(float o = a.f(); t.shutter(o, a.f(), l))},
+    {"PixelVariance", "f", "variation", false, UMBRA_H(t.pixelVariance(a.f(), l))},
+    {"PixelSamples", "ff", "xsamples ysamples", false, UMBRA_H(float x = a.f(); t.pixelSamples(x, a.f(), l))},
+    {"PixelFilter", "sff", "filter xwidth ywidth", false,
+     UMBRA_H(std::string n = a.s(); float x = a.f(); t.pixelFilter(n, x, a.f(), l))},
+    {"Exposure", "ff", "gain gamma", false, UMBRA_H(float g = a.f(); t.exposure(g, a.f(), l))},
+    {"Imager", "s", "name", true, UMBRA_H(t.imager(a.s(), std::move(p), l))},
+    {"Quantize", "sffff", "type one min max ditheramplitude", false,
+     UMBRA_H(std::string ty = a.s(); float one = a.f(); float mn = a.f(); float mx = a.f();
+             t.quantize(ty, one, mn, mx, a.f(), l))},
+    {"Display", "sss", "name type mode", true,
+     UMBRA_H(std::string n = a.s(); std::string ty = a.s(); std::string m = a.s();
+             t.display(n, ty, m, std::move(p), l))},
+    {"DisplayChannel", "s", "channel", true, UMBRA_H(t.displayChannel(a.s(), std::move(p), l))},
+    {"Hider", "s", "type", true, UMBRA_H(t.hider(a.s(), std::move(p), l))},
+    {"ColorSamples", "FF", "nRGB RGBn", false, UMBRA_H(std::vector<float> n = a.F(); t.colorSamples(n, a.F(), l))},
+    {"RelativeDetail", "f", "relativedetail", false, UMBRA_H(t.relativeDetail(a.f(), l))},
+
+    {"Attribute", "s", "name", true, UMBRA_H(t.attribute(a.s(), std::move(p), l))},
+    {"Color", "fff", "red green blue", false, UMBRA_H(t.color(a.v3(), l))},
+    {"Opacity", "fff", "red green blue", false, UMBRA_H(t.opacity(a.v3(), l))},
+    {"TextureCoordinates", "ffffffff", "s1 t1 s2 t2 s3 t3 s4 t4", false,
+     UMBRA_H(std::array<float, 8> v; for (float& x : v) x = a.f(); t.textureCoordinates(v, l))},
+    {"Matte", "i", "onoff", false, UMBRA_H(t.matte(a.i() != 0, l))},
+    {"ShadingRate", "f", "size", false, UMBRA_H(t.shadingRate(a.f(), l))},
+    {"ShadingInterpolation", "s", "type", false, UMBRA_H(t.shadingInterpolation(a.s(), l))},
+    {"Sides", "i", "sides", false, UMBRA_H(t.sides(a.i(), l))},
+    {"Orientation", "s", "orientation", false, UMBRA_H(t.orientation(a.s(), l))},
+    {"ReverseOrientation", "", "", false, UMBRA_H(t.reverseOrientation(l))},
+    {"Basis", "BiBi", "ubasis ustep vbasis vstep", false,
+     UMBRA_H(BasisSpec u = a.basis(); int us = a.i(); BasisSpec v = a.basis(); t.basis(u, us, v, a.i(), l))},
+    {"Bound", "ffffff", "xmin xmax ymin ymax zmin zmax", false,
+     UMBRA_H(std::array<float, 6> v; for (float& x : v) x = a.f(); t.bound(v, l))},
+    {"Detail", "ffffff", "xmin xmax ymin ymax zmin zmax", false,
+     UMBRA_H(std::array<float, 6> v; for (float& x : v) x = a.f(); t.detail(v, l))},
+    {"DetailRange", "ffff", "minvisible lowertransition uppertransition maxvisible", false,
+     UMBRA_H(std::array<float, 4> v; for (float& x : v) x = a.f(); t.detailRange(v, l))},
+    {"GeometricApproximation", "sf", "type value", false,
+     UMBRA_H(std::string ty = a.s(); t.geometricApproximation(ty, a.f(), l))},
+    {"Surface", "s", "name", true, UMBRA_H(t.surface(a.s(), std::move(p), l))},
+    {"Displacement", "s", "name", true, UMBRA_H(t.displacement(a.s(), std::move(p), l))},
+    {"Atmosphere", "s", "name", true, UMBRA_H(t.atmosphere(a.s(), std::move(p), l))},
+    {"Interior", "s", "name", true, UMBRA_H(t.interior(a.s(), std::move(p), l))},
+    {"Exterior", "s", "name", true, UMBRA_H(t.exterior(a.s(), std::move(p), l))},
+    {"Deformation", "s", "name", true, UMBRA_H(t.deformation(a.s(), std::move(p), l))},
+    {"LightSource", "sh", "name handle", true,
+     UMBRA_H(std::string n = a.s(); std::string h = a.h(); t.lightSource(n, h, std::move(p), l))},
+    {"AreaLightSource", "sh", "name handle", true,
+     UMBRA_H(std::string n = a.s(); std::string h = a.h(); t.areaLightSource(n, h, std::move(p), l))},
+    {"Illuminate", "hi", "handle onoff", false, UMBRA_H(std::string h = a.h(); t.illuminate(h, a.i() != 0, l))},
+    {"TrimCurve", "IIFFFIFFF", "ncurves order knot min max n u v w", false, UMBRA_H(t.trimCurve(a.rest(), l))},
+
+    {"Sphere", "ffff", "radius zmin zmax thetamax", true, geometry},
+    {"Cylinder", "ffff", "radius zmin zmax thetamax", true, geometry},
+    {"Cone", "fff", "height radius thetamax", true, geometry},
+    {"Disk", "fff", "height radius thetamax", true, geometry},
+    {"Paraboloid", "ffff", "rmax zmin zmax thetamax", true, geometry},
+    {"Hyperboloid", "fffffff", "x1 y1 z1 x2 y2 z2 thetamax", true, geometry},
+    {"Torus", "fffff", "rmajor rminor phimin phimax thetamax", true, geometry},
+    {"Polygon", "", "", true, geometry},
+    {"GeneralPolygon", "I", "nvertices", true, geometry},
+    {"PointsPolygons", "II", "nvertices vertices", true, geometry},
+    {"PointsGeneralPolygons", "III", "nloops nvertices vertices", true, geometry},
+    {"Patch", "s", "type", true, geometry},
+    {"PatchMesh", "sisis", "type nu uwrap nv vwrap", true, geometry},
+    {"NuPatch", "iiFffiiFff", "nu uorder uknot umin umax nv vorder vknot vmin vmax", true, geometry},
+    {"SubdivisionMesh", "sII|SIIF", "scheme nvertices vertices tags nargs intargs floatargs", true, geometry},
+    {"Points", "", "", true, geometry},
+    {"Curves", "sIs", "type nvertices wrap", true, geometry},
+    {"Blobby", "iIFS", "nleaf code floats strings", true, geometry},
+    {"Procedural", "sSF", "name args bound", true, geometry},
+    {"Geometry", "s", "type", true, geometry},
+
+    {"MakeTexture", "sssssff", "picturename texturename swrap twrap filter swidth twidth", true,
+     UMBRA_H(std::string pic = a.s(); std::string tex = a.s(); std::string sw = a.s(); std::string tw = a.s();
+             std::string fi = a.s(); float sx = a.f(); float tx = a.f();
+             t.makeTexture(pic, tex, sw, tw, fi, sx, tx, std::move(p), l))},
+    {"MakeBump", "sssssff", "picturename texturename swrap twrap filter swidth twidth", true,
+     UMBRA_H(std::string pic = a.s(); std::string tex = a.s(); std::string sw = a.s(); std::string tw = a.s();
+             std::string fi = a.s(); float sx = a.f(); float tx = a.f();
+             t.makeBump(pic, tex, sw, tw, fi, sx, tx, std::move(p), l))},
+    {"MakeLatLongEnvironment", "sssff", "picturename texturename filter swidth twidth", true,
+     UMBRA_H(std::string pic = a.s(); std::string tex = a.s(); std::string fi = a.s(); float sx = a.f();
+             float tx = a.f(); t.makeLatLongEnvironment(pic, tex, fi, sx, tx, std::move(p), l))},
+    {"MakeCubeFaceEnvironment", "sssssssfsff", "px nx py ny pz nz texturename fov filter swidth twidth", true,
+     UMBRA_H(std::array<std::string, 6> faces; for (auto& f : faces) f = a.s(); std::string tex = a.s();
+             float fov = a.f(); std::string fi = a.s(); float sx = a.f(); float tx = a.f();
+             t.makeCubeFaceEnvironment(faces, tex, fov, fi, sx, tx, std::move(p), l))},
+    {"MakeShadow", "ss", "picturename texturename", true,
+     UMBRA_H(std::string pic = a.s(); std::string tex = a.s(); t.makeShadow(pic, tex, std::move(p), l))},
+};
+// clang-format on
+#undef UMBRA_H
+
+const RequestSpec* findRequest(std::string_view name) {
+    static const std::unordered_map<std::string_view, const RequestSpec*> table = [] {
+        std::unordered_map<std::string_view, const RequestSpec*> m;
+        for (const RequestSpec& r : kRequests) m.emplace(r.name, &r);
+        return m;
+    }();
+    auto it = table.find(name);
+    return it == table.end() ? nullptr : it->second;
+}
+
+std::string directoryOf(const std::string& path) {
+    size_t slash = path.find_last_of('/');
+    return slash == std::string::npos ? std::string() : path.substr(0, slash);
+}
+
+std::string joinPath(const std::string& dir, const std::string& name) {
+    if (dir.empty()) return name;
+    if (dir.back() == '/') return dir + name;
+    return dir + "/" + name;
+}
+
+bool readWholeFile(const std::string& path, std::string* out, std::string* error) {
+    std::FILE* f = std::fopen(path.c_str(), "rb");
+    if (!f) {
+        *error = std::strerror(errno);
+        return false;
+    }
+    out->clear();
+    constexpr size_t kChunk = 1 << 20;
+    for (;;) {
+        size_t old = out->size();
+        out->resize(old + kChunk);
+        size_t got = std::fread(out->data() + old, 1, kChunk, f);
+        out->resize(old + got);
+        if (got < kChunk) break;
+    }
+    bool bad = std::ferror(f) != 0;
+    std::fclose(f);
+    if (bad) {
+        *error = "read error";
+        return false;
+    }
+    return true;
+}
+
+bool isRegularFile(const std::string& path) {
+    std::error_code ec;
+    return std::filesystem::is_regular_file(path, ec);
+}
+
+}  // namespace
+
+bool gunzip(std::string_view bytes, std::string* out, std::string* error) {
+    z_stream zs{};
+    // 15 + 32: a zlib or gzip header, detected automatically.
+    if (inflateInit2(&zs, 15 + 32) != Z_OK) {
+        *error = "cannot initialise zlib";
+        return false;
+    }
+    out->clear();
+    zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(bytes.data()));
+    zs.avail_in = static_cast<uInt>(std::min<size_t>(bytes.size(), UINT_MAX));
+    size_t fed = zs.avail_in;
+    constexpr size_t kMaxOutput = size_t(1) << 32;
+    bool ok = true;
+    for (;;) {
+        if (out->size() >= kMaxOutput) {
+            *error = "decompressed data is larger than 4 GiB";
+            ok = false;
+            break;
+        }
+        size_t old = out->size();
+        size_t grow = std::max<size_t>(1 << 16, std::min<size_t>(old, 64 << 20));
+        out->resize(old + grow);
+        zs.next_out = reinterpret_cast<Bytef*>(out->data() + old);
+        zs.avail_out = static_cast<uInt>(grow);
+        int rc = inflate(&zs, Z_NO_FLUSH);
+        out->resize(old + grow - zs.avail_out);
+        if (zs.avail_in == 0 && fed < bytes.size()) {
+            size_t more = std::min<size_t>(bytes.size() - fed, UINT_MAX);
+            zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(bytes.data() + fed));
+            zs.avail_in = static_cast<uInt>(more);
+            fed += more;
+        }
+        if (rc == Z_STREAM_END) {
+            // Concatenated gzip members decompress to the concatenated data.
+            if (zs.avail_in >= 2 && isGzip(std::string_view(reinterpret_cast<const char*>(zs.next_in), zs.avail_in))) {
+                inflateReset(&zs);
+                continue;
+            }
+            break;
+        }
+        if (rc == Z_OK) continue;
+        if (rc == Z_BUF_ERROR && zs.avail_in == 0) {
+            *error = "gzip data is truncated";
+        } else {
+            *error = fmt::format("gzip data is corrupt ({})", zs.msg ? zs.msg : "inflate failed");
+        }
+        ok = false;
+        break;
+    }
+    inflateEnd(&zs);
+    return ok;
+}
+
+/// Parses one stream (a file, a string or an archive) into the parser's
+/// target.
+class StreamParser {
+public:
+    StreamParser(Parser& parser, std::string_view text, std::shared_ptr<const std::string> file,
+                 std::string directory, int depth)
+        : m_parser(parser), m_lex(text), m_file(std::move(file)), m_directory(std::move(directory)), m_depth(depth) {}
+
+    bool run() {
+        Diagnostics& diag = m_parser.m_diag;
+        int errorsAtStart = diag.errorCount();
+        advance();
+        while (m_tok.kind != TokenKind::End) {
+            if (diag.aborted()) return false;
+            if (diag.errorCount() - errorsAtStart >= Parser::kMaxErrorsPerStream) {
+                diag.error(loc(m_tok.line, m_tok.column), "RIB: too many errors; skipping the rest of {}", *m_file);
+                return false;
+            }
+            if (m_tok.kind != TokenKind::Name) {
+                reportStray();
+                continue;
+            }
+            request();
+        }
+        if (m_depth == 0) m_parser.m_target.endOfInput(loc(m_tok.line, m_tok.column));
+        return diag.errorCount() == errorsAtStart;
+    }
+
+private:
+    void advance() { m_tok = m_lex.next(); }
+    FileLoc loc(int line, int column) const { return FileLoc(m_file, line, column); }
+
+    template <typename... Args>
+    void error(int line, int column, std::string_view request, fmt::format_string<Args...> f, Args&&... args) {
+        m_parser.m_diag.error(loc(line, column), "{}: {}", request, fmt::format(f, std::forward<Args>(args)...));
+    }
+
+    // Values outside any request: report once, then skip to the next name.
+    void reportStray() {
+        if (m_tok.kind == TokenKind::Error)
+            error(m_tok.line, m_tok.column, "RIB", "{}", m_tok.text);
+        else
+            error(m_tok.line, m_tok.column, "RIB", "expected a request name, got {}", tokenText());
+        advance();
+        while (m_tok.kind != TokenKind::Name && m_tok.kind != TokenKind::End) {
+            if (m_tok.kind == TokenKind::Error) error(m_tok.line, m_tok.column, "RIB", "{}", m_tok.text);
+            advance();
+        }
+    }
+
+    std::string tokenText() const {
+        switch (m_tok.kind) {
+        case TokenKind::Number: return fmt::format("number {}", m_tok.text);
+        case TokenKind::String: return fmt::format("string \"{}\"", m_tok.text);
+        case TokenKind::ArrayBegin: return "'['";
+        case TokenKind::ArrayEnd: return "']'";
+        case TokenKind::Name: return fmt::format("\"{}\"", m_tok.text);
+        default: return "end of input";
+        }
+    }
+
+    // request: Name value* ; value: number | string | '[' number* ']' | '[' string* ']'
+    void request() {
+        std::string name(m_tok.text);
+        int line = m_tok.line, column = m_tok.column;
+        advance();
+        const RequestSpec* spec = findRequest(name);
+        bool ok = collectValues(name);
+        if (!spec) {
+            error(line, column, name, "unknown request (its arguments are skipped)");
+            return;
+        }
+        if (!ok) return;
+        std::vector<Arg> args;
+        size_t used = 0;
+        if (!matchArgs(*spec, line, column, args, &used)) return;
+        if (!spec->params && used < m_values.size()) {
+            const Value& v = m_values[used];
+            error(v.line, v.column, name, "too many arguments: got {} after the expected ones (usage: {}{}{})", describe(v),
+                  spec->name, *spec->argNames ? " " : "", spec->argNames);
+            return;
+        }
+        ParamList params;
+        if (spec->params) buildParams(name, used, params);
+        FileLoc where = loc(line, column);
+        if (!spec->handler) {
+            special(*spec, args, std::move(params), where);
+            return;
+        }
+        ArgReader reader(args);
+        spec->handler(m_parser.m_target, name, reader, std::move(params), where);
+    }
+
+    // Reads the values up to the next request name. False when any of them
+    // was malformed (already reported); the request is then skipped.
+    bool collectValues(std::string_view request) {
+        m_values.clear();
+        bool ok = true;
+        while (m_tok.kind != TokenKind::Name && m_tok.kind != TokenKind::End) {
+            switch (m_tok.kind) {
+            case TokenKind::Number: {
+                Value& v = push();
+                v.kind = Value::Number;
+                v.num = m_tok.number;
+                advance();
+                break;
+            }
+            case TokenKind::String: {
+                Value& v = push();
+                v.kind = Value::String;
+                v.str.assign(m_tok.text);
+                advance();
+                break;
+            }
+            case TokenKind::ArrayBegin: ok = collectArray(request) && ok; break;
+            case TokenKind::ArrayEnd:
+                error(m_tok.line, m_tok.column, request, "unexpected ']' without a matching '['");
+                ok = false;
+                advance();
+                break;
+            case TokenKind::Error:
+                error(m_tok.line, m_tok.column, request, "{}", m_tok.text);
+                ok = false;
+                advance();
+                break;
+            default: advance(); break;
+            }
+        }
+        return ok;
+    }
+
+    bool collectArray(std::string_view request) {
+        Value& v = push();
+        v.kind = Value::NumArray;
+        int line = m_tok.line, column = m_tok.column;
+        bool sawNumber = false, sawString = false, ok = true;
+        advance();
+        for (;;) {
+            switch (m_tok.kind) {
+            case TokenKind::Number:
+                sawNumber = true;
+                v.nums.push_back(m_tok.number);
+                advance();
+                break;
+            case TokenKind::String:
+                sawString = true;
+                v.strs.emplace_back(m_tok.text);
+                advance();
+                break;
+            case TokenKind::ArrayEnd:
+                advance();
+                if (sawNumber && sawString) {
+                    error(line, column, request, "array mixes numbers and strings");
+                    return false;
+                }
+                if (sawString) v.kind = Value::StrArray;
+                return ok;
+            case TokenKind::ArrayBegin:
+                error(m_tok.line, m_tok.column, request, "nested '[' (arrays cannot contain arrays)");
+                ok = false;
+                advance();
+                break;
+            case TokenKind::Error:
+                error(m_tok.line, m_tok.column, request, "{}", m_tok.text);
+                ok = false;
+                advance();
+                break;
+            default:  // a name or the end: the ']' is missing
+                error(line, column, request, "missing ']' to close this array");
+                return false;
+            }
+        }
+    }
+
+    Value& push() {
+        m_values.emplace_back();
+        Value& v = m_values.back();
+        v.line = m_tok.line;
+        v.column = m_tok.column;
+        return v;
+    }
+
+    // Matches the values against the request's signature.
+    bool matchArgs(const RequestSpec& spec, int line, int column, std::vector<Arg>& args, size_t* used) {
+        std::vector<std::string_view> names;
+        {
+            std::string_view s = spec.argNames;
+            while (!s.empty()) {
+                size_t sp = s.find(' ');
+                names.push_back(s.substr(0, sp));
+                if (sp == std::string_view::npos) break;
+                s.remove_prefix(sp + 1);
+            }
+        }
+        auto usage = [&] { return fmt::format("{}{}{}", spec.name, *spec.argNames ? " " : "", spec.argNames); };
+        size_t vi = 0;        // next value
+        size_t inArray = 0;   // position inside a [ ] grouping scalar numbers, when > 0
+        size_t nameIndex = 0;
+        for (const char* c = spec.sig; *c; ++c) {
+            if (*c == '|') {
+                if (inArray == 0 && (vi >= m_values.size() || m_values[vi].kind == Value::String)) break;
+                continue;
+            }
+            std::string_view argName = nameIndex < names.size() ? names[nameIndex] : "argument";
+            int repeat = *c == 'M' ? 16 : 1;
+            char code = *c == 'M' ? 'f' : *c;
+            ++nameIndex;
+            for (int r = 0; r < repeat; ++r) {
+                Arg a;
+                if (code == 'f' || code == 'i') {
+                    double num;
+                    int vl, vc;
+                    if (inArray > 0) {
+                        const Value& v = m_values[vi];
+                        num = v.nums[inArray];
+                        vl = v.line;
+                        vc = v.column;
+                        if (++inArray == v.nums.size()) {
+                            inArray = 0;
+                            ++vi;
+                        }
+                    } else if (vi < m_values.size() && m_values[vi].kind == Value::Number) {
+                        num = m_values[vi].num;
+                        vl = m_values[vi].line;
+                        vc = m_values[vi].column;
+                        ++vi;
+                    } else if (vi < m_values.size() && m_values[vi].kind == Value::NumArray && !m_values[vi].nums.empty()) {
+                        const Value& v = m_values[vi];
+                        num = v.nums[0];
+                        vl = v.line;
+                        vc = v.column;
+                        if (v.nums.size() == 1)
+                            ++vi;
+                        else
+                            inArray = 1;
+                    } else {
+                        if (vi >= m_values.size() || (m_values[vi].kind == Value::String && spec.params))
+                            error(line, column, spec.name, "missing argument {} (usage: {})", argName, usage());
+                        else
+                            error(m_values[vi].line, m_values[vi].column, spec.name,
+                                  "argument {} must be a number, got {} (usage: {})", argName, describe(m_values[vi]),
+                                  usage());
+                        return false;
+                    }
+                    if (code == 'i' && !integral(num)) {
+                        error(vl, vc, spec.name, "argument {} must be an integer, got {}", argName, numberText(num));
+                        return false;
+                    }
+                    a.kind = Arg::Number;
+                    a.num = num;
+                    a.integer = code == 'i';
+                    args.push_back(std::move(a));
+                    continue;
+                }
+                if (inArray > 0) {
+                    const Value& v = m_values[vi];
+                    error(v.line, v.column, spec.name, "too many numbers in [ ] before argument {} (usage: {})",
+                          argName, usage());
+                    return false;
+                }
+                if (vi >= m_values.size()) {
+                    error(line, column, spec.name, "missing argument {} (usage: {})", argName, usage());
+                    return false;
+                }
+                Value& v = m_values[vi];
+                switch (code) {
+                case 's':
+                    if (v.kind != Value::String) {
+                        error(v.line, v.column, spec.name, "argument {} must be a string, got {} (usage: {})",
+                              argName, describe(v), usage());
+                        return false;
+                    }
+                    a.kind = Arg::String;
+                    a.str = std::move(v.str);
+                    break;
+                case 'h':
+                    if (v.kind == Value::String) {
+                        a.kind = Arg::String;
+                        a.str = std::move(v.str);
+                    } else if (v.kind == Value::Number && integral(v.num)) {
+                        a.kind = Arg::Number;
+                        a.num = v.num;
+                    } else {
+                        error(v.line, v.column, spec.name,
+                              "argument {} must be an integer or a string, got {} (usage: {})", argName, describe(v),
+                              usage());
+                        return false;
+                    }
+                    break;
+                case 'B':
+                    if (v.kind == Value::String) {
+                        a.kind = Arg::String;
+                        a.str = std::move(v.str);
+                    } else if (v.kind == Value::NumArray && v.nums.size() == 16) {
+                        a.kind = Arg::NumArray;
+                        a.nums = std::move(v.nums);
+                    } else {
+                        error(v.line, v.column, spec.name,
+                              "argument {} must be a basis name or an array of 16 numbers, got {} (usage: {})",
+                              argName, describe(v), usage());
+                        return false;
+                    }
+                    break;
+                case 'F':
+                case 'I': {
+                    if (v.kind == Value::Number) {
+                        v.nums.assign(1, v.num);
+                    } else if (v.kind == Value::StrArray && v.strs.empty()) {
+                        v.nums.clear();
+                    } else if (v.kind != Value::NumArray && !(v.kind == Value::StrArray && v.strs.empty())) {
+                        error(v.line, v.column, spec.name, "argument {} must be an array of {}, got {} (usage: {})",
+                              argName, code == 'I' ? "integers" : "numbers", describe(v), usage());
+                        return false;
+                    }
+                    if (code == 'I') {
+                        for (double d : v.nums)
+                            if (!integral(d)) {
+                                error(v.line, v.column, spec.name,
+                                      "argument {} must be an array of integers, got {} in it", argName,
+                                      numberText(d));
+                                return false;
+                            }
+                    }
+                    a.kind = Arg::NumArray;
+                    a.nums = std::move(v.nums);
+                    a.integer = code == 'I';
+                    break;
+                }
+                case 'S':
+                    if (v.kind == Value::String) {
+                        v.strs.assign(1, std::move(v.str));
+                    } else if (v.kind == Value::NumArray && v.nums.empty()) {
+                        v.strs.clear();
+                    } else if (v.kind != Value::StrArray) {
+                        error(v.line, v.column, spec.name, "argument {} must be an array of strings, got {} (usage: {})",
+                              argName, describe(v), usage());
+                        return false;
+                    }
+                    a.kind = Arg::StrArray;
+                    a.strs = std::move(v.strs);
+                    break;
+                default: break;
+                }
+                ++vi;
+                args.push_back(std::move(a));
+            }
+        }
+        if (inArray > 0) {
+            const Value& v = m_values[vi];
+            error(v.line, v.column, spec.name, "too many numbers in [ ]: {} given (usage: {})", v.nums.size(), usage());
+            return false;
+        }
+        *used = vi;
+        return true;
+    }
+
+    // params: ( "name" value )*
+    void buildParams(std::string_view request, size_t first, ParamList& params) {
+        const Declarations& decls = m_parser.m_decls;
+        for (size_t i = first; i < m_values.size();) {
+            Value& nameValue = m_values[i];
+            if (nameValue.kind != Value::String) {
+                error(nameValue.line, nameValue.column, request, "expected a parameter name string, got {}",
+                      describe(nameValue));
+                ++i;
+                continue;
+            }
+            if (i + 1 >= m_values.size()) {
+                error(nameValue.line, nameValue.column, request, "parameter \"{}\" has no value", nameValue.str);
+                return;
+            }
+            Value& v = m_values[i + 1];
+            i += 2;
+            Param p;
+            std::string why;
+            if (!decls.resolve(nameValue.str, &p.decl, &why)) {
+                error(nameValue.line, nameValue.column, request, "{}", why);
+                continue;
+            }
+            p.loc = loc(nameValue.line, nameValue.column);
+            if (convert(request, nameValue, v, p)) params.add(std::move(p));
+        }
+    }
+
+    bool convert(std::string_view request, const Value& nameValue, Value& v, Param& p) {
+        const ParamDecl& d = p.decl;
+        size_t count = 0;
+        auto fail = [&](std::string_view what) {
+            error(nameValue.line, nameValue.column, request, "parameter \"{}\" ({} {}{}) expects {}, got {}", d.name,
+                  storageClassName(d.storage), paramTypeName(d.type),
+                  d.arraySize != 1 ? fmt::format("[{}]", d.arraySize) : std::string(), what, describe(v));
+            return false;
+        };
+        if (d.type == ParamType::String) {
+            if (v.kind == Value::String)
+                p.strings.push_back(std::move(v.str));
+            else if (v.kind == Value::StrArray)
+                p.strings = std::move(v.strs);
+            else if (!(v.kind == Value::NumArray && v.nums.empty()))
+                return fail("strings");
+            count = p.strings.size();
+        } else {
+            if (v.kind == Value::Number)
+                v.nums.assign(1, v.num);
+            else if (v.kind == Value::StrArray && v.strs.empty())
+                v.nums.clear();
+            else if (v.kind != Value::NumArray)
+                return fail("numbers");
+            count = v.nums.size();
+            if (isFloatType(d.type)) {
+                p.floats.resize(count);
+                for (size_t k = 0; k < count; ++k) p.floats[k] = static_cast<float>(v.nums[k]);
+            } else {
+                p.ints.resize(count);
+                for (size_t k = 0; k < count; ++k) {
+                    if (!integral(v.nums[k])) return fail("integers");
+                    p.ints[k] = static_cast<int>(v.nums[k]);
+                }
+            }
+        }
+        size_t per = static_cast<size_t>(d.elementSize());
+        std::string type = fmt::format("{} {}{}", storageClassName(d.storage), paramTypeName(d.type),
+                                       d.arraySize != 1 ? fmt::format("[{}]", d.arraySize) : std::string());
+        if (count == 0) {
+            error(nameValue.line, nameValue.column, request, "parameter \"{}\" ({}) has no values", d.name, type);
+            return false;
+        }
+        if (d.storage == StorageClass::Constant && count != per) {
+            error(nameValue.line, nameValue.column, request, "parameter \"{}\" ({}) expects {} value{}, got {}",
+                  d.name, type, per, per == 1 ? "" : "s", count);
+            return false;
+        }
+        if (count % per != 0) {
+            error(nameValue.line, nameValue.column, request,
+                  "parameter \"{}\" ({}) expects a multiple of {} values, got {}", d.name, type, per, count);
+            return false;
+        }
+        return true;
+    }
+
+    void special(const RequestSpec& spec, std::vector<Arg>& args, ParamList params, const FileLoc& where) {
+        std::string_view name = spec.name;
+        if (name == "Declare") {
+            ParamDecl d;
+            std::string why;
+            if (!Declarations::parse(args[1].str, false, &d, &why)) {
+                m_parser.m_diag.error(where, "Declare: bad declaration \"{}\" for \"{}\": {} (expected \"[class] "
+                                      "type[[n]]\", e.g. \"varying color\")", args[1].str, args[0].str, why);
+                return;
+            }
+            d.name = args[0].str;
+            if (d.name.empty() || d.name.find_first_of(" \t") != std::string::npos) {
+                m_parser.m_diag.error(where, "Declare: bad parameter name \"{}\" (expected one word)", d.name);
+                return;
+            }
+            m_parser.m_decls.declare(d);
+            m_parser.m_target.declare(d, where);
+        } else if (name == "ReadArchive") {
+            m_parser.readArchive(args[0].str, where, m_directory, m_depth);
+        }
+    }
+
+    Parser& m_parser;
+    Lexer m_lex;
+    Token m_tok;
+    std::shared_ptr<const std::string> m_file;
+    std::string m_directory;
+    int m_depth;
+    std::vector<Value> m_values;
+};
+
+Parser::Parser(Target& target, Diagnostics& diag) : m_target(target), m_diag(diag) {}
+
+bool Parser::parseFile(const std::string& path) {
+    std::string bytes, why;
+    if (!readWholeFile(path, &bytes, &why)) {
+        m_diag.error(FileLoc::inFile(path), "RIB: cannot read file: {}", why);
+        return false;
+    }
+    return parseBytes(bytes, path, directoryOf(path), 0, nullptr);
+}
+
+bool Parser::parseString(std::string_view text, const std::string& name, const std::string& directory) {
+    return parseBytes(text, name, directory.empty() ? directoryOf(name) : directory, 0, nullptr);
+}
+
+bool Parser::parseBytes(std::string_view bytes, const std::string& name, const std::string& directory, int depth,
+                        const FileLoc* includedFrom) {
+    auto file = std::make_shared<const std::string>(name);
+    std::string inflated;
+    if (isGzip(bytes)) {
+        std::string why;
+        if (!gunzip(bytes, &inflated, &why)) {
+            m_diag.error(FileLoc(file, 0, 0), "RIB: cannot decompress: {}", why);
+            return false;
+        }
+        bytes = inflated;
+    }
+    StreamParser p(*this, bytes, std::move(file), directory, depth);
+    return p.run();
+}
+
+bool Parser::readArchive(const std::string& name, const FileLoc& loc, const std::string& directory, int depth) {
+    if (depth + 1 > kMaxArchiveDepth) {
+        m_diag.error(loc, "ReadArchive: archives nested more than {} deep (does \"{}\" read itself?)",
+                     kMaxArchiveDepth, name);
+        return false;
+    }
+    // Candidates: an absolute name as is; otherwise beside the including
+    // file, then on the archive search path. The display name keeps the
+    // including file's spelling so messages stay short and stable.
+    std::string found, display;
+    if (!name.empty() && name[0] == '/') {
+        if (isRegularFile(name)) found = display = name;
+    } else {
+        std::string beside = joinPath(directory, name);
+        if (isRegularFile(beside)) {
+            found = beside;
+            display = joinPath(directoryOf(loc.fileName()), name);
+        } else {
+            for (const std::string& dir : m_target.archiveSearchPath()) {
+                std::string candidate = joinPath(dir, name);
+                if (isRegularFile(candidate)) {
+                    found = display = candidate;
+                    break;
+                }
+            }
+        }
+    }
+    if (found.empty()) {
+        m_diag.error(loc, "ReadArchive: cannot find archive \"{}\" (looked beside the including file and on "
+                     "Option \"searchpath\" \"archive\")", name);
+        return false;
+    }
+    std::string bytes, why;
+    if (!readWholeFile(found, &bytes, &why)) {
+        m_diag.error(loc, "ReadArchive: cannot read archive \"{}\": {}", name, why);
+        return false;
+    }
+    m_target.readArchive(found, loc);
+    return parseBytes(bytes, display, directoryOf(found), depth + 1, &loc);
+}
+
+bool parseFile(const std::string& path, Target& target, Diagnostics& diag) {
+    Parser p(target, diag);
+    return p.parseFile(path);
+}
+
+bool parseString(std::string_view text, const std::string& name, Target& target, Diagnostics& diag) {
+    Parser p(target, diag);
+    return p.parseString(text, name);
+}
+
+}  // namespace umbra::ri

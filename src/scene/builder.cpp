@@ -1,0 +1,1021 @@
+#include "umbra/scene/builder.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace umbra::scene {
+
+namespace {
+
+const char* beginName(int kind) {
+    static const char* k[] = {"FrameBegin", "WorldBegin", "AttributeBegin", "TransformBegin", "SolidBegin",
+                              "ObjectBegin", "MotionBegin"};
+    return k[kind];
+}
+const char* endName(int kind) {
+    static const char* k[] = {"FrameEnd", "WorldEnd", "AttributeEnd", "TransformEnd", "SolidEnd", "ObjectEnd",
+                              "MotionEnd"};
+    return k[kind];
+}
+
+// Geometry requests the renderer does not draw yet: parsed and validated,
+// reported once, and left out of the world.
+constexpr const char* kUnsupportedGeometry[] = {"NuPatch", "SubdivisionMesh", "Points", "Curves",
+                                                "Blobby",  "Procedural",      "Geometry"};
+
+std::vector<std::string> splitPath(const std::string& s) {
+    std::vector<std::string> out;
+    size_t start = 0;
+    while (start <= s.size()) {
+        size_t colon = s.find(':', start);
+        if (colon == std::string::npos) colon = s.size();
+        if (colon > start) out.push_back(s.substr(start, colon - start));
+        start = colon + 1;
+    }
+    return out;
+}
+
+}  // namespace
+
+Builder::Builder(SceneSink& sink, Diagnostics& diag) : m_sink(sink), m_diag(diag) {
+    m_state.attrs = std::make_shared<Attributes>();
+}
+
+Builder::~Builder() = default;
+
+void Builder::setDefaultSearchPath(const std::string& kind, const std::string& path) {
+    m_defaultSearchPaths[kind] = path;
+}
+
+void Builder::unhandled(std::string_view request, const FileLoc& loc) {
+    m_diag.warningOnce("unhandled:" + std::string(request), loc, "{}: not handled by the scene builder", request);
+}
+
+std::vector<std::string> Builder::archiveSearchPath() const {
+    auto it = m_options.searchPaths.find("archive");
+    if (it == m_options.searchPaths.end() || it->second.empty()) it = m_options.searchPaths.find("resource");
+    if (it == m_options.searchPaths.end()) return {};
+    return splitPath(it->second);
+}
+
+void Builder::unsupported(const std::string& key, const FileLoc& loc, const std::string& what) {
+    m_diag.warningOnce("unsupported:" + key, loc, "{}", what);
+}
+
+Attributes& Builder::mutableAttributes() {
+    // Copy on write: records and saved states share the attributes object.
+    if (m_state.attrs.use_count() > 1) m_state.attrs = std::make_shared<Attributes>(*m_state.attrs);
+    return *m_state.attrs;
+}
+
+bool Builder::currentIsLeft(const Mat4& transform) const {
+    // Camera space is left-handed; each mirroring transform flips.
+    float det = transform.det3();
+    if (m_world) det *= m_options.cameraFromWorld.det3();
+    return det >= 0;
+}
+
+std::shared_ptr<const Attributes> Builder::attributesFor(const Mat4& worldFromObject) {
+    bool flip = m_state.orientationLeft != currentIsLeft(worldFromObject);
+    if (m_state.attrs->outsideIsLeft != flip) mutableAttributes().outsideIsLeft = flip;
+    return m_state.attrs;
+}
+
+std::shared_ptr<ShaderRecord> Builder::makeShader(const std::string& name, ri::ParamList params,
+                                                  const FileLoc& loc) const {
+    auto s = std::make_shared<ShaderRecord>();
+    s->name = name;
+    s->params = std::move(params);
+    s->worldFromShader = m_state.transform;
+    s->loc = loc;
+    return s;
+}
+
+bool Builder::optionsAllowed(const char* request, const FileLoc& loc) {
+    if (!m_world) return true;
+    m_diag.error(loc, "{}: options cannot change inside WorldBegin/WorldEnd (ignored)", request);
+    return false;
+}
+
+bool Builder::requireWorld(const std::string& request, const FileLoc& loc) {
+    if (m_world || !m_objectHandle.empty()) return true;
+    m_diag.error(loc, "{}: only allowed inside WorldBegin/WorldEnd (ignored)", request);
+    return false;
+}
+
+bool Builder::skipMotionSample() {
+    if (m_blocks.empty() || m_blocks.back().kind != Block::Motion) return false;
+    return ++m_motionRequests > 1;
+}
+
+void Builder::push(Block kind, const FileLoc& loc) {
+    OpenBlock b;
+    b.kind = kind;
+    b.loc = loc;
+    b.saved = m_state;
+    m_blocks.push_back(std::move(b));
+}
+
+bool Builder::pop(Block kind, const char* request, const FileLoc& loc, OpenBlock* out) {
+    auto it = std::find_if(m_blocks.rbegin(), m_blocks.rend(), [&](const OpenBlock& b) { return b.kind == kind; });
+    if (it == m_blocks.rend()) {
+        m_diag.error(loc, "{}: no matching {} (ignored)", request, beginName(int(kind)));
+        return false;
+    }
+    if (it != m_blocks.rbegin()) {
+        const OpenBlock& inner = m_blocks.back();
+        if (kind != Block::World && kind != Block::Frame) {
+            m_diag.error(loc, "{}: expected {} first, to close the {} at {} (ignored)", request,
+                         endName(int(inner.kind)), beginName(int(inner.kind)), inner.loc.str());
+            return false;
+        }
+        // Close what was left open inside the world or frame.
+        while (m_blocks.back().kind != kind) {
+            const OpenBlock& b = m_blocks.back();
+            m_diag.error(loc, "{}: the {} at {} is still open (closed here)", request, beginName(int(b.kind)),
+                         b.loc.str());
+            if (b.kind == Block::Object) m_objectHandle.clear();
+            if (b.kind == Block::World) m_world.reset();
+            m_blocks.pop_back();
+        }
+    }
+    *out = std::move(m_blocks.back());
+    m_blocks.pop_back();
+    return true;
+}
+
+void Builder::endOfInput(const FileLoc& loc) {
+    for (auto it = m_blocks.rbegin(); it != m_blocks.rend(); ++it)
+        m_diag.error(it->loc, "{}: no matching {} before the end of the input", beginName(int(it->kind)),
+                     endName(int(it->kind)));
+    m_blocks.clear();
+    m_world.reset();
+    m_objectHandle.clear();
+}
+
+void Builder::version(float v, const FileLoc& loc) {}
+void Builder::declare(const ri::ParamDecl& decl, const FileLoc& loc) {}
+void Builder::readArchive(const std::string& resolvedPath, const FileLoc& loc) {}
+
+void Builder::errorHandler(const std::string& name, const FileLoc& loc) {
+    if (name == "print")
+        m_diag.setPolicy(Diagnostics::Policy::Print);
+    else if (name == "ignore")
+        m_diag.setPolicy(Diagnostics::Policy::Ignore);
+    else if (name == "abort")
+        m_diag.setPolicy(Diagnostics::Policy::Abort);
+    else
+        m_diag.error(loc, "ErrorHandler: unknown handler \"{}\" (expected \"print\", \"ignore\" or \"abort\")", name);
+}
+
+void Builder::frameBegin(int frame, const FileLoc& loc) {
+    if (m_world) {
+        m_diag.error(loc, "FrameBegin: not allowed inside WorldBegin/WorldEnd (ignored)");
+        return;
+    }
+    for (const OpenBlock& b : m_blocks)
+        if (b.kind == Block::Frame) {
+            m_diag.error(loc, "FrameBegin: frames cannot nest (the frame begun at {} is still open)", b.loc.str());
+            return;
+        }
+    push(Block::Frame, loc);
+    m_blocks.back().savedOptions = std::make_shared<Options>(m_options);
+    m_blocks.back().savedSpaces = std::make_shared<std::map<std::string, Mat4>>(m_cameraSpaces);
+    m_frame = frame;
+    m_options.loc = loc;
+    m_sink.frameBegin(frame, loc);
+}
+
+void Builder::frameEnd(const FileLoc& loc) {
+    OpenBlock b;
+    if (!pop(Block::Frame, "FrameEnd", loc, &b)) return;
+    if (m_world) {
+        m_world.reset();  // already reported as left open by pop()
+        m_lightHandles.clear();
+    }
+    m_options = *b.savedOptions;
+    m_cameraSpaces = *b.savedSpaces;
+    m_state = b.saved;
+    m_frame = -1;
+    m_objectHandle.clear();
+    m_sink.frameEnd(loc);
+}
+
+void Builder::worldBegin(const FileLoc& loc) {
+    if (m_world) {
+        m_diag.error(loc, "WorldBegin: already inside the world begun at {} (ignored)", m_world->loc.str());
+        return;
+    }
+    if (!m_objectHandle.empty()) {
+        m_diag.error(loc, "WorldBegin: not allowed inside ObjectBegin/ObjectEnd (ignored)");
+        return;
+    }
+    push(Block::World, loc);
+    m_options.cameraFromWorld = m_state.transform;
+    if (!m_options.loc.file) m_options.loc = loc;
+    m_world = std::make_unique<WorldRecord>();
+    m_world->frameNumber = m_frame;
+    m_world->options = m_options;
+    m_world->loc = loc;
+    bool ok = true;
+    Mat4 worldFromCamera = m_options.cameraFromWorld.inverse(&ok);
+    if (!ok) m_diag.error(loc, "WorldBegin: the camera transform is singular");
+    m_world->coordinateSystems["world"] = Mat4::identity();
+    m_world->coordinateSystems["camera"] = worldFromCamera;
+    for (const auto& [name, cameraFromNamed] : m_cameraSpaces)
+        m_world->coordinateSystems[name] = worldFromCamera * cameraFromNamed;
+    m_lightHandles.clear();
+    m_state.transform = Mat4::identity();
+}
+
+void Builder::worldEnd(const FileLoc& loc) {
+    OpenBlock b;
+    if (!m_world) {
+        m_diag.error(loc, "WorldEnd: no matching WorldBegin (ignored)");
+        return;
+    }
+    if (!pop(Block::World, "WorldEnd", loc, &b)) return;
+    std::unique_ptr<WorldRecord> world = std::move(m_world);
+    m_lightHandles.clear();
+    m_state = b.saved;
+    m_objectHandle.clear();
+    if (world) m_sink.renderWorld(*world);
+}
+
+void Builder::attributeBegin(const FileLoc& loc) { push(Block::Attribute, loc); }
+
+void Builder::attributeEnd(const FileLoc& loc) {
+    OpenBlock b;
+    if (pop(Block::Attribute, "AttributeEnd", loc, &b)) m_state = b.saved;
+}
+
+void Builder::transformBegin(const FileLoc& loc) { push(Block::Transform, loc); }
+
+void Builder::transformEnd(const FileLoc& loc) {
+    OpenBlock b;
+    if (pop(Block::Transform, "TransformEnd", loc, &b)) m_state.transform = b.saved.transform;
+}
+
+void Builder::solidBegin(const std::string& operation, const FileLoc& loc) {
+    if (operation != "primitive" && operation != "union" && operation != "intersection" &&
+        operation != "difference") {
+        m_diag.error(loc, "SolidBegin: unknown operation \"{}\" (expected \"primitive\", \"union\", "
+                     "\"intersection\" or \"difference\")", operation);
+    }
+    push(Block::Solid, loc);
+    if (operation != "primitive")
+        unsupported("csg", loc, "SolidBegin: CSG operations are not supported; the solids are rendered as if "
+                    "\"union\" (parsed and recorded in Attributes::solid)");
+    mutableAttributes().solid = operation;
+}
+
+void Builder::solidEnd(const FileLoc& loc) {
+    OpenBlock b;
+    if (pop(Block::Solid, "SolidEnd", loc, &b)) m_state = b.saved;
+}
+
+void Builder::objectBegin(const std::string& handle, const FileLoc& loc) {
+    if (!m_objectHandle.empty()) {
+        m_diag.error(loc, "ObjectBegin: object definitions cannot nest (ignored)");
+        return;
+    }
+    push(Block::Object, loc);
+    m_objectHandle = handle;
+    m_objects[handle].clear();
+    bool ok = true;
+    m_objectFromCurrentAtBegin = m_state.transform.inverse(&ok);
+    if (!ok) m_diag.error(loc, "ObjectBegin: the current transform is singular");
+}
+
+void Builder::objectEnd(const FileLoc& loc) {
+    OpenBlock b;
+    if (!pop(Block::Object, "ObjectEnd", loc, &b)) return;
+    m_state = b.saved;
+    m_objectHandle.clear();
+}
+
+void Builder::objectInstance(const std::string& handle, const FileLoc& loc) {
+    if (!m_objectHandle.empty()) {
+        m_diag.error(loc, "ObjectInstance: not allowed inside ObjectBegin/ObjectEnd (ignored)");
+        return;
+    }
+    if (!requireWorld("ObjectInstance", loc)) return;
+    auto it = m_objects.find(handle);
+    if (it == m_objects.end()) {
+        m_diag.error(loc, "ObjectInstance: unknown object \"{}\" (expected the handle of an ObjectBegin)", handle);
+        return;
+    }
+    if (skipMotionSample()) return;
+    for (const ObjectPrim& op : it->second) {
+        PrimitiveRecord r = op.record;
+        r.worldFromObject = m_state.transform * op.objectFromPrim;
+        r.attributes = attributesFor(r.worldFromObject);
+        m_world->primitives.push_back(std::move(r));
+    }
+}
+
+void Builder::motionBegin(const std::vector<float>& times, const FileLoc& loc) {
+    unsupported("motion", loc, "MotionBegin: motion blur is not supported; only the first request of each motion "
+                "block is used");
+    push(Block::Motion, loc);
+    m_motionRequests = 0;
+}
+
+void Builder::motionEnd(const FileLoc& loc) {
+    OpenBlock b;
+    pop(Block::Motion, "MotionEnd", loc, &b);
+}
+
+void Builder::concat(const Mat4& m) {
+    if (skipMotionSample()) return;
+    m_state.transform = m_state.transform * m;
+}
+
+void Builder::identity(const FileLoc& loc) {
+    if (skipMotionSample()) return;
+    m_state.transform = Mat4::identity();
+}
+
+void Builder::transform(const Mat4& m, const FileLoc& loc) {
+    if (skipMotionSample()) return;
+    m_state.transform = m;
+}
+
+void Builder::concatTransform(const Mat4& m, const FileLoc& loc) { concat(m); }
+void Builder::translate(const Vec3& d, const FileLoc& loc) { concat(Mat4::translate(d)); }
+
+void Builder::rotate(float angleDeg, const Vec3& axis, const FileLoc& loc) {
+    if (length(axis) == 0) {
+        m_diag.error(loc, "Rotate: the axis must not be (0, 0, 0)");
+        return;
+    }
+    concat(Mat4::rotate(angleDeg, axis));
+}
+
+void Builder::scale(const Vec3& s, const FileLoc& loc) { concat(Mat4::scale(s)); }
+
+void Builder::skew(float angleDeg, const Vec3& d1, const Vec3& d2, const FileLoc& loc) {
+    // Shear along d2 in proportion to the distance along e (d1 made
+    // perpendicular to d2), so that d1 turns by `angle` towards d2:
+    // p' = p + k (e . p) d2n with k = tan(alpha + angle) - tan(alpha),
+    // alpha being d1's angle from e.
+    Vec3 d2n = normalize(d2);
+    Vec3 perp = d1 - d2n * dot(d1, d2n);
+    float x = length(perp), y = dot(d1, d2n);
+    float alpha = std::atan2(y, x);
+    float target = alpha + radians(angleDeg);
+    if (length(d2) == 0 || x <= 0 || std::fabs(target) >= kPi / 2) {
+        m_diag.error(loc, "Skew: the vectors must not be parallel and the skewed vector must stay within 90 degrees "
+                     "of its perpendicular (ignored)");
+        return;
+    }
+    float k = std::tan(target) - y / x;
+    Vec3 e = perp / x;
+    Mat4 m;
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) m.m[i][j] += k * d2n[i] * e[j];
+    concat(m);
+}
+
+void Builder::perspective(float fovDeg, const FileLoc& loc) {
+    if (!(fovDeg > 0 && fovDeg < 180)) {
+        m_diag.error(loc, "Perspective: fov must be between 0 and 180 degrees, got {}", fovDeg);
+        return;
+    }
+    if (!m_world) {
+        // Before WorldBegin, Perspective describes the camera projection.
+        m_options.projection = Projection::Perspective;
+        m_options.fov = fovDeg;
+        return;
+    }
+    // In the world: concatenate the projective matrix x/(z tan), y/(z tan),
+    // with w = z and z' = (z - 1)/z so that it stays invertible.
+    float t = std::tan(radians(fovDeg) / 2);
+    Mat4 m;
+    m.m[0][0] = 1 / t;
+    m.m[1][1] = 1 / t;
+    m.m[2][2] = 1;
+    m.m[2][3] = -1;
+    m.m[3][2] = 1;
+    m.m[3][3] = 0;
+    concat(m);
+}
+
+void Builder::coordinateSystem(const std::string& name, const FileLoc& loc) {
+    if (m_world)
+        m_world->coordinateSystems[name] = m_state.transform;
+    else
+        m_cameraSpaces[name] = m_state.transform;
+}
+
+void Builder::scopedCoordinateSystem(const std::string& name, const FileLoc& loc) {
+    unsupported("scopedcoordsys", loc, "ScopedCoordinateSystem: treated as CoordinateSystem (not scoped)");
+    coordinateSystem(name, loc);
+}
+
+void Builder::coordSysTransform(const std::string& name, const FileLoc& loc) {
+    if (m_world) {
+        auto it = m_world->coordinateSystems.find(name);
+        if (it != m_world->coordinateSystems.end()) {
+            m_state.transform = it->second;
+            return;
+        }
+    } else {
+        if (name == "camera") {
+            m_state.transform = Mat4::identity();
+            return;
+        }
+        auto it = m_cameraSpaces.find(name);
+        if (it != m_cameraSpaces.end()) {
+            m_state.transform = it->second;
+            return;
+        }
+    }
+    m_diag.error(loc, "CoordSysTransform: unknown coordinate system \"{}\" (expected \"world\", \"camera\" or a "
+                 "name given to CoordinateSystem)", name);
+}
+
+std::string Builder::expandSearchPath(const std::string& kind, const std::string& value) const {
+    std::string out;
+    auto append = [&](const std::string& part) {
+        if (part.empty()) return;
+        if (!out.empty()) out += ':';
+        out += part;
+    };
+    for (const std::string& part : splitPath(value)) {
+        if (part == "&") {
+            auto it = m_options.searchPaths.find(kind);
+            if (it != m_options.searchPaths.end()) append(it->second);
+        } else if (part == "@") {
+            auto it = m_defaultSearchPaths.find(kind);
+            if (it != m_defaultSearchPaths.end()) append(it->second);
+        } else {
+            append(part);
+        }
+    }
+    return out;
+}
+
+void Builder::option(const std::string& name, ri::ParamList params, const FileLoc& loc) {
+    if (!optionsAllowed("Option", loc)) return;
+    for (const ri::Param& p : params.params()) {
+        const std::string& pn = p.decl.name;
+        if (name == "searchpath") {
+            if (p.decl.type != ri::ParamType::String || p.strings.empty()) {
+                m_diag.error(p.loc, "Option: searchpath \"{}\" expects a string", pn);
+                continue;
+            }
+            m_options.searchPaths[pn] = expandSearchPath(pn, p.strings[0]);
+        } else if (name == "limits" && pn == "bucketsize") {
+            int w = params.getInt(pn, 0);
+            int h = p.ints.size() >= 2 ? p.ints[1] : (p.floats.size() >= 2 ? int(p.floats[1]) : w);
+            if (w < 1 || h < 1 || p.count() * p.decl.elementSize() < 2) {
+                m_diag.error(p.loc, "Option: limits \"bucketsize\" expects two positive integers");
+                continue;
+            }
+            m_options.bucketSize[0] = w;
+            m_options.bucketSize[1] = h;
+        } else if (name == "limits" && (pn == "gridsize" || pn == "eyesplits")) {
+            int v = params.getInt(pn, 0);
+            if (v < (pn == "gridsize" ? 1 : 0)) {
+                m_diag.error(p.loc, "Option: limits \"{}\" expects a positive integer, got {}", pn, v);
+                continue;
+            }
+            (pn == "gridsize" ? m_options.gridSize : m_options.eyeSplits) = v;
+        } else if (name == "statistics" && pn == "endofframe") {
+            m_options.statisticsEndOfFrame = params.getInt(pn, 0) != 0;
+        } else {
+            m_options.user[name + ":" + pn] = p;
+        }
+    }
+}
+
+void Builder::format(int xres, int yres, float pixelAspect, const FileLoc& loc) {
+    if (!optionsAllowed("Format", loc)) return;
+    if (xres < 1 || yres < 1 || !(pixelAspect > 0)) {
+        m_diag.error(loc, "Format: expected positive xresolution, yresolution and pixelaspectratio, got {} {} {}",
+                     xres, yres, pixelAspect);
+        return;
+    }
+    m_options.xResolution = xres;
+    m_options.yResolution = yres;
+    m_options.pixelAspectRatio = pixelAspect;
+}
+
+void Builder::frameAspectRatio(float aspect, const FileLoc& loc) {
+    if (!optionsAllowed("FrameAspectRatio", loc)) return;
+    if (!(aspect > 0)) {
+        m_diag.error(loc, "FrameAspectRatio: expected a positive ratio, got {}", aspect);
+        return;
+    }
+    m_options.frameAspectRatio = aspect;
+}
+
+void Builder::screenWindow(float left, float right, float bottom, float top, const FileLoc& loc) {
+    if (!optionsAllowed("ScreenWindow", loc)) return;
+    if (left == right || bottom == top) {
+        m_diag.error(loc, "ScreenWindow: the window is empty ({} {} {} {})", left, right, bottom, top);
+        return;
+    }
+    m_options.screenWindowSet = true;
+    m_options.screenWindow[0] = left;
+    m_options.screenWindow[1] = right;
+    m_options.screenWindow[2] = bottom;
+    m_options.screenWindow[3] = top;
+}
+
+void Builder::cropWindow(float xmin, float xmax, float ymin, float ymax, const FileLoc& loc) {
+    if (!optionsAllowed("CropWindow", loc)) return;
+    xmin = clamp(xmin, 0.0f, 1.0f), xmax = clamp(xmax, 0.0f, 1.0f);
+    ymin = clamp(ymin, 0.0f, 1.0f), ymax = clamp(ymax, 0.0f, 1.0f);
+    if (!(xmin < xmax && ymin < ymax)) {
+        m_diag.error(loc, "CropWindow: expected xmin < xmax and ymin < ymax within [0, 1]");
+        return;
+    }
+    m_options.cropWindow[0] = xmin;
+    m_options.cropWindow[1] = xmax;
+    m_options.cropWindow[2] = ymin;
+    m_options.cropWindow[3] = ymax;
+}
+
+void Builder::projection(const std::string& name, ri::ParamList params, const FileLoc& loc) {
+    if (!optionsAllowed("Projection", loc)) return;
+    if (name == "perspective") {
+        float fov = params.getFloat("fov", 90.0f);
+        if (!(fov > 0 && fov < 180)) {
+            m_diag.error(loc, "Projection: \"fov\" must be between 0 and 180 degrees, got {}", fov);
+            return;
+        }
+        m_options.projection = Projection::Perspective;
+        m_options.fov = fov;
+    } else if (name == "orthographic") {
+        m_options.projection = Projection::Orthographic;
+    } else {
+        m_diag.error(loc, "Projection: unknown projection \"{}\" (expected \"perspective\" or \"orthographic\")", name);
+        return;
+    }
+    params.reportUnused(m_diag, "Projection");
+    // RI spec: the current transform is cleared after Projection, so
+    // camera transforms follow it.
+    m_state.transform = Mat4::identity();
+}
+
+void Builder::clipping(float nearZ, float farZ, const FileLoc& loc) {
+    if (!optionsAllowed("Clipping", loc)) return;
+    if (!(nearZ > 0 && farZ > nearZ)) {
+        m_diag.error(loc, "Clipping: expected 0 < near < far, got {} {}", nearZ, farZ);
+        return;
+    }
+    m_options.nearClip = nearZ;
+    m_options.farClip = farZ;
+}
+
+void Builder::clippingPlane(const Vec3& point, const Vec3& normal, const FileLoc& loc) {
+    unsupported("ClippingPlane", loc, "ClippingPlane: not supported (ignored)");
+}
+
+void Builder::depthOfField(const std::vector<float>& args, const FileLoc& loc) {
+    if (!optionsAllowed("DepthOfField", loc)) return;
+    if (!args.empty()) unsupported("DepthOfField", loc, "DepthOfField: depth of field is not supported (ignored)");
+}
+
+void Builder::shutter(float open, float close, const FileLoc& loc) {
+    if (!optionsAllowed("Shutter", loc)) return;
+    if (close < open) {
+        m_diag.error(loc, "Shutter: expected opentime <= closetime, got {} {}", open, close);
+        return;
+    }
+    m_options.shutter[0] = open;
+    m_options.shutter[1] = close;
+}
+
+void Builder::pixelVariance(float v, const FileLoc& loc) {
+    unsupported("PixelVariance", loc, "PixelVariance: adaptive sampling is not supported (ignored)");
+}
+
+void Builder::pixelSamples(float xs, float ys, const FileLoc& loc) {
+    if (!optionsAllowed("PixelSamples", loc)) return;
+    if (!(xs >= 1 && ys >= 1 && xs <= 1024 && ys <= 1024)) {
+        m_diag.error(loc, "PixelSamples: expected sample counts between 1 and 1024, got {} {}", xs, ys);
+        return;
+    }
+    // Fractional rates round up to whole samples per pixel.
+    m_options.pixelSamples[0] = int(std::ceil(xs - 1e-4f));
+    m_options.pixelSamples[1] = int(std::ceil(ys - 1e-4f));
+}
+
+void Builder::pixelFilter(const std::string& name, float xwidth, float ywidth, const FileLoc& loc) {
+    if (!optionsAllowed("PixelFilter", loc)) return;
+    static const char* kFilters[] = {"box", "triangle", "gaussian", "catmull-rom", "sinc", "mitchell",
+                                     "blackman-harris"};
+    std::string n = name == "catmullrom" ? "catmull-rom" : name;
+    if (std::find_if(std::begin(kFilters), std::end(kFilters), [&](const char* f) { return n == f; }) ==
+        std::end(kFilters)) {
+        m_diag.error(loc, "PixelFilter: unknown filter \"{}\" (expected box, triangle, gaussian, catmull-rom, sinc, "
+                     "mitchell or blackman-harris)", name);
+        return;
+    }
+    if (!(xwidth > 0 && ywidth > 0)) {
+        m_diag.error(loc, "PixelFilter: expected positive widths, got {} {}", xwidth, ywidth);
+        return;
+    }
+    m_options.pixelFilter = n;
+    m_options.filterWidth[0] = xwidth;
+    m_options.filterWidth[1] = ywidth;
+}
+
+void Builder::exposure(float gain, float gamma, const FileLoc& loc) {
+    if (!optionsAllowed("Exposure", loc)) return;
+    if (!(gain > 0 && gamma > 0)) {
+        m_diag.error(loc, "Exposure: expected positive gain and gamma, got {} {}", gain, gamma);
+        return;
+    }
+    m_options.exposureGain = gain;
+    m_options.exposureGamma = gamma;
+}
+
+void Builder::imager(const std::string& name, ri::ParamList params, const FileLoc& loc) {
+    if (!optionsAllowed("Imager", loc)) return;
+    if (name.empty() || name == "null")
+        m_options.imager.reset();
+    else
+        m_options.imager = makeShader(name, std::move(params), loc);
+}
+
+void Builder::quantize(const std::string& type, float one, float qmin, float qmax, float dither, const FileLoc& loc) {
+    if (!optionsAllowed("Quantize", loc)) return;
+    if (qmin > qmax || one < 0 || dither < 0) {
+        m_diag.error(loc, "Quantize: expected one >= 0, min <= max and ditheramplitude >= 0");
+        return;
+    }
+    if (type == "rgba") {
+        m_options.quantizeOne = one, m_options.quantizeMin = qmin;
+        m_options.quantizeMax = qmax, m_options.quantizeDither = dither;
+    } else if (type == "z") {
+        m_options.zQuantizeOne = one, m_options.zQuantizeMin = qmin;
+        m_options.zQuantizeMax = qmax, m_options.zQuantizeDither = dither;
+    } else {
+        m_diag.error(loc, "Quantize: unknown type \"{}\" (expected \"rgba\" or \"z\")", type);
+    }
+}
+
+void Builder::display(const std::string& name, const std::string& driver, const std::string& mode,
+                      ri::ParamList params, const FileLoc& loc) {
+    if (!optionsAllowed("Display", loc)) return;
+    if (name.empty() || name == "+" || driver.empty() || mode.empty()) {
+        m_diag.error(loc, "Display: expected a non-empty name, type and mode");
+        return;
+    }
+    DisplayRecord d;
+    bool add = name[0] == '+';
+    d.name = add ? name.substr(1) : name;
+    d.driver = driver;
+    d.mode = mode;
+    d.params = std::move(params);
+    d.loc = loc;
+    if (!add) m_options.displays.clear();
+    m_options.displays.push_back(std::move(d));
+}
+
+void Builder::displayChannel(const std::string& channel, ri::ParamList params, const FileLoc& loc) {
+    if (!optionsAllowed("DisplayChannel", loc)) return;
+    DisplayRecord d;
+    d.name = channel;
+    d.params = std::move(params);
+    d.loc = loc;
+    m_options.displayChannels.push_back(std::move(d));
+}
+
+void Builder::hider(const std::string& name, ri::ParamList params, const FileLoc& loc) {
+    if (!optionsAllowed("Hider", loc)) return;
+    if (name != "hidden" && name != "stochastic")
+        unsupported("hider:" + name, loc, fmt::format("Hider: \"{}\" is not supported; \"hidden\" is used", name));
+    if (const ri::Param* p = params.find("depthfilter")) {
+        const std::string& f = p->stringAt(0);
+        if (f != "min" && f != "second" && f != "midpoint" && f != "dual") {
+            m_diag.error(p->loc, "Hider: unknown \"depthfilter\" \"{}\" (expected \"min\", \"second\", \"midpoint\" "
+                         "or \"dual\")", f);
+            return;
+        }
+        m_options.depthFilter = f;
+    }
+    if (params.find("jitter")) m_options.jitter = params.getInt("jitter", 1) != 0;
+    m_options.hider = name;
+    m_options.hiderParams = std::move(params);
+}
+
+void Builder::colorSamples(const std::vector<float>& nRGB, const std::vector<float>& RGBn, const FileLoc& loc) {
+    unsupported("ColorSamples", loc, "ColorSamples: only RGB colour is supported (ignored)");
+}
+
+void Builder::relativeDetail(float v, const FileLoc& loc) {
+    unsupported("detail", loc, "RelativeDetail: level of detail is not supported (ignored)");
+}
+
+void Builder::attribute(const std::string& name, ri::ParamList params, const FileLoc& loc) {
+    for (const ri::Param& p : params.params()) {
+        const std::string& pn = p.decl.name;
+        if (name == "displacementbound" && pn == "sphere") {
+            float r = params.getFloat(pn, 0);
+            if (!(r >= 0)) {
+                m_diag.error(p.loc, "Attribute: displacementbound \"sphere\" expects a radius >= 0, got {}", r);
+                continue;
+            }
+            mutableAttributes().displacementBound = r;
+        } else if (name == "displacementbound" && pn == "coordinatesystem") {
+            mutableAttributes().displacementBoundSpace = params.getString(pn, "object");
+        } else if (name == "identifier" && pn == "name") {
+            mutableAttributes().name = params.getString(pn, "");
+        } else if (name == "visibility" && pn == "camera") {
+            mutableAttributes().visibleToCamera = params.getInt(pn, 1) != 0;
+        } else if (name == "visibility" && (pn == "transmission" || pn == "shadow")) {
+            // Older RIBs give transmission as "opaque"/"transparent".
+            bool casts = p.decl.type == ri::ParamType::String ? p.stringAt(0) != "transparent"
+                                                              : params.getInt(pn, 1) != 0;
+            mutableAttributes().castsShadows = casts;
+        } else {
+            mutableAttributes().user[name + ":" + pn] = p;
+        }
+    }
+}
+
+void Builder::color(const Color& c, const FileLoc& loc) {
+    if (skipMotionSample()) return;
+    mutableAttributes().color = c;
+}
+
+void Builder::opacity(const Color& c, const FileLoc& loc) {
+    if (skipMotionSample()) return;
+    mutableAttributes().opacity = c;
+}
+
+void Builder::textureCoordinates(const std::array<float, 8>& st, const FileLoc& loc) {
+    std::copy(st.begin(), st.end(), mutableAttributes().textureCoordinates);
+}
+
+void Builder::matte(bool on, const FileLoc& loc) { mutableAttributes().matte = on; }
+
+void Builder::shadingRate(float rate, const FileLoc& loc) {
+    if (!(rate > 0)) {
+        m_diag.error(loc, "ShadingRate: expected a positive area in pixels, got {}", rate);
+        return;
+    }
+    mutableAttributes().shadingRate = rate;
+}
+
+void Builder::shadingInterpolation(const std::string& type, const FileLoc& loc) {
+    if (type != "constant" && type != "smooth") {
+        m_diag.error(loc, "ShadingInterpolation: unknown type \"{}\" (expected \"constant\" or \"smooth\")", type);
+        return;
+    }
+    mutableAttributes().smoothShading = type == "smooth";
+}
+
+void Builder::sides(int n, const FileLoc& loc) {
+    if (n != 1 && n != 2) {
+        m_diag.error(loc, "Sides: expected 1 or 2, got {}", n);
+        return;
+    }
+    mutableAttributes().sides = n;
+}
+
+void Builder::orientation(const std::string& o, const FileLoc& loc) {
+    bool left = currentIsLeft(m_state.transform);
+    if (o == "outside")
+        m_state.orientationLeft = left;
+    else if (o == "inside")
+        m_state.orientationLeft = !left;
+    else if (o == "lh")
+        m_state.orientationLeft = true;
+    else if (o == "rh")
+        m_state.orientationLeft = false;
+    else
+        m_diag.error(loc, "Orientation: unknown orientation \"{}\" (expected \"outside\", \"inside\", \"lh\" or "
+                     "\"rh\")", o);
+}
+
+void Builder::reverseOrientation(const FileLoc& loc) { m_state.orientationLeft = !m_state.orientationLeft; }
+
+void Builder::basis(const ri::BasisSpec& u, int ustep, const ri::BasisSpec& v, int vstep, const FileLoc& loc) {
+    Basis b[2];
+    const ri::BasisSpec* spec[2] = {&u, &v};
+    int steps[2] = {ustep, vstep};
+    for (int k = 0; k < 2; ++k) {
+        if (!spec[k]->name.empty()) {
+            if (!Basis::byName(spec[k]->name, &b[k])) {
+                m_diag.error(loc, "Basis: unknown basis \"{}\" (expected bezier, b-spline, catmull-rom, hermite, "
+                             "power or an array of 16 numbers)", spec[k]->name);
+                return;
+            }
+        } else {
+            for (int i = 0; i < 4; ++i)
+                for (int j = 0; j < 4; ++j) b[k].m[i][j] = spec[k]->matrix[i * 4 + j];
+        }
+        if (steps[k] < 1 || steps[k] > 4) {
+            m_diag.error(loc, "Basis: {} must be between 1 and 4, got {}", k == 0 ? "ustep" : "vstep", steps[k]);
+            return;
+        }
+        b[k].step = steps[k];
+    }
+    Attributes& a = mutableAttributes();
+    a.uBasis = b[0];
+    a.vBasis = b[1];
+}
+
+void Builder::bound(const std::array<float, 6>& b, const FileLoc& loc) {
+    // A culling hint only; primitives compute their own bounds.
+}
+
+void Builder::detail(const std::array<float, 6>& b, const FileLoc& loc) {
+    unsupported("detail", loc, "Detail: level of detail is not supported (ignored)");
+}
+
+void Builder::detailRange(const std::array<float, 4>& r, const FileLoc& loc) {
+    unsupported("detail", loc, "DetailRange: level of detail is not supported (every range is drawn)");
+}
+
+void Builder::geometricApproximation(const std::string& type, float value, const FileLoc& loc) {
+    ri::Param p;
+    p.decl.name = type;
+    p.decl.type = ri::ParamType::Float;
+    p.floats = {value};
+    p.loc = loc;
+    mutableAttributes().user["GeometricApproximation:" + type] = std::move(p);
+}
+
+void Builder::surface(const std::string& name, ri::ParamList params, const FileLoc& loc) {
+    if (skipMotionSample()) return;
+    mutableAttributes().surface = makeShader(name, std::move(params), loc);
+}
+
+void Builder::displacement(const std::string& name, ri::ParamList params, const FileLoc& loc) {
+    if (skipMotionSample()) return;
+    mutableAttributes().displacement = makeShader(name, std::move(params), loc);
+}
+
+void Builder::atmosphere(const std::string& name, ri::ParamList params, const FileLoc& loc) {
+    if (skipMotionSample()) return;
+    mutableAttributes().atmosphere = makeShader(name, std::move(params), loc);
+}
+
+void Builder::interior(const std::string& name, ri::ParamList params, const FileLoc& loc) {
+    unsupported("volume", loc, "Interior: interior and exterior volume shaders are not supported (ignored)");
+}
+
+void Builder::exterior(const std::string& name, ri::ParamList params, const FileLoc& loc) {
+    unsupported("volume", loc, "Exterior: interior and exterior volume shaders are not supported (ignored)");
+}
+
+void Builder::deformation(const std::string& name, ri::ParamList params, const FileLoc& loc) {
+    unsupported("Deformation", loc, "Deformation: transformation shaders are not supported (ignored)");
+}
+
+void Builder::lightSource(const std::string& name, const std::string& handle, ri::ParamList params,
+                          const FileLoc& loc) {
+    if (!m_world || !m_objectHandle.empty()) {
+        m_diag.error(loc, "LightSource: lights are only allowed inside WorldBegin/WorldEnd, outside object "
+                     "definitions (ignored)");
+        return;
+    }
+    if (skipMotionSample()) return;
+    LightRecord l;
+    l.shader = *makeShader(name, std::move(params), loc);
+    l.handle = handle;
+    int index = int(m_world->lights.size());
+    Attributes& a = mutableAttributes();
+    a.lights.push_back(index);
+    l.attributes = m_state.attrs;
+    m_world->lights.push_back(std::move(l));
+    m_lightHandles[handle] = index;
+}
+
+void Builder::areaLightSource(const std::string& name, const std::string& handle, ri::ParamList params,
+                              const FileLoc& loc) {
+    if (!m_world || !m_objectHandle.empty()) {
+        m_diag.error(loc, "AreaLightSource: lights are only allowed inside WorldBegin/WorldEnd, outside object "
+                     "definitions (ignored)");
+        return;
+    }
+    unsupported("AreaLightSource", loc, "AreaLightSource: area lights are not supported (recorded, turned off)");
+    LightRecord l;
+    l.shader = *makeShader(name, std::move(params), loc);
+    l.handle = handle;
+    l.area = true;
+    l.onByDefault = false;
+    l.attributes = m_state.attrs;
+    m_lightHandles[handle] = int(m_world->lights.size());
+    m_world->lights.push_back(std::move(l));
+}
+
+void Builder::illuminate(const std::string& handle, bool on, const FileLoc& loc) {
+    if (!m_world) {
+        m_diag.error(loc, "Illuminate: only allowed inside WorldBegin/WorldEnd (ignored)");
+        return;
+    }
+    auto it = m_lightHandles.find(handle);
+    if (it == m_lightHandles.end()) {
+        m_diag.error(loc, "Illuminate: unknown light handle \"{}\" (expected the handle of a LightSource)", handle);
+        return;
+    }
+    int index = it->second;
+    if (m_world->lights[size_t(index)].area) return;
+    const std::vector<int>& cur = m_state.attrs->lights;
+    bool present = std::find(cur.begin(), cur.end(), index) != cur.end();
+    if (on == present) return;
+    std::vector<int>& lights = mutableAttributes().lights;
+    if (on)
+        lights.push_back(index);
+    else
+        lights.erase(std::find(lights.begin(), lights.end(), index));
+}
+
+void Builder::trimCurve(const ri::RequestArgs& args, const FileLoc& loc) {
+    unsupported("TrimCurve", loc, "TrimCurve: trim curves are not supported (ignored)");
+}
+
+void Builder::primitive(const std::string& type, ri::RequestArgs args, ri::ParamList params, const FileLoc& loc) {
+    if (!requireWorld(type, loc)) return;
+    for (const char* u : kUnsupportedGeometry)
+        if (type == u) {
+            unsupported(type, loc, fmt::format("{}: not supported by the renderer (parsed and skipped)", type));
+            return;
+        }
+    if (skipMotionSample()) return;
+    PrimitiveRecord r;
+    r.type = type;
+    r.floatArgs = std::move(args.floats);
+    r.intArgs = std::move(args.ints);
+    r.stringArgs = std::move(args.strings);
+    r.intArrays = std::move(args.intArrays);
+    r.params = std::move(params);
+    r.loc = loc;
+    if (!m_objectHandle.empty()) {
+        ObjectPrim op{std::move(r), m_objectFromCurrentAtBegin * m_state.transform};
+        m_objects[m_objectHandle].push_back(std::move(op));
+        return;
+    }
+    r.worldFromObject = m_state.transform;
+    r.attributes = attributesFor(r.worldFromObject);
+    m_world->primitives.push_back(std::move(r));
+}
+
+void Builder::makeTexture(const std::string& picture, const std::string& texture, const std::string& swrap,
+                          const std::string& twrap, const std::string& filter, float swidth, float twidth,
+                          ri::ParamList params, const FileLoc& loc) {
+    MakeRecord m;
+    m.request = "MakeTexture";
+    m.inputs = {picture};
+    m.output = texture;
+    m.stringArgs = {swrap, twrap, filter};
+    m.floatArgs = {swidth, twidth};
+    m.params = std::move(params);
+    m.loc = loc;
+    m_sink.make(m);
+}
+
+void Builder::makeBump(const std::string& picture, const std::string& texture, const std::string& swrap,
+                       const std::string& twrap, const std::string& filter, float swidth, float twidth,
+                       ri::ParamList params, const FileLoc& loc) {
+    unsupported("MakeBump", loc, "MakeBump: bump maps are not supported (ignored)");
+}
+
+void Builder::makeLatLongEnvironment(const std::string& picture, const std::string& texture,
+                                     const std::string& filter, float swidth, float twidth, ri::ParamList params,
+                                     const FileLoc& loc) {
+    MakeRecord m;
+    m.request = "MakeLatLongEnvironment";
+    m.inputs = {picture};
+    m.output = texture;
+    m.stringArgs = {filter};
+    m.floatArgs = {swidth, twidth};
+    m.params = std::move(params);
+    m.loc = loc;
+    m_sink.make(m);
+}
+
+void Builder::makeCubeFaceEnvironment(const std::array<std::string, 6>& faces, const std::string& texture,
+                                      float fov, const std::string& filter, float swidth, float twidth,
+                                      ri::ParamList params, const FileLoc& loc) {
+    MakeRecord m;
+    m.request = "MakeCubeFaceEnvironment";
+    m.inputs.assign(faces.begin(), faces.end());
+    m.output = texture;
+    m.stringArgs = {filter};
+    m.floatArgs = {fov, swidth, twidth};
+    m.params = std::move(params);
+    m.loc = loc;
+    m_sink.make(m);
+}
+
+void Builder::makeShadow(const std::string& picture, const std::string& texture, ri::ParamList params,
+                         const FileLoc& loc) {
+    MakeRecord m;
+    m.request = "MakeShadow";
+    m.inputs = {picture};
+    m.output = texture;
+    m.params = std::move(params);
+    m.loc = loc;
+    m_sink.make(m);
+}
+
+}  // namespace umbra::scene

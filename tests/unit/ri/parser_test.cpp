@@ -1,0 +1,244 @@
+#include "umbra/ri/parser.h"
+
+#include <gtest/gtest.h>
+#include <zlib.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+namespace umbra::ri {
+namespace {
+
+/// Records the requests the tests look at, as text.
+struct Recorder : Target {
+    std::vector<std::string> log;
+    std::vector<RequestArgs> args;
+    std::vector<ParamList> params;
+    void unhandled(std::string_view request, const FileLoc& loc) override { log.push_back(std::string(request)); }
+    void primitive(const std::string& type, RequestArgs a, ParamList p, const FileLoc& loc) override {
+        log.push_back(fmt::format("{}@{}", type, loc.str()));
+        args.push_back(std::move(a));
+        params.push_back(std::move(p));
+    }
+    void surface(const std::string& name, ParamList p, const FileLoc& loc) override {
+        log.push_back("Surface " + name);
+        params.push_back(std::move(p));
+    }
+    void translate(const Vec3& d, const FileLoc& loc) override { log.push_back(fmt::format("Translate {} {} {}", d.x, d.y, d.z)); }
+    void lightSource(const std::string& name, const std::string& handle, ParamList p, const FileLoc& loc) override {
+        log.push_back("LightSource " + name + " " + handle);
+    }
+};
+
+std::vector<std::string> messages(const Diagnostics& d) {
+    std::vector<std::string> out;
+    for (const Diagnostic& m : d.recorded()) out.push_back(m.str());
+    return out;
+}
+
+struct Parsed {
+    Recorder rec;
+    Diagnostics diag;
+    bool ok = false;
+};
+
+std::unique_ptr<Parsed> parse(std::string_view text) {
+    auto p = std::make_unique<Parsed>();
+    p->diag.setRecord(true);
+    p->diag.setSink([](const Diagnostic&) {});
+    p->ok = parseString(text, "t.rib", p->rec, p->diag);
+    return p;
+}
+
+TEST(Parser, PositionalNumbersBareOrBracketed) {
+    auto p = parse("Sphere 1 -1 1 360\nSphere [2 -2 2 180]\nSphere [3 -3] 3 [90]");
+    ASSERT_TRUE(p->ok) << fmt::format("{}", fmt::join(messages(p->diag), "\n"));
+    ASSERT_EQ(p->rec.args.size(), 3u);
+    EXPECT_EQ(p->rec.args[0].floats, (std::vector<float>{1, -1, 1, 360}));
+    EXPECT_EQ(p->rec.args[1].floats, (std::vector<float>{2, -2, 2, 180}));
+    EXPECT_EQ(p->rec.args[2].floats, (std::vector<float>{3, -3, 3, 90}));
+    EXPECT_EQ(p->rec.log[1], "Sphere@t.rib:2:1");
+}
+
+TEST(Parser, IntegerArraysGoToIntArrays) {
+    auto p = parse("PointsGeneralPolygons [1 1] [3 3] [0 1 2 0 2 3] \"P\" [0 0 0 1 0 0 1 1 0 0 1 0]");
+    ASSERT_TRUE(p->ok);
+    const RequestArgs& a = p->rec.args.at(0);
+    ASSERT_EQ(a.intArrays.size(), 3u);
+    EXPECT_EQ(a.intArrays[2], (std::vector<int>{0, 1, 2, 0, 2, 3}));
+    EXPECT_EQ(a.ints, (std::vector<int>{1, 1, 3, 3, 0, 1, 2, 0, 2, 3}));
+    const Param* P = p->rec.params.at(0).find("P");
+    ASSERT_NE(P, nullptr);
+    EXPECT_EQ(P->decl.storage, StorageClass::Vertex);
+    EXPECT_EQ(P->count(), 4u);
+    EXPECT_EQ(P->floats[3], 1.0f);
+}
+
+TEST(Parser, WrongArgumentCountIsReportedAndSkipped) {
+    auto p = parse("Sphere 1 -1 1\nTranslate 1 2 3");
+    EXPECT_FALSE(p->ok);
+    EXPECT_EQ(messages(p->diag), (std::vector<std::string>{
+        "t.rib:1:1: error: Sphere: missing argument thetamax (usage: Sphere radius zmin zmax thetamax)"}));
+    EXPECT_EQ(p->rec.log, (std::vector<std::string>{"Translate 1 2 3"}));
+}
+
+TEST(Parser, UnknownRequestSkipsItsArguments) {
+    auto p = parse("Spher 1 2 [3] \"x\"\nTranslate 1 2 3");
+    EXPECT_EQ(messages(p->diag), (std::vector<std::string>{
+        "t.rib:1:1: error: Spher: unknown request (its arguments are skipped)"}));
+    EXPECT_EQ(p->rec.log, (std::vector<std::string>{"Translate 1 2 3"}));
+}
+
+TEST(Parser, DeclarationsInlineAndDeclared) {
+    auto p = parse("Declare \"myfloat\" \"uniform float[2]\"\n"
+                   "Surface \"s\" \"myfloat\" [1 2] \"varying color Cq\" [1 0 0] \"Kd\" 0.5 \"texturename\" \"a.tx\"");
+    ASSERT_TRUE(p->ok) << fmt::format("{}", fmt::join(messages(p->diag), "\n"));
+    const ParamList& l = p->rec.params.at(0);
+    ASSERT_EQ(l.size(), 4u);
+    EXPECT_EQ(l.params()[0].decl.str(), "uniform float[2] myfloat");
+    EXPECT_EQ(l.params()[1].decl.str(), "varying color Cq");
+    EXPECT_EQ(l.getFloat("Kd", 0), 0.5f);
+    EXPECT_EQ(l.getString("texturename", ""), "a.tx");
+    EXPECT_EQ(l.params()[1].loc.str(), "t.rib:2:29");
+}
+
+TEST(Parser, ParameterErrorsDropOnlyTheParameter) {
+    auto p = parse("Surface \"s\" \"Kx\" 1 \"Cs\" [1 0] \"Kd\" \"a\" \"constant float c\" [1 2] \"Ka\" 0.25 \"Ks\"");
+    EXPECT_EQ(messages(p->diag), (std::vector<std::string>{
+        "t.rib:1:13: error: Surface: parameter \"Kx\" is not declared (use Declare or an inline declaration such as "
+        "\"uniform float Kx\")",
+        "t.rib:1:20: error: Surface: parameter \"Cs\" (varying color) expects a multiple of 3 values, got 2",
+        "t.rib:1:31: error: Surface: parameter \"Kd\" (uniform float) expects numbers, got string \"a\"",
+        "t.rib:1:40: error: Surface: parameter \"c\" (constant float) expects 1 value, got 2",
+        "t.rib:1:75: error: Surface: parameter \"Ks\" has no value"}));
+    ASSERT_EQ(p->rec.params.size(), 1u);
+    EXPECT_EQ(p->rec.params[0].size(), 1u);
+    EXPECT_EQ(p->rec.params[0].getFloat("Ka", 0), 0.25f);
+}
+
+TEST(Parser, HandlesMayBeIntegersOrStrings) {
+    auto p = parse("LightSource \"pointlight\" 3\nLightSource \"spotlight\" \"key\"\nLightSource \"x\" 1.5");
+    EXPECT_EQ(p->rec.log, (std::vector<std::string>{"LightSource pointlight 3", "LightSource spotlight key"}));
+    ASSERT_EQ(messages(p->diag).size(), 1u);
+    EXPECT_EQ(messages(p->diag)[0], "t.rib:3:17: error: LightSource: argument handle must be an integer or a "
+                                    "string, got number 1.5 (usage: LightSource name handle)");
+}
+
+TEST(Parser, MissingBracketResynchronises) {
+    auto p = parse("Sphere [1 -1 1 360\nTranslate 1 2 3\n] Translate 4 5 6");
+    EXPECT_EQ(messages(p->diag), (std::vector<std::string>{
+        "t.rib:1:8: error: Sphere: missing ']' to close this array",
+        "t.rib:3:1: error: Translate: unexpected ']' without a matching '['"}));
+    EXPECT_EQ(p->rec.log, (std::vector<std::string>{"Translate 4 5 6"}));
+}
+
+std::string gzipBytes(const std::string& text) {
+    z_stream zs{};
+    EXPECT_EQ(deflateInit2(&zs, 6, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY), Z_OK);
+    std::string out(deflateBound(&zs, text.size()) + 64, '\0');
+    zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(text.data()));
+    zs.avail_in = static_cast<uInt>(text.size());
+    zs.next_out = reinterpret_cast<Bytef*>(out.data());
+    zs.avail_out = static_cast<uInt>(out.size());
+    EXPECT_EQ(deflate(&zs, Z_FINISH), Z_STREAM_END);
+    out.resize(zs.total_out);
+    deflateEnd(&zs);
+    return out;
+}
+
+TEST(Parser, GzipRoundTrip) {
+    std::string text = "Translate 1 2 3\nSphere 1 -1 1 360 \"Cs\" [1 0 0]\n";
+    std::string gz = gzipBytes(text);
+    ASSERT_TRUE(isGzip(gz));
+    auto dir = std::filesystem::path(UMBRA_BINARY_DIR) / "test_ri_tmp";
+    std::filesystem::create_directories(dir);
+    std::string path = (dir / "scene.rib.gz").string();
+    std::ofstream(path, std::ios::binary) << gz;
+
+    Recorder fromGz, fromText;
+    Diagnostics diag;
+    diag.setRecord(true);
+    ASSERT_TRUE(parseFile(path, fromGz, diag));
+    ASSERT_TRUE(parseString(text, path, fromText, diag));
+    EXPECT_EQ(fromGz.log, fromText.log);
+    EXPECT_EQ(fromGz.log.at(1), "Sphere@" + path + ":2:1");
+
+    // Truncated: the error is reported and parsing fails.
+    std::string cut = gz.substr(0, gz.size() / 2);
+    Recorder none;
+    Diagnostics d2;
+    d2.setRecord(true);
+    d2.setSink([](const Diagnostic&) {});
+    EXPECT_FALSE(parseString(cut, "cut.rib", none, d2));
+    ASSERT_EQ(messages(d2).size(), 1u);
+    EXPECT_EQ(messages(d2)[0], "cut.rib: error: RIB: cannot decompress: gzip data is truncated");
+}
+
+TEST(Parser, MissingFileIsDetectable) {
+    Recorder r;
+    Diagnostics d;
+    d.setRecord(true);
+    d.setSink([](const Diagnostic&) {});
+    EXPECT_FALSE(parseFile("/nonexistent/dir/x.rib", r, d));
+    EXPECT_EQ(d.errorCount(), 1);
+}
+
+TEST(Parser, ReadArchiveBesideTheIncludingFile) {
+    auto dir = std::filesystem::path(UMBRA_BINARY_DIR) / "test_ri_tmp";
+    std::filesystem::create_directories(dir);
+    std::ofstream(dir / "inner.rib") << "Translate 7 8 9\n";
+    std::ofstream(dir / "self.rib") << "ReadArchive \"self.rib\"\n";
+    std::ofstream(dir / "outer.rib") << "ReadArchive \"inner.rib\"\nTranslate 1 1 1\n";
+    Recorder r;
+    Diagnostics d;
+    d.setRecord(true);
+    d.setSink([](const Diagnostic&) {});
+    EXPECT_TRUE(parseFile((dir / "outer.rib").string(), r, d));
+    EXPECT_EQ(r.log, (std::vector<std::string>{"ReadArchive", "Translate 7 8 9", "Translate 1 1 1"}));
+    Recorder r2;
+    EXPECT_FALSE(parseFile((dir / "self.rib").string(), r2, d));
+    ASSERT_GE(messages(d).size(), 1u);
+    EXPECT_NE(messages(d).back().find("ReadArchive: archives nested more than 32 deep"), std::string::npos);
+}
+
+TEST(Parser, MillionPolygonMeshParsesQuickly) {
+    // 1M quads on a 1000x1000 grid of points: about 30 MB of RIB text
+    // (a smaller grid in unoptimised, e.g. sanitizer, builds).
+#ifdef NDEBUG
+    const int n = 1000;
+#else
+    const int n = 250;
+#endif
+    std::string rib = "PointsPolygons [";
+    rib.reserve(40 << 20);
+    for (int i = 0; i < n * n; ++i) rib += "4 ";
+    rib += "] [";
+    for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x) {
+            int v = y * (n + 1) + x;
+            rib += fmt::format("{} {} {} {} ", v, v + 1, v + n + 2, v + n + 1);
+        }
+    rib += "] \"P\" [";
+    for (int y = 0; y <= n; ++y)
+        for (int x = 0; x <= n; ++x) rib += fmt::format("{} {} 0 ", x * 0.001, y * 0.001);
+    rib += "]\n";
+    Recorder r;
+    Diagnostics d;
+    auto t0 = std::chrono::steady_clock::now();
+    ASSERT_TRUE(parseString(rib, "big.rib", r, d));
+    [[maybe_unused]] double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    ASSERT_EQ(r.args.size(), 1u);
+    EXPECT_EQ(r.args[0].intArrays[1].size(), size_t(4 * n * n));
+    EXPECT_EQ(r.args[0].intArrays[1][4 * n * n - 1], (n - 1) * (n + 1) + (n - 1) + n + 1);
+    EXPECT_EQ(r.params[0].find("P")->count(), size_t((n + 1) * (n + 1)));
+#ifdef NDEBUG
+    EXPECT_LT(seconds, 3.0);
+#endif
+}
+
+}  // namespace
+}  // namespace umbra::ri

@@ -1,0 +1,278 @@
+#include "umbra/scene/builder.h"
+
+#include "umbra/ri/parser.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+namespace umbra::scene {
+namespace {
+
+struct Collect : SceneSink {
+    std::vector<WorldRecord> worlds;
+    std::vector<MakeRecord> makes;
+    std::vector<std::string> events;
+    void renderWorld(const WorldRecord& w) override {
+        worlds.push_back(w);
+        events.push_back("world");
+    }
+    void make(const MakeRecord& m) override {
+        makes.push_back(m);
+        events.push_back("make " + m.request);
+    }
+    void frameBegin(int n, const FileLoc&) override { events.push_back(fmt::format("frame {}", n)); }
+    void frameEnd(const FileLoc&) override { events.push_back("frameEnd"); }
+};
+
+struct Session {
+    Collect sink;
+    Diagnostics diag;
+    std::unique_ptr<Builder> builder;
+    std::vector<std::string> messages() const {
+        std::vector<std::string> out;
+        for (auto& d : diag.recorded()) out.push_back(d.str());
+        return out;
+    }
+};
+
+std::unique_ptr<Session> run(std::string_view rib, const std::string& dir = {}) {
+    auto r = std::make_unique<Session>();
+    r->diag.setRecord(true);
+    r->diag.setSink([](const Diagnostic&) {});
+    r->builder = std::make_unique<Builder>(r->sink, r->diag);
+    ri::Parser p(*r->builder, r->diag);
+    p.parseString(rib, "s.rib", dir);
+    return r;
+}
+
+void expectNear(const Vec3& a, const Vec3& b) {
+    EXPECT_NEAR(a.x, b.x, 1e-5f);
+    EXPECT_NEAR(a.y, b.y, 1e-5f);
+    EXPECT_NEAR(a.z, b.z, 1e-5f);
+}
+
+TEST(Builder, TranslateThenRotateAppliesRotateFirst) {
+    auto r = run("WorldBegin Translate 1 0 0 Rotate 90 0 0 1 Sphere 1 -1 1 360 WorldEnd");
+    ASSERT_EQ(r->sink.worlds.size(), 1u);
+    const PrimitiveRecord& p = r->sink.worlds[0].primitives.at(0);
+    // Rotate (1,0,0) by 90 degrees about z to (0,1,0), then translate by x.
+    expectNear(p.worldFromObject.point({1, 0, 0}), {1, 1, 0});
+    expectNear(p.worldFromObject.point({0, 0, 2}), {1, 0, 2});
+    EXPECT_EQ(p.floatArgs, (std::vector<float>{1, -1, 1, 360}));
+}
+
+TEST(Builder, CameraTransformAndProjection) {
+    auto r = run("Projection \"perspective\" \"fov\" 40\nScale 1 1 -1\nTranslate 0 0 5\n"
+                 "ConcatTransform [1 0 0 0  0 1 0 0  0 0 1 0  0 2 0 1]\nWorldBegin WorldEnd");
+    ASSERT_EQ(r->sink.worlds.size(), 1u);
+    const Options& o = r->sink.worlds[0].options;
+    EXPECT_EQ(o.projection, Projection::Perspective);
+    EXPECT_EQ(o.fov, 40.0f);
+    // World origin: translated by (0,2,0) (the RIB row-vector matrix), then
+    // (0,0,5), then z mirrored.
+    expectNear(o.cameraFromWorld.point({0, 0, 0}), {0, 2, -5});
+    expectNear(r->sink.worlds[0].coordinateSystems.at("camera").point({0, 2, -5}), {0, 0, 0});
+}
+
+TEST(Builder, AttributeAndTransformScoping) {
+    auto r = run("WorldBegin\nColor 1 0 0\nAttributeBegin Color 0 1 0 Translate 1 0 0 Sphere 1 -1 1 360 AttributeEnd\n"
+                 "TransformBegin Color 0 0 1 Translate 0 1 0 Sphere 1 -1 1 360 TransformEnd\n"
+                 "Sphere 1 -1 1 360 WorldEnd");
+    const auto& prims = r->sink.worlds.at(0).primitives;
+    ASSERT_EQ(prims.size(), 3u);
+    EXPECT_EQ(prims[0].attributes->color, Color(0, 1, 0));
+    expectNear(prims[0].worldFromObject.point({}), {1, 0, 0});
+    EXPECT_EQ(prims[1].attributes->color, Color(0, 0, 1));
+    expectNear(prims[1].worldFromObject.point({}), {0, 1, 0});
+    // TransformEnd restores only the transform.
+    EXPECT_EQ(prims[2].attributes->color, Color(0, 0, 1));
+    expectNear(prims[2].worldFromObject.point({}), {0, 0, 0});
+    // Unchanged attributes are shared, not copied.
+    EXPECT_EQ(prims[1].attributes.get(), prims[2].attributes.get());
+    EXPECT_TRUE(r->messages().empty());
+}
+
+TEST(Builder, UnbalancedBlocksAreReported) {
+    auto r = run("WorldBegin AttributeBegin TransformBegin AttributeEnd TransformEnd AttributeEnd AttributeEnd WorldEnd");
+    EXPECT_EQ(r->messages(), (std::vector<std::string>{
+        "s.rib:1:42: error: AttributeEnd: expected TransformEnd first, to close the TransformBegin at s.rib:1:27 "
+        "(ignored)",
+        "s.rib:1:81: error: AttributeEnd: no matching AttributeBegin (ignored)"}));
+    EXPECT_EQ(r->sink.worlds.size(), 1u);
+}
+
+TEST(Builder, InstancesComposeTheInstanceTransform) {
+    auto r = run("WorldBegin\nTranslate 0 0 3\nObjectBegin \"thing\" Translate 0 1 0 Sphere 1 -1 1 360 ObjectEnd\n"
+                 "Identity Translate 5 0 0 ObjectInstance \"thing\"\nRotate 90 0 0 1 ObjectInstance \"thing\"\n"
+                 "ObjectInstance \"nothing\" WorldEnd");
+    const auto& prims = r->sink.worlds.at(0).primitives;
+    ASSERT_EQ(prims.size(), 2u);
+    expectNear(prims[0].worldFromObject.point({0, 0, 0}), {5, 1, 0});
+    // Rotation about z maps the object's (0,1,0) offset to (-1,0,0).
+    expectNear(prims[1].worldFromObject.point({0, 0, 0}), {4, 0, 0});
+    EXPECT_EQ(r->messages(), (std::vector<std::string>{
+        "s.rib:6:1: error: ObjectInstance: unknown object \"nothing\" (expected the handle of an ObjectBegin)"}));
+}
+
+TEST(Builder, LightsAndIlluminate) {
+    auto r = run("WorldBegin LightSource \"pointlight\" 1 \"intensity\" 2\nLightSource \"distantlight\" \"sun\"\n"
+                 "AttributeBegin Illuminate 1 0 Sphere 1 -1 1 360 AttributeEnd\n"
+                 "Sphere 1 -1 1 360\nIlluminate \"sun\" 0 Illuminate \"sun\" 1 Illuminate \"sun\" 1 Disk 0 1 360\n"
+                 "Illuminate 9 1 WorldEnd");
+    const WorldRecord& w = r->sink.worlds.at(0);
+    ASSERT_EQ(w.lights.size(), 2u);
+    EXPECT_EQ(w.lights[0].shader.name, "pointlight");
+    EXPECT_EQ(w.lights[0].handle, "1");
+    EXPECT_EQ(w.lights[0].shader.params.getFloat("intensity", 0), 2.0f);
+    EXPECT_EQ(w.lights[1].handle, "sun");
+    EXPECT_EQ(w.primitives.at(0).attributes->lights, (std::vector<int>{1}));
+    EXPECT_EQ(w.primitives.at(1).attributes->lights, (std::vector<int>{0, 1}));
+    EXPECT_EQ(w.primitives.at(2).attributes->lights, (std::vector<int>{0, 1}));
+    EXPECT_EQ(r->messages(), (std::vector<std::string>{
+        "s.rib:6:1: error: Illuminate: unknown light handle \"9\" (expected the handle of a LightSource)"}));
+}
+
+TEST(Builder, FrameEndRestoresOptions) {
+    auto r = run("Format 100 50 1\nFrameBegin 7 Format 320 240 1 Display \"a.tif\" \"tiff\" \"rgba\"\n"
+                 "Display \"+a.z\" \"zfile\" \"z\" WorldBegin WorldEnd FrameEnd\nFrameBegin 8 WorldBegin WorldEnd FrameEnd");
+    ASSERT_EQ(r->sink.worlds.size(), 2u);
+    const Options& o7 = r->sink.worlds[0].options;
+    EXPECT_EQ(r->sink.worlds[0].frameNumber, 7);
+    EXPECT_EQ(o7.xResolution, 320);
+    ASSERT_EQ(o7.displays.size(), 2u);
+    EXPECT_EQ(o7.displays[1].name, "a.z");
+    EXPECT_EQ(o7.displays[1].mode, "z");
+    const Options& o8 = r->sink.worlds[1].options;
+    EXPECT_EQ(o8.xResolution, 100);
+    EXPECT_TRUE(o8.displays.empty());
+    EXPECT_EQ(r->sink.events,
+              (std::vector<std::string>{"frame 7", "world", "frameEnd", "frame 8", "world", "frameEnd"}));
+}
+
+TEST(Builder, SearchPathsExpandAmpersandAndAt) {
+    auto r = std::make_unique<Session>();
+    r->builder = std::make_unique<Builder>(r->sink, r->diag);
+    r->builder->setDefaultSearchPath("shader", "/usr/share/umbra/shaders");
+    ri::Parser p(*r->builder, r->diag);
+    p.parseString("Option \"searchpath\" \"shader\" \"/a:/b\"\nOption \"searchpath\" \"shader\" \"/c:&:@\"\n"
+                  "Option \"searchpath\" \"archive\" \"/x::/y\"", "s.rib");
+    EXPECT_EQ(r->builder->options().searchPaths.at("shader"), "/c:/a:/b:/usr/share/umbra/shaders");
+    EXPECT_EQ(r->builder->archiveSearchPath(), (std::vector<std::string>{"/x", "/y"}));
+}
+
+TEST(Builder, ReadArchiveUsesTheArchiveSearchPath) {
+    auto dir = std::filesystem::path(UMBRA_BINARY_DIR) / "test_scene_tmp" / "lib";
+    std::filesystem::create_directories(dir);
+    std::ofstream(dir / "ball.rib") << "Sphere 2 -2 2 360\n";
+    auto r = run(fmt::format("Option \"searchpath\" \"archive\" \"{}\"\nWorldBegin ReadArchive \"ball.rib\" WorldEnd",
+                             dir.string()));
+    ASSERT_EQ(r->sink.worlds.size(), 1u);
+    ASSERT_EQ(r->sink.worlds[0].primitives.size(), 1u);
+    EXPECT_EQ(r->sink.worlds[0].primitives[0].floatArgs[0], 2.0f);
+    EXPECT_EQ(r->sink.worlds[0].primitives[0].loc.str(), (dir / "ball.rib").string() + ":1:1");
+}
+
+TEST(Builder, OrientationAgainstHandedness) {
+    auto r = run("WorldBegin Sphere 1 -1 1 360\nAttributeBegin Scale -1 1 1 Sphere 1 -1 1 360 AttributeEnd\n"
+                 "AttributeBegin ReverseOrientation Sphere 1 -1 1 360 AttributeEnd\n"
+                 "AttributeBegin Scale -1 1 1 Orientation \"outside\" Sphere 1 -1 1 360 AttributeEnd\n"
+                 "AttributeBegin Orientation \"rh\" Sphere 1 -1 1 360 AttributeEnd\n"
+                 "AttributeBegin Orientation \"inside\" Sphere 1 -1 1 360 AttributeEnd WorldEnd");
+    const auto& p = r->sink.worlds.at(0).primitives;
+    ASSERT_EQ(p.size(), 6u);
+    EXPECT_FALSE(p[0].attributes->outsideIsLeft);
+    EXPECT_TRUE(p[1].attributes->outsideIsLeft);   // mirrored after the orientation was set
+    EXPECT_TRUE(p[2].attributes->outsideIsLeft);
+    EXPECT_FALSE(p[3].attributes->outsideIsLeft);  // "outside" re-matches the mirrored space
+    EXPECT_TRUE(p[4].attributes->outsideIsLeft);   // rh in a left-handed world
+    EXPECT_TRUE(p[5].attributes->outsideIsLeft);
+}
+
+TEST(Builder, OptionsAttributesAndBasis) {
+    auto r = run("PixelSamples 3 2.5 PixelFilter \"catmull-rom\" 3 3 Exposure 2 2.2 Quantize \"z\" 0 0 0 0\n"
+                 "Hider \"hidden\" \"jitter\" [0] \"depthfilter\" \"midpoint\"\n"
+                 "Option \"limits\" \"bucketsize\" [32 8] \"gridsize\" 64 Option \"statistics\" \"endofframe\" 1\n"
+                 "Option \"user\" \"float quality\" 3\nWorldBegin\n"
+                 "Basis \"b-spline\" 1 [1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16] 2\n"
+                 "Attribute \"displacementbound\" \"sphere\" 0.5 \"coordinatesystem\" \"shader\"\n"
+                 "Attribute \"identifier\" \"name\" \"ball\" Attribute \"visibility\" \"transmission\" 0\n"
+                 "Attribute \"user\" \"color tint\" [1 2 3]\nSurface \"plastic\" \"Kd\" 0.3 Sides 1 ShadingRate 4\n"
+                 "Polygon \"P\" [0 0 0 1 0 0 1 1 0] WorldEnd");
+    EXPECT_TRUE(r->messages().empty()) << fmt::format("{}", fmt::join(r->messages(), "\n"));
+    const WorldRecord& w = r->sink.worlds.at(0);
+    const Options& o = w.options;
+    EXPECT_EQ(o.pixelSamples[0], 3);
+    EXPECT_EQ(o.pixelSamples[1], 3);
+    EXPECT_EQ(o.pixelFilter, "catmull-rom");
+    EXPECT_EQ(o.exposureGamma, 2.2f);
+    EXPECT_FALSE(o.jitter);
+    EXPECT_EQ(o.depthFilter, "midpoint");
+    EXPECT_EQ(o.bucketSize[0], 32);
+    EXPECT_EQ(o.bucketSize[1], 8);
+    EXPECT_EQ(o.gridSize, 64);
+    EXPECT_TRUE(o.statisticsEndOfFrame);
+    EXPECT_EQ(o.user.at("user:quality").floats, (std::vector<float>{3}));
+    const Attributes& a = *w.primitives.at(0).attributes;
+    EXPECT_EQ(a.uBasis.m[2][1], Basis::bspline().m[2][1]);
+    EXPECT_EQ(a.uBasis.step, 1);
+    EXPECT_EQ(a.vBasis.m[1][2], 7.0f);  // row 1, column 2 of the matrix as written
+    EXPECT_EQ(a.vBasis.step, 2);
+    EXPECT_EQ(a.displacementBound, 0.5f);
+    EXPECT_EQ(a.displacementBoundSpace, "shader");
+    EXPECT_EQ(a.name, "ball");
+    EXPECT_FALSE(a.castsShadows);
+    EXPECT_EQ(a.user.at("user:tint").floats, (std::vector<float>{1, 2, 3}));
+    ASSERT_TRUE(a.surface);
+    EXPECT_EQ(a.surface->params.getFloat("Kd", 0), 0.3f);
+    EXPECT_EQ(a.sides, 1);
+    EXPECT_EQ(a.shadingRate, 4.0f);
+}
+
+TEST(Builder, SkewTurnsTheFirstVectorTowardsTheSecond) {
+    auto r = run("WorldBegin Skew 45 1 0 0 0 1 0 Sphere 1 -1 1 360 WorldEnd");
+    const Mat4& m = r->sink.worlds.at(0).primitives.at(0).worldFromObject;
+    expectNear(m.point({1, 0, 0}), {1, 1, 0});
+    expectNear(m.point({0, 1, 0}), {0, 1, 0});
+    expectNear(m.point({0, 0, 1}), {0, 0, 1});
+}
+
+TEST(Builder, MakeRecordsInRequestOrder) {
+    auto r = run("MakeTexture \"a.tif\" \"a.tx\" \"periodic\" \"clamp\" \"gaussian\" 2 2\n"
+                 "MakeShadow \"d.z\" \"d.shd\" WorldBegin WorldEnd\n"
+                 "MakeCubeFaceEnvironment \"px\" \"nx\" \"py\" \"ny\" \"pz\" \"nz\" \"e.env\" 95 \"box\" 1 1");
+    EXPECT_EQ(r->sink.events, (std::vector<std::string>{"make MakeTexture", "make MakeShadow", "world",
+                                                         "make MakeCubeFaceEnvironment"}));
+    EXPECT_EQ(r->sink.makes[0].stringArgs, (std::vector<std::string>{"periodic", "clamp", "gaussian"}));
+    EXPECT_EQ(r->sink.makes[2].inputs.size(), 6u);
+    EXPECT_EQ(r->sink.makes[2].floatArgs, (std::vector<float>{95, 1, 1}));
+}
+
+TEST(Builder, CoordinateSystems) {
+    auto r = run("Translate 0 0 10 CoordinateSystem \"cam10\" WorldBegin Translate 1 0 0 CoordinateSystem \"here\"\n"
+                 "Identity CoordSysTransform \"here\" Sphere 1 -1 1 360 CoordSysTransform \"cam10\" Disk 0 1 360 "
+                 "CoordSysTransform \"nowhere\" WorldEnd");
+    const WorldRecord& w = r->sink.worlds.at(0);
+    expectNear(w.coordinateSystems.at("here").point({}), {1, 0, 0});
+    expectNear(w.primitives.at(0).worldFromObject.point({}), {1, 0, 0});
+    // cam10 was named before WorldBegin where the camera transform was the same.
+    expectNear(w.primitives.at(1).worldFromObject.point({}), {0, 0, 0});
+    ASSERT_EQ(r->messages().size(), 1u);
+}
+
+TEST(Builder, UnsupportedRequestsWarnOnce) {
+    auto r = run("WorldBegin MotionBegin [0 1] Translate 1 0 0 Translate 2 0 0 MotionEnd\n"
+                 "MotionBegin [0 1] Translate 0 1 0 Translate 0 2 0 MotionEnd Sphere 1 -1 1 360\n"
+                 "Points \"P\" [0 0 0] Points \"P\" [0 0 0] WorldEnd");
+    EXPECT_EQ(r->messages(), (std::vector<std::string>{
+        "s.rib:1:12: warning: MotionBegin: motion blur is not supported; only the first request of each motion "
+        "block is used",
+        "s.rib:3:1: warning: Points: not supported by the renderer (parsed and skipped)"}));
+    const auto& p = r->sink.worlds.at(0).primitives;
+    ASSERT_EQ(p.size(), 1u);
+    expectNear(p[0].worldFromObject.point({}), {1, 1, 0});
+}
+
+}  // namespace
+}  // namespace umbra::scene
