@@ -758,6 +758,31 @@ private:
         return true;
     }
 
+    /// Requests whose parameters are a shader's: undeclared names there are
+    /// the shader's own parameters, typed by its declarations when bound.
+    static bool isShaderRequest(std::string_view request) {
+        return request == "Surface" || request == "Displacement" || request == "Atmosphere" ||
+               request == "Interior" || request == "Exterior" || request == "LightSource" ||
+               request == "AreaLightSource" || request == "Imager";
+    }
+
+    /// A declaration from the values alone: strings are `uniform string`,
+    /// numbers `uniform float` (one element per number).
+    static bool inferDeclaration(const std::string& name, const Value& v, ParamDecl* out) {
+        if (name.empty() || name.find_first_of(" \t") != std::string::npos) return false;
+        out->name = name;
+        out->storage = StorageClass::Uniform;
+        out->arraySize = 1;
+        out->inferred = true;
+        if (v.kind == Value::String || v.kind == Value::StrArray)
+            out->type = ParamType::String;
+        else if (v.kind == Value::Number || v.kind == Value::NumArray)
+            out->type = ParamType::Float;
+        else
+            return false;
+        return true;
+    }
+
     // params: ( "name" value )*
     void buildParams(std::string_view request, size_t first, ParamList& params) {
         const Declarations& decls = m_parser.m_decls;
@@ -778,8 +803,10 @@ private:
             Param p;
             std::string why;
             if (!decls.resolve(nameValue.str, &p.decl, &why)) {
-                error(nameValue.line, nameValue.column, request, "{}", why);
-                continue;
+                if (!isShaderRequest(request) || !inferDeclaration(nameValue.str, v, &p.decl)) {
+                    error(nameValue.line, nameValue.column, request, "{}", why);
+                    continue;
+                }
             }
             p.loc = loc(nameValue.line, nameValue.column);
             if (convert(request, nameValue, v, p)) params.add(std::move(p));

@@ -34,6 +34,11 @@ struct ParamDecl {
     StorageClass storage = StorageClass::Uniform;
     ParamType type = ParamType::Float;
     int arraySize = 1;  // `float[4]` has 4; plain has 1
+    /// True for a shader parameter the RIB never declared: its type was
+    /// inferred from its values (strings, or floats) and the shader's own
+    /// declaration decides how it binds (RenderMan reads the shader's
+    /// declarations for shader requests).
+    bool inferred = false;
 
     /// Floats (or ints/strings) per element, array size included.
     int elementSize() const { return componentsOf(type) * arraySize; }

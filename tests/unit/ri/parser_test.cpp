@@ -107,17 +107,35 @@ TEST(Parser, DeclarationsInlineAndDeclared) {
 }
 
 TEST(Parser, ParameterErrorsDropOnlyTheParameter) {
-    auto p = parse("Surface \"s\" \"Kx\" 1 \"Cs\" [1 0] \"Kd\" \"a\" \"constant float c\" [1 2] \"Ka\" 0.25 \"Ks\"");
+    auto p = parse("Surface \"s\" \"Cs\" [1 0] \"Kd\" \"a\" \"constant float c\" [1 2] \"Ka\" 0.25 \"Ks\"");
     EXPECT_EQ(messages(p->diag), (std::vector<std::string>{
-        "t.rib:1:13: error: Surface: parameter \"Kx\" is not declared (use Declare or an inline declaration such as "
-        "\"uniform float Kx\")",
-        "t.rib:1:20: error: Surface: parameter \"Cs\" (varying color) expects a multiple of 3 values, got 2",
-        "t.rib:1:31: error: Surface: parameter \"Kd\" (uniform float) expects numbers, got string \"a\"",
-        "t.rib:1:40: error: Surface: parameter \"c\" (constant float) expects 1 value, got 2",
-        "t.rib:1:75: error: Surface: parameter \"Ks\" has no value"}));
+        "t.rib:1:13: error: Surface: parameter \"Cs\" (varying color) expects a multiple of 3 values, got 2",
+        "t.rib:1:24: error: Surface: parameter \"Kd\" (uniform float) expects numbers, got string \"a\"",
+        "t.rib:1:33: error: Surface: parameter \"c\" (constant float) expects 1 value, got 2",
+        "t.rib:1:68: error: Surface: parameter \"Ks\" has no value"}));
     ASSERT_EQ(p->rec.params.size(), 1u);
     EXPECT_EQ(p->rec.params[0].size(), 1u);
     EXPECT_EQ(p->rec.params[0].getFloat("Ka", 0), 0.25f);
+}
+
+TEST(Parser, UndeclaredShaderParametersAreTypedByTheirValues) {
+    // RenderMan types a shader request's own parameters from the shader's
+    // declarations; the parser keeps them with an inferred type.
+    auto p = parse("Surface \"s\" \"Kx\" 1 \"tint\" [1 0.5 0] \"map\" \"a.tx\"");
+    EXPECT_TRUE(messages(p->diag).empty());
+    ASSERT_EQ(p->rec.params.size(), 1u);
+    const ParamList& l = p->rec.params[0];
+    ASSERT_EQ(l.size(), 3u);
+    EXPECT_TRUE(l.params()[0].decl.inferred);
+    EXPECT_EQ(l.params()[1].floats, (std::vector<float>{1, 0.5f, 0}));
+    EXPECT_EQ(l.params()[2].decl.type, ParamType::String);
+}
+
+TEST(Parser, UndeclaredGeometryParameterIsAnError) {
+    auto p = parse("Sphere 1 -1 1 360 \"Kx\" 1");
+    EXPECT_EQ(messages(p->diag), (std::vector<std::string>{
+        "t.rib:1:19: error: Sphere: parameter \"Kx\" is not declared (use Declare or an inline declaration such as "
+        "\"uniform float Kx\")"}));
 }
 
 TEST(Parser, HandlesMayBeIntegersOrStrings) {
