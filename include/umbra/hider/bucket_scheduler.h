@@ -1,0 +1,112 @@
+#pragma once
+// The bucket scheduler: the REYES loop, bucket by bucket, on every core.
+//
+// The image is cut into *buckets* (16x16 pixels by default). Each bucket
+// is one TBB task that samples everything that covers it into its own
+// SampleBuffer and filters its pixels into the film. A primitive is
+// processed (split or diced and shaded) when the first bucket it touches is
+// rendered, once, and the result is shared with every other bucket it
+// covers:
+//
+//   Node (a primitive, or a piece of one after splitting)
+//     resolve() once:  cull | split -> child Nodes | dice+shade -> ShadedGrid
+//     visitsLeft:      how many buckets still have to visit it; the last
+//                      visitor frees its grid or children, so memory is
+//                      bounded by the buckets in flight, not the frame.
+//
+// Buckets sample their pixels plus a margin as wide as the pixel filter's
+// radius, recomputing the margin samples their neighbours also take (the
+// sample positions depend only on the global pixel), so filtering needs no
+// data from other buckets and the image has no seams. Together with
+// identities for every node (from the primitive index and the split path)
+// this makes images independent of thread count and bucket order.
+
+#include "umbra/film/film.h"
+#include "umbra/geometry/primitive.h"
+#include "umbra/hider/sample_buffer.h"
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <vector>
+
+namespace umbra::hider {
+
+/// A diced, shaded grid in raster space, ready to be sampled.
+struct ShadedGrid {
+    int nu = 0, nv = 0;
+    std::vector<Vec3> P;      // raster x, raster y (pixels, y down), camera-space z
+    std::vector<Color> Ci, Oi;
+    std::vector<float> aov;   // aovFloats per vertex
+    int aovFloats = 0;
+    bool matte = false;
+    uint64_t id = 0;
+    Bound3 bound;             // of P
+
+    MicroGrid view() const;
+};
+
+/// Counters of one render (summed over threads at the end).
+struct SchedulerStats {
+    uint64_t primitives = 0;       // top-level primitives given
+    uint64_t culled = 0;           // nodes culled by view/clipping/eye split
+    uint64_t occlusionCulled = 0;  // node visits skipped behind opaque samples
+    uint64_t splits = 0;
+    uint64_t grids = 0;
+    uint64_t micropolygons = 0;
+    uint64_t buckets = 0;
+    uint64_t peakGridsAlive = 0;   // most shaded grids held at once
+    void add(const SchedulerStats& o);
+};
+
+/// The renderer's side of the loop: how to bound, plan and shade a piece of
+/// geometry for this pass (camera or depth).
+class GeometryPipeline {
+public:
+    enum class Action { Cull, Split, Dice };
+    struct Plan {
+        Action action = Action::Cull;
+        bool splitU = true;    // Split: cut across u (else v)
+        bool eyeSplit = false; // Split: because the piece straddles the eye plane
+        int nu = 0, nv = 0;    // Dice: micropolygons along u and v
+    };
+    virtual ~GeometryPipeline() = default;
+    /// Raster bound of the piece: x, y in pixels, z camera depth; an empty
+    /// bound culls it. Must contain everything shade() can produce.
+    virtual Bound3 rasterBound(const geometry::Primitive& prim) = 0;
+    /// Cull, split, or dice at which rate. `eyeSplits` counts the splits so
+    /// far caused by the eye plane.
+    virtual Plan plan(const geometry::Primitive& prim, int eyeSplits) = 0;
+    /// Dices at nu x nv, displaces and shades, and fills `out` in raster
+    /// space. Returns false when nothing of it can be seen (e.g. all back
+    /// facing). Called concurrently from many threads.
+    virtual bool shade(const geometry::Primitive& prim, int nu, int nv, uint64_t id, ShadedGrid& out) = 0;
+};
+
+/// Settings of one pass.
+struct SchedulerSettings {
+    int bucketSize[2] = {16, 16};
+    int threads = 0;              // 0: all cores
+    /// Pixel samples, jitter, mode, seed, AOVs, clipping; the scheduler
+    /// fills in each bucket's rectangle and the margin.
+    SampleBufferConfig sampling;
+    int filterMargin = 1;         // pixels sampled around each bucket (ceil of filter radius)
+    int maxEyeSplits = 10;
+    /// Called after each bucket with (done, total); from worker threads.
+    std::function<void(int, int)> progress;
+};
+
+/// Renders a list of primitives into a film, bucket by bucket.
+class BucketScheduler {
+public:
+    BucketScheduler(const SchedulerSettings& settings, GeometryPipeline& pipeline);
+    /// Renders `prims` into `film` (its crop region); returns the counters.
+    SchedulerStats render(const std::vector<geometry::PrimitivePtr>& prims, film::Film& film);
+
+private:
+    SchedulerSettings m_settings;
+    GeometryPipeline& m_pipeline;
+};
+
+}  // namespace umbra::hider

@@ -1,0 +1,72 @@
+// The `umbra` command: render RIB files, compile shaders, inspect depth maps.
+//
+//   umbra render SCENE.rib [MORE.rib ...] [--threads N] [--progress]
+//                [--stats FILE.json] [--bucket-size N] [--quiet] [--no-shadows]
+//   umbra SCENE.rib ...                      (same as `umbra render`)
+//   umbra slc [--listing] FILE.sl ...        (compile shaders, report errors)
+//   umbra info [--json] MAP                  (depth-map storage figures)
+
+#include "umbra/render/renderer.h"
+#include "umbra/util/error.h"
+
+#include "apps/commands.h"
+
+#include <CLI/CLI.hpp>
+
+#include <cstring>
+#include <string>
+#include <vector>
+
+int main(int argc, char** argv) {
+    // `umbra scene.rib` is `umbra render scene.rib`.
+    std::vector<std::string> args(argv, argv + argc);
+    static const char* kCommands[] = {"render", "slc", "info", "-h", "--help", "--version"};
+    bool hasCommand = false;
+    if (args.size() > 1)
+        for (const char* c : kCommands) hasCommand |= args[1] == c;
+    if (args.size() > 1 && !hasCommand) args.insert(args.begin() + 1, "render");
+
+    CLI::App app{"umbra: a REYES renderer with depth-map shadows"};
+    app.set_version_flag("--version", "umbra 0.1.0");
+    app.require_subcommand(1);
+
+    umbra::render::RenderSettings settings;
+    std::vector<std::string> ribFiles;
+    std::string statsPath;
+    auto* render = app.add_subcommand("render", "Render RIB files (ASCII or gzip-compressed)");
+    render->add_option("files", ribFiles, "RIB files, rendered in order")->required();
+    render->add_option("--threads", settings.threads, "Worker threads (default: all cores)")->check(CLI::NonNegativeNumber);
+    render->add_flag("--progress", settings.progress, "Show progress: buckets done, elapsed, ETA");
+    render->add_option("--stats", statsPath, "Write statistics of the run as JSON");
+    render->add_option("--bucket-size", settings.bucketSize, "Bucket size in pixels (default 16)")->check(CLI::Range(1, 4096));
+    render->add_flag("--quiet", settings.quiet, "Print errors only");
+    render->add_flag("--no-shadows", settings.noShadows, "Turn every depth pass and shadow() lookup off");
+    render->add_flag("--skip-existing", settings.skipExisting, "Do not re-render frames whose outputs exist");
+
+    std::vector<std::string> slcFiles;
+    bool listing = false;
+    auto* slc = app.add_subcommand("slc", "Compile shading-language shaders and report errors");
+    slc->add_option("files", slcFiles, "Shader sources (.sl)")->required();
+    slc->add_flag("--listing", listing, "Print the bytecode listing");
+
+    std::string mapPath;
+    bool json = false;
+    auto* info = app.add_subcommand("info", "Describe a depth map: resolution, bounds, tiles, storage");
+    info->add_option("map", mapPath, "Depth map (.shd / .exr)")->required();
+    info->add_flag("--json", json, "Print JSON");
+
+    std::vector<char*> cargs;
+    for (auto& a : args) cargs.push_back(a.data());
+    try {
+        app.parse(int(cargs.size()), cargs.data());
+    } catch (const CLI::ParseError& e) {
+        return app.exit(e);
+    }
+
+    umbra::Diagnostics diag;
+    diag.setQuiet(settings.quiet);
+    if (*render) return umbra::render::renderFiles(ribFiles, settings, statsPath, diag);
+    if (*slc) return umbra::apps::compileShaders(slcFiles, listing, diag);
+    if (*info) return umbra::apps::describeMap(mapPath, json, diag);
+    return 1;
+}

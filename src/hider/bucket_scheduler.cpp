@@ -1,0 +1,245 @@
+#include "umbra/hider/bucket_scheduler.h"
+
+#include "umbra/util/rng.h"
+
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <cmath>
+#include <mutex>
+
+namespace umbra::hider {
+
+MicroGrid ShadedGrid::view() const {
+    MicroGrid g;
+    g.nu = nu;
+    g.nv = nv;
+    g.P = P.data();
+    g.Ci = Ci.data();
+    g.Oi = Oi.data();
+    g.aov = aov.empty() ? nullptr : aov.data();
+    g.aovCount = aovFloats;
+    g.matte = matte;
+    g.id = id;
+    return g;
+}
+
+void SchedulerStats::add(const SchedulerStats& o) {
+    primitives += o.primitives;
+    culled += o.culled;
+    occlusionCulled += o.occlusionCulled;
+    splits += o.splits;
+    grids += o.grids;
+    micropolygons += o.micropolygons;
+    buckets += o.buckets;
+    peakGridsAlive = std::max(peakGridsAlive, o.peakGridsAlive);
+}
+
+namespace {
+
+/// A primitive or a piece of one, shared by every bucket it covers.
+struct Node {
+    const geometry::Primitive* prim = nullptr;
+    geometry::PrimitivePtr owned;  // pieces made by splitting own their primitive
+    uint64_t id = 0;
+    int eyeSplits = 0;
+    Bound3 bound;                  // raster x, y; camera z
+    int bx0 = 0, by0 = 0, bx1 = -1, by1 = -1;  // buckets covered, inclusive
+
+    enum class State { Culled, Split, Grid };
+    std::once_flag resolveOnce;
+    State state = State::Culled;
+    std::vector<std::unique_ptr<Node>> children;  // sorted near to far
+    std::unique_ptr<ShadedGrid> grid;
+    std::atomic<int> visitsLeft{0};
+
+    int bucketCount() const { return std::max(0, bx1 - bx0 + 1) * std::max(0, by1 - by0 + 1); }
+    bool covers(int bx, int by) const { return bx >= bx0 && bx <= bx1 && by >= by0 && by <= by1; }
+};
+
+/// The identity of the k-th piece of a split node: stable whatever the
+/// order of evaluation, so random numbers seeded from it are too.
+uint64_t childId(uint64_t parent, size_t k) {
+    uint32_t lo = hashKeys(uint32_t(parent), uint32_t(parent >> 32), uint32_t(k));
+    uint32_t hi = hashKeys(uint32_t(k), uint32_t(parent), 0x5bd1e995u);
+    return (uint64_t(hi) << 32) | lo;
+}
+
+bool nearerFirst(const Node* a, const Node* b) {
+    if (a->bound.min.z != b->bound.min.z) return a->bound.min.z < b->bound.min.z;
+    return a->id < b->id;
+}
+
+}  // namespace
+
+struct Frame {
+    const SchedulerSettings& settings;
+    GeometryPipeline& pipeline;
+    film::Film& film;
+    int bucketsX = 0, bucketsY = 0;
+    std::atomic<int64_t> gridsAlive{0};
+    std::atomic<uint64_t> peakGrids{0};
+
+    // Fills the node's bound and bucket range; false when it covers no bucket.
+    bool place(Node& node, const Node* parent) {
+        node.bound = pipeline.rasterBound(*node.prim);
+        if (node.bound.empty()) return false;
+        const int m = settings.filterMargin;
+        const int bw = settings.bucketSize[0], bh = settings.bucketSize[1];
+        auto lo = [](float v, int origin, int margin, int size) {
+            return int(std::floor((double(v) - margin - origin) / size));
+        };
+        node.bx0 = std::max(0, lo(node.bound.min.x, film.x0(), m, bw));
+        node.by0 = std::max(0, lo(node.bound.min.y, film.y0(), m, bh));
+        node.bx1 = std::min(bucketsX - 1, lo(node.bound.max.x, film.x0(), -m, bw));
+        node.by1 = std::min(bucketsY - 1, lo(node.bound.max.y, film.y0(), -m, bh));
+        if (parent) {  // only buckets that visit the parent can visit a piece
+            node.bx0 = std::max(node.bx0, parent->bx0);
+            node.by0 = std::max(node.by0, parent->by0);
+            node.bx1 = std::min(node.bx1, parent->bx1);
+            node.by1 = std::min(node.by1, parent->by1);
+        }
+        node.visitsLeft = node.bucketCount();
+        return node.bucketCount() > 0;
+    }
+
+    void resolve(Node& node, SchedulerStats& stats) {
+        GeometryPipeline::Plan plan = pipeline.plan(*node.prim, node.eyeSplits);
+        if (plan.action == GeometryPipeline::Action::Cull) {
+            ++stats.culled;
+            node.state = Node::State::Culled;
+            return;
+        }
+        if (plan.action == GeometryPipeline::Action::Split) {
+            ++stats.splits;
+            std::vector<geometry::PrimitivePtr> pieces;
+            node.prim->split(plan.splitU, pieces);
+            for (size_t k = 0; k < pieces.size(); ++k) {
+                auto child = std::make_unique<Node>();
+                child->owned = std::move(pieces[k]);
+                child->prim = child->owned.get();
+                child->id = childId(node.id, k);
+                child->eyeSplits = node.eyeSplits + (plan.eyeSplit ? 1 : 0);
+                if (place(*child, &node))
+                    node.children.push_back(std::move(child));
+                else
+                    ++stats.culled;
+            }
+            std::sort(node.children.begin(), node.children.end(),
+                      [](const auto& a, const auto& b) { return nearerFirst(a.get(), b.get()); });
+            node.state = Node::State::Split;
+            return;
+        }
+        auto grid = std::make_unique<ShadedGrid>();
+        if (!pipeline.shade(*node.prim, plan.nu, plan.nv, node.id, *grid)) {
+            ++stats.culled;
+            node.state = Node::State::Culled;
+            return;
+        }
+        ++stats.grids;
+        stats.micropolygons += uint64_t(grid->nu) * uint64_t(grid->nv);
+        int64_t alive = ++gridsAlive;
+        uint64_t peak = peakGrids.load();
+        while (uint64_t(alive) > peak && !peakGrids.compare_exchange_weak(peak, uint64_t(alive))) {
+        }
+        node.grid = std::move(grid);
+        node.state = Node::State::Grid;
+    }
+
+    void release(Node& node) {
+        if (node.grid) --gridsAlive;
+        node.grid.reset();
+        node.children.clear();
+        node.children.shrink_to_fit();
+    }
+
+    void visit(Node& node, int bx, int by, SampleBuffer& buffer, SchedulerStats& stats) {
+        if (buffer.occluded(node.bound)) {
+            ++stats.occlusionCulled;
+        } else {
+            std::call_once(node.resolveOnce, [&] { resolve(node, stats); });
+            if (node.state == Node::State::Grid) {
+                buffer.sample(node.grid->view());
+            } else if (node.state == Node::State::Split) {
+                for (auto& child : node.children)
+                    if (child->covers(bx, by)) visit(*child, bx, by, buffer, stats);
+            }
+        }
+        if (--node.visitsLeft == 0) release(node);
+    }
+};
+
+BucketScheduler::BucketScheduler(const SchedulerSettings& settings, GeometryPipeline& pipeline)
+    : m_settings(settings), m_pipeline(pipeline) {}
+
+SchedulerStats BucketScheduler::render(const std::vector<geometry::PrimitivePtr>& prims, film::Film& film) {
+    Frame frame{m_settings, m_pipeline, film};
+    const int bw = m_settings.bucketSize[0], bh = m_settings.bucketSize[1];
+    frame.bucketsX = (film.width() + bw - 1) / bw;
+    frame.bucketsY = (film.height() + bh - 1) / bh;
+    const int bucketCount = frame.bucketsX * frame.bucketsY;
+
+    SchedulerStats total;
+    total.primitives = prims.size();
+
+    // Top-level nodes and, per bucket, the nodes that cover it.
+    std::vector<std::unique_ptr<Node>> roots(prims.size());
+    int threads = m_settings.threads > 0 ? m_settings.threads : tbb::this_task_arena::max_concurrency();
+    tbb::task_arena arena(threads);
+    arena.execute([&] {
+        tbb::parallel_for(size_t(0), prims.size(), [&](size_t i) {
+            auto node = std::make_unique<Node>();
+            node->prim = prims[i].get();
+            node->id = uint64_t(i) + 1;
+            if (frame.place(*node, nullptr)) roots[i] = std::move(node);
+        });
+    });
+    std::vector<std::vector<Node*>> perBucket(size_t(std::max(bucketCount, 0)));
+    for (auto& node : roots) {
+        if (!node) {
+            ++total.culled;
+            continue;
+        }
+        for (int by = node->by0; by <= node->by1; ++by)
+            for (int bx = node->bx0; bx <= node->bx1; ++bx) perBucket[size_t(by * frame.bucketsX + bx)].push_back(node.get());
+    }
+
+    // Workers take buckets in scanline order, so the grids alive at any time
+    // are those of a band of buckets, not of the whole frame.
+    std::atomic<int> next{0}, done{0};
+    std::mutex statsMutex;
+    arena.execute([&] {
+        tbb::parallel_for(0, threads, [&](int) {
+            SampleBuffer buffer;
+            SchedulerStats stats;
+            for (int b; (b = next++) < bucketCount;) {
+                int bx = b % frame.bucketsX, by = b / frame.bucketsX;
+                int x0 = film.x0() + bx * bw, y0 = film.y0() + by * bh;
+                int x1 = std::min(x0 + bw, film.x1()), y1 = std::min(y0 + bh, film.y1());
+                SampleBufferConfig config = m_settings.sampling;
+                config.x0 = x0;
+                config.y0 = y0;
+                config.x1 = x1;
+                config.y1 = y1;
+                config.margin = m_settings.filterMargin;
+                buffer.reset(config);
+                auto& nodes = perBucket[size_t(b)];
+                std::sort(nodes.begin(), nodes.end(), nearerFirst);
+                for (Node* node : nodes) frame.visit(*node, bx, by, buffer, stats);
+                buffer.resolve(film);
+                ++stats.buckets;
+                int d = ++done;
+                if (m_settings.progress) m_settings.progress(d, bucketCount);
+            }
+            std::lock_guard<std::mutex> lock(statsMutex);
+            total.add(stats);
+        }, tbb::simple_partitioner());
+    });
+    total.peakGridsAlive = frame.peakGrids.load();
+    return total;
+}
+
+}  // namespace umbra::hider

@@ -1,0 +1,55 @@
+#pragma once
+// Internal to the render module: the state of one world being rendered,
+// prepared once before any bucket runs so that the per-grid path takes no
+// locks and makes no lookups by name.
+
+#include "umbra/geometry/primitive.h"
+#include "umbra/hider/bucket_scheduler.h"
+#include "umbra/hider/camera.h"
+#include "umbra/scene/scene.h"
+#include "umbra/shading/shading_system.h"
+
+#include <atomic>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace umbra::render {
+
+/// Shaders and flags of one Attributes object, resolved once per world.
+struct PreparedAttributes {
+    const scene::Attributes* attributes = nullptr;
+    std::shared_ptr<const shading::ShaderInstance> surface, displacement, atmosphere;
+    std::vector<const shading::ShaderInstance*> lights;
+};
+
+/// One render pass: the camera pass, or a light's depth pass.
+struct Pass {
+    std::string name;               // "camera" or "depth:<light handle>"
+    hider::Camera camera;
+    bool depthOnly = false;         // no surface/light shading; displacement still runs
+    bool cullLightFacing = false;   // depth pass: drop surfaces facing the light on solids (Sides 1)
+};
+
+/// Everything the per-grid code needs about the current world.
+struct FrameState {
+    const scene::WorldRecord* world = nullptr;
+    uint32_t frameSeed = 0;
+    shading::ShadingSystem* shading = nullptr;
+    std::map<const scene::Attributes*, PreparedAttributes> attributes;
+    std::vector<std::string> aovNames;  // film AOV channels in order
+    std::vector<int> aovComponents;
+    bool noShadows = false;
+    std::atomic<uint64_t> shadingNanoseconds{0};
+};
+
+/// The renderState a ShadingGrid carries to RendererServices.
+struct GridState {
+    const FrameState* frame = nullptr;
+    const Pass* pass = nullptr;
+    const scene::PrimitiveRecord* record = nullptr;
+    Mat4 cameraFromObject;
+};
+
+}  // namespace umbra::render

@@ -1,0 +1,31 @@
+#pragma once
+// `--progress`: a live bar with buckets done, elapsed time and ETA when
+// stderr is a terminal; plain lines every 10% otherwise (logs, farms).
+
+#include <atomic>
+#include <chrono>
+#include <mutex>
+#include <string>
+
+namespace umbra::render {
+
+class Progress {
+public:
+    Progress(bool enabled, std::string label);
+    /// Called from worker threads after each bucket.
+    void update(int done, int total);
+    /// Ends the bar's line.
+    void finish();
+
+private:
+    bool m_enabled;
+    bool m_terminal;
+    std::string m_label;
+    std::chrono::steady_clock::time_point m_start;
+    std::mutex m_mutex;
+    int m_lastDecile = -1;
+    double m_lastDraw = -1;
+    bool m_drawn = false;
+};
+
+}  // namespace umbra::render

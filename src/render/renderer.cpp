@@ -1,0 +1,334 @@
+#include "umbra/render/renderer.h"
+
+#include "render/frame.h"
+#include "render/progress.h"
+#include "render/services.h"
+#include "render/surface_pipeline.h"
+
+#include "umbra/film/film.h"
+#include "umbra/hider/bucket_scheduler.h"
+#include "umbra/ri/parser.h"
+#include "umbra/scene/builder.h"
+#include "umbra/shadow/depth_image.h"
+#include "umbra/util/rng.h"
+
+#include <fmt/chrono.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+
+namespace umbra::render {
+
+namespace {
+
+double cpuSeconds() {
+    timespec ts{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return double(ts.tv_sec) + double(ts.tv_nsec) * 1e-9;
+}
+
+double peakResidentMiB() {
+    rusage ru{};
+    getrusage(RUSAGE_SELF, &ru);
+    return double(ru.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB on Linux
+}
+
+/// Wall and CPU time of a stretch of work.
+struct Stopwatch {
+    std::chrono::steady_clock::time_point wall0 = std::chrono::steady_clock::now();
+    double cpu0 = cpuSeconds();
+    double wall() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count(); }
+    double cpu() const { return cpuSeconds() - cpu0; }
+};
+
+/// Directories of a RIB search path: ':'-separated, '&' is the previous
+/// (default) value, '@' the default.
+std::vector<std::string> splitSearchPath(const std::string& spec, const std::vector<std::string>& defaults) {
+    std::vector<std::string> out;
+    size_t start = 0;
+    while (start <= spec.size()) {
+        size_t end = spec.find(':', start);
+        if (end == std::string::npos) end = spec.size();
+        std::string item = spec.substr(start, end - start);
+        if (item == "&" || item == "@")
+            out.insert(out.end(), defaults.begin(), defaults.end());
+        else if (!item.empty())
+            out.push_back(item);
+        start = end + 1;
+    }
+    return out;
+}
+
+std::string nowDateTime() {
+    std::time_t t = std::time(nullptr);
+    std::tm tm{};
+    localtime_r(&t, &tm);
+    return fmt::format("{:%Y:%m:%d %H:%M:%S}", tm);
+}
+
+nlohmann::json schedulerJson(const hider::SchedulerStats& s) {
+    return {{"primitives", s.primitives}, {"culled", s.culled},     {"occlusion_culled", s.occlusionCulled},
+            {"splits", s.splits},         {"grids", s.grids},       {"micropolygons", s.micropolygons},
+            {"buckets", s.buckets},       {"peak_grids_alive", s.peakGridsAlive}};
+}
+
+}  // namespace
+
+struct Renderer::Impl {
+    RenderSettings settings;
+    Diagnostics& diag;
+    std::unique_ptr<shading::ShadingSystem> shading;
+    std::shared_ptr<TileCache> tileCache;
+    std::unique_ptr<MapCatalog> maps;
+    std::unique_ptr<Services> services;
+    nlohmann::json frames = nlohmann::json::array();
+
+    Impl(const RenderSettings& s, Diagnostics& d) : settings(s), diag(d) {
+        shading = std::make_unique<shading::ShadingSystem>(diag, settings.shaderPath);
+        tileCache = std::make_shared<TileCache>();
+        maps = std::make_unique<MapCatalog>(diag, tileCache);
+        services = std::make_unique<Services>(diag, *maps);
+    }
+
+    /// Resolves the shaders of every Attributes object primitives use.
+    void prepareAttributes(const scene::WorldRecord& world, const std::vector<geometry::PrimitivePtr>& prims,
+                           const std::vector<std::shared_ptr<const shading::ShaderInstance>>& lights,
+                           FrameState& frame) {
+        std::map<const scene::ShaderRecord*, std::shared_ptr<const shading::ShaderInstance>> instances;
+        auto instance = [&](const std::shared_ptr<const scene::ShaderRecord>& rec, shading::ShaderKind kind) {
+            if (!rec) return std::shared_ptr<const shading::ShaderInstance>();
+            auto it = instances.find(rec.get());
+            if (it != instances.end()) return it->second;
+            auto inst = shading->instantiate(*rec, kind);
+            instances[rec.get()] = inst;
+            return inst;
+        };
+        for (const auto& prim : prims) {
+            const scene::Attributes* a = prim->record().attributes.get();
+            if (frame.attributes.count(a)) continue;
+            PreparedAttributes pa;
+            pa.attributes = a;
+            pa.surface = instance(a->surface, shading::ShaderKind::Surface);
+            pa.displacement = instance(a->displacement, shading::ShaderKind::Displacement);
+            pa.atmosphere = instance(a->atmosphere, shading::ShaderKind::Volume);
+            for (int l : a->lights)
+                if (l >= 0 && size_t(l) < lights.size() && lights[size_t(l)]) pa.lights.push_back(lights[size_t(l)].get());
+            frame.attributes.emplace(a, std::move(pa));
+        }
+    }
+
+    void renderWorld(const scene::WorldRecord& world, int& failed);
+};
+
+Renderer::Renderer(const RenderSettings& settings, Diagnostics& diag)
+    : m_impl(std::make_unique<Impl>(settings, diag)) {}
+Renderer::~Renderer() = default;
+
+nlohmann::json Renderer::statistics() const {
+    return {{"umbra_version", "0.1.0"}, {"frames", m_impl->frames}};
+}
+
+void Renderer::renderWorld(const scene::WorldRecord& world) { m_impl->renderWorld(world, m_failed); }
+
+void Renderer::make(const scene::MakeRecord& make) {
+    Diagnostics& diag = m_impl->diag;
+    if (make.request == "MakeShadow") {
+        if (make.inputs.empty()) {
+            diag.error(make.loc, "MakeShadow: expected an input depth file and an output map name");
+            ++m_failed;
+            return;
+        }
+        if (!makeShadow(make.inputs[0], make.output, diag, make.loc)) ++m_failed;
+        m_impl->maps->invalidate(make.output);
+        return;
+    }
+    diag.warningOnce("unsupported " + make.request, make.loc, "{}: not supported yet; no file written",
+                     make.request);
+}
+
+void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
+    Stopwatch frameClock;
+    const scene::Options& options = world.options;
+    const int errorsBefore = diag.errorCount();
+
+    // Frames whose outputs all exist are skipped on request (farm restarts).
+    if (settings.skipExisting && !options.displays.empty()) {
+        bool all = true;
+        for (const auto& d : options.displays) all = all && std::filesystem::exists(d.name);
+        if (all) {
+            if (!settings.quiet) fmt::print(stderr, "umbra: frame {} exists, skipped\n", world.frameNumber);
+            frames.push_back({{"frame", world.frameNumber}, {"skipped", true}});
+            return;
+        }
+    }
+
+    std::vector<std::string> defaults = settings.shaderPath;
+    auto sp = options.searchPaths.find("shader");
+    shading->setSearchPath(sp == options.searchPaths.end() ? defaults : splitSearchPath(sp->second, defaults));
+    auto tp = options.searchPaths.find("texture");
+    if (tp != options.searchPaths.end()) shading->setTextureSearchPath(splitSearchPath(tp->second, {"."}));
+
+    FrameState frame;
+    frame.world = &world;
+    frame.frameSeed = hash32(uint32_t(world.frameNumber + 1));
+    frame.shading = shading.get();
+    frame.noShadows = settings.noShadows;
+    services->setFrame(&frame);
+    services->resetStats();
+
+    // Lights, then primitives and their shaders.
+    std::vector<std::shared_ptr<const shading::ShaderInstance>> lights(world.lights.size());
+    for (size_t i = 0; i < world.lights.size(); ++i)
+        lights[i] = shading->instantiate(world.lights[i].shader, shading::ShaderKind::Light);
+    std::vector<geometry::PrimitivePtr> prims;
+    for (const auto& rec : world.primitives) {
+        auto made = geometry::makePrimitives(std::make_shared<const scene::PrimitiveRecord>(rec), diag);
+        for (auto& p : made) prims.push_back(std::move(p));
+    }
+    prepareAttributes(world, prims, lights, frame);
+
+    // The camera pass.
+    Pass pass;
+    pass.name = "camera";
+    pass.camera = hider::Camera::fromOptions(options);
+    std::vector<film::AovChannel> aovs = film::aovChannelsFor(options.displays);
+    for (const auto& a : aovs) {
+        frame.aovNames.push_back(a.name);
+        frame.aovComponents.push_back(a.components);
+    }
+    film::Film film = film::Film::fromOptions(options, aovs, false, diag);
+
+    hider::SchedulerSettings ss;
+    ss.bucketSize[0] = settings.bucketSize > 0 ? settings.bucketSize : options.bucketSize[0];
+    ss.bucketSize[1] = settings.bucketSize > 0 ? settings.bucketSize : options.bucketSize[1];
+    ss.threads = settings.threads;
+    ss.filterMargin = film.filter().margin();
+    ss.sampling.xSamples = std::max(1, options.pixelSamples[0]);
+    ss.sampling.ySamples = std::max(1, options.pixelSamples[1]);
+    ss.sampling.jitter = options.jitter;
+    ss.sampling.frameSeed = frame.frameSeed;
+    ss.sampling.aovCount = film.aovFloats();
+    ss.sampling.mode = hider::HiderMode::Colour;
+    ss.sampling.nearClip = options.nearClip;
+    ss.sampling.farClip = options.farClip;
+    ss.maxEyeSplits = options.eyeSplits;
+    Progress progress(settings.progress, fmt::format("frame {}", world.frameNumber));
+    ss.progress = [&](int done, int total) { progress.update(done, total); };
+
+    SurfacePipeline pipeline(frame, pass, *services, diag, film);
+    hider::BucketScheduler scheduler(ss, pipeline);
+    Stopwatch passClock;
+    hider::SchedulerStats counters = scheduler.render(prims, film);
+    progress.finish();
+    double passWall = passClock.wall(), passCpu = passClock.cpu();
+
+    film::OutputMetadata meta;
+    meta.renderSeconds = frameClock.wall();
+    meta.dateTime = nowDateTime();
+    meta.cameraFromWorld = pass.camera.cameraFromWorld;
+    meta.ndcFromWorld = pass.camera.ndcFromScreen() * pass.camera.screenFromCamera() * pass.camera.cameraFromWorld;
+    film::DepthWriter depthWriter = [&](const scene::DisplayRecord& d, const film::Film& f) {
+        DepthImage image(f.xResolution(), f.yResolution());
+        for (int y = f.y0(); y < f.y1(); ++y)
+            for (int x = f.x0(); x < f.x1(); ++x) image.at(x, y) = f.z(x, y);
+        image.lightFromWorld = pass.camera.cameraFromWorld;
+        image.ndcFromWorld = *meta.ndcFromWorld;
+        image.projection = pass.camera.perspective ? Projection::Perspective : Projection::Orthographic;
+        bool ok = d.driver == "zfile" ? writeZFile(d.name, image, diag, d.loc) : writeDepthMap(d.name, image, diag, d.loc);
+        maps->invalidate(d.name);
+        return ok;
+    };
+    bool wrote = film.write(options.displays, options, meta, diag, depthWriter);
+
+    double wall = frameClock.wall(), cpu = frameClock.cpu();
+    ShadowStats shadowStats = services->shadowStats();
+    double shadingSeconds = double(frame.shadingNanoseconds.load()) * 1e-9;
+    nlohmann::json f = {
+        {"frame", world.frameNumber},
+        {"resolution", {options.xResolution, options.yResolution}},
+        {"wall_seconds", wall},
+        {"cpu_seconds", cpu},
+        {"threads", settings.threads > 0 ? settings.threads : tbb::this_task_arena::max_concurrency()},
+        {"peak_memory_mib", peakResidentMiB()},
+        {"passes",
+         nlohmann::json::array({{{"name", pass.name},
+                                 {"wall_seconds", passWall},
+                                 {"cpu_seconds", passCpu},
+                                 {"counts", schedulerJson(counters)},
+                                 {"samples", uint64_t(film.width()) * film.height() * ss.sampling.xSamples *
+                                                 ss.sampling.ySamples}}})},
+        {"micropolygons_per_second", passWall > 0 ? double(counters.micropolygons) / passWall : 0.0},
+        {"shading",
+         {{"seconds", shadingSeconds}, {"share_of_cpu", cpu > 0 ? shadingSeconds / cpu : 0.0}}},
+        {"shadow",
+         {{"points", shadowStats.points},
+          {"outside", shadowStats.outside},
+          {"culled_lit", shadowStats.culledLit},
+          {"culled_shadowed", shadowStats.culledShadowed},
+          {"filtered", shadowStats.filtered},
+          {"samples", shadowStats.samples}}},
+        {"errors", diag.errorCount() - errorsBefore},
+    };
+    frames.push_back(f);
+    if (options.statisticsEndOfFrame && !settings.quiet) {
+        fmt::print(stderr,
+                   "umbra: frame {} statistics\n"
+                   "  time        {:.3f} s wall, {:.3f} s cpu ({} threads), shading {:.3f} s\n"
+                   "  geometry    {} primitives, {} splits, {} grids, {} micropolygons ({:.2f} M/s)\n"
+                   "  hiding      {} buckets, {} culled, {} occlusion-culled, {} peak grids\n"
+                   "  shadows     {} lookups ({} culled lit, {} culled shadowed, {} filtered)\n"
+                   "  memory      {:.1f} MiB peak\n",
+                   world.frameNumber, wall, cpu, f["threads"].get<int>(), shadingSeconds, counters.primitives,
+                   counters.splits, counters.grids, counters.micropolygons,
+                   passWall > 0 ? double(counters.micropolygons) / passWall * 1e-6 : 0.0, counters.buckets,
+                   counters.culled, counters.occlusionCulled, counters.peakGridsAlive, shadowStats.points,
+                   shadowStats.culledLit, shadowStats.culledShadowed, shadowStats.filtered, peakResidentMiB());
+    }
+    services->setFrame(nullptr);
+    if (!wrote || diag.aborted()) ++failed;
+}
+
+int renderFiles(const std::vector<std::string>& files, const RenderSettings& settingsIn, const std::string& statsPath,
+                Diagnostics& diag) {
+    RenderSettings settings = settingsIn;
+    if (settings.shaderPath.empty()) {
+        if (const char* env = std::getenv("UMBRA_SHADER_PATH"))
+            settings.shaderPath = splitSearchPath(env, {UMBRA_DEFAULT_SHADER_DIR});
+        else
+            settings.shaderPath = {UMBRA_DEFAULT_SHADER_DIR};
+    }
+    Renderer renderer(settings, diag);
+    bool ok = true;
+    for (const auto& file : files) {
+        scene::Builder builder(renderer, diag);
+        if (!ri::parseFile(file, builder, diag)) ok = false;
+        if (diag.aborted()) {
+            ok = false;
+            break;
+        }
+    }
+    if (!statsPath.empty()) {
+        std::string tmp = statsPath + ".tmp";
+        std::ofstream out(tmp);
+        out << renderer.statistics().dump(2) << "\n";
+        out.close();
+        if (!out || std::rename(tmp.c_str(), statsPath.c_str()) != 0) {
+            diag.error(FileLoc::inFile(statsPath), "--stats: cannot write the statistics file");
+            std::remove(tmp.c_str());
+            ok = false;
+        }
+    }
+    if (renderer.failedFrames() > 0) ok = false;
+    if (diag.errorCount() > 0) ok = false;
+    return ok ? 0 : 1;
+}
+
+}  // namespace umbra::render

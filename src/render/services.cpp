@@ -1,0 +1,213 @@
+#include "render/services.h"
+
+#include <vector>
+
+namespace umbra::render {
+
+std::shared_ptr<ShadowMap> MapCatalog::get(const std::string& name) {
+    std::lock_guard<std::mutex> lock(m_mutex);
+    auto it = m_maps.find(name);
+    if (it != m_maps.end()) return it->second;
+    auto map = ShadowMap::open(name, m_diag, FileLoc::inFile(name), m_cache);
+    m_maps[name] = map;
+    return map;
+}
+
+void MapCatalog::invalidate(const std::string& name) {
+    std::lock_guard<std::mutex> lock(m_mutex);
+    m_maps.erase(name);
+}
+
+void MapCatalog::put(const std::string& name, std::shared_ptr<ShadowMap> map) {
+    std::lock_guard<std::mutex> lock(m_mutex);
+    m_maps[name] = std::move(map);
+}
+
+namespace {
+
+const GridState& stateOf(const shading::ShadingGrid& grid) { return *static_cast<const GridState*>(grid.renderState); }
+
+bool namedSampling(const std::string& s, ShadowParams::Sampling* out) {
+    if (s == "jittered" || s == "jitter") *out = ShadowParams::Sampling::Jittered;
+    else if (s == "uniform" || s == "regular") *out = ShadowParams::Sampling::Uniform;
+    else if (s == "gaussian") *out = ShadowParams::Sampling::Gaussian;
+    else return false;
+    return true;
+}
+
+/// The shadow() call's optional parameters, with RenderMan's names.
+ShadowParams paramsOf(const shading::ShadowQuery& q, Diagnostics& diag) {
+    ShadowParams p;
+    for (const auto& v : q.params) {
+        const std::string& n = v.name;
+        if (n == "samples") p.samples = std::max(1, int(v.floatOr(16)));
+        else if (n == "width") p.setWidth(v.floatOr(1));
+        else if (n == "swidth") p.sWidth = v.floatOr(1);
+        else if (n == "twidth") p.tWidth = v.floatOr(1);
+        else if (n == "blur") p.blur = v.floatOr(0);
+        else if (n == "bias") p.bias = v.floatOr(0);
+        else if (n == "bias0") p.bias0 = v.floatOr(0);
+        else if (n == "bias1") p.bias1 = v.floatOr(0);
+        else if (n == "minsamples") p.minSamples = std::max(1, int(v.floatOr(2)));
+        else if (n == "minsize") p.minSize = v.floatOr(2);
+        else if (n == "filter" && !v.strings.empty()) {
+            if (v.strings[0] == "gaussian") p.filter = ShadowParams::Filter::Gaussian;
+            else if (v.strings[0] == "box") p.filter = ShadowParams::Filter::Box;
+            else diag.warningOnce("shadow filter " + v.strings[0], {}, "shadow(): unknown filter \"{}\" (expected \"box\" or \"gaussian\")", v.strings[0]);
+        } else if ((n == "sampling" || n == "method") && !v.strings.empty()) {
+            if (!namedSampling(v.strings[0], &p.sampling))
+                diag.warningOnce("shadow sampling " + v.strings[0], {},
+                                 "shadow(): unknown sampling \"{}\" (expected \"jittered\", \"uniform\" or \"gaussian\")",
+                                 v.strings[0]);
+        } else {
+            diag.warningOnce("shadow param " + n, {}, "shadow(): unknown parameter \"{}\" ignored", n);
+        }
+    }
+    return p;
+}
+
+/// Per-thread gather buffers for one shadow() call.
+struct ShadowScratch {
+    std::vector<Vec3> P, du, dv, N;
+    std::vector<float> out;
+};
+thread_local ShadowScratch t_scratch;
+
+}  // namespace
+
+bool Services::getMatrix(const shading::ShadingGrid& grid, const std::string& space, Mat4* currentFromSpace) {
+    const GridState& st = stateOf(grid);
+    const hider::Camera& cam = st.pass->camera;
+    if (space == "camera") {
+        *currentFromSpace = Mat4::identity();
+    } else if (space == "world") {
+        *currentFromSpace = cam.cameraFromWorld.inverse();
+    } else if (space == "object") {
+        *currentFromSpace = st.cameraFromObject;
+    } else if (space == "screen") {
+        *currentFromSpace = cam.screenFromCamera().inverse();
+    } else if (space == "NDC") {
+        *currentFromSpace = (cam.ndcFromScreen() * cam.screenFromCamera()).inverse();
+    } else if (space == "raster") {
+        *currentFromSpace = cam.rasterFromCamera().inverse();
+    } else {
+        const auto& systems = st.frame->world->coordinateSystems;
+        auto it = systems.find(space);
+        if (it == systems.end()) return false;
+        *currentFromSpace = cam.cameraFromWorld * it->second;
+    }
+    return true;
+}
+
+bool Services::shadow(const shading::ShadingGrid& grid, const shading::ShadowQuery& q, float* result) {
+    const GridState& st = stateOf(grid);
+    if (st.frame->noShadows) {  // --no-shadows: every lookup lit, no map read
+        for (int k = 0; k < q.count; ++k) result[q.indices[k]] = 0;
+        return true;
+    }
+    auto map = m_maps.get(q.mapName);
+    if (!map) return false;
+
+    ShadowScratch& s = t_scratch;
+    s.P.resize(size_t(q.count));
+    s.du.resize(size_t(q.count));
+    s.dv.resize(size_t(q.count));
+    s.N.resize(size_t(q.count));
+    s.out.resize(size_t(q.count));
+    for (int k = 0; k < q.count; ++k) {
+        int i = q.indices[k];
+        s.P[k] = q.P[i];
+        s.du[k] = q.dPdu ? q.dPdu[i] : Vec3();
+        s.dv[k] = q.dPdv ? q.dPdv[i] : Vec3();
+        s.N[k] = q.N ? q.N[i] : Vec3();
+    }
+    ShadowBatch batch;
+    batch.count = q.count;
+    batch.P = s.P.data();
+    batch.dPdu_du = q.dPdu ? s.du.data() : nullptr;
+    batch.dPdv_dv = q.dPdv ? s.dv.data() : nullptr;
+    batch.N = q.N ? s.N.data() : nullptr;
+    batch.worldFromCurrent = st.pass->camera.cameraFromWorld.inverse();
+    batch.seed = q.seed;
+    ShadowStats stats;
+    map->lookup(batch, paramsOf(q, m_diag), s.out.data(), stats);
+    for (int k = 0; k < q.count; ++k) result[q.indices[k]] = s.out[k];
+    std::lock_guard<std::mutex> lock(m_statsMutex);
+    m_stats += stats;
+    return true;
+}
+
+bool Services::attribute(const shading::ShadingGrid& grid, const std::string& name, shading::ShadeValue* out) {
+    const GridState& st = stateOf(grid);
+    const scene::Attributes& a = *st.record->attributes;
+    if (name == "ShadingRate") {
+        out->floats = {a.shadingRate};
+        return true;
+    }
+    if (name == "Sides") {
+        out->floats = {float(a.sides)};
+        return true;
+    }
+    if (name == "Matte") {
+        out->floats = {a.matte ? 1.0f : 0.0f};
+        return true;
+    }
+    if (name == "identifier:name") {
+        out->strings = {a.name};
+        return true;
+    }
+    if (name == "displacementbound:sphere") {
+        out->floats = {a.displacementBound};
+        return true;
+    }
+    auto it = a.user.find(name);
+    if (it == a.user.end()) return false;
+    out->floats = it->second.floats;
+    for (int v : it->second.ints) out->floats.push_back(float(v));
+    out->strings = it->second.strings;
+    return true;
+}
+
+bool Services::option(const std::string& name, shading::ShadeValue* out) {
+    if (!m_frame) return false;
+    const scene::Options& o = m_frame->world->options;
+    if (name == "Format") {
+        out->floats = {float(o.xResolution), float(o.yResolution), o.pixelAspectRatio};
+        return true;
+    }
+    if (name == "FrameAspectRatio") {
+        out->floats = {o.frameAspectRatio > 0 ? o.frameAspectRatio
+                                              : float(o.xResolution) * o.pixelAspectRatio / float(o.yResolution)};
+        return true;
+    }
+    if (name == "Clipping") {
+        out->floats = {o.nearClip, o.farClip};
+        return true;
+    }
+    if (name == "PixelSamples") {
+        out->floats = {float(o.pixelSamples[0]), float(o.pixelSamples[1])};
+        return true;
+    }
+    if (name == "FrameNumber") {
+        out->floats = {float(m_frame->world->frameNumber)};
+        return true;
+    }
+    auto it = o.user.find(name);
+    if (it == o.user.end()) return false;
+    out->floats = it->second.floats;
+    for (int v : it->second.ints) out->floats.push_back(float(v));
+    out->strings = it->second.strings;
+    return true;
+}
+
+ShadowStats Services::shadowStats() const {
+    std::lock_guard<std::mutex> lock(m_statsMutex);
+    return m_stats;
+}
+
+void Services::resetStats() {
+    std::lock_guard<std::mutex> lock(m_statsMutex);
+    m_stats = ShadowStats();
+}
+
+}  // namespace umbra::render

@@ -1,0 +1,59 @@
+#pragma once
+// The renderer's answers to running shaders (shading::RendererServices):
+// named coordinate systems, shadow maps, attributes and options.
+
+#include "render/frame.h"
+
+#include "umbra/shading/renderer_services.h"
+#include "umbra/shadow/shadow_map.h"
+
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+
+namespace umbra::render {
+
+/// Shadow maps opened by name for a render, shared by every light and thread.
+class MapCatalog {
+public:
+    MapCatalog(Diagnostics& diag, std::shared_ptr<TileCache> cache) : m_diag(diag), m_cache(std::move(cache)) {}
+    /// The map called `name` (opened on first use), or null after reporting
+    /// once that it cannot be read.
+    std::shared_ptr<ShadowMap> get(const std::string& name);
+    /// Forgets a map so the next get() reopens it (a depth pass rewrote it).
+    void invalidate(const std::string& name);
+    /// Registers a map rendered in this frame under `name` ("auto" maps).
+    void put(const std::string& name, std::shared_ptr<ShadowMap> map);
+    TileCache& cache() { return *m_cache; }
+
+private:
+    Diagnostics& m_diag;
+    std::shared_ptr<TileCache> m_cache;
+    std::mutex m_mutex;
+    std::map<std::string, std::shared_ptr<ShadowMap>> m_maps;  // null: failed
+};
+
+class Services : public shading::RendererServices {
+public:
+    Services(Diagnostics& diag, MapCatalog& maps) : m_diag(diag), m_maps(maps) {}
+
+    bool getMatrix(const shading::ShadingGrid& grid, const std::string& space, Mat4* currentFromSpace) override;
+    bool shadow(const shading::ShadingGrid& grid, const shading::ShadowQuery& query, float* result) override;
+    bool attribute(const shading::ShadingGrid& grid, const std::string& name, shading::ShadeValue* out) override;
+    bool option(const std::string& name, shading::ShadeValue* out) override;
+
+    /// Lookup counters of every thread, summed.
+    ShadowStats shadowStats() const;
+    void resetStats();
+    void setFrame(const FrameState* frame) { m_frame = frame; }
+
+private:
+    Diagnostics& m_diag;
+    MapCatalog& m_maps;
+    const FrameState* m_frame = nullptr;
+    mutable std::mutex m_statsMutex;
+    ShadowStats m_stats;
+};
+
+}  // namespace umbra::render

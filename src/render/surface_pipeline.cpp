@@ -1,0 +1,200 @@
+#include "render/surface_pipeline.h"
+
+#include "umbra/util/rng.h"
+
+#include <chrono>
+#include <cmath>
+
+namespace umbra::render {
+
+SurfacePipeline::SurfacePipeline(FrameState& frame, const Pass& pass, Services& services, Diagnostics& diag,
+                                 const film::Film& film)
+    : m_frame(frame), m_pass(pass), m_services(services), m_diag(diag),
+      m_rasterFromCamera(pass.camera.rasterFromCamera()) {
+    // Pieces entirely outside the film's pixels and the filter margin are culled.
+    float margin = float(film.filter().margin());
+    m_rasterWindow[0] = float(film.x0()) - margin;
+    m_rasterWindow[1] = float(film.x1()) + margin;
+    m_rasterWindow[2] = float(film.y0()) - margin;
+    m_rasterWindow[3] = float(film.y1()) + margin;
+    dice::DiceParams eye;
+    eye.nearClip = pass.camera.nearClip;
+    m_eyeZ = dice::eyePlaneZ(eye);
+}
+
+Mat4 SurfacePipeline::cameraFromObject(const geometry::Primitive& prim) const {
+    return m_pass.camera.cameraFromWorld * prim.record().worldFromObject;
+}
+
+dice::DiceParams SurfacePipeline::diceParams(const geometry::Primitive& prim) const {
+    const hider::Camera& cam = m_pass.camera;
+    const scene::Attributes& attrs = prim.attributes();
+    dice::DiceParams p;
+    p.cameraFromObject = cameraFromObject(prim);
+    p.rasterFromCamera = m_rasterFromCamera;
+    for (int i = 0; i < 4; ++i) p.rasterWindow[i] = m_rasterWindow[i];
+    p.shadingRate = attrs.shadingRate;
+    p.gridSize = m_frame.world->options.gridSize;
+    p.nearClip = cam.nearClip;
+    p.farClip = cam.farClip;
+    p.maxEyeSplits = m_frame.world->options.eyeSplits;
+    p.orthographic = !cam.perspective;
+    if (attrs.displacementBound > 0) {
+        // The bound is in object units: the longest transformed axis scales it.
+        const Mat4& c = p.cameraFromObject;
+        float scale = std::max({length(c.vector({1, 0, 0})), length(c.vector({0, 1, 0})), length(c.vector({0, 0, 1}))});
+        p.displacementBound = attrs.displacementBound * scale;
+    }
+    return p;
+}
+
+Bound3 SurfacePipeline::rasterBound(const geometry::Primitive& prim) {
+    dice::DiceParams p = diceParams(prim);
+    Bound3 ob = prim.bound();
+    if (dice::outsideView(dice::cameraBound(ob, p), p)) return {};
+    return dice::rasterBound(ob, p);
+}
+
+hider::GeometryPipeline::Plan SurfacePipeline::plan(const geometry::Primitive& prim, int eyeSplits) {
+    dice::DiceResult r = dice::decide(prim, prim.bound(), diceParams(prim), eyeSplits, &m_diag);
+    Plan plan;
+    plan.action = r.decision == dice::Decision::Dice    ? Action::Dice
+                  : r.decision == dice::Decision::Split ? Action::Split
+                                                        : Action::Cull;
+    plan.splitU = r.splitU;
+    plan.eyeSplit = r.eyeSplit;
+    plan.nu = r.nu;
+    plan.nv = r.nv;
+    return plan;
+}
+
+bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uint64_t id, hider::ShadedGrid& out) {
+    const hider::Camera& cam = m_pass.camera;
+    const scene::PrimitiveRecord& rec = prim.record();
+    const scene::Attributes& attrs = *rec.attributes;
+    if (!m_pass.depthOnly && !attrs.visibleToCamera) return false;
+    if (m_pass.depthOnly && !attrs.castsShadows) return false;
+
+    geometry::Grid g = prim.dice(nu, nv);
+    Mat4 c = cameraFromObject(prim);
+    g.transform(c, c.inverse());
+
+    const PreparedAttributes& pa = m_frame.attributes.at(&attrs);
+    GridState state{&m_frame, &m_pass, &rec, c};
+    shading::ShadingGrid& sg = m_grids.local();
+    sg.resize(nu + 1, nv + 1);
+    sg.bind(g, attrs.color, attrs.opacity, cam.perspective);
+    sg.flipNormals = attrs.outsideIsLeft != (c.det3() < 0);
+    sg.seed = hashKeys(m_frame.frameSeed, uint32_t(id), uint32_t(id >> 32));
+    sg.renderState = &state;
+
+    shading::ShadeRequest request;
+    request.displacement = pa.displacement.get();
+    if (!m_pass.depthOnly) {
+        request.surface = pa.surface.get();
+        request.atmosphere = pa.atmosphere.get();
+        request.lights = pa.lights;
+        request.outputs = m_frame.aovNames;
+    }
+    auto t0 = std::chrono::steady_clock::now();
+    m_frame.shading->shade(sg, request, m_services);
+    m_frame.shadingNanoseconds += uint64_t(
+        std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - t0).count());
+
+    const int n = (nu + 1) * (nv + 1);
+    out.nu = nu;
+    out.nv = nv;
+    out.id = id;
+    out.matte = attrs.matte;
+    out.P.resize(size_t(n));
+    out.bound = Bound3();
+    bool anyInFront = false;
+    for (int i = 0; i < n; ++i) {
+        const Vec3& p = sg.P[size_t(i)];
+        if (cam.perspective && p.z < m_eyeZ) {
+            // Displaced behind the eye: keep it out of the image.
+            out.P[size_t(i)] = {0, 0, -kInfinity};
+            continue;
+        }
+        out.P[size_t(i)] = cam.rasterOf(p);
+        out.bound.extend(out.P[size_t(i)]);
+        anyInFront = true;
+    }
+    if (!anyInFront) return false;
+
+    if (attrs.sides == 1 && !m_pass.depthOnly) {
+        // One-sided: drop the grid when every micropolygon faces away.
+        // (Raster y points down, so a front face winds clockwise there.)
+        bool anyFront = false;
+        for (int j = 0; j < nv && !anyFront; ++j)
+            for (int i = 0; i < nu && !anyFront; ++i) {
+                Vec3 a = out.P[size_t(j * (nu + 1) + i)], b = out.P[size_t(j * (nu + 1) + i + 1)],
+                     d = out.P[size_t((j + 1) * (nu + 1) + i)];
+                float area = (b.x - a.x) * (d.y - a.y) - (b.y - a.y) * (d.x - a.x);
+                anyFront = (area < 0) != sg.flipNormals;
+            }
+        if (!anyFront) return false;
+    }
+
+    if (m_pass.depthOnly) {
+        out.Ci.clear();
+        out.Oi.clear();
+        out.aovFloats = 0;
+        return true;
+    }
+    out.Ci.assign(sg.Ci.begin(), sg.Ci.begin() + n);
+    out.Oi.assign(sg.Oi.begin(), sg.Oi.begin() + n);
+    fillAovs(sg, out);
+    return true;
+}
+
+void SurfacePipeline::fillAovs(const shading::ShadingGrid& sg, hider::ShadedGrid& out) const {
+    int total = 0;
+    for (int c : m_frame.aovComponents) total += c;
+    out.aovFloats = total;
+    if (total == 0) {
+        out.aov.clear();
+        return;
+    }
+    const int n = sg.size();
+    out.aov.assign(size_t(n) * size_t(total), 0.0f);
+    std::vector<float> values;
+    int offset = 0;
+    for (size_t k = 0; k < m_frame.aovNames.size(); ++k) {
+        const std::string& name = m_frame.aovNames[k];
+        const int comps = m_frame.aovComponents[k];
+        auto put = [&](int i, const float* v, int count) {
+            for (int c = 0; c < comps; ++c) out.aov[size_t(i) * total + offset + c] = v[std::min(c, count - 1)];
+        };
+        auto putVec = [&](const std::vector<Vec3>& src) {
+            for (int i = 0; i < n; ++i) put(i, &src[size_t(i)].x, 3);
+        };
+        auto putFloat = [&](const std::vector<float>& src) {
+            for (int i = 0; i < n; ++i) put(i, &src[size_t(i)], 1);
+        };
+        int fpv = 0;
+        if (sg.output(name, &values, &fpv) && fpv > 0) {
+            bool uniform = values.size() == size_t(fpv);
+            for (int i = 0; i < n; ++i) put(i, values.data() + (uniform ? 0 : size_t(i) * fpv), fpv);
+        } else if (name == "Ci") putVec(sg.Ci);
+        else if (name == "Oi") putVec(sg.Oi);
+        else if (name == "P") putVec(sg.P);
+        else if (name == "N") putVec(sg.N);
+        else if (name == "Ng") putVec(sg.Ng);
+        else if (name == "Cs") putVec(sg.Cs);
+        else if (name == "Os") putVec(sg.Os);
+        else if (name == "I") putVec(sg.I);
+        else if (name == "dPdu") putVec(sg.dPdu);
+        else if (name == "dPdv") putVec(sg.dPdv);
+        else if (name == "s") putFloat(sg.s);
+        else if (name == "t") putFloat(sg.t);
+        else if (name == "u") putFloat(sg.u);
+        else if (name == "v") putFloat(sg.v);
+        else if (name == "z") {
+            for (int i = 0; i < n; ++i) put(i, &sg.P[size_t(i)].z, 1);
+        }
+        offset += comps;
+    }
+}
+
+}  // namespace umbra::render

@@ -1,0 +1,43 @@
+#pragma once
+// The renderer's side of the REYES loop for one pass: bound a piece of
+// geometry in raster space, decide whether to split or dice it, and dice,
+// displace, shade and project a grid.
+
+#include "render/frame.h"
+#include "render/services.h"
+
+#include "umbra/dice/reyes.h"
+#include "umbra/film/film.h"
+#include "umbra/hider/bucket_scheduler.h"
+
+#include <tbb/enumerable_thread_specific.h>
+
+namespace umbra::render {
+
+class SurfacePipeline : public hider::GeometryPipeline {
+public:
+    SurfacePipeline(FrameState& frame, const Pass& pass, Services& services, Diagnostics& diag,
+                    const film::Film& film);
+
+    Bound3 rasterBound(const geometry::Primitive& prim) override;
+    Plan plan(const geometry::Primitive& prim, int eyeSplits) override;
+    bool shade(const geometry::Primitive& prim, int nu, int nv, uint64_t id, hider::ShadedGrid& out) override;
+
+private:
+    /// cameraFromObject of a primitive in this pass.
+    Mat4 cameraFromObject(const geometry::Primitive& prim) const;
+    /// The dicing parameters of a primitive in this pass.
+    dice::DiceParams diceParams(const geometry::Primitive& prim) const;
+    void fillAovs(const shading::ShadingGrid& sg, hider::ShadedGrid& out) const;
+
+    FrameState& m_frame;
+    const Pass& m_pass;
+    Services& m_services;
+    Diagnostics& m_diag;
+    Mat4 m_rasterFromCamera;
+    float m_rasterWindow[4];
+    float m_eyeZ = 1e-6f;  // camera depth below which projection is unusable
+    tbb::enumerable_thread_specific<shading::ShadingGrid> m_grids;
+};
+
+}  // namespace umbra::render

@@ -1,0 +1,72 @@
+#pragma once
+// Test support: render RIB text end to end (parser, builder, renderer) into
+// a scratch directory and read the images back with OpenImageIO.
+
+#include "umbra/render/renderer.h"
+#include "umbra/ri/parser.h"
+#include "umbra/scene/builder.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace umbra::testing {
+
+/// A float image read back from a file.
+struct Image {
+    int width = 0, height = 0, channels = 0;
+    std::vector<float> pixels;
+    float at(int x, int y, int c) const { return pixels[(size_t(y) * width + x) * channels + c]; }
+    double channelSum(int c) const {
+        double s = 0;
+        for (int y = 0; y < height; ++y)
+            for (int x = 0; x < width; ++x) s += at(x, y, c);
+        return s;
+    }
+};
+
+inline bool readImage(const std::string& path, Image* out) {
+    auto in = OIIO::ImageInput::open(path);
+    if (!in) return false;
+    const OIIO::ImageSpec& spec = in->spec();
+    out->width = spec.width;
+    out->height = spec.height;
+    out->channels = spec.nchannels;
+    out->pixels.resize(size_t(spec.width) * spec.height * spec.nchannels);
+    bool ok = in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, out->pixels.data());
+    in->close();
+    return ok;
+}
+
+/// A scratch directory for one test, removed afterwards.
+class ScratchDir {
+public:
+    explicit ScratchDir(const std::string& name) {
+        m_path = std::filesystem::temp_directory_path() / ("umbra-test-" + name + "-" + std::to_string(::getpid()));
+        std::filesystem::remove_all(m_path);
+        std::filesystem::create_directories(m_path);
+    }
+    ~ScratchDir() { std::filesystem::remove_all(m_path); }
+    std::string file(const std::string& name) const { return (m_path / name).string(); }
+
+private:
+    std::filesystem::path m_path;
+};
+
+/// Renders RIB text; returns the renderer's statistics. Errors are recorded
+/// in `diag` (pass one with setRecord(true) to inspect them).
+inline nlohmann::json renderRib(const std::string& rib, Diagnostics& diag, int threads = 0, int bucketSize = 0) {
+    render::RenderSettings settings;
+    settings.threads = threads;
+    settings.bucketSize = bucketSize;
+    settings.quiet = true;
+    settings.shaderPath = {std::string(UMBRA_SOURCE_DIR) + "/shaders_dsl"};
+    render::Renderer renderer(settings, diag);
+    scene::Builder builder(renderer, diag);
+    ri::parseString(rib, "test.rib", builder, diag);
+    return renderer.statistics();
+}
+
+}  // namespace umbra::testing
