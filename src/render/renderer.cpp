@@ -1,6 +1,7 @@
 #include "umbra/render/renderer.h"
 
 #include "render/frame.h"
+#include "render/light_view.h"
 #include "render/progress.h"
 #include "render/services.h"
 #include "render/surface_pipeline.h"
@@ -82,6 +83,8 @@ nlohmann::json schedulerJson(const hider::SchedulerStats& s) {
 
 }  // namespace
 
+struct PassResult;
+
 struct Renderer::Impl {
     RenderSettings settings;
     Diagnostics& diag;
@@ -99,9 +102,7 @@ struct Renderer::Impl {
     }
 
     /// Resolves the shaders of every Attributes object primitives use.
-    void prepareAttributes(const scene::WorldRecord& world, const std::vector<geometry::PrimitivePtr>& prims,
-                           const std::vector<std::shared_ptr<const shading::ShaderInstance>>& lights,
-                           FrameState& frame) {
+    void prepareAttributes(const std::vector<geometry::PrimitivePtr>& prims, FrameState& frame) {
         std::map<const scene::ShaderRecord*, std::shared_ptr<const shading::ShaderInstance>> instances;
         auto instance = [&](const std::shared_ptr<const scene::ShaderRecord>& rec, shading::ShaderKind kind) {
             if (!rec) return std::shared_ptr<const shading::ShaderInstance>();
@@ -119,13 +120,28 @@ struct Renderer::Impl {
             pa.surface = instance(a->surface, shading::ShaderKind::Surface);
             pa.displacement = instance(a->displacement, shading::ShaderKind::Displacement);
             pa.atmosphere = instance(a->atmosphere, shading::ShaderKind::Volume);
-            for (int l : a->lights)
-                if (l >= 0 && size_t(l) < lights.size() && lights[size_t(l)]) pa.lights.push_back(lights[size_t(l)].get());
             frame.attributes.emplace(a, std::move(pa));
         }
     }
 
+    /// Gives every attribute set the lights that illuminate it.
+    static void attachLights(const std::vector<std::shared_ptr<const shading::ShaderInstance>>& lights, FrameState& frame) {
+        for (auto& [a, pa] : frame.attributes) {
+            pa.lights.clear();
+            for (int l : a->lights)
+                if (l >= 0 && size_t(l) < lights.size() && lights[size_t(l)]) pa.lights.push_back(lights[size_t(l)].get());
+        }
+    }
+
     void renderWorld(const scene::WorldRecord& world, int& failed);
+    PassResult runPass(FrameState& frame, const Pass& pass, const std::vector<geometry::PrimitivePtr>& prims,
+                       film::Film& film, const std::string& label);
+    /// Renders the automatic depth map of `light`; returns its path, or ""
+    /// when none could be made (the light is then unshadowed).
+    std::string renderLightMap(FrameState& frame, const scene::LightRecord& light,
+                               const std::vector<geometry::PrimitivePtr>& prims, nlohmann::json& passes, int& failed);
+    DepthFilter depthFilterOf(const scene::Options& options, const FileLoc& loc);
+    float dualOffsetOf(const scene::Options& options);
 };
 
 Renderer::Renderer(const RenderSettings& settings, Diagnostics& diag)
@@ -152,6 +168,51 @@ void Renderer::make(const scene::MakeRecord& make) {
     }
     diag.warningOnce("unsupported " + make.request, make.loc, "{}: not supported yet; no file written",
                      make.request);
+}
+
+/// The result of one pass through the REYES core.
+struct PassResult {
+    hider::SchedulerStats counters;
+    double wall = 0, cpu = 0;
+    uint64_t samples = 0;
+};
+
+PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const std::vector<geometry::PrimitivePtr>& prims,
+                                   film::Film& film, const std::string& label) {
+    const scene::Options& options = frame.world->options;
+    hider::SchedulerSettings ss;
+    ss.bucketSize[0] = settings.bucketSize > 0 ? settings.bucketSize : options.bucketSize[0];
+    ss.bucketSize[1] = settings.bucketSize > 0 ? settings.bucketSize : options.bucketSize[1];
+    ss.threads = settings.threads;
+    ss.filterMargin = film.filter().margin();
+    ss.sampling.frameSeed = frame.frameSeed;
+    ss.sampling.aovCount = film.aovFloats();
+    ss.sampling.nearClip = pass.camera.nearClip;
+    ss.sampling.farClip = pass.camera.farClip;
+    if (pass.depthOnly && pass.name != "camera") {
+        // Automatic depth maps: one regular sample at each pixel centre (Reeves).
+        ss.sampling.xSamples = ss.sampling.ySamples = 1;
+        ss.sampling.jitter = false;
+    } else {
+        ss.sampling.xSamples = std::max(1, options.pixelSamples[0]);
+        ss.sampling.ySamples = std::max(1, options.pixelSamples[1]);
+        ss.sampling.jitter = options.jitter;
+    }
+    ss.sampling.mode = pass.depthOnly ? hider::HiderMode::Depth : hider::HiderMode::Colour;
+    ss.maxEyeSplits = options.eyeSplits;
+    Progress progress(settings.progress, label);
+    ss.progress = [&](int done, int total) { progress.update(done, total); };
+
+    SurfacePipeline pipeline(frame, pass, *services, diag, film);
+    hider::BucketScheduler scheduler(ss, pipeline);
+    Stopwatch clock;
+    PassResult r;
+    r.counters = scheduler.render(prims, film);
+    progress.finish();
+    r.wall = clock.wall();
+    r.cpu = clock.cpu();
+    r.samples = uint64_t(film.width()) * film.height() * ss.sampling.xSamples * ss.sampling.ySamples;
+    return r;
 }
 
 void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
@@ -184,51 +245,59 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     services->setFrame(&frame);
     services->resetStats();
 
-    // Lights, then primitives and their shaders.
-    std::vector<std::shared_ptr<const shading::ShaderInstance>> lights(world.lights.size());
-    for (size_t i = 0; i < world.lights.size(); ++i)
-        lights[i] = shading->instantiate(world.lights[i].shader, shading::ShaderKind::Light);
     std::vector<geometry::PrimitivePtr> prims;
     for (const auto& rec : world.primitives) {
         auto made = geometry::makePrimitives(std::make_shared<const scene::PrimitiveRecord>(rec), diag);
         for (auto& p : made) prims.push_back(std::move(p));
     }
-    prepareAttributes(world, prims, lights, frame);
 
-    // The camera pass.
+    prepareAttributes(prims, frame);
+
+    // First pass: a depth map for every light whose shadowname is "auto".
+    nlohmann::json passes = nlohmann::json::array();
+    std::vector<std::shared_ptr<const shading::ShaderInstance>> lights(world.lights.size());
+    for (size_t i = 0; i < world.lights.size(); ++i) {
+        const scene::LightRecord& light = world.lights[i];
+        const ri::Param* shadowName = light.shader.params.find("shadowname");
+        bool automatic = shadowName && !shadowName->strings.empty() && shadowName->strings[0] == "auto";
+        if (!automatic) {
+            lights[i] = shading->instantiate(light.shader, shading::ShaderKind::Light);
+            continue;
+        }
+        scene::ShaderRecord withMap = light.shader;
+        std::string mapName;
+        if (!settings.noShadows) mapName = renderLightMap(frame, light, prims, passes, failed);
+        ri::ParamList params;
+        for (const ri::Param& p : light.shader.params.params()) {
+            ri::Param q = p;
+            if (q.decl.name == "shadowname") q.strings = {mapName};
+            params.add(std::move(q));
+        }
+        withMap.params = std::move(params);
+        lights[i] = shading->instantiate(withMap, shading::ShaderKind::Light);
+    }
+    attachLights(lights, frame);
+
+    // Second pass: the camera. A frame whose displays are all depth ("z")
+    // is a depth pass itself (RenderMan's two-RIB shadow workflow).
     Pass pass;
     pass.name = "camera";
     pass.camera = hider::Camera::fromOptions(options);
-    std::vector<film::AovChannel> aovs = film::aovChannelsFor(options.displays);
+    bool depthFrame = !options.displays.empty();
+    for (const auto& d : options.displays) depthFrame = depthFrame && d.mode == "z";
+    pass.depthOnly = depthFrame;
+    std::vector<film::AovChannel> aovs = depthFrame ? std::vector<film::AovChannel>{} : film::aovChannelsFor(options.displays);
     for (const auto& a : aovs) {
         frame.aovNames.push_back(a.name);
         frame.aovComponents.push_back(a.components);
     }
-    film::Film film = film::Film::fromOptions(options, aovs, false, diag);
-
-    hider::SchedulerSettings ss;
-    ss.bucketSize[0] = settings.bucketSize > 0 ? settings.bucketSize : options.bucketSize[0];
-    ss.bucketSize[1] = settings.bucketSize > 0 ? settings.bucketSize : options.bucketSize[1];
-    ss.threads = settings.threads;
-    ss.filterMargin = film.filter().margin();
-    ss.sampling.xSamples = std::max(1, options.pixelSamples[0]);
-    ss.sampling.ySamples = std::max(1, options.pixelSamples[1]);
-    ss.sampling.jitter = options.jitter;
-    ss.sampling.frameSeed = frame.frameSeed;
-    ss.sampling.aovCount = film.aovFloats();
-    ss.sampling.mode = hider::HiderMode::Colour;
-    ss.sampling.nearClip = options.nearClip;
-    ss.sampling.farClip = options.farClip;
-    ss.maxEyeSplits = options.eyeSplits;
-    Progress progress(settings.progress, fmt::format("frame {}", world.frameNumber));
-    ss.progress = [&](int done, int total) { progress.update(done, total); };
-
-    SurfacePipeline pipeline(frame, pass, *services, diag, film);
-    hider::BucketScheduler scheduler(ss, pipeline);
-    Stopwatch passClock;
-    hider::SchedulerStats counters = scheduler.render(prims, film);
-    progress.finish();
-    double passWall = passClock.wall(), passCpu = passClock.cpu();
+    film::Film film = film::Film::fromOptions(options, aovs, depthFrame, diag);
+    PassResult camera = runPass(frame, pass, prims, film, fmt::format("frame {}", world.frameNumber));
+    passes.push_back({{"name", pass.name},
+                      {"wall_seconds", camera.wall},
+                      {"cpu_seconds", camera.cpu},
+                      {"counts", schedulerJson(camera.counters)},
+                      {"samples", camera.samples}});
 
     film::OutputMetadata meta;
     meta.renderSeconds = frameClock.wall();
@@ -236,12 +305,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     meta.cameraFromWorld = pass.camera.cameraFromWorld;
     meta.ndcFromWorld = pass.camera.ndcFromScreen() * pass.camera.screenFromCamera() * pass.camera.cameraFromWorld;
     film::DepthWriter depthWriter = [&](const scene::DisplayRecord& d, const film::Film& f) {
-        DepthImage image(f.xResolution(), f.yResolution());
-        for (int y = f.y0(); y < f.y1(); ++y)
-            for (int x = f.x0(); x < f.x1(); ++x) image.at(x, y) = f.z(x, y);
-        image.lightFromWorld = pass.camera.cameraFromWorld;
-        image.ndcFromWorld = *meta.ndcFromWorld;
-        image.projection = pass.camera.perspective ? Projection::Perspective : Projection::Orthographic;
+        DepthImage image = depthImageOf(f, pass.camera, depthFilterOf(options, d.loc), dualOffsetOf(options));
         bool ok = d.driver == "zfile" ? writeZFile(d.name, image, diag, d.loc) : writeDepthMap(d.name, image, diag, d.loc);
         maps->invalidate(d.name);
         return ok;
@@ -251,6 +315,8 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     double wall = frameClock.wall(), cpu = frameClock.cpu();
     ShadowStats shadowStats = services->shadowStats();
     double shadingSeconds = double(frame.shadingNanoseconds.load()) * 1e-9;
+    uint64_t micropolygons = 0;
+    for (const auto& p : passes) micropolygons += p["counts"]["micropolygons"].get<uint64_t>();
     nlohmann::json f = {
         {"frame", world.frameNumber},
         {"resolution", {options.xResolution, options.yResolution}},
@@ -258,42 +324,98 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
         {"cpu_seconds", cpu},
         {"threads", settings.threads > 0 ? settings.threads : tbb::this_task_arena::max_concurrency()},
         {"peak_memory_mib", peakResidentMiB()},
-        {"passes",
-         nlohmann::json::array({{{"name", pass.name},
-                                 {"wall_seconds", passWall},
-                                 {"cpu_seconds", passCpu},
-                                 {"counts", schedulerJson(counters)},
-                                 {"samples", uint64_t(film.width()) * film.height() * ss.sampling.xSamples *
-                                                 ss.sampling.ySamples}}})},
-        {"micropolygons_per_second", passWall > 0 ? double(counters.micropolygons) / passWall : 0.0},
-        {"shading",
-         {{"seconds", shadingSeconds}, {"share_of_cpu", cpu > 0 ? shadingSeconds / cpu : 0.0}}},
+        {"passes", passes},
+        {"micropolygons_per_second", camera.wall > 0 ? double(camera.counters.micropolygons) / camera.wall : 0.0},
+        {"shading", {{"seconds", shadingSeconds}, {"share_of_cpu", cpu > 0 ? shadingSeconds / cpu : 0.0}}},
         {"shadow",
          {{"points", shadowStats.points},
           {"outside", shadowStats.outside},
           {"culled_lit", shadowStats.culledLit},
           {"culled_shadowed", shadowStats.culledShadowed},
           {"filtered", shadowStats.filtered},
-          {"samples", shadowStats.samples}}},
+          {"samples", shadowStats.samples},
+          {"tile_fetches", shadowStats.tileFetches}}},
         {"errors", diag.errorCount() - errorsBefore},
     };
     frames.push_back(f);
     if (options.statisticsEndOfFrame && !settings.quiet) {
+        double firstPass = 0;
+        for (const auto& p : passes)
+            if (p["name"] != "camera") firstPass += p["wall_seconds"].get<double>();
         fmt::print(stderr,
                    "umbra: frame {} statistics\n"
-                   "  time        {:.3f} s wall, {:.3f} s cpu ({} threads), shading {:.3f} s\n"
+                   "  time        {:.3f} s wall ({:.3f} s depth maps, {:.3f} s camera), {:.3f} s cpu, {} threads\n"
+                   "  shading     {:.3f} s in shaders ({:.0f}% of cpu)\n"
                    "  geometry    {} primitives, {} splits, {} grids, {} micropolygons ({:.2f} M/s)\n"
                    "  hiding      {} buckets, {} culled, {} occlusion-culled, {} peak grids\n"
                    "  shadows     {} lookups ({} culled lit, {} culled shadowed, {} filtered)\n"
                    "  memory      {:.1f} MiB peak\n",
-                   world.frameNumber, wall, cpu, f["threads"].get<int>(), shadingSeconds, counters.primitives,
-                   counters.splits, counters.grids, counters.micropolygons,
-                   passWall > 0 ? double(counters.micropolygons) / passWall * 1e-6 : 0.0, counters.buckets,
-                   counters.culled, counters.occlusionCulled, counters.peakGridsAlive, shadowStats.points,
-                   shadowStats.culledLit, shadowStats.culledShadowed, shadowStats.filtered, peakResidentMiB());
+                   world.frameNumber, wall, firstPass, camera.wall, cpu, f["threads"].get<int>(), shadingSeconds,
+                   cpu > 0 ? 100 * shadingSeconds / cpu : 0.0, camera.counters.primitives, camera.counters.splits,
+                   camera.counters.grids, micropolygons,
+                   camera.wall > 0 ? double(camera.counters.micropolygons) / camera.wall * 1e-6 : 0.0,
+                   camera.counters.buckets, camera.counters.culled, camera.counters.occlusionCulled,
+                   camera.counters.peakGridsAlive, shadowStats.points, shadowStats.culledLit,
+                   shadowStats.culledShadowed, shadowStats.filtered, peakResidentMiB());
     }
     services->setFrame(nullptr);
     if (!wrote || diag.aborted()) ++failed;
+}
+
+std::string Renderer::Impl::renderLightMap(FrameState& frame, const scene::LightRecord& light,
+                                           const std::vector<geometry::PrimitivePtr>& prims, nlohmann::json& passes,
+                                           int& failed) {
+    const scene::Options& options = frame.world->options;
+    std::string handle = light.handle.empty() ? "light" : light.handle;
+    auto shader = shading->find(light.shader.name, light.shader.loc);
+    LightGeometry geometry = lightGeometry(light, shader.get());
+    int size = std::max(options.xResolution, options.yResolution);
+    if (auto it = options.user.find("umbra:shadowmapsize"); it != options.user.end()) {
+        if (!it->second.ints.empty()) size = it->second.ints[0];
+        else if (!it->second.floats.empty()) size = int(it->second.floats[0]);
+    }
+    auto pass = lightPass(geometry, prims, size, "depth:" + handle, diag, light.shader.loc);
+    if (!pass) return "";
+    float crop[4] = {0, 1, 0, 1};
+    film::Film film(size, size, crop, *film::PixelFilter::create("box", 1, 1), {}, true);
+    PassResult r = runPass(frame, *pass, prims, film, fmt::format("depth map {}", handle));
+    passes.push_back({{"name", pass->name},
+                      {"wall_seconds", r.wall},
+                      {"cpu_seconds", r.cpu},
+                      {"counts", schedulerJson(r.counters)},
+                      {"samples", r.samples}});
+
+    // The map is written beside the first image, named after it and the light.
+    std::filesystem::path base(options.displays.empty() ? std::string("umbra") : options.displays[0].name);
+    std::string frameTag = frame.world->frameNumber >= 0 ? fmt::format(".{:04d}", frame.world->frameNumber) : "";
+    std::string path = (base.parent_path() / fmt::format("{}{}.{}.shd", base.stem().string(), frameTag, handle)).string();
+    DepthImage image = depthImageOf(film, pass->camera, depthFilterOf(options, light.shader.loc), dualOffsetOf(options));
+    if (!writeDepthMap(path, image, diag, light.shader.loc)) {
+        ++failed;
+        return "";
+    }
+    maps->invalidate(path);
+    return path;
+}
+
+DepthFilter Renderer::Impl::depthFilterOf(const scene::Options& options, const FileLoc& loc) {
+    DepthFilter f = DepthFilter::Min;
+    std::string name = options.depthFilter;
+    if (auto it = options.user.find("umbra:depthfilter"); it != options.user.end() && !it->second.strings.empty())
+        name = it->second.strings[0];
+    if (!parseDepthFilter(name, &f))
+        diag.warningOnce("depthfilter " + name, loc,
+                         "Hider: unknown \"depthfilter\" \"{}\" (expected min, max, average, midpoint, second or "
+                         "dual); using min",
+                         name);
+    return f;
+}
+
+float Renderer::Impl::dualOffsetOf(const scene::Options& options) {
+    if (auto it = options.user.find("umbra:dualoffset"); it != options.user.end() && !it->second.floats.empty())
+        return it->second.floats[0];
+    if (const ri::Param* p = options.hiderParams.find("offset"); p && !p->floats.empty()) return p->floats[0];
+    return 0.05f;
 }
 
 int renderFiles(const std::vector<std::string>& files, const RenderSettings& settingsIn, const std::string& statsPath,

@@ -31,7 +31,9 @@ constexpr const char* kStandard[] = {
     // Projection, Display, Hider.
     "uniform float fov", "uniform integer[2] origin", "uniform float[4] quantize", "uniform float dither",
     "uniform string compression", "uniform float gain", "uniform float gamma", "uniform integer jitter",
-    "uniform string depthfilter",
+    "uniform string depthfilter", "uniform float offset",
+    // umbra's own options (docs/shadows.md).
+    "uniform integer shadowmapsize", "uniform float dualoffset", "uniform integer tilecachemb",
     // Option "searchpath", "limits", "statistics".
     "uniform string shader", "uniform string texture", "uniform string archive",
     "uniform string procedural", "uniform string resource", "uniform string display",

@@ -1,0 +1,227 @@
+#pragma once
+// Reading depth maps and filtering them: the shadow() lookup.
+//
+// The lookup is percentage-closer filtering (Reeves, Salesin & Cook 1987,
+// Figure 4): the shading region is mapped into the map's raster, a fixed
+// number of jittered samples of the map under it are each compared with the
+// region's light-space depth, and the fraction that are nearer to the light
+// (the fraction of the region in shadow) is returned.
+
+#include "umbra/shadow/depth_image.h"
+#include "umbra/shadow/tile_cache.h"
+#include "umbra/util/error.h"
+#include "umbra/util/math.h"
+
+#include <ImfForward.h>
+#include <nlohmann/json_fwd.hpp>
+
+#include <algorithm>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+
+namespace umbra {
+
+/// Parameters of one shadow() call (RenderMan names in brackets, Reeves'
+/// names in parentheses).
+struct ShadowParams {
+    /// How the samples of a region are placed (Reeves Figure 3 a, b, c).
+    enum class Sampling { Jittered, Uniform, Gaussian };
+    /// How sample results are weighted: equally, or by a Gaussian of their
+    /// distance from the region's centre (["filter"]).
+    enum class Filter { Box, Gaussian };
+
+    int samples = 16;       ///< ["samples"] (NumSamples)
+    float sWidth = 1;       ///< ["swidth"] (ResFactor along raster x); ["width"] sets both
+    float tWidth = 1;       ///< ["twidth"] (ResFactor along raster y)
+    float blur = 0;         ///< ["blur"] extra region width, as a fraction of the map's resolution
+    int minSamples = 2;     ///< (MinSamples) per axis; Reeves' "2 or 3"; clamped to `samples`
+    float minSize = 2;      ///< (MinSize) minimum full region width in texels; Reeves uses 2
+    /// ["bias"]: constant depth offset (world units) added to the map depth
+    /// before comparing; used when bias0 == bias1 == 0.
+    float bias = 0;
+    /// ["bias0"], ["bias1"] (Bias0, Bias1): when not both zero, every sample
+    /// draws its bias uniformly from [bias0, bias1] (Reeves' footnote) and
+    /// `bias` is ignored.
+    float bias0 = 0, bias1 = 0;
+    Filter filter = Filter::Box;
+    Sampling sampling = Sampling::Jittered;
+    /// Per-tile min/max culling (on in production; tests turn it off to
+    /// check that it never changes a result).
+    bool tileCulling = true;
+
+    void setWidth(float w) { sWidth = tWidth = w; }
+    /// The bias range samples draw from, honouring the rule above.
+    float biasLow() const { return (bias0 == 0 && bias1 == 0) ? bias : std::min(bias0, bias1); }
+    float biasHigh() const { return (bias0 == 0 && bias1 == 0) ? bias : std::max(bias0, bias1); }
+};
+
+/// A batch of shading points for one shadow() call on one grid.
+struct ShadowBatch {
+    int count = 0;
+    const Vec3* P = nullptr;        ///< points, in "current" space
+    /// Footprint vectors (the micropolygon's edges along u and v, i.e.
+    /// dPdu*du and dPdv*dv), current space; null means a point footprint
+    /// (the region is then MinSize texels).
+    const Vec3* dPdu_du = nullptr;
+    const Vec3* dPdv_dv = nullptr;
+    const Vec3* N = nullptr;        ///< normals (second-depth maps); may be null
+    Mat4 worldFromCurrent;
+    uint32_t seed = 0;              ///< identity of the call (frame, grid, light): seeds the samples
+};
+
+/// Counters of lookups; add them up per thread and merge.
+struct ShadowStats {
+    uint64_t points = 0;          ///< points looked up
+    uint64_t outside = 0;         ///< behind the light, outside the map or its bounding box: lit at once
+    uint64_t culledLit = 0;       ///< nearer than every covered tile's min z: lit without texel reads
+    uint64_t culledShadowed = 0;  ///< beyond every covered tile's max z: shadowed without texel reads
+    uint64_t filtered = 0;        ///< points that compared texels
+    uint64_t samples = 0;         ///< texel comparisons made
+    uint64_t tileFetches = 0;     ///< tiles asked of the cache
+    /// Second-depth maps (Wang & Molnar Fig. 10), among `filtered` points:
+    uint64_t secondLit = 0;       ///< every comparison lit: lit without virtual samples
+    uint64_t secondShadowed = 0;  ///< no comparison lit: shadowed without virtual samples
+    uint64_t virtualPoints = 0;   ///< mixed: resolved with virtual samples on the tangent plane
+    ShadowStats& operator+=(const ShadowStats& o);
+};
+
+/// What `umbra info MAP` prints, including Reeves' Table 2 storage figures.
+struct MapInfo {
+    std::string path;
+    int width = 0, height = 0;
+    bool empty = true;                  ///< no finite depth at all
+    int bboxMinX = 0, bboxMinY = 0;     ///< bounding box of finite depths (inclusive, raster)
+    int bboxMaxX = -1, bboxMaxY = -1;
+    int tileWidth = 0, tileHeight = 0;
+    int tilesX = 0, tilesY = 0;         ///< tiles covering the bounding box (face 0 of a cube)
+    int tileCount = 0;                  ///< all tiles (of all faces)
+    int emptyTiles = 0;                 ///< tiles with no finite depth
+    float minZ = kInfinity, maxZ = -kInfinity;  ///< finite depth range (light camera space)
+    std::string projection, depthFilter;
+    int faces = 1;                      ///< 6 for a cube map: sizes and counts then sum over faces
+    uint64_t rawBytes = 0;              ///< width*height*4
+    uint64_t bboxBytes = 0;             ///< bounding box area * 4
+    uint64_t tileBytes = 0;             ///< tiles with a finite depth * tile bytes (4 KiB at 32x32)
+    uint64_t fileBytes = 0;             ///< size on disk
+};
+std::string mapInfoText(const MapInfo& info);
+nlohmann::json mapInfoJson(const MapInfo& info);
+
+/// An open depth map: header, matrices and per-tile depth range in memory,
+/// texels read tile by tile through a TileCache. Lookups are const and
+/// thread-safe.
+class ShadowMap {
+public:
+    /// Opens a map written by writeDepthMap (or any tiled, single-level EXR
+    /// with a FLOAT "Z" channel and worldToCamera/worldToNDC), or a cube map
+    /// written by writeCubeDepthMap. A missing,
+    /// corrupt or truncated file gives an error naming `loc` and the file,
+    /// and null. `cache` defaults to TileCache::shared(). `diag` must
+    /// outlive the map: tile read failures during lookups are reported to
+    /// it (once per map) and those tiles read as empty.
+    static std::shared_ptr<ShadowMap> open(const std::string& path, Diagnostics& diag, const FileLoc& loc = {},
+                                           std::shared_ptr<TileCache> cache = nullptr);
+    ~ShadowMap();
+    ShadowMap(const ShadowMap&) = delete;
+    ShadowMap& operator=(const ShadowMap&) = delete;
+
+    /// Percentage-closer filtered lookup of every point of `batch`:
+    /// `outShadowed[i]` = fraction of point i's region in shadow (0 lit,
+    /// 1 shadowed). Deterministic: depends only on the inputs and the map.
+    ///
+    /// For maps whose depth filter is "second" and batches with normals,
+    /// this is Wang & Molnar's Figure 10: the PCF comparisons (lit when
+    /// z <= map + bias) decide alone when they agree; when mixed, each sample
+    /// is compared again using the depth of the point's tangent plane at the
+    /// sample's texel centre ("virtual sample"), found by transforming the
+    /// plane into the light's projective screen space (raster x, raster y,
+    /// 1/z for perspective, z for orthographic lights) where it is linear.
+    void lookup(const ShadowBatch& batch, const ShadowParams& params, float* outShadowed, ShadowStats& stats) const;
+    /// Williams' point-sampled test: the nearest texel under each point,
+    /// compared with bias (biasLow+biasHigh)/2. Equal to lookup() with
+    /// samples = 1 (any width).
+    void lookupPoint(const ShadowBatch& batch, const ShadowParams& params, float* outShadowed, ShadowStats& stats) const;
+
+    /// The stored depth of texel (x, y) in raster coordinates (+infinity
+    /// outside the bounding box); reads through the cache. For tools/tests.
+    float texel(int x, int y) const;
+
+    int width() const { return m_width; }
+    int height() const { return m_height; }
+    const Mat4& lightFromWorld() const { return m_lightFromWorld; }
+    const Mat4& ndcFromWorld() const { return m_ndcFromWorld; }
+    Projection projection() const { return m_projection; }
+    DepthFilter depthFilter() const { return m_filter; }
+    float dualOffset() const { return m_dualOffset; }
+    bool empty() const { return m_finiteCount == 0; }
+    /// Data window (bounding box of finite depths), inclusive raster bounds.
+    int dataMinX() const { return m_dx0; }
+    int dataMinY() const { return m_dy0; }
+    int dataMaxX() const { return m_dx1; }
+    int dataMaxY() const { return m_dy1; }
+    int tilesX() const { return m_tilesX; }
+    int tilesY() const { return m_tilesY; }
+    float tileMinZ(int tx, int ty) const { return m_tileMin[size_t(ty) * m_tilesX + tx]; }
+    float tileMaxZ(int tx, int ty) const { return m_tileMax[size_t(ty) * m_tilesX + tx]; }
+    const TileCache& cache() const { return *m_cache; }
+    /// A cube map (six faces, from writeCubeDepthMap) rather than one map;
+    /// the accessors above then describe face 0, texel() reads face 0.
+    bool isCube() const { return !m_faces.empty(); }
+    /// Face f of a cube map (kCubeFaceNames order).
+    const ShadowMap& face(int f) const { return *m_faces[size_t(f)]; }
+    MapInfo info() const;
+    const std::string& path() const { return m_path; }
+
+private:
+    ShadowMap() = default;
+    /// The tile from the cache, reading it from the file on a miss.
+    ShadowTilePtr fetchTile(int tx, int ty) const;
+    ShadowTilePtr readTile(int tx, int ty) const;
+    void setupVirtualSampling();
+    bool initPart(int partNumber, std::string& why);
+    /// Cube maps: splits a batch by face and looks each part up there.
+    void lookupCube(const ShadowBatch& batch, const ShadowParams& params, float* out, ShadowStats& stats,
+                    bool pointSample) const;
+    template <bool kPointSample>
+    void lookupImpl(const ShadowBatch& batch, const ShadowParams& params, float* out, ShadowStats& stats) const;
+
+    std::string m_path;
+    Diagnostics* m_diag = nullptr;
+    std::shared_ptr<TileCache> m_cache;
+    uint32_t m_mapId = 0;
+    // OpenEXR files are not safe for concurrent reads: one mutex per file,
+    // shared by a cube map's faces (parts of one file).
+    std::shared_ptr<std::mutex> m_fileMutex;
+    std::shared_ptr<Imf::MultiPartInputFile> m_multi;
+    std::unique_ptr<Imf::TiledInputPart> m_part;
+    mutable bool m_readFailed = false;  // guarded by m_fileMutex
+    std::vector<std::shared_ptr<ShadowMap>> m_faces;  // a cube map's six faces; empty otherwise
+
+    int m_width = 0, m_height = 0;
+    int m_dx0 = 0, m_dy0 = 0, m_dx1 = -1, m_dy1 = -1;  // data window clipped to the display window
+    int m_fileX0 = 0, m_fileY0 = 0;                    // the file's data window corner: tile (0,0)
+    int m_tileW = 0, m_tileH = 0, m_tileShiftX = 0, m_tileShiftY = 0;
+    int m_tilesX = 0, m_tilesY = 0;
+    std::vector<float> m_tileMin, m_tileMax;
+    float m_minZ = kInfinity, m_maxZ = -kInfinity;
+    int64_t m_finiteCount = 0;
+    Mat4 m_lightFromWorld, m_ndcFromWorld;
+    Projection m_projection = Projection::Perspective;
+    DepthFilter m_filter = DepthFilter::Min;
+    float m_dualOffset = 0;
+    uint64_t m_fileBytes = 0;
+    /// Virtual sampling: planes go from light camera space to the light's
+    /// screen space (raster x, raster y, depth coordinate) by
+    /// m_planeFromLight = (screenFromLight^-1)^T. Mode: 0 unavailable (an
+    /// unusual projection), 1 perspective (depth coordinate 1/(k z)), 2
+    /// orthographic (depth coordinate z).
+    Mat4 m_planeFromLight;
+    int m_virtualMode = 0;
+    float m_wScale = 1;
+};
+
+}  // namespace umbra

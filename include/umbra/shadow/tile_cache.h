@@ -1,0 +1,96 @@
+#pragma once
+// The depth-map tile cache: a memory-bounded, thread-safe LRU of map tiles
+// shared by every open ShadowMap (Reeves et al. 1987 §3.3: "tiles, which
+// could be cached to take better advantage of the algorithm's
+// two-dimensional locality").
+
+#include <array>
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <list>
+#include <memory>
+#include <mutex>
+#include <unordered_map>
+#include <vector>
+
+namespace umbra {
+
+/// One tile of a depth map, as read from the file: `width` x `height`
+/// depths, row-major; texels the file does not cover are +infinity.
+struct ShadowTile {
+    int width = 0, height = 0;
+    std::vector<float> z;
+    size_t bytes() const { return z.size() * sizeof(float) + sizeof(ShadowTile); }
+};
+using ShadowTilePtr = std::shared_ptr<const ShadowTile>;
+
+/// Counters of a TileCache; a snapshot, all since construction.
+struct TileCacheStats {
+    uint64_t lookups = 0;    // find() calls
+    uint64_t hits = 0;       // found in the cache
+    uint64_t misses = 0;     // not found (the caller then reads the tile)
+    uint64_t tilesRead = 0;  // tiles read from files
+    uint64_t evictions = 0;  // tiles dropped to stay under the bound
+    uint64_t bytes = 0;      // bytes held now
+    uint64_t peakBytes = 0;  // most bytes ever held
+};
+
+/// A bounded LRU of depth-map tiles keyed by (map id, tile index).
+///
+/// Thread-safe. The key space is split into shards, each with its own lock
+/// and LRU list and an equal share of the byte bound, so the two shading
+/// threads rarely wait on each other. Tiles are handed out as shared
+/// pointers: eviction only drops the cache's reference, so a tile being
+/// filtered is never freed under its reader.
+class TileCache {
+public:
+    /// `capacityBytes` bounds the bytes of tiles held (RenderMan-style option
+    /// in MB: pass mb * 1024 * 1024). Default 64 MB.
+    explicit TileCache(size_t capacityBytes = size_t(64) << 20);
+    TileCache(const TileCache&) = delete;
+    TileCache& operator=(const TileCache&) = delete;
+
+    /// The process-wide default cache (64 MB) used when a map is opened
+    /// without one.
+    static std::shared_ptr<TileCache> shared();
+
+    /// A fresh id for a newly opened map (never reused in the process).
+    static uint32_t newMapId();
+
+    /// The tile, or null if not cached (counts a hit or a miss).
+    ShadowTilePtr find(uint32_t mapId, uint32_t tileIndex);
+    /// Inserts a tile just read (counts a tile read); if another thread
+    /// inserted the same key meanwhile, returns that one instead.
+    ShadowTilePtr insert(uint32_t mapId, uint32_t tileIndex, ShadowTilePtr tile);
+    /// Drops every tile of a map (called when the map is closed).
+    void erase(uint32_t mapId);
+
+    size_t capacityBytes() const { return m_capacity; }
+    TileCacheStats stats() const;
+
+private:
+    static constexpr int kShards = 8;
+    struct Entry {
+        uint64_t key;
+        ShadowTilePtr tile;
+        size_t bytes;
+    };
+    struct Shard {
+        std::mutex mutex;
+        std::list<Entry> lru;  // front = most recently used
+        std::unordered_map<uint64_t, std::list<Entry>::iterator> index;
+        size_t bytes = 0;
+    };
+    static uint64_t key(uint32_t mapId, uint32_t tileIndex) { return (uint64_t(mapId) << 32) | tileIndex; }
+    Shard& shardFor(uint64_t k) { return m_shards[(k ^ (k >> 32) ^ (k >> 7)) % kShards]; }
+    void addBytes(int64_t delta);
+
+    size_t m_capacity;
+    size_t m_shardCapacity;
+    std::array<Shard, kShards> m_shards;
+    std::atomic<uint64_t> m_lookups{0}, m_hits{0}, m_misses{0}, m_tilesRead{0}, m_evictions{0};
+    std::atomic<uint64_t> m_bytes{0}, m_peakBytes{0};
+};
+
+}  // namespace umbra

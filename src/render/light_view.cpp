@@ -1,0 +1,143 @@
+#include "render/light_view.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace umbra::render {
+
+namespace {
+
+/// A point parameter of the light record, in world space, if given.
+std::optional<Vec3> pointParam(const scene::LightRecord& light, const char* name) {
+    const ri::Param* p = light.shader.params.find(name);
+    if (!p || p->floats.size() < 3) return std::nullopt;
+    return light.shader.worldFromShader.point({p->floats[0], p->floats[1], p->floats[2]});
+}
+
+/// A float parameter: the record's value, else the shader's constant
+/// default, else `fallback`.
+float floatParam(const scene::LightRecord& light, const shading::Shader* shader, const char* name, float fallback) {
+    if (const ri::Param* p = light.shader.params.find(name); p && !p->floats.empty()) return p->floats[0];
+    if (shader)
+        if (const auto* info = shader->param(name); info && info->constantDefault && !info->defaultFloats.empty())
+            return info->defaultFloats[0];
+    return fallback;
+}
+
+bool contains(const std::string& s, const char* part) { return s.find(part) != std::string::npos; }
+
+}  // namespace
+
+LightGeometry lightGeometry(const scene::LightRecord& light, const shading::Shader* shader) {
+    LightGeometry g;
+    const std::string& name = light.shader.name;
+    bool hasCone = light.shader.params.find("coneangle") || (shader && shader->param("coneangle"));
+    if (contains(name, "spot") || hasCone)
+        g.shape = LightShape::Spot;
+    else if (contains(name, "distant") || contains(name, "solar"))
+        g.shape = LightShape::Distant;
+    else if (contains(name, "point"))
+        g.shape = LightShape::Point;
+    // RenderMan's defaults: from the shader-space origin along its +z axis.
+    g.from = pointParam(light, "from").value_or(light.shader.worldFromShader.point({0, 0, 0}));
+    g.to = pointParam(light, "to").value_or(light.shader.worldFromShader.point({0, 0, 1}));
+    g.coneAngle = floatParam(light, shader, "coneangle", radians(30));
+    g.coneDelta = floatParam(light, shader, "conedeltaangle", radians(5));
+    return g;
+}
+
+Mat4 lookAt(const Vec3& from, const Vec3& to) {
+    Vec3 z = normalize(to - from);
+    Vec3 up = std::abs(z.y) > 0.999f ? Vec3(0, 0, 1) : Vec3(0, 1, 0);
+    Vec3 x = normalize(cross(up, z));  // left-handed: x = up × z gives +x right
+    Vec3 y = cross(z, x);
+    Mat4 r;
+    const Vec3 axes[3] = {x, y, z};
+    for (int i = 0; i < 3; ++i) {
+        r.m[i][0] = axes[i].x;
+        r.m[i][1] = axes[i].y;
+        r.m[i][2] = axes[i].z;
+    }
+    return r * Mat4::translate(-from);
+}
+
+std::optional<Pass> lightPass(const LightGeometry& light, const std::vector<geometry::PrimitivePtr>& prims,
+                              int resolution, const std::string& name, Diagnostics& diag, const FileLoc& loc) {
+    Pass pass;
+    pass.name = name;
+    pass.depthOnly = true;
+    hider::Camera& cam = pass.camera;
+    cam.xResolution = cam.yResolution = std::max(1, resolution);
+    if (length(light.to - light.from) <= 0) {
+        diag.warning(loc, "LightSource: \"from\" and \"to\" coincide; no depth map can be rendered for it");
+        return std::nullopt;
+    }
+    if (light.shape == LightShape::Spot) {
+        cam.perspective = true;
+        // The cone fills the map, with a little room for filter regions at its edge.
+        float half = clamp(light.coneAngle * 1.05f, radians(0.5f), radians(85.0f));
+        cam.tanHalfFov = std::tan(half);
+        cam.cameraFromWorld = lookAt(light.from, light.to);
+        cam.nearClip = 1e-3f;
+        cam.farClip = 1e30f;
+    } else if (light.shape == LightShape::Distant) {
+        // Orthographic along the light, fitted to everything that casts.
+        Mat4 rotation = lookAt({0, 0, 0}, light.to - light.from);
+        Bound3 b;
+        for (const auto& p : prims)
+            if (p->attributes().castsShadows)
+                b.extend(transformBound(rotation * p->record().worldFromObject, p->bound()));
+        if (b.empty()) return std::nullopt;
+        Vec3 c = (b.min + b.max) * 0.5f;
+        float half = 0.51f * std::max(b.max.x - b.min.x, b.max.y - b.min.y) + 1e-4f;
+        float depth = b.max.z - b.min.z;
+        cam.perspective = false;
+        cam.cameraFromWorld = Mat4::translate({-c.x, -c.y, -(b.min.z - 0.01f * depth - 1e-3f)}) * rotation;
+        cam.screenWindow[0] = -half;
+        cam.screenWindow[1] = half;
+        cam.screenWindow[2] = -half;
+        cam.screenWindow[3] = half;
+        cam.nearClip = 0;
+        cam.farClip = 1e30f;
+    } else {
+        diag.warningOnce("auto-map " + name, loc,
+                         "LightSource: automatic shadow maps are made for spot and distant lights; this light "
+                         "({}) gets none and is unshadowed",
+                         light.shape == LightShape::Point ? "a point light, which needs a cube map" : "of unknown shape");
+        return std::nullopt;
+    }
+    cam.finish();
+    return pass;
+}
+
+DepthImage depthImageOf(const film::Film& film, const hider::Camera& camera, DepthFilter filter, float dualOffset) {
+    DepthImage image(film.xResolution(), film.yResolution());
+    image.lightFromWorld = camera.cameraFromWorld;
+    image.ndcFromWorld = camera.ndcFromScreen() * camera.screenFromCamera() * camera.cameraFromWorld;
+    image.projection = camera.perspective ? Projection::Perspective : Projection::Orthographic;
+    image.filter = filter;
+    image.dualOffset = dualOffset;
+    for (int y = film.y0(); y < film.y1(); ++y)
+        for (int x = film.x0(); x < film.x1(); ++x) {
+            float z1 = film.z(x, y);
+            float z2 = film.hasDepthPair() ? film.z2(x, y) : kInfinity;
+            float z = z1;
+            bool single = !std::isfinite(z2);
+            switch (filter) {
+            case DepthFilter::Min:
+            case DepthFilter::Max:
+            case DepthFilter::Average: z = z1; break;  // one sample per pixel: all three agree
+            case DepthFilter::Second: z = z2; break;   // single layer: nothing behind, +infinity
+            case DepthFilter::Midpoint:
+                // Single layer: the dual rule keeps the midpoint finite.
+                z = single ? z1 + dualOffset : 0.5f * (z1 + z2);
+                break;
+            case DepthFilter::Dual: z = single ? z1 + dualOffset : z1 + std::min(0.5f * (z2 - z1), dualOffset); break;
+            }
+            if (!std::isfinite(z1)) z = kInfinity;
+            image.at(x, y) = z;
+        }
+    return image;
+}
+
+}  // namespace umbra::render

@@ -1,0 +1,77 @@
+#pragma once
+// Header attributes shared by the map writer and readers (private to the
+// shadow module).
+
+#include "umbra/shadow/depth_image.h"
+
+#include <ImfDoubleAttribute.h>
+#include <ImfFloatAttribute.h>
+#include <ImfFloatVectorAttribute.h>
+#include <ImfHeader.h>
+#include <ImfIntAttribute.h>
+#include <ImfMatrixAttribute.h>
+#include <ImfStringAttribute.h>
+
+#include <string>
+
+namespace umbra {
+
+// Standard EXR names (RenderMan, OIIO and Nuke understand them).
+inline constexpr const char* kAttrWorldToCamera = "worldToCamera";
+inline constexpr const char* kAttrWorldToNDC = "worldToNDC";
+// umbra's own, named "umbra:..." as the project's extensions are.
+inline constexpr const char* kAttrProjection = "umbra:projection";
+inline constexpr const char* kAttrDepthFilter = "umbra:depthfilter";
+inline constexpr const char* kAttrDualOffset = "umbra:dualoffset";
+inline constexpr const char* kAttrTilesX = "umbra:tilesX";
+inline constexpr const char* kAttrTilesY = "umbra:tilesY";
+inline constexpr const char* kAttrTileMinZ = "umbra:tileMinZ";
+inline constexpr const char* kAttrTileMaxZ = "umbra:tileMaxZ";
+inline constexpr const char* kAttrMinZ = "umbra:minZ";
+inline constexpr const char* kAttrMaxZ = "umbra:maxZ";
+inline constexpr const char* kAttrFiniteCount = "umbra:finiteCount";
+
+/// Imath matrix (row-vector convention) to Mat4 (column-vector convention).
+Mat4 fromImath(const Imath::M44f& m);
+
+/// The projection-related header fields of a map.
+struct MapMatrices {
+    Mat4 lightFromWorld, ndcFromWorld;
+    Projection projection = Projection::Perspective;
+    DepthFilter filter = DepthFilter::Min;
+    float dualOffset = 0;
+};
+
+/// Reads worldToCamera/worldToNDC (required) and the umbra attributes
+/// (optional: the projection is inferred from worldToNDC when absent).
+/// False with a reason in `why` when something required is missing or
+/// malformed.
+inline bool readMapMatrices(const Imf::Header& header, MapMatrices& out, std::string& why) {
+    auto* w2c = header.findTypedAttribute<Imf::M44fAttribute>(kAttrWorldToCamera);
+    auto* w2n = header.findTypedAttribute<Imf::M44fAttribute>(kAttrWorldToNDC);
+    if (!w2c || !w2n) {
+        why = "expected the header matrices worldToCamera and worldToNDC (m44f)";
+        return false;
+    }
+    out.lightFromWorld = fromImath(w2c->value());
+    out.ndcFromWorld = fromImath(w2n->value());
+    const auto& n = out.ndcFromWorld.m;
+    out.projection = (n[3][0] == 0 && n[3][1] == 0 && n[3][2] == 0) ? Projection::Orthographic : Projection::Perspective;
+    if (auto* a = header.findTypedAttribute<Imf::StringAttribute>(kAttrProjection)) {
+        if (!parseProjection(a->value(), &out.projection)) {
+            why = "unknown umbra:projection \"" + a->value() + "\" (expected \"perspective\" or \"orthographic\")";
+            return false;
+        }
+    }
+    if (auto* a = header.findTypedAttribute<Imf::StringAttribute>(kAttrDepthFilter)) {
+        if (!parseDepthFilter(a->value(), &out.filter)) {
+            why = "unknown umbra:depthfilter \"" + a->value() +
+                  "\" (expected min, max, average, midpoint, second or dual)";
+            return false;
+        }
+    }
+    if (auto* a = header.findTypedAttribute<Imf::FloatAttribute>(kAttrDualOffset)) out.dualOffset = a->value();
+    return true;
+}
+
+}  // namespace umbra

@@ -1,0 +1,439 @@
+// Percentage-closer filtering (Reeves, Salesin & Cook 1987, Figure 4).
+//
+// Per shading point:
+//  1. z = the point's light camera-space depth; z < 0 (behind the light) is
+//     lit.
+//  2. The region: the micropolygon footprint (P +- dPdu_du/2 +- dPdv_dv/2)
+//     projected into the map's raster; half-widths (hs, ht) are the largest
+//     distances of its corners from the projected P, scaled by swidth/twidth
+//     (ResFactor), widened by blur, and at least MinSize/2.
+//  3. A region wholly outside the map's bounding box (data window) is lit.
+//  4. Per-tile culling (umbra's addition, from the tile scheme of §3.3):
+//     z nearer than every covered tile's min z (with the lowest bias) is
+//     lit; z beyond every covered tile's max z (with the highest bias), for
+//     a region wholly inside the bounding box, is shadowed. Both are exact:
+//     they give the result filtering would.
+//  5. ns x nt samples, counted as Reeves does (fewer for regions smaller
+//     than NumSamples texels, at least MinSamples per axis); each compares
+//     z > map + bias. Samples outside the bounding box see +infinity (lit).
+//
+// Deviations from the printed Figure 4, all deliberate:
+//  - The jitter spans the whole cell (the figure's `s + Rand()*js` spans
+//    only its upper half, which shifts the region by a quarter cell).
+//  - Texel indices use floor, not truncation toward zero.
+//  - A single sample (ns = nt = 1) is taken unjittered at the region's
+//    centre with the mid bias: Williams' point-sampled algorithm, as
+//    Figure 6a simulates it.
+
+#include "umbra/shadow/shadow_map.h"
+#include "umbra/util/rng.h"
+
+#include <cmath>
+#include <vector>
+
+namespace umbra {
+
+namespace {
+
+/// A few tiles pinned for one lookup call, indexed by the low bits of the
+/// tile coordinates so a 4x4 neighbourhood of tiles never collides:
+/// consecutive points of a grid reuse them without touching the cache.
+struct TileMemo {
+    static constexpr int kSlots = 16;
+    int tx[kSlots], ty[kSlots];
+    const float* data[kSlots];
+    ShadowTilePtr hold[kSlots];
+    TileMemo() {
+        for (int i = 0; i < kSlots; ++i) {
+            tx[i] = ty[i] = -1;
+            data[i] = nullptr;
+        }
+    }
+};
+
+/// Projects `p` by `m` into raster space; false when behind the projection
+/// centre (w <= 0) or not finite.
+inline bool project(const Mat4& m, const Vec3& p, float* x, float* y) {
+    const auto& a = m.m;
+    float w = a[3][0] * p.x + a[3][1] * p.y + a[3][2] * p.z + a[3][3];
+    if (!(w > 0)) return false;
+    float inv = 1.0f / w;
+    *x = (a[0][0] * p.x + a[0][1] * p.y + a[0][2] * p.z + a[0][3]) * inv;
+    *y = (a[1][0] * p.x + a[1][1] * p.y + a[1][2] * p.z + a[1][3]) * inv;
+    return std::isfinite(*x) && std::isfinite(*y);
+}
+
+/// floor() as an int, for |v| < 2^31 (callers bound their values first).
+/// std::floor is a libm call on baseline x86-64, which has no SSE4.1 round.
+inline int floorInt(float v) {
+    int i = int(v);
+    return i - (float(i) > v ? 1 : 0);
+}
+
+/// Relative tolerance of virtual-sample comparisons (float rounding of the
+/// plane's transform and evaluation, measured at a few 1e-6).
+constexpr float kVirtualSlack = 1e-4f;
+
+/// A standard normal deviate from two uniforms (Box-Muller).
+inline void gaussianPair(float u1, float u2, float* g1, float* g2) {
+    float r = std::sqrt(-2.0f * std::log(1.0f - u1));  // 1-u1 in (0,1]
+    float a = 2.0f * kPi * u2;
+    *g1 = r * std::cos(a);
+    *g2 = r * std::sin(a);
+}
+
+}  // namespace
+
+template <bool kPointSample>
+void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params, float* out,
+                           ShadowStats& stats) const {
+    ShadowStats st;
+    const Mat4 lightFromCurrent = m_lightFromWorld * batch.worldFromCurrent;
+    const Mat4 rasterFromCurrent =
+        Mat4::scale(Vec3(float(m_width), float(m_height), 1.0f)) * m_ndcFromWorld * batch.worldFromCurrent;
+    const auto& L = lightFromCurrent.m;
+
+    const float biasLo = params.biasLow(), biasHi = params.biasHigh();
+    const float biasMid = 0.5f * (biasLo + biasHi);
+    const bool randomBias = biasLo != biasHi;
+    const int samples = std::max(1, params.samples);
+    const int minSamples = clamp(params.minSamples, 1, samples);
+    const float minHalf = std::max(0.0f, params.minSize) * 0.5f;
+    // Regions larger than this (half-width, texels) gain nothing: clamping
+    // keeps the sample arithmetic finite for wild footprints.
+    const float maxHalf = 4.0f * float(std::max(m_width, m_height)) + 4.0f;
+    const float blurS = std::max(0.0f, params.blur) * float(m_width) * 0.5f;
+    const float blurT = std::max(0.0f, params.blur) * float(m_height) * 0.5f;
+    const bool hasData = !empty();
+    // Data window clipped to the display window, inclusive texel bounds: a
+    // sample's texel (i, j) holds a depth when dx0 <= i <= dx1 and
+    // dy0 <= j <= dy1, and reads +infinity otherwise.
+    const int dx0 = m_dx0, dx1 = m_dx1, dy0 = m_dy0, dy1 = m_dy1;
+
+    const int shiftX = m_tileShiftX, shiftY = m_tileShiftY;
+    TileMemo memo;
+    auto depthAt = [&](int iu, int iv) -> float {
+        const int fx = iu - m_fileX0, fy = iv - m_fileY0;
+        const int tx = fx >> m_tileShiftX, ty = fy >> m_tileShiftY;
+        const int slot = (tx & 3) | ((ty & 3) << 2);
+        if (memo.tx[slot] != tx || memo.ty[slot] != ty) {
+            memo.hold[slot] = fetchTile(tx, ty);
+            memo.data[slot] = memo.hold[slot]->z.data();
+            memo.tx[slot] = tx;
+            memo.ty[slot] = ty;
+            ++st.tileFetches;
+        }
+        return memo.data[slot][((fy & (m_tileH - 1)) << m_tileShiftX) + (fx & (m_tileW - 1))];
+    };
+
+    // Second-depth maps with normals get virtual samples (Wang & Molnar).
+    const bool secondDepth = !kPointSample && m_filter == DepthFilter::Second && batch.N && m_virtualMode != 0;
+    Mat4 currentFromLight;
+    if (secondDepth) currentFromLight = lightFromCurrent.inverse();
+    const auto& planeM = m_planeFromLight.m;
+
+    for (int i = 0; i < batch.count; ++i) {
+        out[i] = 0;
+        ++st.points;
+        const Vec3 P = batch.P[i];
+        const float z = L[2][0] * P.x + L[2][1] * P.y + L[2][2] * P.z + L[2][3];
+        float s, t;
+        // Behind the light, unprojectable, or nothing stored: lit.
+        if (!(z >= 0) || !hasData || !project(rasterFromCurrent, P, &s, &t)) {
+            ++st.outside;
+            continue;
+        }
+
+        if constexpr (kPointSample) {
+            if (!(s >= float(dx0) && s < float(dx1) + 1.0f && t >= float(dy0) && t < float(dy1) + 1.0f)) {
+                ++st.outside;
+                continue;
+            }
+            ++st.filtered;
+            ++st.samples;
+            out[i] = z > depthAt(floorInt(s), floorInt(t)) + biasMid ? 1.0f : 0.0f;
+            continue;
+        } else {
+            float hs = 0, ht = 0;
+            if (batch.dPdu_du && batch.dPdv_dv) {
+                const Vec3 du = batch.dPdu_du[i] * 0.5f, dv = batch.dPdv_dv[i] * 0.5f;
+                const Vec3 corners[4] = {P - du - dv, P + du - dv, P - du + dv, P + du + dv};
+                for (const Vec3& c : corners) {
+                    float cx, cy;
+                    if (!project(rasterFromCurrent, c, &cx, &cy)) continue;
+                    hs = std::max(hs, std::abs(cx - s));
+                    ht = std::max(ht, std::abs(cy - t));
+                }
+            }
+            hs = clamp(std::max(hs * params.sWidth + blurS, minHalf), 0.0f, maxHalf);
+            ht = clamp(std::max(ht * params.tWidth + blurT, minHalf), 0.0f, maxHalf);
+            if (!(hs >= 0) || !(ht >= 0)) hs = ht = minHalf;  // NaN widths
+
+            const float loS = s - hs, hiS = s + hs, loT = t - ht, hiT = t + ht;
+            if (hiS < float(dx0) || loS >= float(dx1) + 1.0f || hiT < float(dy0) || loT >= float(dy1) + 1.0f) {
+                ++st.outside;
+                continue;
+            }
+            // Texel range the samples can reach; s and t lie within a few
+            // map widths of the map here, so the conversions are safe.
+            const int iLo = floorInt(loS), iHi = floorInt(hiS);
+            const int jLo = floorInt(loT), jHi = floorInt(hiT);
+
+            if (params.tileCulling) {
+                const int ci0 = std::max(iLo, dx0), ci1 = std::min(iHi, dx1);
+                const int cj0 = std::max(jLo, dy0), cj1 = std::min(jHi, dy1);
+                const int tx0 = (ci0 - m_fileX0) >> m_tileShiftX, tx1 = (ci1 - m_fileX0) >> m_tileShiftX;
+                const int ty0 = (cj0 - m_fileY0) >> m_tileShiftY, ty1 = (cj1 - m_fileY0) >> m_tileShiftY;
+                if ((tx1 - tx0 + 1) * (ty1 - ty0 + 1) <= 64) {
+                    float zMin = kInfinity, zMax = -kInfinity;
+                    for (int ty = ty0; ty <= ty1; ++ty)
+                        for (int tx = tx0; tx <= tx1; ++tx) {
+                            zMin = std::min(zMin, m_tileMin[size_t(ty) * m_tilesX + tx]);
+                            zMax = std::max(zMax, m_tileMax[size_t(ty) * m_tilesX + tx]);
+                        }
+                    // Exact: float addition is monotonic, so map + bias >=
+                    // zMin + biasLo and <= zMax + biasHi for every sample.
+                    if (z <= zMin + biasLo) {
+                        ++st.culledLit;
+                        continue;
+                    }
+                    const bool inside = iLo >= dx0 && iHi <= dx1 && jLo >= dy0 && jHi <= dy1;
+                    if (inside && z > zMax + biasHi) {
+                        ++st.culledShadowed;
+                        out[i] = 1.0f;
+                        continue;
+                    }
+                }
+            }
+
+            // Reeves' sample counts: a region smaller than NumSamples texels
+            // gets about one sample per texel, else NumSamples split by the
+            // region's aspect ratio.
+            int ns, nt;
+            if (samples == 1) {
+                ns = nt = 1;
+            } else if (hs * ht * 4.0f < float(samples)) {
+                ns = clamp(int(hs * 2.0f + 0.5f), minSamples, samples);
+                nt = clamp(int(ht * 2.0f + 0.5f), minSamples, samples);
+            } else {
+                nt = clamp(int(std::sqrt(ht * float(samples) / hs) + 0.5f), minSamples, samples);
+                ns = clamp(int(float(samples) / float(nt) + 0.5f), minSamples, samples);
+            }
+            ++st.filtered;
+            st.samples += uint64_t(ns) * uint64_t(nt);
+
+            if (ns == 1 && nt == 1) {
+                const int iu = clamp(floorInt(s), iLo, iHi), iv = clamp(floorInt(t), jLo, jHi);
+                if (iu >= dx0 && iu <= dx1 && iv >= dy0 && iv <= dy1)
+                    out[i] = z > depthAt(iu, iv) + biasMid ? 1.0f : 0.0f;
+                continue;
+            }
+
+            // Texels the samples can reach, clipped to the data window; when
+            // they lie in one tile (the common case: regions are a few
+            // texels, tiles 32) its pointer is fetched once for the region.
+            const int ci0 = std::max(iLo, dx0), ci1 = std::min(iHi, dx1);
+            const int cj0 = std::max(jLo, dy0), cj1 = std::min(jHi, dy1);
+            const bool regionInside = ci0 == iLo && ci1 == iHi && cj0 == jLo && cj1 == jHi;
+            const float* single = nullptr;
+            int singleX = 0, singleY = 0;
+            if (((ci0 - m_fileX0) >> shiftX) == ((ci1 - m_fileX0) >> shiftX) &&
+                ((cj0 - m_fileY0) >> shiftY) == ((cj1 - m_fileY0) >> shiftY)) {
+                const int tx = (ci0 - m_fileX0) >> shiftX, ty = (cj0 - m_fileY0) >> shiftY;
+                (void)depthAt(ci0, cj0);  // pins the tile in the memo
+                single = memo.data[(tx & 3) | ((ty & 3) << 2)];
+                singleX = m_fileX0 + (tx << shiftX);
+                singleY = m_fileY0 + (ty << shiftY);
+            }
+            auto shadowedAt = [&](int iu, int iv, float bias) -> bool {
+                if (!regionInside && (iu < dx0 || iu > dx1 || iv < dy0 || iv > dy1)) return false;  // +infinity
+                const float d = single ? single[((iv - singleY) << shiftX) + (iu - singleX)] : depthAt(iu, iv);
+                return z > d + bias;
+            };
+
+            Rng rng(hashKeys(batch.seed, uint32_t(i)));
+            const float ds = 2.0f * hs / float(ns), dt = 2.0f * ht / float(nt);
+            float inShadow = 0, weightSum = 0;
+            // Sample i of the region: position (u, v) in raster space and
+            // its bias, drawn in a fixed order so a replay repeats them.
+            auto nextSample = [&](Rng& r, int a, int b, float ds_, float dt_, float* u, float* v, float* bias) {
+                switch (params.sampling) {
+                case ShadowParams::Sampling::Jittered:
+                    *u = loS + (float(a) + r.uniform()) * ds_;
+                    *v = loT + (float(b) + r.uniform()) * dt_;
+                    break;
+                case ShadowParams::Sampling::Uniform:
+                    *u = loS + r.uniform() * 2.0f * hs;
+                    *v = loT + r.uniform() * 2.0f * ht;
+                    break;
+                case ShadowParams::Sampling::Gaussian:
+                default: {
+                    // Reeves' (b): a Gaussian over the box, sigma = half the
+                    // half-width, clamped into the box (|g| < 6, so u stays
+                    // within s +- 3 hs).
+                    float g1, g2;
+                    const float u1 = r.uniform();
+                    gaussianPair(u1, r.uniform(), &g1, &g2);
+                    *u = s + g1 * 0.5f * hs;
+                    *v = t + g2 * 0.5f * ht;
+                    break;
+                }
+                }
+                *bias = biasMid;
+                if (randomBias) *bias = std::min(biasHi, biasLo + r.uniform() * (biasHi - biasLo));
+            };
+            const bool gaussianFilter = params.filter == ShadowParams::Filter::Gaussian;
+            const float invHs = hs > 0 ? 1.0f / hs : 0.0f, invHt = ht > 0 ? 1.0f / ht : 0.0f;
+            auto weight = [&](float u, float v) -> float {
+                if (!gaussianFilter) return 1.0f;
+                const float ru = (clamp(u, loS, hiS) - s) * invHs, rv = (clamp(v, loT, hiT) - t) * invHt;
+                return std::exp(-2.0f * (ru * ru + rv * rv));
+            };
+            if (params.sampling == ShadowParams::Sampling::Jittered && params.filter == ShadowParams::Filter::Box) {
+                // The production path (Figure 3c, box filter), kept tight.
+                // floor is monotonic, so clamping the texel index equals
+                // clamping the position into the region first.
+                int count = 0;
+                for (int a = 0; a < ns; ++a) {
+                    for (int b = 0; b < nt; ++b) {
+                        const float u = loS + (float(a) + rng.uniform()) * ds;
+                        const float v = loT + (float(b) + rng.uniform()) * dt;
+                        float bias = biasMid;
+                        if (randomBias) bias = std::min(biasHi, biasLo + rng.uniform() * (biasHi - biasLo));
+                        count += shadowedAt(clamp(floorInt(u), iLo, iHi), clamp(floorInt(v), jLo, jHi), bias) ? 1 : 0;
+                    }
+                }
+                inShadow = float(count);
+                weightSum = float(ns * nt);
+            } else {
+                for (int a = 0; a < ns; ++a) {
+                    for (int b = 0; b < nt; ++b) {
+                        float u, v, bias;
+                        nextSample(rng, a, b, ds, dt, &u, &v, &bias);
+                        const float w = weight(u, v);
+                        weightSum += w;
+                        if (shadowedAt(clamp(floorInt(u), iLo, iHi), clamp(floorInt(v), jLo, jHi), bias)) inShadow += w;
+                    }
+                }
+            }
+
+            if (secondDepth && inShadow > 0 && inShadow < weightSum) {
+                // Wang & Molnar Fig. 10, mixed comparisons: the tangent plane
+                // at P, in the light's screen space, gives the surface's own
+                // depth at each sample's texel centre.
+                const Vec3 Pl = lightFromCurrent.point(P);
+                const Vec3 Nl = Mat4::normal(currentFromLight, batch.N[i]);
+                const float tc[4] = {Nl.x, Nl.y, Nl.z, -dot(Nl, Pl)};
+                float pl[4];
+                for (int r = 0; r < 4; ++r)
+                    pl[r] = planeM[r][0] * tc[0] + planeM[r][1] * tc[1] + planeM[r][2] * tc[2] + planeM[r][3] * tc[3];
+                // An edge-on plane (c = 0) says nothing about depth: keep the
+                // plain comparisons.
+                if (std::abs(pl[2]) > 1e-30f && std::isfinite(pl[0] + pl[1] + pl[2] + pl[3])) {
+                    ++st.virtualPoints;
+                    const float ca = -pl[0] / pl[2], cb = -pl[1] / pl[2], cd = -pl[3] / pl[2];
+                    Rng replay(hashKeys(batch.seed, uint32_t(i)));  // the same samples again
+                    float virtShadow = 0;
+                    for (int a = 0; a < ns; ++a) {
+                        for (int b = 0; b < nt; ++b) {
+                            float u, v, bias;
+                            nextSample(replay, a, b, ds, dt, &u, &v, &bias);
+                            const int iu = clamp(floorInt(u), iLo, iHi), iv = clamp(floorInt(v), jLo, jHi);
+                            if (!regionInside && (iu < dx0 || iu > dx1 || iv < dy0 || iv > dy1)) continue;
+                            const float Z = ca * (float(iu) + 0.5f) + cb * (float(iv) + 0.5f) + cd;
+                            float zv;
+                            if (m_virtualMode == 1)
+                                zv = Z > 0 ? 1.0f / (m_wScale * Z) : kInfinity;  // no crossing in front: far away
+                            else
+                                zv = m_wScale * Z;
+                            const float d = single ? single[((iv - singleY) << shiftX) + (iu - singleX)] : depthAt(iu, iv);
+                            // Relative slack for the rounding of the plane
+                            // transform: a planar surface stored in the map
+                            // (two-sided, §3.3) then lights itself unbiased.
+                            if (!(zv <= d + bias + kVirtualSlack * std::abs(d))) virtShadow += weight(u, v);
+                        }
+                    }
+                    inShadow = virtShadow;
+                }
+            } else if (secondDepth) {
+                if (inShadow == 0) ++st.secondLit;
+                else ++st.secondShadowed;
+            }
+            out[i] = weightSum > 0 ? inShadow / weightSum : 0.0f;
+        }
+    }
+    stats += st;
+}
+
+void ShadowMap::lookupCube(const ShadowBatch& batch, const ShadowParams& params, float* out, ShadowStats& stats,
+                           bool pointSample) const {
+    // The face a point belongs to is the one whose view axis is nearest its
+    // direction from the light: the largest light camera-space z. Points are
+    // gathered per face into per-thread scratch (no allocation once warm).
+    struct Scratch {
+        std::vector<Vec3> P, du, dv, N;
+        std::vector<float> out;
+        std::vector<int> index;
+    };
+    thread_local Scratch scratch[6];
+    float rows[6][4];
+    for (int f = 0; f < 6; ++f) {
+        const Mat4 m = m_faces[size_t(f)]->m_lightFromWorld * batch.worldFromCurrent;
+        for (int c = 0; c < 4; ++c) rows[f][c] = m.m[2][c];
+    }
+    for (Scratch& sc : scratch) {
+        sc.P.clear(); sc.du.clear(); sc.dv.clear(); sc.N.clear(); sc.index.clear();
+    }
+    const bool footprint = batch.dPdu_du && batch.dPdv_dv;
+    for (int i = 0; i < batch.count; ++i) {
+        const Vec3& P = batch.P[i];
+        int best = 0;
+        float bestZ = -kInfinity;
+        for (int f = 0; f < 6; ++f) {
+            const float z = rows[f][0] * P.x + rows[f][1] * P.y + rows[f][2] * P.z + rows[f][3];
+            if (z > bestZ) {
+                bestZ = z;
+                best = f;
+            }
+        }
+        Scratch& sc = scratch[best];
+        sc.P.push_back(P);
+        if (footprint) {
+            sc.du.push_back(batch.dPdu_du[i]);
+            sc.dv.push_back(batch.dPdv_dv[i]);
+        }
+        if (batch.N) sc.N.push_back(batch.N[i]);
+        sc.index.push_back(i);
+    }
+    for (int f = 0; f < 6; ++f) {
+        Scratch& sc = scratch[f];
+        if (sc.index.empty()) continue;
+        ShadowBatch sub = batch;
+        sub.count = int(sc.index.size());
+        sub.P = sc.P.data();
+        sub.dPdu_du = footprint ? sc.du.data() : nullptr;
+        sub.dPdv_dv = footprint ? sc.dv.data() : nullptr;
+        sub.N = batch.N ? sc.N.data() : nullptr;
+        sub.seed = hashKeys(batch.seed, uint32_t(f));
+        sc.out.resize(sc.index.size());
+        if (pointSample)
+            m_faces[size_t(f)]->lookupImpl<true>(sub, params, sc.out.data(), stats);
+        else
+            m_faces[size_t(f)]->lookupImpl<false>(sub, params, sc.out.data(), stats);
+        for (size_t k = 0; k < sc.index.size(); ++k) out[sc.index[k]] = sc.out[k];
+    }
+}
+
+void ShadowMap::lookup(const ShadowBatch& batch, const ShadowParams& params, float* outShadowed,
+                       ShadowStats& stats) const {
+    if (isCube()) return lookupCube(batch, params, outShadowed, stats, false);
+    lookupImpl<false>(batch, params, outShadowed, stats);
+}
+
+void ShadowMap::lookupPoint(const ShadowBatch& batch, const ShadowParams& params, float* outShadowed,
+                            ShadowStats& stats) const {
+    if (isCube()) return lookupCube(batch, params, outShadowed, stats, true);
+    lookupImpl<true>(batch, params, outShadowed, stats);
+}
+
+}  // namespace umbra

@@ -1,0 +1,411 @@
+#include "umbra/shadow/shadow_map.h"
+
+#include "map_header.h"
+
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfMultiPartInputFile.h>
+#include <ImfStdIO.h>
+#include <ImfThreading.h>
+#include <ImfTiledInputPart.h>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <exception>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+
+namespace umbra {
+
+ShadowStats& ShadowStats::operator+=(const ShadowStats& o) {
+    points += o.points;
+    outside += o.outside;
+    culledLit += o.culledLit;
+    culledShadowed += o.culledShadowed;
+    filtered += o.filtered;
+    samples += o.samples;
+    tileFetches += o.tileFetches;
+    secondLit += o.secondLit;
+    secondShadowed += o.secondShadowed;
+    virtualPoints += o.virtualPoints;
+    return *this;
+}
+
+namespace {
+
+bool isPowerOfTwo(int v) { return v > 0 && (v & (v - 1)) == 0; }
+int log2i(int v) {
+    int s = 0;
+    while ((1 << s) < v) ++s;
+    return s;
+}
+
+// OpenEXR accepts a file whose tile offset table is intact but whose tile
+// data was cut off, and only throws when such a tile is read. A map must be
+// checked at open instead: every chunk the table names has to lie inside
+// the file. Single-part tiled layout: magic, version, header, then one
+// uint64 offset per tile, each pointing at {int32 dx, dy, lx, ly, size;
+// size bytes}. Returns an empty string when the file is whole.
+std::string checkTileChunks(const std::string& path, uint64_t fileBytes, size_t nTiles) {
+    Imf::StdIFStream is(path.c_str());
+    char magicVersion[8];
+    is.read(magicVersion, 8);
+    int version;
+    std::memcpy(&version, magicVersion + 4, 4);
+    if (version & 0x1000) return "";  // multi-part: OpenEXR validates its own chunk table
+    Imf::Header header;
+    header.readFrom(is, version);
+    const uint64_t tableAt = is.tellg();
+    if (tableAt + nTiles * 8 > fileBytes) return "the file is truncated (tile offset table cut off)";
+    std::ifstream in(path, std::ios::binary);
+    in.seekg(std::streamoff(tableAt));
+    std::vector<uint64_t> offsets(nTiles);
+    in.read(reinterpret_cast<char*>(offsets.data()), std::streamsize(nTiles * 8));
+    if (!in) return "the file is truncated (tile offset table cut off)";
+    // A cut file loses its last chunk first: every offset must point inside
+    // the file, and the chunk at the largest offset must be whole.
+    uint64_t last = 0;
+    for (uint64_t at : offsets) {
+        if (at < tableAt + nTiles * 8 || at + 20 > fileBytes) return "the file is truncated (tiles are missing)";
+        last = std::max(last, at);
+    }
+    int32_t chunk[5];
+    in.seekg(std::streamoff(last));
+    in.read(reinterpret_cast<char*>(chunk), sizeof chunk);
+    if (!in || chunk[4] < 0 || last + 20 + uint64_t(chunk[4]) > fileBytes)
+        return "the file is truncated (tile data cut off)";
+    return "";
+}
+
+}  // namespace
+
+std::shared_ptr<ShadowMap> ShadowMap::open(const std::string& path, Diagnostics& diag, const FileLoc& loc,
+                                           std::shared_ptr<TileCache> cache) {
+    auto fail = [&](const std::string& why) {
+        diag.error(loc, "cannot open shadow map \"{}\": {}", path, why);
+        return nullptr;
+    };
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(path, ec)) return fail("no such file");
+    const uint64_t fileBytes = std::filesystem::file_size(path, ec);
+    if (!cache) cache = TileCache::shared();
+    std::shared_ptr<ShadowMap> map(new ShadowMap());
+    try {
+        // No chunk-table reconstruction: a damaged file must fail here, not
+        // be half-repaired.
+        auto multi = std::make_shared<Imf::MultiPartInputFile>(path.c_str(), Imf::globalThreadCount(), false);
+        auto mutex = std::make_shared<std::mutex>();
+        const int parts = multi->parts();
+        if (parts != 1 && parts != 6)
+            return fail(fmt::format("{} parts, expected 1 (a map) or 6 (a cube map's faces)", parts));
+        std::vector<std::shared_ptr<ShadowMap>> faces;
+        for (int p = 0; p < parts; ++p) {
+            std::shared_ptr<ShadowMap> face = parts == 1 ? map : std::shared_ptr<ShadowMap>(new ShadowMap());
+            face->m_path = path;
+            face->m_diag = &diag;
+            face->m_cache = cache;
+            face->m_fileBytes = fileBytes;
+            face->m_multi = multi;
+            face->m_fileMutex = mutex;
+            std::string why;
+            if (!face->initPart(p, why)) return fail(parts == 1 ? why : fmt::format("face {}: {}", p, why));
+            if (parts == 1) {
+                std::string cut = checkTileChunks(path, fileBytes, size_t(face->m_tilesX) * size_t(face->m_tilesY));
+                if (!cut.empty()) return fail(cut);
+            }
+            face->setupVirtualSampling();
+            face->m_mapId = TileCache::newMapId();
+            faces.push_back(std::move(face));
+        }
+        if (parts == 6) {
+            // The cube itself answers queries about the file and dispatches
+            // lookups; its own fields describe face 0.
+            const ShadowMap& f0 = *faces[0];
+            map->m_path = path;
+            map->m_diag = &diag;
+            map->m_cache = cache;
+            map->m_fileBytes = fileBytes;
+            map->m_width = f0.m_width;
+            map->m_height = f0.m_height;
+            map->m_lightFromWorld = f0.m_lightFromWorld;
+            map->m_ndcFromWorld = f0.m_ndcFromWorld;
+            map->m_projection = f0.m_projection;
+            map->m_filter = f0.m_filter;
+            map->m_dualOffset = f0.m_dualOffset;
+            for (const auto& f : faces) map->m_finiteCount += f->m_finiteCount;
+            map->m_faces = std::move(faces);
+        }
+    } catch (const std::exception& e) {
+        return fail(e.what());
+    }
+    return map;
+}
+
+bool ShadowMap::initPart(int partNumber, std::string& why) {
+    m_part = std::make_unique<Imf::TiledInputPart>(*m_multi, partNumber);
+    const Imf::Header& header = m_part->header();
+    if (!header.hasTileDescription()) {
+        why = "expected a tiled image (use MakeShadow to convert scanline images)";
+        return false;
+    }
+    const Imf::TileDescription& td = header.tileDescription();
+    if (td.mode != Imf::ONE_LEVEL) {
+        why = "expected a single-level (ONE_LEVEL) tiled image";
+        return false;
+    }
+    if (!isPowerOfTwo(int(td.xSize)) || !isPowerOfTwo(int(td.ySize)) || td.xSize < 4 || td.xSize > 1024 ||
+        td.ySize < 4 || td.ySize > 1024) {
+        why = fmt::format("unsupported tile size {}x{} (expected powers of two from 4 to 1024)", td.xSize, td.ySize);
+        return false;
+    }
+    const Imf::Channel* z = header.channels().findChannel("Z");
+    if (!z || z->type != Imf::FLOAT || z->xSampling != 1 || z->ySampling != 1) {
+        why = "expected a full-resolution FLOAT channel \"Z\"";
+        return false;
+    }
+    if (!m_part->isComplete()) {
+        why = "the file is truncated (tiles are missing)";
+        return false;
+    }
+    MapMatrices mm;
+    if (!readMapMatrices(header, mm, why)) return false;
+    m_lightFromWorld = mm.lightFromWorld;
+    m_ndcFromWorld = mm.ndcFromWorld;
+    m_projection = mm.projection;
+    m_filter = mm.filter;
+    m_dualOffset = mm.dualOffset;
+
+    const Imath::Box2i display = header.displayWindow(), data = header.dataWindow();
+    if (display.min.x != 0 || display.min.y != 0) {
+        why = "expected the display window to start at (0,0) (use MakeShadow to convert the image)";
+        return false;
+    }
+    m_width = display.max.x + 1;
+    m_height = display.max.y + 1;
+    m_fileX0 = data.min.x;
+    m_fileY0 = data.min.y;
+    m_dx0 = std::max(data.min.x, 0);
+    m_dy0 = std::max(data.min.y, 0);
+    m_dx1 = std::min(data.max.x, display.max.x);
+    m_dy1 = std::min(data.max.y, display.max.y);
+    m_tileW = int(td.xSize);
+    m_tileH = int(td.ySize);
+    m_tileShiftX = log2i(m_tileW);
+    m_tileShiftY = log2i(m_tileH);
+    m_tilesX = m_part->numXTiles();
+    m_tilesY = m_part->numYTiles();
+    const size_t nTiles = size_t(m_tilesX) * size_t(m_tilesY);
+
+    // Per-tile depth ranges; without them (a foreign map) nothing is culled:
+    // [-inf, +inf] never passes either cull test.
+    auto* tmin = header.findTypedAttribute<Imf::FloatVectorAttribute>(kAttrTileMinZ);
+    auto* tmax = header.findTypedAttribute<Imf::FloatVectorAttribute>(kAttrTileMaxZ);
+    if (tmin && tmax) {
+        if (tmin->value().size() != nTiles || tmax->value().size() != nTiles) {
+            why = fmt::format("umbra:tileMinZ/umbra:tileMaxZ hold {}/{} values, expected {} ({}x{} tiles)",
+                              tmin->value().size(), tmax->value().size(), nTiles, m_tilesX, m_tilesY);
+            return false;
+        }
+        m_tileMin = tmin->value();
+        m_tileMax = tmax->value();
+        for (size_t i = 0; i < nTiles; ++i)
+            if (std::isnan(m_tileMin[i]) || std::isnan(m_tileMax[i])) {
+                why = "umbra:tileMinZ/umbra:tileMaxZ contain NaN";
+                return false;
+            }
+    } else {
+        m_tileMin.assign(nTiles, -kInfinity);
+        m_tileMax.assign(nTiles, kInfinity);
+    }
+    if (auto* a = header.findTypedAttribute<Imf::FloatAttribute>(kAttrMinZ)) m_minZ = a->value();
+    if (auto* a = header.findTypedAttribute<Imf::FloatAttribute>(kAttrMaxZ)) m_maxZ = a->value();
+    if (auto* a = header.findTypedAttribute<Imf::DoubleAttribute>(kAttrFiniteCount))
+        m_finiteCount = int64_t(a->value());
+    else
+        m_finiteCount = int64_t(m_dx1 - m_dx0 + 1) * (m_dy1 - m_dy0 + 1);
+    if (m_dx1 < m_dx0 || m_dy1 < m_dy0) m_finiteCount = 0;
+    return true;
+}
+
+void ShadowMap::setupVirtualSampling() {
+    bool ok = false;
+    const Mat4 lightToWorld = m_lightFromWorld.inverse(&ok);
+    if (!ok) return;
+    const Mat4 rasterFromLight =
+        Mat4::scale(Vec3(float(m_width), float(m_height), 1.0f)) * m_ndcFromWorld * lightToWorld;
+    const auto& r = rasterFromLight.m;
+    // The homogeneous w row must be k*z (a pinhole light) or k (orthographic);
+    // anything else has no simple depth coordinate.
+    auto tiny = [&](float v, float k) { return std::abs(v) <= 1e-5f * std::abs(k); };
+    Mat4 screen = rasterFromLight;
+    if (r[3][2] != 0 && tiny(r[3][0], r[3][2]) && tiny(r[3][1], r[3][2]) && tiny(r[3][3], r[3][2])) {
+        m_virtualMode = 1;
+        m_wScale = r[3][2];
+        screen.m[2][0] = screen.m[2][1] = screen.m[2][2] = 0;  // depth coordinate 1/w = 1/(k z)
+        screen.m[2][3] = 1;
+    } else if (r[3][3] != 0 && tiny(r[3][0], r[3][3]) && tiny(r[3][1], r[3][3]) && tiny(r[3][2], r[3][3])) {
+        m_virtualMode = 2;
+        m_wScale = r[3][3];
+        screen.m[2][0] = screen.m[2][1] = screen.m[2][3] = 0;  // depth coordinate z (times 1/k after the divide)
+        screen.m[2][2] = 1;
+    } else {
+        return;
+    }
+    const Mat4 lightFromScreen = screen.inverse(&ok);
+    if (!ok) {
+        m_virtualMode = 0;
+        return;
+    }
+    m_planeFromLight = lightFromScreen.transposed();
+}
+
+ShadowMap::~ShadowMap() {
+    if (m_cache && m_mapId) m_cache->erase(m_mapId);
+}
+
+ShadowTilePtr ShadowMap::readTile(int tx, int ty) const {
+    auto tile = std::make_shared<ShadowTile>();
+    tile->width = m_tileW;
+    tile->height = m_tileH;
+    tile->z.assign(size_t(m_tileW) * m_tileH, kInfinity);
+    std::lock_guard<std::mutex> lock(*m_fileMutex);
+    try {
+        Imath::Box2i box = m_part->dataWindowForTile(tx, ty);
+        Imf::FrameBuffer fb;
+        fb.insert("Z", Imf::Slice::Make(Imf::FLOAT, tile->z.data(), box.min, m_tileW, m_tileH, sizeof(float),
+                                        sizeof(float) * size_t(m_tileW), 1, 1, double(kInfinity)));
+        m_part->setFrameBuffer(fb);
+        m_part->readTile(tx, ty);
+        for (float& z : tile->z)
+            if (std::isnan(z)) z = kInfinity;
+    } catch (const std::exception& e) {
+        std::fill(tile->z.begin(), tile->z.end(), kInfinity);
+        if (!m_readFailed) {
+            m_readFailed = true;
+            m_diag->error(FileLoc::inFile(m_path), "shadow map \"{}\": cannot read tile ({}, {}): {}; "
+                                                   "its texels are treated as empty",
+                          m_path, tx, ty, e.what());
+        }
+    }
+    return tile;
+}
+
+ShadowTilePtr ShadowMap::fetchTile(int tx, int ty) const {
+    const uint32_t index = uint32_t(ty) * uint32_t(m_tilesX) + uint32_t(tx);
+    if (ShadowTilePtr t = m_cache->find(m_mapId, index)) return t;
+    return m_cache->insert(m_mapId, index, readTile(tx, ty));
+}
+
+float ShadowMap::texel(int x, int y) const {
+    if (isCube()) return m_faces[0]->texel(x, y);
+    if (x < m_dx0 || x > m_dx1 || y < m_dy0 || y > m_dy1) return kInfinity;
+    const int fx = x - m_fileX0, fy = y - m_fileY0;
+    ShadowTilePtr t = fetchTile(fx >> m_tileShiftX, fy >> m_tileShiftY);
+    return t->z[size_t(fy & (m_tileH - 1)) * m_tileW + size_t(fx & (m_tileW - 1))];
+}
+
+MapInfo ShadowMap::info() const {
+    if (isCube()) {
+        MapInfo in = m_faces[0]->info();
+        in.faces = 6;
+        for (size_t f = 1; f < 6; ++f) {
+            MapInfo fi = m_faces[f]->info();
+            in.empty = in.empty && fi.empty;
+            in.tileCount += fi.tileCount;
+            in.emptyTiles += fi.emptyTiles;
+            in.minZ = std::min(in.minZ, fi.minZ);
+            in.maxZ = std::max(in.maxZ, fi.maxZ);
+            in.rawBytes += fi.rawBytes;
+            in.bboxBytes += fi.bboxBytes;
+            in.tileBytes += fi.tileBytes;
+        }
+        return in;
+    }
+    MapInfo in;
+    in.path = m_path;
+    in.width = m_width;
+    in.height = m_height;
+    in.empty = empty();
+    if (!in.empty) {
+        in.bboxMinX = m_dx0;
+        in.bboxMinY = m_dy0;
+        in.bboxMaxX = m_dx1;
+        in.bboxMaxY = m_dy1;
+    }
+    in.tileWidth = m_tileW;
+    in.tileHeight = m_tileH;
+    in.tilesX = m_tilesX;
+    in.tilesY = m_tilesY;
+    int nonEmpty = 0;
+    for (float z : m_tileMin)
+        if (z != kInfinity) ++nonEmpty;
+    in.tileCount = m_tilesX * m_tilesY;
+    in.emptyTiles = in.tileCount - nonEmpty;
+    in.minZ = m_minZ;
+    in.maxZ = m_maxZ;
+    in.projection = projectionName(m_projection);
+    in.depthFilter = depthFilterName(m_filter);
+    in.rawBytes = uint64_t(m_width) * uint64_t(m_height) * 4;
+    in.bboxBytes = in.empty ? 0 : uint64_t(m_dx1 - m_dx0 + 1) * uint64_t(m_dy1 - m_dy0 + 1) * 4;
+    in.tileBytes = uint64_t(nonEmpty) * uint64_t(m_tileW) * uint64_t(m_tileH) * 4;
+    in.fileBytes = m_fileBytes;
+    return in;
+}
+
+std::string mapInfoText(const MapInfo& in) {
+    std::string s;
+    s += fmt::format("{}\n", in.path);
+    s += fmt::format("  resolution      {} x {}\n", in.width, in.height);
+    s += fmt::format("  projection      {}\n", in.projection);
+    s += fmt::format("  depth filter    {}\n", in.depthFilter);
+    if (in.empty)
+        s += "  bounding box    empty (no finite depth)\n";
+    else
+        s += fmt::format("  bounding box    [{}, {}] - [{}, {}]  ({} x {})\n", in.bboxMinX, in.bboxMinY, in.bboxMaxX,
+                         in.bboxMaxY, in.bboxMaxX - in.bboxMinX + 1, in.bboxMaxY - in.bboxMinY + 1);
+    if (in.faces > 1)
+        s += fmt::format("  cube faces      {} (figures below sum over faces; bounding box of face 0)\n", in.faces);
+    s += fmt::format("  tiles           {} of {}x{} texels, {} empty\n", in.tileCount, in.tileWidth, in.tileHeight,
+                     in.emptyTiles);
+    if (!in.empty) s += fmt::format("  depth range     {} .. {}\n", in.minZ, in.maxZ);
+    auto mb = [](uint64_t b) { return double(b) / (1024.0 * 1024.0); };
+    s += "  storage (Reeves 1987, Table 2)\n";
+    s += fmt::format("    raw           {:>12} bytes  {:8.3f} MB\n", in.rawBytes, mb(in.rawBytes));
+    s += fmt::format("    bounding box  {:>12} bytes  {:8.3f} MB\n", in.bboxBytes, mb(in.bboxBytes));
+    s += fmt::format("    tiles         {:>12} bytes  {:8.3f} MB\n", in.tileBytes, mb(in.tileBytes));
+    s += fmt::format("    on disk       {:>12} bytes  {:8.3f} MB\n", in.fileBytes, mb(in.fileBytes));
+    return s;
+}
+
+nlohmann::json mapInfoJson(const MapInfo& in) {
+    nlohmann::json j;
+    j["path"] = in.path;
+    j["width"] = in.width;
+    j["height"] = in.height;
+    j["projection"] = in.projection;
+    j["depthFilter"] = in.depthFilter;
+    j["empty"] = in.empty;
+    if (in.empty)
+        j["bbox"] = nullptr;
+    else
+        j["bbox"] = {in.bboxMinX, in.bboxMinY, in.bboxMaxX, in.bboxMaxY};
+    j["tileSize"] = {in.tileWidth, in.tileHeight};
+    j["tiles"] = in.tileCount;
+    j["faces"] = in.faces;
+    j["emptyTiles"] = in.emptyTiles;
+    if (in.empty) {
+        j["minZ"] = nullptr;
+        j["maxZ"] = nullptr;
+    } else {
+        j["minZ"] = in.minZ;
+        j["maxZ"] = in.maxZ;
+    }
+    j["storage"] = {{"rawBytes", in.rawBytes},
+                    {"bboxBytes", in.bboxBytes},
+                    {"tileBytes", in.tileBytes},
+                    {"fileBytes", in.fileBytes}};
+    return j;
+}
+
+}  // namespace umbra

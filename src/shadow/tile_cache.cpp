@@ -1,0 +1,106 @@
+#include "umbra/shadow/tile_cache.h"
+
+namespace umbra {
+
+TileCache::TileCache(size_t capacityBytes) : m_capacity(capacityBytes), m_shardCapacity(capacityBytes / kShards) {}
+
+std::shared_ptr<TileCache> TileCache::shared() {
+    static std::shared_ptr<TileCache> cache = std::make_shared<TileCache>();
+    return cache;
+}
+
+uint32_t TileCache::newMapId() {
+    static std::atomic<uint32_t> next{1};
+    return next.fetch_add(1, std::memory_order_relaxed);
+}
+
+void TileCache::addBytes(int64_t delta) {
+    uint64_t now = m_bytes.fetch_add(uint64_t(delta), std::memory_order_relaxed) + uint64_t(delta);
+    uint64_t peak = m_peakBytes.load(std::memory_order_relaxed);
+    while (now > peak && !m_peakBytes.compare_exchange_weak(peak, now, std::memory_order_relaxed)) {
+    }
+}
+
+ShadowTilePtr TileCache::find(uint32_t mapId, uint32_t tileIndex) {
+    const uint64_t k = key(mapId, tileIndex);
+    Shard& s = shardFor(k);
+    m_lookups.fetch_add(1, std::memory_order_relaxed);
+    {
+        std::lock_guard<std::mutex> lock(s.mutex);
+        auto it = s.index.find(k);
+        if (it != s.index.end()) {
+            s.lru.splice(s.lru.begin(), s.lru, it->second);
+            ShadowTilePtr tile = it->second->tile;
+            m_hits.fetch_add(1, std::memory_order_relaxed);
+            return tile;
+        }
+    }
+    m_misses.fetch_add(1, std::memory_order_relaxed);
+    return nullptr;
+}
+
+ShadowTilePtr TileCache::insert(uint32_t mapId, uint32_t tileIndex, ShadowTilePtr tile) {
+    const uint64_t k = key(mapId, tileIndex);
+    Shard& s = shardFor(k);
+    m_tilesRead.fetch_add(1, std::memory_order_relaxed);
+    // Evicted tiles are released after the lock is dropped: freeing memory
+    // under a shard lock would only lengthen other threads' waits.
+    std::vector<ShadowTilePtr> dropped;
+    {
+        std::lock_guard<std::mutex> lock(s.mutex);
+        auto it = s.index.find(k);
+        if (it != s.index.end()) {
+            s.lru.splice(s.lru.begin(), s.lru, it->second);
+            return it->second->tile;
+        }
+        size_t bytes = tile->bytes();
+        s.lru.push_front(Entry{k, tile, bytes});
+        s.index.emplace(k, s.lru.begin());
+        s.bytes += bytes;
+        addBytes(int64_t(bytes));
+        // Evict least recently used tiles over the shard's share; the tile
+        // just inserted goes too if it alone exceeds it (the caller keeps it).
+        while (s.bytes > m_shardCapacity && !s.lru.empty()) {
+            Entry& victim = s.lru.back();
+            s.bytes -= victim.bytes;
+            addBytes(-int64_t(victim.bytes));
+            s.index.erase(victim.key);
+            dropped.push_back(std::move(victim.tile));
+            s.lru.pop_back();
+            m_evictions.fetch_add(1, std::memory_order_relaxed);
+        }
+    }
+    return tile;
+}
+
+void TileCache::erase(uint32_t mapId) {
+    for (Shard& s : m_shards) {
+        std::vector<ShadowTilePtr> dropped;
+        std::lock_guard<std::mutex> lock(s.mutex);
+        for (auto it = s.lru.begin(); it != s.lru.end();) {
+            if (uint32_t(it->key >> 32) == mapId) {
+                s.bytes -= it->bytes;
+                addBytes(-int64_t(it->bytes));
+                s.index.erase(it->key);
+                dropped.push_back(std::move(it->tile));
+                it = s.lru.erase(it);
+            } else {
+                ++it;
+            }
+        }
+    }
+}
+
+TileCacheStats TileCache::stats() const {
+    TileCacheStats st;
+    st.lookups = m_lookups.load(std::memory_order_relaxed);
+    st.hits = m_hits.load(std::memory_order_relaxed);
+    st.misses = m_misses.load(std::memory_order_relaxed);
+    st.tilesRead = m_tilesRead.load(std::memory_order_relaxed);
+    st.evictions = m_evictions.load(std::memory_order_relaxed);
+    st.bytes = m_bytes.load(std::memory_order_relaxed);
+    st.peakBytes = m_peakBytes.load(std::memory_order_relaxed);
+    return st;
+}
+
+}  // namespace umbra

@@ -1,0 +1,195 @@
+#include "umbra/shadow/depth_image.h"
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+
+namespace umbra {
+
+namespace {
+
+constexpr uint32_t kZFileMagic = 0x2f0867abU;
+constexpr uint32_t kExrMagic = 0x01312f76U;  // bytes 76 2f 31 01, read little-endian
+constexpr size_t kZFileHeaderBytes = 4 + 2 + 2 + 16 * 4 + 16 * 4;
+
+// RenderMan's default screen window for an image of aspect w/h.
+void defaultScreenWindow(int w, int h, float* l, float* r, float* b, float* t) {
+    float a = float(w) / float(h);
+    if (a >= 1) { *l = -a; *r = a; *b = -1; *t = 1; }
+    else { *l = -1; *r = 1; *b = -1 / a; *t = 1 / a; }
+}
+
+// Screen (x right, y up, screen window [l,r]x[b,t]) from NDC (x right, y
+// down, [0,1]^2); z passes through.
+Mat4 screenFromNdc(int w, int h) {
+    float l, r, b, t;
+    defaultScreenWindow(w, h, &l, &r, &b, &t);
+    Mat4 m;
+    m.m[0][0] = r - l; m.m[0][3] = l;
+    m.m[1][1] = -(t - b); m.m[1][3] = t;
+    return m;
+}
+
+Mat4 ndcFromScreen(int w, int h) {
+    float l, r, b, t;
+    defaultScreenWindow(w, h, &l, &r, &b, &t);
+    Mat4 m;
+    m.m[0][0] = 1 / (r - l); m.m[0][3] = -l / (r - l);
+    m.m[1][1] = -1 / (t - b); m.m[1][3] = t / (t - b);
+    return m;
+}
+
+template <typename T> T byteSwap(T v) {
+    unsigned char b[sizeof(T)];
+    std::memcpy(b, &v, sizeof(T));
+    for (size_t i = 0; i < sizeof(T) / 2; ++i) std::swap(b[i], b[sizeof(T) - 1 - i]);
+    std::memcpy(&v, b, sizeof(T));
+    return v;
+}
+
+bool writeZFileImpl(const std::string& path, const DepthImage& image, std::string& why) {
+    if (image.width <= 0 || image.height <= 0 || image.width > 32767 || image.height > 32767 ||
+        image.z.size() != size_t(image.width) * image.height) {
+        why = "expected an image of 1..32767 x 1..32767 depths";
+        return false;
+    }
+    const std::string tmp = path + ".tmp";
+    {
+        std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+        if (!out) {
+            why = "cannot open the file for writing";
+            return false;
+        }
+        uint32_t magic = kZFileMagic;
+        int16_t w = int16_t(image.width), h = int16_t(image.height);
+        float np[16], nl[16];
+        (screenFromNdc(image.width, image.height) * image.ndcFromWorld).toRib(np);
+        image.lightFromWorld.toRib(nl);
+        out.write(reinterpret_cast<const char*>(&magic), 4);
+        out.write(reinterpret_cast<const char*>(&w), 2);
+        out.write(reinterpret_cast<const char*>(&h), 2);
+        out.write(reinterpret_cast<const char*>(np), sizeof np);
+        out.write(reinterpret_cast<const char*>(nl), sizeof nl);
+        out.write(reinterpret_cast<const char*>(image.z.data()), std::streamsize(image.z.size() * sizeof(float)));
+        out.flush();
+        if (!out) {
+            out.close();
+            std::remove(tmp.c_str());
+            why = "write failed";
+            return false;
+        }
+    }
+    if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+        std::remove(tmp.c_str());
+        why = "renaming the temporary file failed";
+        return false;
+    }
+    return true;
+}
+
+}  // namespace
+
+bool writeZFile(const std::string& path, const DepthImage& image) {
+    std::string why;
+    return writeZFileImpl(path, image, why);
+}
+
+bool writeZFile(const std::string& path, const DepthImage& image, Diagnostics& diag, const FileLoc& loc) {
+    std::string why;
+    if (writeZFileImpl(path, image, why)) return true;
+    diag.error(loc, "cannot write zfile \"{}\": {}", path, why);
+    return false;
+}
+
+bool readZFile(const std::string& path, DepthImage& out, Diagnostics& diag, const FileLoc& loc) {
+    std::ifstream in(path, std::ios::binary | std::ios::ate);
+    if (!in) {
+        diag.error(loc, "cannot open zfile \"{}\"", path);
+        return false;
+    }
+    const uint64_t size = uint64_t(in.tellg());
+    in.seekg(0);
+    unsigned char header[kZFileHeaderBytes];
+    if (size < kZFileHeaderBytes || !in.read(reinterpret_cast<char*>(header), kZFileHeaderBytes)) {
+        diag.error(loc, "cannot read zfile \"{}\": the file is shorter than the {}-byte header", path,
+                   kZFileHeaderBytes);
+        return false;
+    }
+    uint32_t magic;
+    int16_t w, h;
+    float np[16], nl[16];
+    std::memcpy(&magic, header, 4);
+    std::memcpy(&w, header + 4, 2);
+    std::memcpy(&h, header + 6, 2);
+    std::memcpy(np, header + 8, sizeof np);
+    std::memcpy(nl, header + 8 + sizeof np, sizeof nl);
+    bool swap = false;
+    if (magic == byteSwap(kZFileMagic)) swap = true;
+    else if (magic != kZFileMagic) {
+        diag.error(loc, "cannot read zfile \"{}\": bad magic number {:#010x} (expected {:#010x})", path, magic,
+                   kZFileMagic);
+        return false;
+    }
+    if (swap) {
+        w = byteSwap(w);
+        h = byteSwap(h);
+        for (float& v : np) v = byteSwap(v);
+        for (float& v : nl) v = byteSwap(v);
+    }
+    if (w <= 0 || h <= 0) {
+        diag.error(loc, "cannot read zfile \"{}\": bad resolution {}x{}", path, w, h);
+        return false;
+    }
+    const uint64_t expected = kZFileHeaderBytes + uint64_t(w) * uint64_t(h) * 4;
+    if (size != expected) {
+        diag.error(loc, "cannot read zfile \"{}\": {} bytes, expected {} for {}x{} depths{}", path, size, expected, w,
+                   h, size < expected ? " (truncated)" : "");
+        return false;
+    }
+    DepthImage img(w, h);
+    if (!in.read(reinterpret_cast<char*>(img.z.data()), std::streamsize(img.z.size() * sizeof(float)))) {
+        diag.error(loc, "cannot read zfile \"{}\": read failed", path);
+        return false;
+    }
+    for (float& z : img.z) {
+        if (swap) z = byteSwap(z);
+        if (!std::isfinite(z) || z >= 1e30f) z = kInfinity;
+    }
+    img.lightFromWorld = Mat4::fromRib(nl);
+    img.ndcFromWorld = ndcFromScreen(w, h) * Mat4::fromRib(np);
+    const auto& n = img.ndcFromWorld.m;
+    img.projection = (n[3][0] == 0 && n[3][1] == 0 && n[3][2] == 0) ? Projection::Orthographic
+                                                                    : Projection::Perspective;
+    out = std::move(img);
+    return true;
+}
+
+bool makeShadow(const std::string& in, const std::string& out, Diagnostics& diag, const FileLoc& loc) {
+    uint32_t magic = 0;
+    {
+        std::ifstream f(in, std::ios::binary);
+        if (!f) {
+            diag.error(loc, "MakeShadow: cannot open \"{}\"", in);
+            return false;
+        }
+        f.read(reinterpret_cast<char*>(&magic), 4);
+        if (!f) {
+            diag.error(loc, "MakeShadow: \"{}\" is too short to be a zfile or an OpenEXR image", in);
+            return false;
+        }
+    }
+    DepthImage image;
+    if (magic == kZFileMagic || magic == byteSwap(kZFileMagic)) {
+        if (!readZFile(in, image, diag, loc)) return false;
+    } else if (magic == kExrMagic) {
+        if (!readDepthImage(in, image, diag, loc)) return false;
+    } else {
+        diag.error(loc, "MakeShadow: \"{}\" is neither a zfile nor an OpenEXR depth image (magic {:#010x})", in,
+                   magic);
+        return false;
+    }
+    return writeDepthMap(out, image, diag, loc);
+}
+
+}  // namespace umbra

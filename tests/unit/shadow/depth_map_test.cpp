@@ -1,0 +1,472 @@
+// Map files: the tiled EXR writer, readers, zfiles, MakeShadow, MapInfo.
+
+#include "shadow_test_util.h"
+
+#include <ImfFloatVectorAttribute.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfIntAttribute.h>
+#include <ImfMatrixAttribute.h>
+#include <ImfStringAttribute.h>
+#include <ImfTiledInputFile.h>
+#include <OpenImageIO/imageio.h>
+#include <nlohmann/json.hpp>
+
+#include <fstream>
+
+namespace umbra {
+namespace {
+
+using test::scratchFile;
+
+// A 100x70 image whose finite depths fill [13, 81] x [7, 66]: a sloped
+// surface with holes, so tiles differ in min, max and emptiness.
+DepthImage sampleImage() {
+    DepthImage img(100, 70);
+    for (int y = 7; y <= 66; ++y)
+        for (int x = 13; x <= 81; ++x)
+            if ((x * 7 + y * 3) % 11 != 0) img.at(x, y) = 5.0f + 0.25f * float(x) + 0.125f * float(y);
+    // A fully empty 32x32 tile region inside the box (tile (1,1) of the data
+    // window is x 45..76, y 39..70).
+    for (int y = 39; y <= 66; ++y)
+        for (int x = 45; x <= 76; ++x) img.at(x, y) = kInfinity;
+    img.lightFromWorld = Mat4::rotate(30, Vec3(1, 2, 3)) * Mat4::translate(Vec3(1, -2, 5));
+    img.ndcFromWorld = Mat4::scale(Vec3(0.5f, -0.25f, 1)) * img.lightFromWorld;
+    img.ndcFromWorld.m[3][2] = 1;  // a projective row, so it is "perspective"
+    img.ndcFromWorld.m[3][3] = 0;
+    img.filter = DepthFilter::Midpoint;
+    img.dualOffset = 0.75f;
+    return img;
+}
+
+Imath::M44f ribMatrix(const Mat4& m) {
+    float v[16];
+    m.toRib(v);
+    return Imath::M44f(v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8], v[9], v[10], v[11], v[12], v[13], v[14],
+                       v[15]);
+}
+
+TEST(DepthMap, HeaderHoldsMatricesBoundingBoxAndTileRanges) {
+    DepthImage img = sampleImage();
+    Diagnostics diag;
+    const std::string path = scratchFile("header.exr");
+    ASSERT_TRUE(writeDepthMap(path, img, diag));
+    EXPECT_FALSE(std::filesystem::exists(path + ".tmp"));
+
+    Imf::TiledInputFile in(path.c_str());
+    const Imf::Header& h = in.header();
+    EXPECT_EQ(h.displayWindow(), Imath::Box2i(Imath::V2i(0, 0), Imath::V2i(99, 69)));
+    EXPECT_EQ(h.dataWindow(), Imath::Box2i(Imath::V2i(13, 7), Imath::V2i(81, 66)));
+    EXPECT_EQ(h.tileDescription().xSize, 32u);
+    EXPECT_EQ(h.tileDescription().ySize, 32u);
+    EXPECT_EQ(h.compression(), Imf::ZIP_COMPRESSION);
+    EXPECT_EQ(h.typedAttribute<Imf::M44fAttribute>("worldToCamera").value(), ribMatrix(img.lightFromWorld));
+    EXPECT_EQ(h.typedAttribute<Imf::M44fAttribute>("worldToNDC").value(), ribMatrix(img.ndcFromWorld));
+    EXPECT_EQ(h.typedAttribute<Imf::StringAttribute>("umbra:projection").value(), "perspective");
+    EXPECT_EQ(h.typedAttribute<Imf::StringAttribute>("umbra:depthfilter").value(), "midpoint");
+    EXPECT_EQ(h.typedAttribute<Imf::IntAttribute>("umbra:tilesX").value(), 3);  // 69 columns
+    EXPECT_EQ(h.typedAttribute<Imf::IntAttribute>("umbra:tilesY").value(), 2);  // 60 rows
+    EXPECT_EQ(in.numXTiles(), 3);
+    EXPECT_EQ(in.numYTiles(), 2);
+
+    // Independent per-tile ranges, tiles counted from the data window corner.
+    const auto& tmin = h.typedAttribute<Imf::FloatVectorAttribute>("umbra:tileMinZ").value();
+    const auto& tmax = h.typedAttribute<Imf::FloatVectorAttribute>("umbra:tileMaxZ").value();
+    ASSERT_EQ(tmin.size(), 6u);
+    ASSERT_EQ(tmax.size(), 6u);
+    for (int ty = 0; ty < 2; ++ty)
+        for (int tx = 0; tx < 3; ++tx) {
+            float lo = kInfinity, hi = -kInfinity;
+            for (int y = 7 + ty * 32; y < std::min(67, 7 + ty * 32 + 32); ++y)
+                for (int x = 13 + tx * 32; x < std::min(82, 13 + tx * 32 + 32); ++x) {
+                    lo = std::min(lo, img.at(x, y));
+                    hi = std::max(hi, img.at(x, y));
+                }
+            EXPECT_EQ(tmin[ty * 3 + tx], lo) << tx << "," << ty;
+            EXPECT_EQ(tmax[ty * 3 + tx], hi) << tx << "," << ty;
+        }
+    EXPECT_EQ(tmin[1 * 3 + 1], kInfinity);  // the emptied tile
+}
+
+TEST(DepthMap, EveryTileIsPresentAndRoundTripsThroughOpenEXR) {
+    DepthImage img = sampleImage();
+    Diagnostics diag;
+    const std::string path = scratchFile("tiles.exr");
+    ASSERT_TRUE(writeDepthMap(path, img, diag));
+    Imf::TiledInputFile in(path.c_str());
+    ASSERT_TRUE(in.isComplete());
+    const Imath::Box2i dw = in.header().dataWindow();
+    std::vector<float> buf(size_t(dw.max.x - dw.min.x + 1) * (dw.max.y - dw.min.y + 1), -1.0f);
+    Imf::FrameBuffer fb;
+    fb.insert("Z", Imf::Slice::Make(Imf::FLOAT, buf.data(), dw));
+    in.setFrameBuffer(fb);
+    in.readTiles(0, in.numXTiles() - 1, 0, in.numYTiles() - 1);  // throws on a missing tile
+    const int w = dw.max.x - dw.min.x + 1;
+    for (int y = dw.min.y; y <= dw.max.y; ++y)
+        for (int x = dw.min.x; x <= dw.max.x; ++x)
+            ASSERT_EQ(buf[size_t(y - dw.min.y) * w + (x - dw.min.x)], img.at(x, y)) << x << "," << y;
+}
+
+TEST(DepthMap, OpenImageIOReadsTheMap) {
+    DepthImage img = sampleImage();
+    Diagnostics diag;
+    const std::string path = scratchFile("oiio.exr");
+    ASSERT_TRUE(writeDepthMap(path, img, diag));
+    auto in = OIIO::ImageInput::open(path);
+    ASSERT_TRUE(in) << OIIO::geterror();
+    const OIIO::ImageSpec& spec = in->spec();
+    EXPECT_EQ(spec.full_width, 100);
+    EXPECT_EQ(spec.full_height, 70);
+    EXPECT_EQ(spec.x, 13);
+    EXPECT_EQ(spec.y, 7);
+    EXPECT_EQ(spec.tile_width, 32);
+    EXPECT_EQ(spec.nchannels, 1);
+    EXPECT_EQ(spec.channelnames[0], "Z");
+    std::vector<float> buf(size_t(spec.width) * spec.height);
+    ASSERT_TRUE(in->read_image(0, 0, 0, 1, OIIO::TypeDesc::FLOAT, buf.data())) << in->geterror();
+    for (int y = 0; y < spec.height; ++y)
+        for (int x = 0; x < spec.width; ++x)
+            ASSERT_EQ(buf[size_t(y) * spec.width + x], img.at(x + 13, y + 7));
+    const OIIO::ParamValue* m = spec.find_attribute("worldtocamera");
+    ASSERT_TRUE(m);
+    float v[16];
+    img.lightFromWorld.toRib(v);
+    const float* got = static_cast<const float*>(m->data());
+    for (int i = 0; i < 16; ++i) EXPECT_EQ(got[i], v[i]);
+}
+
+TEST(DepthMap, ReadDepthImageRoundTripsEverything) {
+    DepthImage img = sampleImage();
+    img.z2 = img.z;
+    for (float& z : img.z2) z += 1;
+    Diagnostics diag;
+    const std::string path = scratchFile("roundtrip.exr");
+    ASSERT_TRUE(writeDepthMap(path, img, diag));
+    DepthImage back;
+    ASSERT_TRUE(readDepthImage(path, back, diag));
+    EXPECT_EQ(back.width, 100);
+    EXPECT_EQ(back.height, 70);
+    EXPECT_EQ(back.z, img.z);
+    EXPECT_EQ(back.z2, img.z2);
+    EXPECT_TRUE(back.lightFromWorld == img.lightFromWorld);
+    EXPECT_TRUE(back.ndcFromWorld == img.ndcFromWorld);
+    EXPECT_EQ(back.projection, Projection::Perspective);
+    EXPECT_EQ(back.filter, DepthFilter::Midpoint);
+    EXPECT_EQ(back.dualOffset, 0.75f);
+    EXPECT_EQ(diag.errorCount(), 0);
+}
+
+TEST(DepthMap, ShadowMapReadsTexelsAndInfo) {
+    DepthImage img = sampleImage();
+    auto map = test::writeAndOpen(img, "open.exr");
+    ASSERT_TRUE(map);
+    EXPECT_EQ(map->width(), 100);
+    EXPECT_EQ(map->height(), 70);
+    EXPECT_TRUE(map->lightFromWorld() == img.lightFromWorld);
+    EXPECT_EQ(map->depthFilter(), DepthFilter::Midpoint);
+    for (int y = 0; y < 70; ++y)
+        for (int x = 0; x < 100; ++x) ASSERT_EQ(map->texel(x, y), img.at(x, y)) << x << "," << y;
+
+    MapInfo info = map->info();
+    float lo = kInfinity, hi = -kInfinity;
+    for (float z : img.z)
+        if (z != kInfinity) lo = std::min(lo, z), hi = std::max(hi, z);
+    EXPECT_FALSE(info.empty);
+    EXPECT_EQ(info.bboxMinX, 13);
+    EXPECT_EQ(info.bboxMaxY, 66);
+    EXPECT_EQ(info.tilesX * info.tilesY, 6);
+    EXPECT_EQ(info.tileCount, 6);
+    EXPECT_EQ(info.emptyTiles, 1);
+    EXPECT_EQ(info.minZ, lo);
+    EXPECT_EQ(info.maxZ, hi);
+    EXPECT_EQ(info.rawBytes, 100u * 70u * 4u);
+    EXPECT_EQ(info.bboxBytes, 69u * 60u * 4u);
+    EXPECT_EQ(info.tileBytes, 5u * 4096u);
+    EXPECT_EQ(info.fileBytes, std::filesystem::file_size(map->path()));
+    nlohmann::json j = mapInfoJson(info);
+    EXPECT_EQ(j["storage"]["tileBytes"].get<uint64_t>(), 5u * 4096u);
+    EXPECT_EQ(j["bbox"], nlohmann::json({13, 7, 81, 66}));
+    EXPECT_EQ(j["depthFilter"], "midpoint");
+    std::string text = mapInfoText(info);
+    EXPECT_NE(text.find("resolution      100 x 70"), std::string::npos) << text;
+    EXPECT_NE(text.find("bounding box    [13, 7] - [81, 66]  (69 x 60)"), std::string::npos) << text;
+}
+
+TEST(DepthMap, EmptyImageGivesAValidEmptyMap) {
+    DepthImage img(64, 48);
+    test::setRasterIsWorld(img);
+    auto map = test::writeAndOpen(img, "empty.exr");
+    ASSERT_TRUE(map);
+    EXPECT_TRUE(map->empty());
+    MapInfo info = map->info();
+    EXPECT_TRUE(info.empty);
+    EXPECT_EQ(info.bboxBytes, 0u);
+    EXPECT_EQ(info.tileBytes, 0u);
+    EXPECT_EQ(info.emptyTiles, 1);
+    EXPECT_EQ(map->texel(0, 0), kInfinity);
+    // Everything is lit, whatever the depth.
+    Vec3 P[2] = {Vec3(10, 10, 1e6f), Vec3(0.5f, 0.5f, 3)};
+    ShadowBatch b;
+    b.count = 2;
+    b.P = P;
+    float out[2] = {-1, -1};
+    ShadowStats st;
+    map->lookup(b, ShadowParams{}, out, st);
+    EXPECT_EQ(out[0], 0.0f);
+    EXPECT_EQ(out[1], 0.0f);
+    auto in = OIIO::ImageInput::open(map->path());
+    EXPECT_TRUE(in) << OIIO::geterror();
+}
+
+TEST(DepthMap, NonFiniteDepthsAreStoredAsInfinity) {
+    DepthImage img(8, 8);
+    test::setRasterIsWorld(img);
+    img.at(2, 3) = 4;
+    img.at(3, 3) = std::nanf("");
+    img.at(4, 3) = -kInfinity;
+    auto map = test::writeAndOpen(img, "nan.exr");
+    ASSERT_TRUE(map);
+    EXPECT_EQ(map->texel(2, 3), 4.0f);
+    EXPECT_EQ(map->texel(3, 3), kInfinity);
+    EXPECT_EQ(map->texel(4, 3), kInfinity);
+    EXPECT_EQ(map->dataMinX(), 2);
+    EXPECT_EQ(map->dataMaxX(), 2);
+}
+
+void writeBytes(const std::string& path, const std::string& bytes) {
+    std::ofstream(path, std::ios::binary) << bytes;
+}
+std::string readBytes(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+TEST(DepthMap, TruncatedOrCorruptMapsGiveACleanError) {
+    DepthImage img = sampleImage();
+    Diagnostics ok;
+    const std::string good = scratchFile("good.exr");
+    ASSERT_TRUE(writeDepthMap(good, img, ok));
+    const std::string bytes = readBytes(good);
+
+    struct Case {
+        std::string name, content;
+    };
+    std::vector<Case> cases = {
+        {"zero.exr", ""},
+        {"garbage.exr", std::string(300, 'x')},
+        {"header_only.exr", bytes.substr(0, 200)},
+        {"half.exr", bytes.substr(0, bytes.size() / 2)},
+        {"last_byte.exr", bytes.substr(0, bytes.size() - 1)},
+    };
+    for (const Case& c : cases) {
+        const std::string path = scratchFile(c.name);
+        writeBytes(path, c.content);
+        Diagnostics diag;
+        diag.setRecord(true);
+        diag.setPolicy(Diagnostics::Policy::Ignore);
+        auto map = ShadowMap::open(path, diag, FileLoc::inFile("scene.rib", 12, 3));
+        if (c.name == "last_byte.exr" && map) {
+            // OpenEXR may accept a file missing only part of its last tile;
+            // reading that tile must then fail cleanly: lit, one error.
+            Vec3 P(80.5f, 65.5f, 0);
+            ShadowBatch b;
+            b.count = 1;
+            b.P = &P;
+            float out = -1;
+            ShadowStats st;
+            (void)map->texel(81, 66);
+            map->lookupPoint(b, ShadowParams{}, &out, st);
+            EXPECT_GE(out, 0.0f);
+            continue;
+        }
+        EXPECT_FALSE(map) << c.name;
+        auto rec = diag.recorded();
+        ASSERT_EQ(rec.size(), 1u) << c.name;
+        EXPECT_EQ(rec[0].loc.str(), "scene.rib:12:3");
+        EXPECT_EQ(rec[0].message.rfind("cannot open shadow map \"" + path + "\": ", 0), 0u) << rec[0].message;
+    }
+    Diagnostics diag;
+    diag.setRecord(true);
+    diag.setPolicy(Diagnostics::Policy::Ignore);
+    EXPECT_FALSE(ShadowMap::open(scratchFile("missing.exr"), diag));
+    EXPECT_EQ(diag.recorded().at(0).message,
+              "cannot open shadow map \"" + scratchFile("missing.exr") + "\": no such file");
+}
+
+TEST(DepthMap, MapWithoutMatricesIsRejected) {
+    // A plain tiled EXR written by OIIO carries no worldToCamera.
+    const std::string path = scratchFile("nomatrix.exr");
+    OIIO::ImageSpec spec(40, 40, 1, OIIO::TypeDesc::FLOAT);
+    spec.channelnames = {"Z"};
+    spec.tile_width = spec.tile_height = 32;
+    std::vector<float> px(40 * 40, 3.0f);
+    auto out = OIIO::ImageOutput::create(path);
+    ASSERT_TRUE(out);
+    ASSERT_TRUE(out->open(path, spec));
+    ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, px.data()));
+    out->close();
+    Diagnostics diag;
+    diag.setRecord(true);
+    diag.setPolicy(Diagnostics::Policy::Ignore);
+    EXPECT_FALSE(ShadowMap::open(path, diag));
+    EXPECT_EQ(diag.recorded().at(0).message,
+              "cannot open shadow map \"" + path +
+                  "\": expected the header matrices worldToCamera and worldToNDC (m44f)");
+}
+
+TEST(ZFile, RoundTripsDepthsAndMatrices) {
+    DepthImage img(37, 23);
+    for (int y = 0; y < 23; ++y)
+        for (int x = 0; x < 37; ++x)
+            if ((x + y) % 5) img.at(x, y) = float(x * 100 + y) * 0.01f + 1.0f;
+    // A perspective light: NDC from camera with a 90 degree field of view.
+    img.lightFromWorld = Mat4::translate(Vec3(0, 0, 3)) * Mat4::rotate(20, Vec3(0, 1, 0));
+    Mat4 persp;
+    persp.m[3][2] = 1;
+    persp.m[3][3] = 0;
+    // screen [-a,a]x[-1,1] -> NDC, applied after the divide.
+    float a = 37.0f / 23.0f;
+    Mat4 ndcFromScreen;
+    ndcFromScreen.m[0][0] = 1 / (2 * a);
+    ndcFromScreen.m[0][3] = 0.5f;
+    ndcFromScreen.m[1][1] = -0.5f;
+    ndcFromScreen.m[1][3] = 0.5f;
+    img.ndcFromWorld = ndcFromScreen * persp * img.lightFromWorld;
+
+    const std::string path = scratchFile("depth.z");
+    ASSERT_TRUE(writeZFile(path, img));
+    EXPECT_EQ(std::filesystem::file_size(path), 136u + 37u * 23u * 4u);
+    // The header as documented: magic, width, height, then Np (world to
+    // screen) and Nl (world to camera) in row-vector order.
+    std::string bytes = readBytes(path);
+    uint32_t magic;
+    int16_t w, h;
+    float np[16], nl[16];
+    std::memcpy(&magic, bytes.data(), 4);
+    std::memcpy(&w, bytes.data() + 4, 2);
+    std::memcpy(&h, bytes.data() + 6, 2);
+    std::memcpy(np, bytes.data() + 8, 64);
+    std::memcpy(nl, bytes.data() + 72, 64);
+    EXPECT_EQ(magic, 0x2f0867abU);
+    EXPECT_EQ(w, 37);
+    EXPECT_EQ(h, 23);
+    float expectNl[16], expectNp[16];
+    img.lightFromWorld.toRib(expectNl);
+    (persp * img.lightFromWorld).toRib(expectNp);
+    for (int i = 0; i < 16; ++i) {
+        EXPECT_EQ(nl[i], expectNl[i]);
+        EXPECT_NEAR(np[i], expectNp[i], 1e-5f) << i;
+    }
+
+    Diagnostics diag;
+    DepthImage back;
+    ASSERT_TRUE(readZFile(path, back, diag));
+    EXPECT_EQ(back.width, 37);
+    EXPECT_EQ(back.height, 23);
+    EXPECT_EQ(back.z, img.z);
+    EXPECT_TRUE(back.lightFromWorld == img.lightFromWorld);
+    for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j) EXPECT_NEAR(back.ndcFromWorld.m[i][j], img.ndcFromWorld.m[i][j], 1e-6f);
+    EXPECT_EQ(back.projection, Projection::Perspective);
+}
+
+TEST(ZFile, BigEndianFilesAndBadFiles) {
+    // A 2x1 big-endian zfile built by hand: depths 1.5 and 1e30 (empty).
+    std::string be;
+    auto put32 = [&](uint32_t v) {
+        for (int s = 24; s >= 0; s -= 8) be.push_back(char((v >> s) & 0xff));
+    };
+    auto putf = [&](float f) {
+        uint32_t v;
+        std::memcpy(&v, &f, 4);
+        put32(v);
+    };
+    put32(0x2f0867abU);
+    be.push_back(0); be.push_back(2);
+    be.push_back(0); be.push_back(1);
+    for (int m = 0; m < 2; ++m)
+        for (int i = 0; i < 16; ++i) putf(i % 5 == 0 ? 1.0f : 0.0f);
+    putf(1.5f);
+    putf(1e30f);
+    const std::string path = scratchFile("be.z");
+    writeBytes(path, be);
+    Diagnostics diag;
+    DepthImage img;
+    ASSERT_TRUE(readZFile(path, img, diag));
+    EXPECT_EQ(img.width, 2);
+    EXPECT_EQ(img.at(0, 0), 1.5f);
+    EXPECT_EQ(img.at(1, 0), kInfinity);
+    EXPECT_TRUE(img.lightFromWorld == Mat4::identity());
+    EXPECT_EQ(img.projection, Projection::Orthographic);
+
+    const std::string cut = scratchFile("cut.z");
+    writeBytes(cut, be.substr(0, be.size() - 2));
+    Diagnostics d2;
+    d2.setRecord(true);
+    d2.setPolicy(Diagnostics::Policy::Ignore);
+    EXPECT_FALSE(readZFile(cut, img, d2));
+    EXPECT_EQ(d2.recorded().at(0).message,
+              "cannot read zfile \"" + cut + "\": 142 bytes, expected 144 for 2x1 depths (truncated)");
+    EXPECT_FALSE(makeShadow(cut, scratchFile("cut.exr"), d2));
+    EXPECT_FALSE(std::filesystem::exists(scratchFile("cut.exr")));
+    EXPECT_FALSE(makeShadow(scratchFile("nothing.z"), scratchFile("n.exr"), d2));
+    EXPECT_EQ(d2.recorded().back().message, "MakeShadow: cannot open \"" + scratchFile("nothing.z") + "\"");
+}
+
+TEST(MakeShadow, FromZFileReproducesTheDepths) {
+    DepthImage img(70, 45);
+    for (int y = 10; y < 40; ++y)
+        for (int x = 5; x < 60; ++x) img.at(x, y) = 2.0f + float((x * 13 + y * 7) % 17);
+    test::setRasterIsWorld(img);
+    const std::string z = scratchFile("ms.z"), exr = scratchFile("ms.exr");
+    ASSERT_TRUE(writeZFile(z, img));
+    Diagnostics diag;
+    ASSERT_TRUE(makeShadow(z, exr, diag));
+    auto map = ShadowMap::open(exr, diag);
+    ASSERT_TRUE(map);
+    EXPECT_EQ(map->dataMinX(), 5);
+    EXPECT_EQ(map->dataMaxX(), 59);
+    EXPECT_EQ(map->dataMinY(), 10);
+    EXPECT_EQ(map->dataMaxY(), 39);
+    EXPECT_EQ(map->projection(), Projection::Orthographic);
+    for (int y = 0; y < 45; ++y)
+        for (int x = 0; x < 70; ++x) ASSERT_EQ(map->texel(x, y), img.at(x, y));
+    EXPECT_TRUE(map->lightFromWorld() == img.lightFromWorld);
+    for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j) EXPECT_NEAR(map->ndcFromWorld().m[i][j], img.ndcFromWorld.m[i][j], 1e-7f);
+}
+
+TEST(MakeShadow, FromScanlineExrWithMatrices) {
+    // A scanline float image written by OIIO with the standard matrices.
+    const std::string in = scratchFile("scan.exr"), out = scratchFile("scan_map.exr");
+    OIIO::ImageSpec spec(50, 40, 1, OIIO::TypeDesc::FLOAT);
+    spec.channelnames = {"Z"};
+    Mat4 w2c = Mat4::translate(Vec3(1, 2, 3));
+    Mat4 w2n = Mat4::scale(Vec3(0.02f, 0.025f, 1)) * w2c;
+    float a[16], b[16];
+    w2c.toRib(a);
+    w2n.toRib(b);
+    spec.attribute("worldtocamera", OIIO::TypeMatrix, a);
+    spec.attribute("worldtoscreen", OIIO::TypeMatrix, b);
+    spec.attribute("worldToNDC", OIIO::TypeMatrix, b);
+    std::vector<float> px(50 * 40, kInfinity);
+    for (int y = 5; y < 20; ++y)
+        for (int x = 30; x < 45; ++x) px[size_t(y) * 50 + x] = float(x - y);
+    auto o = OIIO::ImageOutput::create(in);
+    ASSERT_TRUE(o->open(in, spec));
+    ASSERT_TRUE(o->write_image(OIIO::TypeDesc::FLOAT, px.data()));
+    o->close();
+    Diagnostics diag;
+    ASSERT_TRUE(makeShadow(in, out, diag));
+    auto map = ShadowMap::open(out, diag);
+    ASSERT_TRUE(map);
+    EXPECT_TRUE(map->lightFromWorld() == w2c);
+    EXPECT_TRUE(map->ndcFromWorld() == w2n);
+    EXPECT_EQ(map->dataMinX(), 30);
+    EXPECT_EQ(map->dataMaxY(), 19);
+    for (int y = 0; y < 40; ++y)
+        for (int x = 0; x < 50; ++x) ASSERT_EQ(map->texel(x, y), px[size_t(y) * 50 + x]);
+}
+
+}  // namespace
+}  // namespace umbra

@@ -1,0 +1,184 @@
+// Second-depth maps with virtual samples (Wang & Molnar 1994, Figure 10).
+
+#include "shadow_test_util.h"
+#include "umbra/util/rng.h"
+
+#include <cmath>
+
+namespace umbra {
+namespace {
+
+struct Surface {
+    std::vector<Vec3> P, du, dv, N;
+    ShadowBatch batch(uint32_t seed, bool normals = true) const {
+        ShadowBatch b;
+        b.count = int(P.size());
+        b.P = P.data();
+        b.dPdu_du = du.data();
+        b.dPdv_dv = dv.data();
+        b.N = normals ? N.data() : nullptr;
+        b.seed = seed;
+        return b;
+    }
+};
+
+// Orthographic light, raster = world x, y. A receiver plane z = 50 + 0.3 x
+// is stored as the (second) depth at texel centres; over x < 64 an
+// occluder's back face at z = 12 is stored instead.
+DepthImage slopeImage(DepthFilter filter, bool occluder) {
+    DepthImage img(128, 64);
+    test::setRasterIsWorld(img);
+    img.filter = filter;
+    for (int y = 0; y < 64; ++y)
+        for (int x = 0; x < 128; ++x) img.at(x, y) = (occluder && x < 64) ? 12.0f : 50.0f + 0.3f * (float(x) + 0.5f);
+    return img;
+}
+
+Surface pointsOnSlope(int n, float x0, float x1, uint32_t seed) {
+    Surface s;
+    Rng rng(seed);
+    const Vec3 du(4, 0, 1.2f), dv(0, 4, 0);  // 4-texel micropolygons on the plane
+    for (int i = 0; i < n; ++i) {
+        float x = x0 + (x1 - x0) * rng.uniform(), y = 8 + 48 * rng.uniform();
+        s.P.push_back(Vec3(x, y, 50 + 0.3f * x));
+        s.du.push_back(du);
+        s.dv.push_back(dv);
+        s.N.push_back(normalize(cross(du, dv)) * -1.0f);  // facing the light (-z)
+    }
+    return s;
+}
+
+TEST(SecondDepth, VirtualSamplesRemoveSelfShadowingWithoutBias) {
+    auto second = test::writeAndOpen(slopeImage(DepthFilter::Second, false), "slope_second.exr");
+    auto first = test::writeAndOpen(slopeImage(DepthFilter::Min, false), "slope_min.exr");
+    ASSERT_TRUE(second && first);
+    Surface pts = pointsOnSlope(500, 10, 118, 4);
+    ShadowParams params;
+    params.bias = 0;  // no bias needed; one texel of slope is 0.3
+    std::vector<float> outSecond(pts.P.size()), outFirst(pts.P.size());
+    ShadowStats stSecond, stFirst;
+    second->lookup(pts.batch(1), params, outSecond.data(), stSecond);
+    first->lookup(pts.batch(1), params, outFirst.data(), stFirst);
+    double acne = 0;
+    for (size_t i = 0; i < pts.P.size(); ++i) {
+        EXPECT_EQ(outSecond[i], 0.0f) << pts.P[i].x;
+        acne += outFirst[i];
+    }
+    // Plain PCF on the same slope shadows itself: about half of the samples
+    // lie on texels nearer the light than the point.
+    EXPECT_GT(acne / double(pts.P.size()), 0.3);
+    EXPECT_EQ(stSecond.virtualPoints, pts.P.size());
+    EXPECT_EQ(stFirst.virtualPoints, 0u);
+    // Without normals there is no tangent plane: plain comparisons.
+    std::vector<float> noNormals(pts.P.size());
+    ShadowStats st;
+    second->lookup(pts.batch(1, false), params, noNormals.data(), st);
+    EXPECT_EQ(noNormals, outFirst);
+}
+
+TEST(SecondDepth, OccluderEdgeStillFiltersTheCoveredFraction) {
+    auto map = test::writeAndOpen(slopeImage(DepthFilter::Second, true), "slope_occluder.exr");
+    ASSERT_TRUE(map);
+    Surface pts = pointsOnSlope(1000, 60, 68, 5);
+    pts.P.push_back(Vec3(30, 30, 59));  // wholly behind the occluder
+    pts.du.push_back(pts.du[0]);
+    pts.dv.push_back(pts.dv[0]);
+    pts.N.push_back(pts.N[0]);
+    pts.P.push_back(Vec3(100, 30, 80));  // wholly on the open slope
+    pts.du.push_back(pts.du[0]);
+    pts.dv.push_back(pts.dv[0]);
+    pts.N.push_back(pts.N[0]);
+    ShadowParams params;
+    params.tileCulling = false;
+    std::vector<float> out(pts.P.size());
+    ShadowStats st;
+    map->lookup(pts.batch(2), params, out.data(), st);
+    const size_t n = pts.P.size();
+    double meanErr = 0;
+    for (size_t i = 0; i + 2 < n; ++i) {
+        // The region is [x-2, x+2) (4-texel footprint, 16 samples in 4x4
+        // strata): shadowed fraction = the part left of x = 64.
+        double p = std::clamp((64.0 - (pts.P[i].x - 2.0)) / 4.0, 0.0, 1.0);
+        EXPECT_NEAR(out[i], p, 0.25 + 1e-6) << pts.P[i].x;
+        meanErr += out[i] - p;
+    }
+    EXPECT_NEAR(meanErr / double(n - 2), 0.0, 0.02);
+    EXPECT_EQ(out[n - 2], 1.0f);
+    EXPECT_EQ(out[n - 1], 0.0f);
+    EXPECT_GE(st.secondShadowed, 1u);
+    EXPECT_GT(st.virtualPoints, 0u);
+}
+
+TEST(SecondDepth, PerspectivePlaneIsLinearInScreenSpace) {
+    // A pinhole light at the origin, 90 degrees: raster x = (x/z + 1)/2 * W,
+    // y = (1 - y/z)/2 * H. The receiver plane z = 20 + 0.8 x is stored by
+    // casting a ray through every texel centre: with sx = x/z there,
+    // z = 20 / (1 - 0.8 sx).
+    const int res = 128;
+    DepthImage img(res, res);
+    Mat4 persp;
+    persp.m[3][2] = 1;
+    persp.m[3][3] = 0;
+    Mat4 ndcFromScreen;
+    ndcFromScreen.m[0][0] = 0.5f;
+    ndcFromScreen.m[0][3] = 0.5f;
+    ndcFromScreen.m[1][1] = -0.5f;
+    ndcFromScreen.m[1][3] = 0.5f;
+    img.ndcFromWorld = ndcFromScreen * persp;
+    img.filter = DepthFilter::Second;
+    for (int y = 0; y < res; ++y)
+        for (int x = 0; x < res; ++x) {
+            double sx = (double(x) + 0.5) / res * 2.0 - 1.0;
+            img.at(x, y) = float(20.0 / (1.0 - 0.8 * sx));
+        }
+    auto map = test::writeAndOpen(img, "persp_second.exr");
+    ASSERT_TRUE(map);
+    Surface pts;
+    Rng rng(9);
+    for (int i = 0; i < 300; ++i) {
+        // Points on the plane seen within the central part of the map.
+        float sx = -0.6f + 1.2f * rng.uniform(), sy = -0.6f + 1.2f * rng.uniform();
+        float z = 20.0f / (1.0f - 0.8f * sx);
+        pts.P.push_back(Vec3(sx * z, sy * z, z));
+        // Footprints of about 6 texels: 16 samples straddle P, so the plain
+        // comparisons are mixed (Fig. 10 trusts unanimous ones).
+        pts.du.push_back(Vec3(2, 0, 1.6f));
+        pts.dv.push_back(Vec3(0, 2, 0));
+        pts.N.push_back(normalize(Vec3(0.8f, 0, -1)));
+    }
+    ShadowParams params;  // no bias
+    std::vector<float> out(pts.P.size());
+    ShadowStats st;
+    map->lookup(pts.batch(3), params, out.data(), st);
+    for (size_t i = 0; i < out.size(); ++i) EXPECT_EQ(out[i], 0.0f) << i;
+    EXPECT_EQ(st.virtualPoints, pts.P.size());
+
+    // An occluder's back face at depth 10 over texel columns < 40: receiver
+    // points whose region is centred on that edge are half in shadow, and
+    // only a correct plane (in 1/z) gets their lit half lit and their
+    // shadowed half shadowed.
+    for (int y = 0; y < res; ++y)
+        for (int x = 0; x < 40; ++x) img.at(x, y) = 10;
+    auto edged = test::writeAndOpen(img, "persp_second_edge.exr");
+    ASSERT_TRUE(edged);
+    Surface edge;
+    for (int i = 0; i < 200; ++i) {
+        const float sx = 40.0f / 64.0f - 1.0f + 0.02f * (rng.uniform() - 0.5f), sy = -0.5f + rng.uniform();
+        const float z = 20.0f / (1.0f - 0.8f * sx);
+        edge.P.push_back(Vec3(sx * z, sy * z, z));
+        edge.du.push_back(Vec3(2, 0, 1.6f));
+        edge.dv.push_back(Vec3(0, 2, 0));
+        edge.N.push_back(normalize(Vec3(0.8f, 0, -1)));
+    }
+    std::vector<float> half(edge.P.size());
+    ShadowStats est;
+    edged->lookup(edge.batch(4), params, half.data(), est);
+    double mean = 0;
+    for (float v : half) mean += v;
+    mean /= double(half.size());
+    EXPECT_NEAR(mean, 0.5, 0.1);
+    EXPECT_EQ(est.virtualPoints, edge.P.size());
+}
+
+}  // namespace
+}  // namespace umbra

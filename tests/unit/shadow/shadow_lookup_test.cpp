@@ -1,0 +1,399 @@
+// Percentage-closer filtering against references computed here.
+
+#include "shadow_test_util.h"
+#include "umbra/util/rng.h"
+
+#include <cmath>
+#include <cstring>
+#include <thread>
+
+namespace umbra {
+namespace {
+
+// A 256x256 map, raster = world x,y: columns x < 128 hold an occluder at
+// depth 10, the rest is a floor at depth 100. Points at depth 50 are
+// shadowed exactly where their texel column is < 128.
+constexpr int kRes = 256;
+constexpr float kEdge = 128;
+
+DepthImage stepImage() {
+    DepthImage img(kRes, kRes);
+    test::setRasterIsWorld(img);
+    for (int y = 0; y < kRes; ++y)
+        for (int x = 0; x < kRes; ++x) img.at(x, y) = x < kEdge ? 10.0f : 100.0f;
+    return img;
+}
+
+const std::shared_ptr<ShadowMap>& stepMap() {
+    static std::shared_ptr<ShadowMap> map = test::writeAndOpen(stepImage(), "step.exr");
+    return map;
+}
+
+// A region of full width `w` texels centred on P, as a micropolygon with
+// edges (w,0,0) and (0,w,0) gives it.
+struct Points {
+    std::vector<Vec3> P, du, dv;
+    ShadowBatch batch(uint32_t seed) const {
+        ShadowBatch b;
+        b.count = int(P.size());
+        b.P = P.data();
+        b.dPdu_du = du.data();
+        b.dPdv_dv = dv.data();
+        b.seed = seed;
+        return b;
+    }
+    void add(Vec3 p, float w) {
+        P.push_back(p);
+        du.push_back(Vec3(w, 0, 0));
+        dv.push_back(Vec3(0, w, 0));
+    }
+};
+
+TEST(ShadowLookup, StraddlingRegionsReturnTheCoveredFraction) {
+    const auto& map = stepMap();
+    ASSERT_TRUE(map);
+    ShadowParams params;  // 16 jittered samples, box filter
+    const float w = 8;    // region [s-4, s+4): 4x4 strata of 2x2 texels
+    Points pts;
+    Rng rng(7);
+    for (int i = 0; i < 2000; ++i) pts.add(Vec3(kEdge - 4 + 8 * rng.uniform(), 20 + 200 * rng.uniform(), 50), w);
+    std::vector<float> out(pts.P.size());
+    ShadowStats st;
+    map->lookup(pts.batch(1), params, out.data(), st);
+    EXPECT_EQ(st.filtered, pts.P.size());
+    EXPECT_EQ(st.samples, 16 * pts.P.size());  // Reeves: 64 texels >= 16 samples -> 4x4
+
+    // Reference: the region [s-4, s+4) is split into 4 columns of strata,
+    // 2 texels wide, 4 jittered samples each. Columns wholly left of the
+    // edge shadow all their samples, columns right of it none; in the
+    // column holding the edge each sample is shadowed independently with
+    // probability q = the part of the column left of the edge. So
+    // 16 * result - 4 * fullColumns is Binomial(4, q).
+    double sumX = 0, sumMean = 0, sumVar = 0, meanErr = 0;
+    for (size_t i = 0; i < out.size(); ++i) {
+        const double left = (double(kEdge) - (double(pts.P[i].x) - 4.0)) / 2.0;  // columns left of the edge
+        const int full = std::clamp(int(std::floor(left)), 0, 4);
+        const double q = full < 4 ? std::clamp(left - full, 0.0, 1.0) : 0.0;
+        const double x = double(out[i]) * 16.0 - 4.0 * full;
+        ASSERT_EQ(x, std::round(x)) << "s=" << pts.P[i].x;
+        ASSERT_GE(x, 0.0) << "s=" << pts.P[i].x;
+        ASSERT_LE(x, q > 0 ? 4.0 : 0.0) << "s=" << pts.P[i].x;
+        sumX += x;
+        sumMean += 4 * q;
+        sumVar += 4 * q * (1 - q);
+        // The covered fraction, within binomial error for 16 samples.
+        const double p = std::clamp(left / 4.0, 0.0, 1.0);
+        meanErr += out[i] - p;
+    }
+    EXPECT_NEAR(sumX, sumMean, 4 * std::sqrt(sumVar));
+    // Unbiased: the mean error over all points is within 4 sigma of the
+    // binomial error of 16 samples (the half-cell jitter printed in Figure 4
+    // would bias it by about 1/16).
+    meanErr /= double(out.size());
+    EXPECT_NEAR(meanErr, 0.0, 4 * std::sqrt(0.25 / 16 / double(out.size())));
+}
+
+TEST(ShadowLookup, RegionsAwayFromTheEdgeAreExact) {
+    const auto& map = stepMap();
+    Points pts;
+    pts.add(Vec3(60, 60, 50), 8);     // over the occluder, beyond it: shadowed
+    pts.add(Vec3(200, 60, 50), 8);    // over the floor, in front of it: lit
+    pts.add(Vec3(60, 60, 5), 8);      // in front of the occluder: lit
+    pts.add(Vec3(200, 60, 150), 8);   // beyond the floor: shadowed
+    pts.add(Vec3(60, 60, -50), 8);    // behind the light: lit
+    pts.add(Vec3(-40, 60, 50), 8);    // off the map: lit
+    pts.add(Vec3(60, 300, 150), 8);   // off the map: lit
+    std::vector<float> out(pts.P.size());
+    ShadowParams params;
+    params.tileCulling = false;
+    ShadowStats st;
+    map->lookup(pts.batch(3), params, out.data(), st);
+    EXPECT_EQ(out, (std::vector<float>{1, 0, 0, 1, 0, 0, 0}));
+    EXPECT_EQ(st.outside, 3u);
+}
+
+TEST(ShadowLookup, BiasMovesTheComparison) {
+    const auto& map = stepMap();
+    Points pts;
+    pts.add(Vec3(60, 60, 10.5f), 8);
+    std::vector<float> out(1);
+    ShadowStats st;
+    ShadowParams params;
+    params.tileCulling = false;
+    map->lookup(pts.batch(1), params, out.data(), st);
+    EXPECT_EQ(out[0], 1.0f);
+    params.bias = 1;
+    map->lookup(pts.batch(1), params, out.data(), st);
+    EXPECT_EQ(out[0], 0.0f);
+    // bias0/bias1 override bias: half the samples draw a bias below 0.5.
+    params.bias0 = 0;
+    params.bias1 = 1;
+    params.samples = 64;
+    pts.P[0].z = 10.5f;
+    Points many;
+    for (int i = 0; i < 200; ++i) many.add(Vec3(30 + float(i) * 0.3f, 60, 10.5f), 16);
+    std::vector<float> o2(200);
+    map->lookup(many.batch(9), params, o2.data(), st);
+    double mean = 0;
+    for (float v : o2) mean += v;
+    mean /= 200;
+    // Shadowed iff bias < 0.5: probability 1/2, 64*200 draws.
+    EXPECT_NEAR(mean, 0.5, 4 * std::sqrt(0.25 / (64 * 200)));
+}
+
+TEST(ShadowLookup, OneSampleEqualsPointSampling) {
+    // A map with structure at every texel, compared with a reference here.
+    DepthImage img(96, 80);
+    test::setRasterIsWorld(img);
+    for (int y = 3; y < 77; ++y)
+        for (int x = 2; x < 90; ++x) img.at(x, y) = float(hash32(uint32_t(y * 96 + x)) % 1000) * 0.1f;
+    auto map = test::writeAndOpen(img, "noise.exr");
+    ASSERT_TRUE(map);
+    Points pts;
+    Rng rng(11);
+    for (int i = 0; i < 3000; ++i)
+        pts.add(Vec3(-5 + 106 * rng.uniform(), -5 + 90 * rng.uniform(), 100 * rng.uniform()), 3 * rng.uniform());
+    std::vector<float> point(pts.P.size()), one(pts.P.size()), ref(pts.P.size());
+    ShadowParams params;
+    params.bias0 = 0.5f;
+    params.bias1 = 1.5f;  // a single sample compares with the mid bias, 1
+    for (size_t i = 0; i < pts.P.size(); ++i) {
+        float s = pts.P[i].x, t = pts.P[i].y;
+        float d = kInfinity;
+        if (s >= 0 && t >= 0 && s < 96 && t < 80) d = img.at(int(std::floor(s)), int(std::floor(t)));
+        ref[i] = pts.P[i].z > d + 1.0f ? 1.0f : 0.0f;
+    }
+    ShadowStats st;
+    map->lookupPoint(pts.batch(5), params, point.data(), st);
+    EXPECT_EQ(point, ref);
+    params.samples = 1;
+    for (float width : {1.0f, 3.0f}) {
+        params.setWidth(width);
+        for (bool cull : {false, true}) {
+            params.tileCulling = cull;
+            map->lookup(pts.batch(5), params, one.data(), st);
+            EXPECT_EQ(one, ref) << "width " << width << " culling " << cull;
+        }
+    }
+}
+
+// A scene-like map: boxes of different heights over an empty background,
+// so tiles are empty, uniform, or mixed.
+DepthImage blocksImage(int res) {
+    DepthImage img(res, res);
+    test::setRasterIsWorld(img);
+    Rng rng(3);
+    for (int k = 0; k < 40; ++k) {
+        int x0 = int(rng.uniform() * float(res)), y0 = int(rng.uniform() * float(res));
+        int w = 8 + int(rng.uniform() * float(res) / 6), h = 8 + int(rng.uniform() * float(res) / 6);
+        float z = 10 + 80 * rng.uniform();
+        for (int y = y0; y < std::min(res, y0 + h); ++y)
+            for (int x = x0; x < std::min(res, x0 + w); ++x) img.at(x, y) = std::min(img.at(x, y), z + 0.01f * float(x));
+    }
+    return img;
+}
+
+Points randomPoints(int n, int res, uint32_t seed) {
+    Points pts;
+    Rng rng(seed);
+    for (int i = 0; i < n; ++i)
+        pts.add(Vec3(float(res) * (-0.05f + 1.1f * rng.uniform()), float(res) * (-0.05f + 1.1f * rng.uniform()),
+                     100 * rng.uniform()),
+                0.5f + 10 * rng.uniform());
+    return pts;
+}
+
+TEST(ShadowLookup, TileCullingNeverChangesAResult) {
+    auto map = test::writeAndOpen(blocksImage(320), "blocks.exr");
+    ASSERT_TRUE(map);
+    Points pts = randomPoints(20000, 320, 17);
+    for (auto sampling : {ShadowParams::Sampling::Jittered, ShadowParams::Sampling::Uniform,
+                          ShadowParams::Sampling::Gaussian}) {
+        ShadowParams params;
+        params.sampling = sampling;
+        params.bias0 = 0.1f;
+        params.bias1 = 0.4f;
+        params.filter = sampling == ShadowParams::Sampling::Uniform ? ShadowParams::Filter::Gaussian
+                                                                    : ShadowParams::Filter::Box;
+        std::vector<float> on(pts.P.size()), off(pts.P.size());
+        ShadowStats stOn, stOff;
+        map->lookup(pts.batch(21), params, on.data(), stOn);
+        params.tileCulling = false;
+        map->lookup(pts.batch(21), params, off.data(), stOff);
+        ASSERT_EQ(std::memcmp(on.data(), off.data(), on.size() * sizeof(float)), 0);
+        EXPECT_GT(stOn.culledLit, 1000u);
+        EXPECT_GT(stOn.culledShadowed, 100u);
+        EXPECT_EQ(stOff.culledLit + stOff.culledShadowed, 0u);
+        EXPECT_LT(stOn.samples, stOff.samples);
+        // Same inputs, same bits.
+        std::vector<float> again(pts.P.size());
+        map->lookup(pts.batch(21), params, again.data(), stOff);
+        EXPECT_EQ(std::memcmp(again.data(), off.data(), on.size() * sizeof(float)), 0);
+    }
+}
+
+TEST(ShadowLookup, ATinyCacheGivesTheSameResultsAndEvicts) {
+    DepthImage img = blocksImage(512);  // 256 tiles, about 1 MB
+    auto big = test::writeAndOpen(img, "cache_big.exr", std::make_shared<TileCache>(size_t(64) << 20));
+    auto small = test::writeAndOpen(img, "cache_small.exr", std::make_shared<TileCache>(size_t(64) << 10));
+    ASSERT_TRUE(big && small);
+    Points pts = randomPoints(8000, 512, 23);
+    ShadowParams params;
+    params.tileCulling = false;
+    params.blur = 0.01f;
+    std::vector<float> a(pts.P.size()), b(pts.P.size());
+    ShadowStats sa, sb;
+    // Batches of 64 points, as grids arrive.
+    for (size_t i = 0; i < pts.P.size(); i += 64) {
+        ShadowBatch batch = pts.batch(uint32_t(i));
+        batch.P += i;
+        batch.dPdu_du += i;
+        batch.dPdv_dv += i;
+        batch.count = int(std::min<size_t>(64, pts.P.size() - i));
+        big->lookup(batch, params, a.data() + i, sa);
+        small->lookup(batch, params, b.data() + i, sb);
+    }
+    EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(float)), 0);
+    TileCacheStats cs = small->cache().stats();
+    EXPECT_GT(cs.evictions, 0u);
+    EXPECT_LE(cs.peakBytes, size_t(64) << 10);
+    EXPECT_GT(cs.tilesRead, 256u);  // tiles were read again after eviction
+    EXPECT_EQ(cs.lookups, cs.hits + cs.misses);
+    TileCacheStats cb = big->cache().stats();
+    EXPECT_EQ(cb.evictions, 0u);
+    EXPECT_LE(cb.tilesRead, 256u);
+}
+
+TEST(ShadowLookup, TwoThreadsMatchSerial) {
+    auto cache = std::make_shared<TileCache>(size_t(96) << 10);  // small: threads evict under each other
+    auto map = test::writeAndOpen(blocksImage(384), "threads.exr", cache);
+    ASSERT_TRUE(map);
+    Points pts = randomPoints(6000, 384, 31);
+    ShadowParams params;
+    const size_t n = pts.P.size(), kBatch = 50;
+    auto run = [&](std::vector<float>& out, size_t first, size_t step, ShadowStats& st) {
+        for (size_t i = first * kBatch; i < n; i += step * kBatch) {
+            ShadowBatch b = pts.batch(uint32_t(i / kBatch));
+            b.P += i;
+            b.dPdu_du += i;
+            b.dPdv_dv += i;
+            b.count = int(std::min(kBatch, n - i));
+            map->lookup(b, params, out.data() + i, st);
+        }
+    };
+    std::vector<float> serial(n), parallel(n);
+    ShadowStats s0, s1, s2;
+    run(serial, 0, 1, s0);
+    std::thread t1([&] { run(parallel, 0, 2, s1); });
+    std::thread t2([&] { run(parallel, 1, 2, s2); });
+    t1.join();
+    t2.join();
+    EXPECT_EQ(std::memcmp(serial.data(), parallel.data(), n * sizeof(float)), 0);
+    s1 += s2;
+    EXPECT_EQ(s1.points, s0.points);
+    EXPECT_EQ(s1.samples, s0.samples);
+}
+
+TEST(ShadowLookup, PerspectiveMapComparesCameraDepth) {
+    // A light at the origin looking down +z with a 90 degree field of view:
+    // NDC x = (x/z + 1)/2, y = (1 - y/z)/2. The map holds an occluder at
+    // depth 10 over the left half (x/z < 0).
+    DepthImage img(128, 128);
+    Mat4 persp;
+    persp.m[3][2] = 1;
+    persp.m[3][3] = 0;
+    Mat4 ndcFromScreen;
+    ndcFromScreen.m[0][0] = 0.5f;
+    ndcFromScreen.m[0][3] = 0.5f;
+    ndcFromScreen.m[1][1] = -0.5f;
+    ndcFromScreen.m[1][3] = 0.5f;
+    img.lightFromWorld = Mat4::identity();
+    img.ndcFromWorld = ndcFromScreen * persp;
+    for (int y = 0; y < 128; ++y)
+        for (int x = 0; x < 64; ++x) img.at(x, y) = 10;
+    auto map = test::writeAndOpen(img, "persp.exr");
+    ASSERT_TRUE(map);
+    EXPECT_EQ(map->projection(), Projection::Perspective);
+    Points pts;
+    const float fp = 0.05f;  // footprint, world units
+    pts.add(Vec3(-8, 3, 20), fp);   // behind the occluder: shadowed
+    pts.add(Vec3(8, 3, 20), fp);    // right half: lit
+    pts.add(Vec3(-4, 1, 9), fp);    // in front of the occluder: lit
+    pts.add(Vec3(-4, 1, -9), fp);   // behind the light: lit
+    pts.add(Vec3(-40, 1, 20), fp);  // outside the field of view: lit
+    // In a rotated "current" space: the same first point.
+    std::vector<float> out(pts.P.size());
+    ShadowStats st;
+    ShadowParams params;
+    map->lookup(pts.batch(2), params, out.data(), st);
+    EXPECT_EQ(out, (std::vector<float>{1, 0, 0, 0, 0}));
+
+    Mat4 currentFromWorld = Mat4::rotate(40, Vec3(0, 1, 1)) * Mat4::translate(Vec3(3, -2, 7));
+    Points cur;
+    for (size_t i = 0; i < pts.P.size(); ++i) {
+        cur.P.push_back(currentFromWorld.point(pts.P[i]));
+        cur.du.push_back(currentFromWorld.vector(pts.du[i]));
+        cur.dv.push_back(currentFromWorld.vector(pts.dv[i]));
+    }
+    ShadowBatch b = cur.batch(2);
+    b.worldFromCurrent = currentFromWorld.inverse();
+    std::vector<float> out2(pts.P.size());
+    map->lookup(b, params, out2.data(), st);
+    EXPECT_EQ(out2, out);
+}
+
+TEST(TileCache, EvictsLeastRecentlyUsedAndHandsOutLiveTiles) {
+    auto tile = [](float v) {
+        auto t = std::make_shared<ShadowTile>();
+        t->width = t->height = 32;
+        t->z.assign(1024, v);
+        return ShadowTilePtr(t);
+    };
+    const size_t tileBytes = tile(0)->bytes();
+    const uint32_t map = TileCache::newMapId();
+    // Keys sharing key 0's shard, found through the public API: with room
+    // for one tile per shard, inserting such a key evicts key 0.
+    std::vector<uint32_t> sameShard;
+    for (uint32_t k = 1; k < 1000 && sameShard.size() < 2; ++k) {
+        TileCache probe(8 * tileBytes);
+        probe.insert(map, 0, tile(0));
+        probe.insert(map, k, tile(0));
+        if (!probe.find(map, 0)) sameShard.push_back(k);
+    }
+    ASSERT_EQ(sameShard.size(), 2u);
+    {
+        TileCache lru(8 * 2 * tileBytes);  // two tiles per shard
+        lru.insert(map, 0, tile(0));
+        lru.insert(map, sameShard[0], tile(1));
+        EXPECT_TRUE(lru.find(map, 0));  // 0 is now the most recently used
+        lru.insert(map, sameShard[1], tile(2));
+        EXPECT_TRUE(lru.find(map, 0));
+        EXPECT_FALSE(lru.find(map, sameShard[0]));
+        EXPECT_TRUE(lru.find(map, sameShard[1]));
+        EXPECT_EQ(lru.stats().evictions, 1u);
+    }
+
+    TileCache cache(8 * 2 * tileBytes);
+    std::vector<ShadowTilePtr> kept;
+    for (uint32_t i = 0; i < 200; ++i) kept.push_back(cache.insert(map, i, tile(float(i))));
+    TileCacheStats st = cache.stats();
+    EXPECT_LE(st.bytes, 16 * tileBytes);
+    EXPECT_EQ(st.bytes + st.evictions * tileBytes, 200 * tileBytes);
+    EXPECT_EQ(st.tilesRead, 200u);
+    // The most recent insert is still cached; the first is gone, but the
+    // pointer handed out earlier still reads its values.
+    ShadowTilePtr last = cache.find(map, 199);
+    ASSERT_TRUE(last);
+    EXPECT_EQ(last->z[5], 199.0f);
+    EXPECT_FALSE(cache.find(map, 0));
+    EXPECT_EQ(kept[0]->z[5], 0.0f);
+    // Re-inserting an existing key returns the cached tile.
+    ShadowTilePtr again = cache.insert(map, 199, tile(-1));
+    EXPECT_EQ(again.get(), last.get());
+    cache.erase(map);
+    EXPECT_EQ(cache.stats().bytes, 0u);
+    EXPECT_FALSE(cache.find(map, 199));
+}
+
+}  // namespace
+}  // namespace umbra
