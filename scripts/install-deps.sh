@@ -6,7 +6,7 @@ packages=(
   cmake ninja-build g++ pkg-config
   libopenimageio-dev openimageio-tools libopenexr-dev libtbb-dev
   libcli11-dev nlohmann-json3-dev libfmt-dev zlib1g-dev
-  libgtest-dev libbenchmark-dev
+  libgtest-dev libbenchmark-dev libembree-dev
   clang libclang-rt-14-dev
 )
 missing=()
