@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-namespace umbra::testing {
+namespace umbra::test {
 
 /// A float image read back from a file.
 struct Image {
@@ -69,4 +69,4 @@ inline nlohmann::json renderRib(const std::string& rib, Diagnostics& diag, int t
     return renderer.statistics();
 }
 
-}  // namespace umbra::testing
+}  // namespace umbra::test

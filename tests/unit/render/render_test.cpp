@@ -10,8 +10,8 @@
 #include <cmath>
 
 using namespace umbra;
-using umbra::testing::Image;
-using umbra::testing::ScratchDir;
+using umbra::test::Image;
+using umbra::test::ScratchDir;
 
 namespace {
 
@@ -42,10 +42,10 @@ double coveredArea(const Image& img) {
 double renderCoverage(const std::string& world, const std::string& name) {
     ScratchDir dir(name);
     Diagnostics diag;
-    testing::renderRib(orthoFrame(dir.file("out.exr"), world), diag);
+    test::renderRib(orthoFrame(dir.file("out.exr"), world), diag);
     EXPECT_EQ(diag.errorCount(), 0);
     Image img;
-    EXPECT_TRUE(testing::readImage(dir.file("out.exr"), &img));
+    EXPECT_TRUE(test::readImage(dir.file("out.exr"), &img));
     return coveredArea(img);
 }
 
@@ -84,14 +84,14 @@ TEST(Seams, ConstantPlaneAcrossBucketsIsUniform) {
     // every pixel must get exactly the same colour (no seams, no gaps).
     ScratchDir dir("seams");
     Diagnostics diag;
-    testing::renderRib(orthoFrame(dir.file("out.exr"),
+    test::renderRib(orthoFrame(dir.file("out.exr"),
                                   R"(Color [0.25 0.5 0.75] Surface "constant"
                                      Polygon "P" [-3 -3 0  3 -3 0  3 3 0  -3 3 0])",
                                   2, 100),
                        diag);
     ASSERT_EQ(diag.errorCount(), 0);
     Image img;
-    ASSERT_TRUE(testing::readImage(dir.file("out.exr"), &img));
+    ASSERT_TRUE(test::readImage(dir.file("out.exr"), &img));
     for (int y = 0; y < img.height; ++y)
         for (int x = 0; x < img.width; ++x) {
             ASSERT_NEAR(img.at(x, y, 0), 0.25f, 1e-5f) << x << "," << y;
@@ -117,13 +117,13 @@ TEST(Determinism, SamePixelsWhateverThreadsAndBuckets) {
     };
     ScratchDir dir("determinism");
     Diagnostics d1, d2;
-    testing::renderRib(frame(dir.file("a.exr")), d1, 1, 16);
-    testing::renderRib(frame(dir.file("b.exr")), d2, 2, 7);
+    test::renderRib(frame(dir.file("a.exr")), d1, 1, 16);
+    test::renderRib(frame(dir.file("b.exr")), d2, 2, 7);
     ASSERT_EQ(d1.errorCount(), 0);
     ASSERT_EQ(d2.errorCount(), 0);
     Image a, b;
-    ASSERT_TRUE(testing::readImage(dir.file("a.exr"), &a));
-    ASSERT_TRUE(testing::readImage(dir.file("b.exr"), &b));
+    ASSERT_TRUE(test::readImage(dir.file("a.exr"), &a));
+    ASSERT_TRUE(test::readImage(dir.file("b.exr"), &b));
     ASSERT_EQ(a.pixels.size(), b.pixels.size());
     double sum = 0;
     for (size_t i = 0; i < a.pixels.size(); ++i) {
@@ -138,7 +138,7 @@ TEST(Output, FailedRenderLeavesNoFile) {
     Diagnostics diag;
     diag.setSink([](const Diagnostic&) {});
     std::string missingDir = dir.file("missing/sub/out.tif");
-    testing::renderRib(orthoFrame(missingDir, "Sphere 1 -1 1 360"), diag);
+    test::renderRib(orthoFrame(missingDir, "Sphere 1 -1 1 360"), diag);
     EXPECT_GT(diag.errorCount(), 0);
     EXPECT_FALSE(std::filesystem::exists(missingDir));
     EXPECT_FALSE(std::filesystem::exists(dir.file("missing")));

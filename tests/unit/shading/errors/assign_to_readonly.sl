@@ -1,0 +1,4 @@
+surface assign_to_readonly()
+{
+    du = 2;
+}

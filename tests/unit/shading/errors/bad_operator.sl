@@ -1,0 +1,5 @@
+surface bad_operator()
+{
+    string a = "x";
+    Ci = a * 2;
+}

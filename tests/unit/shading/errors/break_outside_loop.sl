@@ -1,0 +1,6 @@
+surface break_outside_loop()
+{
+    if (s > 0.5)
+        break;
+    Ci = 1;
+}

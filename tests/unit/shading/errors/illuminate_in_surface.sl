@@ -1,0 +1,5 @@
+surface illuminate_in_surface()
+{
+    illuminate(P)
+        Ci = 1;
+}

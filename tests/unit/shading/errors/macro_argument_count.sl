@@ -1,0 +1,5 @@
+#define MIX(a, b) ((a) + (b))
+surface macro_argument_count()
+{
+    Ci = MIX(s);
+}

@@ -1,0 +1,5 @@
+surface missing_semicolon()
+{
+    float a = 1
+    Ci = a;
+}

@@ -1,0 +1,4 @@
+surface parameter_without_default(float Kd;)
+{
+    Ci = Kd;
+}

@@ -1,0 +1,4 @@
+surface undefined_variable()
+{
+    Ci = foo * Cs;
+}

@@ -1,0 +1,5 @@
+#frobnicate 3
+surface unknown_directive()
+{
+    Ci = 1;
+}

@@ -1,0 +1,4 @@
+surface unknown_function()
+{
+    Ci = frobnicate(s, t);
+}

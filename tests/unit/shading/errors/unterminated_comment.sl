@@ -1,0 +1,5 @@
+surface unterminated_comment()
+{
+    /* this comment never ends
+    Ci = 1;
+}

@@ -1,0 +1,5 @@
+#ifdef FOO
+surface unterminated_ifdef()
+{
+    Ci = 1;
+}
