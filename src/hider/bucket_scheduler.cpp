@@ -23,6 +23,7 @@ MicroGrid ShadedGrid::view() const {
     g.aov = aov.empty() ? nullptr : aov.data();
     g.aovCount = aovFloats;
     g.matte = matte;
+    g.culled = culled.empty() ? nullptr : culled.data();
     g.id = id;
     return g;
 }

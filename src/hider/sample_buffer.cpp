@@ -249,7 +249,9 @@ void SampleBuffer::sample(const MicroGrid& g) {
     for (int j = 0; j < g.nv; ++j) {
         const Vec3* row0 = g.P + j * nu1;
         const Vec3* row1 = row0 + nu1;
+        const uint8_t* culledRow = g.culled ? g.culled + j * g.nu : nullptr;
         for (int i = 0; i < g.nu; ++i) {
+            if (culledRow && culledRow[i]) continue;
             const Vec3 &a = row0[i], &b = row0[i + 1], &c = row1[i], &d = row1[i + 1];
             float minx = std::min(std::min(a.x, b.x), std::min(c.x, d.x));
             float maxx = std::max(std::max(a.x, b.x), std::max(c.x, d.x));

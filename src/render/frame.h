@@ -29,7 +29,13 @@ struct Pass {
     std::string name;               // "camera" or "depth:<light handle>"
     hider::Camera camera;
     bool depthOnly = false;         // no surface/light shading; displacement still runs
-    bool cullLightFacing = false;   // depth pass: drop surfaces facing the light on solids (Sides 1)
+    /// Which micropolygons of one-sided (Sides 1) surfaces are dropped. The
+    /// camera pass drops back faces, as RenderMan does; a depth pass drops
+    /// none, the light-facing ones (Wang & Molnar's solids) or the back
+    /// ones, by Option "umbra" "depthcull" (docs/shadows.md). Two-sided
+    /// surfaces are never culled.
+    enum class Cull { None, Front, Back };
+    Cull cull = Cull::Back;
 };
 
 /// Everything the per-grid code needs about the current world.

@@ -142,6 +142,7 @@ struct Renderer::Impl {
                                const std::vector<geometry::PrimitivePtr>& prims, nlohmann::json& passes, int& failed);
     DepthFilter depthFilterOf(const scene::Options& options, const FileLoc& loc);
     float dualOffsetOf(const scene::Options& options);
+    Pass::Cull depthCullOf(const scene::Options& options, const FileLoc& loc);
 };
 
 Renderer::Renderer(const RenderSettings& settings, Diagnostics& diag)
@@ -286,6 +287,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     bool depthFrame = !options.displays.empty();
     for (const auto& d : options.displays) depthFrame = depthFrame && d.mode == "z";
     pass.depthOnly = depthFrame;
+    if (depthFrame) pass.cull = depthCullOf(options, options.loc);
     std::vector<film::AovChannel> aovs = depthFrame ? std::vector<film::AovChannel>{} : film::aovChannelsFor(options.displays);
     for (const auto& a : aovs) {
         frame.aovNames.push_back(a.name);
@@ -376,6 +378,7 @@ std::string Renderer::Impl::renderLightMap(FrameState& frame, const scene::Light
     }
     auto pass = lightPass(geometry, prims, size, "depth:" + handle, diag, light.shader.loc);
     if (!pass) return "";
+    pass->cull = depthCullOf(options, light.shader.loc);
     float crop[4] = {0, 1, 0, 1};
     film::Film film(size, size, crop, *film::PixelFilter::create("box", 1, 1), {}, true);
     PassResult r = runPass(frame, *pass, prims, film, fmt::format("depth map {}", handle));
@@ -409,6 +412,20 @@ DepthFilter Renderer::Impl::depthFilterOf(const scene::Options& options, const F
                          "dual); using min",
                          name);
     return f;
+}
+
+Pass::Cull Renderer::Impl::depthCullOf(const scene::Options& options, const FileLoc& loc) {
+    auto it = options.user.find("umbra:depthcull");
+    if (it == options.user.end() || it->second.strings.empty()) return Pass::Cull::Back;
+    const std::string& v = it->second.strings[0];
+    if (v == "none") return Pass::Cull::None;
+    if (v == "front" || v == "lightfacing") return Pass::Cull::Front;
+    if (v == "back") return Pass::Cull::Back;
+    diag.warningOnce("depthcull " + v, loc,
+                     "Option \"umbra\" \"depthcull\": unknown value \"{}\" (expected \"none\", \"front\" or "
+                     "\"back\"); using back",
+                     v);
+    return Pass::Cull::Back;
 }
 
 float Renderer::Impl::dualOffsetOf(const scene::Options& options) {

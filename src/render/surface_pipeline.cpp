@@ -122,19 +122,8 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
     }
     if (!anyInFront) return false;
 
-    if (attrs.sides == 1 && !m_pass.depthOnly) {
-        // One-sided: drop the grid when every micropolygon faces away.
-        // (Raster y points down, so a front face winds clockwise there.)
-        bool anyFront = false;
-        for (int j = 0; j < nv && !anyFront; ++j)
-            for (int i = 0; i < nu && !anyFront; ++i) {
-                Vec3 a = out.P[size_t(j * (nu + 1) + i)], b = out.P[size_t(j * (nu + 1) + i + 1)],
-                     d = out.P[size_t((j + 1) * (nu + 1) + i)];
-                float area = (b.x - a.x) * (d.y - a.y) - (b.y - a.y) * (d.x - a.x);
-                anyFront = (area < 0) != sg.flipNormals;
-            }
-        if (!anyFront) return false;
-    }
+    out.culled.clear();
+    if (attrs.sides == 1 && m_pass.cull != Pass::Cull::None && !cullFacing(sg, out)) return false;
 
     if (m_pass.depthOnly) {
         out.Ci.clear();
@@ -145,6 +134,31 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
     out.Ci.assign(sg.Ci.begin(), sg.Ci.begin() + n);
     out.Oi.assign(sg.Oi.begin(), sg.Oi.begin() + n);
     fillAovs(sg, out);
+    return true;
+}
+
+bool SurfacePipeline::cullFacing(const shading::ShadingGrid& sg, hider::ShadedGrid& out) const {
+    // A micropolygon faces the eye when its outward normal points at it.
+    // The outward normal is (P(i+1,j) - P(i,j)) x (P(i,j+1) - P(i,j)), the
+    // direction of dPdu x dPdv, negated when the grid's orientation is
+    // flipped (left-handed "outside", or a mirroring transform).
+    const int nu = out.nu, nv = out.nv, nu1 = nu + 1;
+    const bool perspective = m_pass.camera.perspective;
+    const bool dropFront = m_pass.cull == Pass::Cull::Front;
+    out.culled.assign(size_t(nu) * size_t(nv), 0);
+    bool anyKept = false;
+    for (int j = 0; j < nv; ++j)
+        for (int i = 0; i < nu; ++i) {
+            const Vec3& a = sg.P[size_t(j * nu1 + i)];
+            Vec3 n = cross(sg.P[size_t(j * nu1 + i + 1)] - a, sg.P[size_t((j + 1) * nu1 + i)] - a);
+            Vec3 centre = (a + sg.P[size_t((j + 1) * nu1 + i + 1)]) * 0.5f;
+            float toward = perspective ? dot(n, centre) : n.z;  // > 0: faces away (unflipped)
+            bool front = sg.flipNormals ? toward > 0 : toward < 0;
+            bool drop = dropFront ? front : !front;
+            out.culled[size_t(j * nu + i)] = drop ? 1 : 0;
+            anyKept |= !drop;
+        }
+    if (!anyKept) return false;
     return true;
 }
 

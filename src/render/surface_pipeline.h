@@ -29,6 +29,9 @@ private:
     /// The dicing parameters of a primitive in this pass.
     dice::DiceParams diceParams(const geometry::Primitive& prim) const;
     void fillAovs(const shading::ShadingGrid& sg, hider::ShadedGrid& out) const;
+    /// Marks the micropolygons the pass culls by facing (see Pass::Cull);
+    /// false when none is left.
+    bool cullFacing(const shading::ShadingGrid& sg, hider::ShadedGrid& out) const;
 
     FrameState& m_frame;
     const Pass& m_pass;

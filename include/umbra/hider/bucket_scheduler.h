@@ -41,6 +41,7 @@ struct ShadedGrid {
     std::vector<float> aov;   // aovFloats per vertex
     int aovFloats = 0;
     bool matte = false;
+    std::vector<uint8_t> culled;  // per micropolygon, non-zero to skip; empty: none
     uint64_t id = 0;
     Bound3 bound;             // of P
 

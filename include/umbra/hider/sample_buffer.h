@@ -56,6 +56,10 @@ struct MicroGrid {
     const float* aov = nullptr; // per vertex, aovCount floats each; may be null
     int aovCount = 0;           // must equal the buffer's aovCount when aov is set
     bool matte = false;         // Matte 1: hides what is behind, contributes no colour or alpha
+    /// Per micropolygon (j * nu + i), non-zero to skip it: the renderer's
+    /// back-face culling of one-sided surfaces, and the depth pass's
+    /// culling of solids' light-facing surfaces. Null: nothing culled.
+    const uint8_t* culled = nullptr;
     uint64_t id = 0;            // stable identity (same on every run) for deterministic ties
 };
 
