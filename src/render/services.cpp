@@ -1,5 +1,8 @@
 #include "render/services.h"
 
+#include <fmt/format.h>
+
+#include <cstdlib>
 #include <vector>
 
 namespace umbra::render {
@@ -81,7 +84,7 @@ bool Services::getMatrix(const shading::ShadingGrid& grid, const std::string& sp
     if (space == "camera") {
         *currentFromSpace = Mat4::identity();
     } else if (space == "world") {
-        *currentFromSpace = cam.cameraFromWorld.inverse();
+        *currentFromSpace = cam.cameraFromWorld;
     } else if (space == "object") {
         *currentFromSpace = st.cameraFromObject;
     } else if (space == "screen") {
