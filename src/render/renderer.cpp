@@ -81,6 +81,11 @@ nlohmann::json schedulerJson(const hider::SchedulerStats& s) {
             {"buckets", s.buckets},       {"peak_grids_alive", s.peakGridsAlive}};
 }
 
+nlohmann::json tileCacheJson(const TileCacheStats& c) {
+    return {{"lookups", c.lookups}, {"hits", c.hits},           {"misses", c.misses},
+            {"tiles_read", c.tilesRead}, {"evictions", c.evictions}, {"peak_bytes", c.peakBytes}};
+}
+
 }  // namespace
 
 struct PassResult;
@@ -90,6 +95,7 @@ struct Renderer::Impl {
     Diagnostics& diag;
     std::unique_ptr<shading::ShadingSystem> shading;
     std::shared_ptr<TileCache> tileCache;
+    size_t tileCacheBytes = size_t(64) << 20;
     std::unique_ptr<MapCatalog> maps;
     std::unique_ptr<Services> services;
     nlohmann::json frames = nlohmann::json::array();
@@ -238,6 +244,17 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     auto tp = options.searchPaths.find("texture");
     if (tp != options.searchPaths.end()) shading->setTextureSearchPath(splitSearchPath(tp->second, {"."}));
 
+    // Option "umbra" "tilecachemb": the shadow tile cache's memory bound.
+    if (auto it = options.user.find("umbra:tilecachemb"); it != options.user.end()) {
+        int mb = !it->second.ints.empty() ? it->second.ints[0] : int(it->second.floatAt(0, 64));
+        size_t bytes = size_t(std::max(1, mb)) << 20;
+        if (!tileCache || tileCacheBytes != bytes) {
+            tileCache = std::make_shared<TileCache>(bytes);
+            tileCacheBytes = bytes;
+            maps->setCache(tileCache);
+        }
+    }
+
     FrameState frame;
     frame.world = &world;
     frame.frameSeed = hash32(uint32_t(world.frameNumber + 1));
@@ -336,7 +353,12 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
           {"culled_shadowed", shadowStats.culledShadowed},
           {"filtered", shadowStats.filtered},
           {"samples", shadowStats.samples},
-          {"tile_fetches", shadowStats.tileFetches}}},
+          {"tile_fetches", shadowStats.tileFetches},
+          {"second_depth_lit", shadowStats.secondLit},
+          {"second_depth_shadowed", shadowStats.secondShadowed},
+          {"virtual_sample_points", shadowStats.virtualPoints},
+          {"lookup_seconds", services->lookupSeconds()},
+          {"tile_cache", tileCacheJson(tileCache->stats())}}},
         {"errors", diag.errorCount() - errorsBefore},
     };
     frames.push_back(f);

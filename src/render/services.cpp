@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <chrono>
+
 #include <cstdlib>
 #include <vector>
 
@@ -19,6 +21,12 @@ std::shared_ptr<ShadowMap> MapCatalog::get(const std::string& name) {
 void MapCatalog::invalidate(const std::string& name) {
     std::lock_guard<std::mutex> lock(m_mutex);
     m_maps.erase(name);
+}
+
+void MapCatalog::setCache(std::shared_ptr<TileCache> cache) {
+    std::lock_guard<std::mutex> lock(m_mutex);
+    m_maps.clear();
+    m_cache = std::move(cache);
 }
 
 void MapCatalog::put(const std::string& name, std::shared_ptr<ShadowMap> map) {
@@ -133,7 +141,10 @@ bool Services::shadow(const shading::ShadingGrid& grid, const shading::ShadowQue
     batch.worldFromCurrent = st.pass->camera.cameraFromWorld.inverse();
     batch.seed = q.seed;
     ShadowStats stats;
+    auto t0 = std::chrono::steady_clock::now();
     map->lookup(batch, paramsOf(q, m_diag), s.out.data(), stats);
+    m_lookupNanoseconds += uint64_t(
+        std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - t0).count());
     for (int k = 0; k < q.count; ++k) result[q.indices[k]] = s.out[k];
     std::lock_guard<std::mutex> lock(m_statsMutex);
     m_stats += stats;
@@ -211,6 +222,7 @@ ShadowStats Services::shadowStats() const {
 void Services::resetStats() {
     std::lock_guard<std::mutex> lock(m_statsMutex);
     m_stats = ShadowStats();
+    m_lookupNanoseconds = 0;
 }
 
 }  // namespace umbra::render

@@ -7,6 +7,7 @@
 #include "umbra/shading/renderer_services.h"
 #include "umbra/shadow/shadow_map.h"
 
+#include <atomic>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -26,6 +27,8 @@ public:
     /// Registers a map rendered in this frame under `name` ("auto" maps).
     void put(const std::string& name, std::shared_ptr<ShadowMap> map);
     TileCache& cache() { return *m_cache; }
+    /// Replaces the tile cache (a new memory bound); open maps are forgotten.
+    void setCache(std::shared_ptr<TileCache> cache);
 
 private:
     Diagnostics& m_diag;
@@ -46,6 +49,9 @@ public:
     /// Lookup counters of every thread, summed.
     ShadowStats shadowStats() const;
     void resetStats();
+    /// Time spent inside shadow-map lookups (filtering, region transforms),
+    /// summed over threads.
+    double lookupSeconds() const { return double(m_lookupNanoseconds.load()) * 1e-9; }
     void setFrame(const FrameState* frame) { m_frame = frame; }
 
 private:
@@ -54,6 +60,7 @@ private:
     const FrameState* m_frame = nullptr;
     mutable std::mutex m_statsMutex;
     ShadowStats m_stats;
+    std::atomic<uint64_t> m_lookupNanoseconds{0};
 };
 
 }  // namespace umbra::render
