@@ -555,6 +555,15 @@ void SampleBuffer::resolve(film::Film& film) {
                                         : filter.weight(x - (float(tx) + 0.5f), y - (float(ty) + 0.5f));
                     if (w == 0.0f) continue;
                     float* acc = &m_acc[(size_t(ty - by0) * size_t(bw) + size_t(tx - bx0)) * size_t(accStride)];
+                    if (aovN == 0) {
+                        // The common case, unrolled: r g b a and the weight.
+                        acc[0] += w * val[0];
+                        acc[1] += w * val[1];
+                        acc[2] += w * val[2];
+                        acc[3] += w * val[3];
+                        acc[4] += w;
+                        continue;
+                    }
                     for (int k = 0; k < stride; ++k) acc[k] += w * val[k];
                     acc[stride] += w;
                 }
