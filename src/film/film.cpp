@@ -1,5 +1,9 @@
 // Film storage and Display output.
 //
+// Images are written by the formats' own libraries (OpenEXR, libtiff,
+// libpng; see image_file.h), not OpenImageIO, whose shared-library closure
+// costs a tenth of a second at every process start.
+//
 // Drivers (RenderMan `Display` names):
 //   "tiff"                   TIFF
 //   "openexr", "exr"         OpenEXR; half by default, "string type"
@@ -8,7 +12,9 @@
 //                            integer-format setting (PRMan's openexr driver
 //                            behaves the same).
 //   "png"                    PNG (integers only: unquantised data is written
-//                            as 16-bit, one = 65535)
+//                            as 16-bit, one = 65535); at most 4 channels,
+//                            alpha last; colour is unpremultiplied (PNG
+//                            alpha is straight) before quantisation
 //   "file"                   by the name's extension (.exr .png .tif .tiff),
 //                            TIFF otherwise, as RenderMan's "file" is TIFF
 //   "framebuffer"            umbra has no window: the image is written to a
@@ -24,19 +30,27 @@
 // quantised file stores 8-bit integers when [min, max] fits in [0, 255],
 // 16-bit when it fits in [0, 65535], float otherwise; when some channels are
 // quantised and others not (rgbaz with float z), the integer formats get
-// float data without quantisation (a warning says so).
+// float data without quantisation (a warning says so). A display's
+// "compression" names the codec: EXR none/rle/zips/zip/piz/pxr24/b44/b44a/
+// dwaa/dwab, TIFF none/lzw/zip/packbits; zip by default, at the deflate
+// levels of image_file.h (4 for integers, 6 for floats); "zip:N" picks one.
 
 #include "umbra/film/film.h"
 
+#include "image_file.h"
+
 #include "umbra/util/rng.h"
 
-#include <OpenImageIO/imageio.h>
-
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
+#include <cerrno>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
+#include <memory>
 #include <system_error>
 #include <unistd.h>
 
@@ -84,14 +98,19 @@ std::vector<std::string> splitWords(const std::string& s) {
 
 enum class Format { Tiff, Exr, Png };
 
-const char* oiioFormatName(Format f) {
+const char* formatName(Format f) {
     switch (f) {
-    case Format::Tiff: return "tiff";
-    case Format::Exr: return "openexr";
-    case Format::Png: return "png";
+    case Format::Tiff: return "TIFF";
+    case Format::Exr: return "OpenEXR";
+    case Format::Png: return "PNG";
     }
-    return "tiff";
+    return "TIFF";
 }
+
+/// Closes a stdio stream on every path unless released.
+struct FileCloser {
+    void operator()(std::FILE* f) const { std::fclose(f); }
+};
 
 std::optional<Format> formatOfExtension(const std::string& path) {
     std::string ext = lower(fs::path(path).extension().string());
@@ -326,11 +345,69 @@ bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Option
     }
     const int nch = int(channels.size());
 
-    // Pixel type: integers when every channel is quantised (and the format
+    if (m_width == 0 || m_height == 0) {
+        diag.error(display.loc, "display \"{}\": the crop window selects no pixels (expected a window covering at "
+                   "least one pixel centre)",
+                   display.name);
+        return false;
+    }
+    const int alphaChannel = [&] {
+        for (int c = 0; c < nch; ++c)
+            if (channels[size_t(c)].kind == ChannelSource::A) return c;
+        return -1;
+    }();
+    if (format == Format::Png) {
+        if (nch > 4) {
+            diag.error(display.loc, "display \"{}\": PNG holds at most 4 channels, mode \"{}\" has {}; write it to "
+                       "OpenEXR or TIFF",
+                       display.name, display.mode, nch);
+            return false;
+        }
+        if ((alphaChannel >= 0 || nch == 2 || nch == 4) && alphaChannel != nch - 1) {
+            diag.error(display.loc, "display \"{}\": PNG needs alpha as the last of 2 or 4 channels (mode \"{}\"); "
+                       "write it to OpenEXR or TIFF",
+                       display.name, display.mode);
+            return false;
+        }
+    }
+    // "compression" "name" or "name:level" (OIIO's spelling): a deflate
+    // level 1-9 for zip, zips and PNG, 1-1000 for dwaa/dwab.
+    std::string compression;
+    int compressionLevel = 0;
+    if (const ri::Param* comp = display.params.find("compression"); comp && !comp->strings.empty()) {
+        const std::string given = lower(comp->stringAt(0));
+        compression = given;
+        bool known = true;
+        if (size_t colon = given.find(':'); colon != std::string::npos) {
+            compression = given.substr(0, colon);
+            const std::string digits = given.substr(colon + 1);
+            char* end = nullptr;
+            long level = std::strtol(digits.c_str(), &end, 10);
+            const bool zipFamily = compression == "zip" || compression == "zips" || compression == "deflate";
+            const bool dwa = format == Format::Exr && (compression == "dwaa" || compression == "dwab");
+            known = !digits.empty() && *end == 0 && level >= 1 &&
+                    ((zipFamily && level <= 9) || (dwa && level <= 1000));
+            compressionLevel = known ? int(level) : 0;
+        }
+        if (format == Format::Exr) known = known && exrCompressionKnown(compression);
+        if (format == Format::Tiff) known = known && tiffCompressionKnown(compression);
+        if (!known) {
+            diag.warning(comp->loc, "display \"{}\": unknown {} compression \"{}\" (expected {}, zip with a level "
+                         "1-9 as \"zip:6\"); using zip",
+                         display.name, formatName(format), given,
+                         format == Format::Exr ? "none, rle, zips, zip, piz, pxr24, b44, b44a, dwaa or dwab"
+                         : format == Format::Tiff ? "none, lzw, zip or packbits"
+                                                  : "zip");
+            compression.clear();
+            compressionLevel = 0;
+        }
+    }
+
+    // Sample type: integers when every channel is quantised (and the format
     // takes them), float otherwise.
     bool allQuantised = std::all_of(channels.begin(), channels.end(), [](const ChannelSource& c) { return c.quantize.enabled(); });
     bool anyQuantised = std::any_of(channels.begin(), channels.end(), [](const ChannelSource& c) { return c.quantize.enabled(); });
-    OIIO::TypeDesc pixelType = OIIO::TypeDesc::FLOAT;
+    SampleType sampleType = SampleType::Float;
     if (format == Format::Exr) {
         for (ChannelSource& c : channels) c.quantize = Quantize{};
         std::string type = lower(display.params.getString("type", "half"));
@@ -338,7 +415,7 @@ bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Option
             diag.error(display.loc, "display \"{}\": \"type\" \"{}\" (expected \"half\" or \"float\")", display.name, type);
             return false;
         }
-        pixelType = type == "float" ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::HALF;
+        sampleType = type == "float" ? SampleType::Float : SampleType::Half;
     } else {
         if (anyQuantised && !allQuantised) {
             if (format == Format::Png) {
@@ -365,9 +442,9 @@ bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Option
                 hi = std::max(hi, c.quantize.max);
             }
             if (lo >= 0 && hi <= 255)
-                pixelType = OIIO::TypeDesc::UINT8;
+                sampleType = SampleType::UInt8;
             else if (lo >= 0 && hi <= 65535)
-                pixelType = OIIO::TypeDesc::UINT16;
+                sampleType = SampleType::UInt16;
             else if (format == Format::Png) {
                 diag.error(display.loc, "display \"{}\": PNG needs quantize min/max within [0, 65535] (have [{}, {}])",
                            display.name, lo, hi);
@@ -375,6 +452,8 @@ bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Option
             }
         }
     }
+    // PNG's alpha is straight; the film's colour is premultiplied.
+    const bool unpremultiply = format == Format::Png && alphaChannel >= 0;
 
     // Convert the pixels.
     const float gain = options.exposureGain, invGamma = options.exposureGamma != 0 ? 1.0f / options.exposureGamma : 1.0f;
@@ -400,6 +479,8 @@ bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Option
                     v *= gain;
                     if (invGamma != 1.0f) v = v > 0 ? std::pow(v, invGamma) : 0.0f;
                 }
+                // Alpha 0 keeps its colour: emission without coverage.
+                if (unpremultiply && src.exposure && p[3] > 0) v /= p[3];
                 if (src.quantize.enabled()) {
                     const Quantize& q = src.quantize;
                     float noise = q.dither != 0 ? q.dither * ditherNoise(x, y, c) : 0.0f;
@@ -413,87 +494,74 @@ bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Option
         }
     }
 
-    OIIO::ImageSpec spec(m_width, m_height, nch, pixelType);
-    spec.x = m_x0;
-    spec.y = m_y0;
-    spec.full_x = 0;
-    spec.full_y = 0;
-    spec.full_width = m_xres;
-    spec.full_height = m_yres;
-    spec.channelnames.clear();
-    spec.alpha_channel = -1;
-    spec.z_channel = -1;
+    ImageData image;
+    image.width = m_width;
+    image.height = m_height;
+    image.x = m_x0;
+    image.y = m_y0;
+    image.fullWidth = m_xres;
+    image.fullHeight = m_yres;
+    image.pixels = data.data();
     bool hasZ = false;
-    for (int c = 0; c < nch; ++c) {
-        spec.channelnames.push_back(channels[size_t(c)].name);
-        if (channels[size_t(c)].kind == ChannelSource::A) spec.alpha_channel = c;
-        if (channels[size_t(c)].kind == ChannelSource::Z) {
-            spec.z_channel = c;
-            hasZ = true;
-        }
-    }
-    if (format == Format::Exr && hasZ && pixelType == OIIO::TypeDesc::HALF) {
+    for (const ChannelSource& c : channels) {
+        image.channelNames.push_back(c.name);
+        ChannelRole role = ChannelRole::Other;
+        if (c.kind == ChannelSource::R || c.kind == ChannelSource::G || c.kind == ChannelSource::B)
+            role = ChannelRole::Color;
+        else if (c.kind == ChannelSource::A)
+            role = ChannelRole::Alpha;
+        else if (c.kind == ChannelSource::Z)
+            role = ChannelRole::Depth;
+        hasZ = hasZ || role == ChannelRole::Depth;
+        image.roles.push_back(role);
         // Half has 11 bits of mantissa: depth needs float.
-        spec.channelformats.assign(size_t(nch), OIIO::TypeDesc::HALF);
-        spec.channelformats[size_t(spec.z_channel)] = OIIO::TypeDesc::FLOAT;
+        image.types.push_back(role == ChannelRole::Depth && sampleType == SampleType::Half ? SampleType::Float
+                                                                                          : sampleType);
     }
-    spec.attribute("Software", "umbra 0.1");
-    if (!metadata.dateTime.empty()) spec.attribute("DateTime", metadata.dateTime);
-    if (metadata.renderSeconds >= 0) spec.attribute("umbra:rendertime", fmt::format("{:.3f}", metadata.renderSeconds));
+    image.software = "umbra 0.1";
+    image.dateTime = metadata.dateTime;
+    if (metadata.renderSeconds >= 0) image.renderTime = fmt::format("{:.3f}", metadata.renderSeconds);
     if (hasZ) {
-        float m[16];
+        // Row-vector order, as EXR/Imath and TIFF's Pixar tags store them.
+        std::array<float, 16> m;
         if (metadata.cameraFromWorld) {
-            metadata.cameraFromWorld->toRib(m);  // row-vector order, as EXR/Imath store it
-            spec.attribute("worldtocamera", OIIO::TypeMatrix, m);
+            metadata.cameraFromWorld->toRib(m.data());
+            image.worldToCamera = m;
         }
         if (metadata.ndcFromWorld) {
-            metadata.ndcFromWorld->toRib(m);
-            spec.attribute("worldtoscreen", OIIO::TypeMatrix, m);
-            if (format == Format::Exr) spec.attribute("worldToNDC", OIIO::TypeMatrix, m);
+            metadata.ndcFromWorld->toRib(m.data());
+            image.worldToNDC = m;
         }
     }
-    if (const ri::Param* comp = display.params.find("compression")) spec.attribute("compression", comp->stringAt(0));
-
-    // Integer formats take the quantised integers as they are.
-    std::vector<unsigned char> bytes;
-    const void* pixels = data.data();
-    OIIO::TypeDesc dataType = OIIO::TypeDesc::FLOAT;
-    if (pixelType == OIIO::TypeDesc::UINT8) {
-        bytes.resize(data.size());
-        for (size_t i = 0; i < data.size(); ++i) bytes[i] = static_cast<unsigned char>(data[i]);
-        pixels = bytes.data();
-        dataType = OIIO::TypeDesc::UINT8;
-    } else if (pixelType == OIIO::TypeDesc::UINT16) {
-        bytes.resize(data.size() * 2);
-        auto* u16 = reinterpret_cast<uint16_t*>(bytes.data());
-        for (size_t i = 0; i < data.size(); ++i) u16[i] = static_cast<uint16_t>(data[i]);
-        pixels = bytes.data();
-        dataType = OIIO::TypeDesc::UINT16;
-    }
+    image.compression = compression;
+    if (compressionLevel > 0) image.compressionLevel = compressionLevel;
 
     // Write under a temporary name in the same directory, then rename.
     fs::path target(path);
     fs::path tmp = target.parent_path() / fmt::format(".{}.umbra-tmp-{}", target.filename().string(), ::getpid());
-    auto out = OIIO::ImageOutput::create(oiioFormatName(format));
-    if (!out) {
-        diag.error(display.loc, "display \"{}\": cannot create a {} writer: {}", display.name, oiioFormatName(format),
-                   OIIO::geterror());
-        return false;
-    }
     std::error_code ec;
     auto failWith = [&](const std::string& why) {
         diag.error(display.loc, "display \"{}\": cannot write \"{}\": {}", display.name, path, why);
         fs::remove(tmp, ec);
         return false;
     };
-    if (!out->open(tmp.string(), spec)) return failWith(out->geterror());
-    if (!out->write_image(dataType, pixels)) {
-        std::string err = out->geterror();
-        out->close();
-        return failWith(err);
+    std::unique_ptr<std::FILE, FileCloser> file(std::fopen(tmp.c_str(), "w+b"));
+    if (!file) {
+        std::string why = std::strerror(errno);
+        diag.error(display.loc, "display \"{}\": cannot write \"{}\": {}", display.name, path, why);
+        return false;  // nothing was created
     }
-    if (!out->close()) return failWith(out->geterror());
-    out.reset();
+    std::string why;
+    bool written = false;
+    switch (format) {
+    case Format::Exr: written = writeExr(image, file.get(), &why); break;
+    case Format::Tiff: written = writeTiff(image, file.get(), &why); break;
+    case Format::Png: written = writePng(image, file.get(), &why); break;
+    }
+    if (!written) return failWith(why);
+    // fclose flushes: a full disk shows up here.
+    errno = 0;
+    if (std::fclose(file.release()) != 0) return failWith(std::strerror(errno ? errno : EIO));
     fs::rename(tmp, target, ec);
     if (ec) return failWith(ec.message());
     return true;

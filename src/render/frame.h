@@ -8,10 +8,12 @@
 #include "umbra/hider/camera.h"
 #include "umbra/scene/scene.h"
 #include "umbra/shading/shading_system.h"
+#include "umbra/trace/occlusion_scene.h"
 
 #include <atomic>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -48,6 +50,11 @@ struct FrameState {
     std::vector<int> aovComponents;
     bool noShadows = false;
     std::atomic<uint64_t> shadingNanoseconds{0};
+    /// Every primitive of the world, for the exact ray-traced shadows of
+    /// shadow("raytrace", ...), built on first use.
+    const std::vector<geometry::PrimitivePtr>* primitives = nullptr;
+    mutable std::once_flag occlusionOnce;
+    mutable std::unique_ptr<trace::OcclusionScene> occlusion;
 };
 
 /// The renderState a ShadingGrid carries to RendererServices.

@@ -270,6 +270,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     }
 
     prepareAttributes(prims, frame);
+    frame.primitives = &prims;
 
     // First pass: a depth map for every light whose shadowname is "auto".
     nlohmann::json passes = nlohmann::json::array();

@@ -116,6 +116,7 @@ bool Services::shadow(const shading::ShadingGrid& grid, const shading::ShadowQue
         for (int k = 0; k < q.count; ++k) result[q.indices[k]] = 0;
         return true;
     }
+    if (q.mapName == "raytrace") return raytrace(st, q, result);
     auto map = m_maps.get(q.mapName);
     if (!map) return false;
 
@@ -140,14 +141,60 @@ bool Services::shadow(const shading::ShadingGrid& grid, const shading::ShadowQue
     batch.N = q.N ? s.N.data() : nullptr;
     batch.worldFromCurrent = st.pass->camera.cameraFromWorld.inverse();
     batch.seed = q.seed;
+    ShadowParams params = paramsOf(q, m_diag);
+    if (params.bias == 0 && params.bias0 == 0 && params.bias1 == 0) applyDefaultBias(*map, params);
     ShadowStats stats;
     auto t0 = std::chrono::steady_clock::now();
-    map->lookup(batch, paramsOf(q, m_diag), s.out.data(), stats);
+    map->lookup(batch, params, s.out.data(), stats);
     m_lookupNanoseconds += uint64_t(
         std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - t0).count());
     for (int k = 0; k < q.count; ++k) result[q.indices[k]] = s.out[k];
     std::lock_guard<std::mutex> lock(m_statsMutex);
     m_stats += stats;
+    return true;
+}
+
+void Services::applyDefaultBias(const ShadowMap& map, ShadowParams& params) const {
+    // Maps of nearest depths need a bias against self-shadowing; the
+    // two-layer filters are built to need none (docs/shadows.md).
+    DepthFilter f = map.depthFilter();
+    if (f != DepthFilter::Min && f != DepthFilter::Max && f != DepthFilter::Average) return;
+    const auto& user = m_frame->world->options.user;
+    auto get = [&](const char* name, float def) {
+        auto it = user.find(name);
+        return it != user.end() && !it->second.floats.empty() ? it->second.floats[0] : def;
+    };
+    params.bias = get("shadow:bias", kDefaultShadowBias);
+    params.bias0 = get("shadow:bias0", 0);
+    params.bias1 = get("shadow:bias1", 0);
+}
+
+bool Services::raytrace(const GridState& st, const shading::ShadowQuery& q, float* result) {
+    const FrameState& frame = *st.frame;
+    if (!q.L) {
+        m_diag.warningOnce("raytrace outside light", {},
+                           "shadow(\"raytrace\", ...) is traced towards the light, so it must be called inside "
+                           "illuminate() or solar() of a light shader; unshadowed elsewhere");
+        return false;
+    }
+    std::call_once(frame.occlusionOnce, [&] {
+        frame.occlusion = std::make_unique<trace::OcclusionScene>(*frame.primitives, trace::TessellationOptions{}, &m_diag);
+    });
+    const Mat4& cameraFromWorld = st.pass->camera.cameraFromWorld;
+    const Mat4 worldFromCamera = cameraFromWorld.inverse();
+    for (int k = 0; k < q.count; ++k) {
+        int i = q.indices[k];
+        Vec3 P = worldFromCamera.point(q.P[i]);
+        Vec3 L = worldFromCamera.vector(q.L[i]);  // from the light towards P
+        const Vec3* N = nullptr;
+        Vec3 Nw;
+        if (q.N) {
+            Nw = normalize(Mat4::normal(cameraFromWorld, q.N[i]));
+            N = &Nw;
+        }
+        trace::LightTarget target = q.lightAtInfinity ? trace::LightTarget::distant(L) : trace::LightTarget::point(P - L);
+        result[i] = frame.occlusion->shadowFraction(P, target, N);
+    }
     return true;
 }
 

@@ -55,6 +55,13 @@ public:
     void setFrame(const FrameState* frame) { m_frame = frame; }
 
 private:
+    /// A shadow() call that gives no bias gets RenderMan's Option "shadow"
+    /// "bias" (or "bias0"/"bias1"); 0.225 when unset, as PRMan.
+    void applyDefaultBias(const ShadowMap& map, ShadowParams& params) const;
+    static constexpr float kDefaultShadowBias = 0.225f;
+    /// Exact shadows by tracing towards the light (reference mode).
+    bool raytrace(const GridState& st, const shading::ShadowQuery& q, float* result);
+
     Diagnostics& m_diag;
     MapCatalog& m_maps;
     const FrameState* m_frame = nullptr;

@@ -23,11 +23,12 @@ struct NullServices : umbra::shading::RendererServices {
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     using namespace umbra;
-    static Diagnostics diag = [] {
-        Diagnostics d;
-        d.setPolicy(Diagnostics::Policy::Ignore);
-        return d;
+    static Diagnostics diag;
+    static bool configured = [] {
+        diag.setPolicy(Diagnostics::Policy::Ignore);
+        return true;
     }();
+    (void)configured;
     static shading::ShadingSystem sys(diag, {});
     std::string src(reinterpret_cast<const char*>(data), size);
     auto shader = sys.compileSource(src, "fuzz.sl");

@@ -165,3 +165,26 @@ surface fancy(float Kd = .6, Ks = .4, roughness = .2;
         EXPECT_EQ(red, c.x > c.z) << i;
     }
 }
+
+TEST(Compiler, PathologicalInputsAreRejectedNotCrashing) {
+    Harness h;
+    std::string longSum = "surface t() { Ci = s";
+    for (int i = 0; i < 5000; ++i) longSum += " + s";
+    longSum += "; }";
+    EXPECT_FALSE(h.sys.compileSource(longSum, "long.sl"));
+    std::string deep = "surface t() { Ci = " + std::string(1000, '(') + "s" + std::string(1000, ')') + "; }";
+    EXPECT_FALSE(h.sys.compileSource(deep, "deep.sl"));
+    // Exponential macro expansion is cut off.
+    std::string bomb = "#define A0 s\n";
+    for (int i = 1; i < 40; ++i) bomb += fmt::format("#define A{} A{} + A{}\n", i, i - 1, i - 1);
+    bomb += "surface t() { Ci = A39; }\n";
+    EXPECT_FALSE(h.sys.compileSource(bomb, "bomb.sl"));
+    // Self-referencing macros stop expanding at themselves.
+    EXPECT_FALSE(h.sys.compileSource("#define X X + 1\nsurface t() { Ci = X; }\n", "self.sl"));
+    std::string msgs = h.messages();
+    EXPECT_NE(msgs.find("long.sl:1:"), std::string::npos) << msgs;
+    EXPECT_NE(msgs.find("expression too long"), std::string::npos);
+    EXPECT_NE(msgs.find("nested too deeply"), std::string::npos);
+    EXPECT_NE(msgs.find("macro expansion too large"), std::string::npos);
+    EXPECT_NE(msgs.find("self.sl:2:20: error: undefined variable 'X'"), std::string::npos) << msgs;
+}

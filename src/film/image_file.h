@@ -1,0 +1,80 @@
+#pragma once
+// Private to the film module: the image-file writers behind Film::write.
+// Each writer encodes one finished image (already exposed, unpremultiplied
+// where the format wants it, and quantised) into an open stdio stream, using
+// the format's own library (OpenEXR, libtiff, libpng) so that the renderer
+// does not load OpenImageIO just to write pixels.
+
+#include <algorithm>
+#include <array>
+#include <cstdio>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace umbra::film {
+
+/// Deflate levels when the display names none. Dithered integer samples
+/// are noise to deflate: level 4 is 2.5x faster than zlib's 6 there for ~10%
+/// more bytes (640x480 RGBA: 19 ms vs 48 ms). Float samples compress much
+/// better at 6 (-40% bytes) for ~20% more time.
+inline constexpr int kDefaultZipLevelInteger = 4;
+inline constexpr int kDefaultZipLevelFloat = 6;
+
+/// How one channel is stored in the file. Integer types receive the
+/// quantised integer values (already in [0, 255] or [0, 65535]).
+enum class SampleType { UInt8, UInt16, Half, Float };
+
+/// What a channel means, for the formats that record it (TIFF ExtraSamples,
+/// PNG colour types).
+enum class ChannelRole { Color, Alpha, Depth, Other };
+
+/// One image ready for a file: the crop region of the frame, top row first,
+/// channels interleaved.
+struct ImageData {
+    int width = 0, height = 0;          // data window size, pixels
+    int x = 0, y = 0;                   // data window origin in raster pixels
+    int fullWidth = 0, fullHeight = 0;  // the frame's resolution (display window)
+    std::vector<std::string> channelNames;
+    std::vector<ChannelRole> roles;
+    std::vector<SampleType> types;  // per channel; TIFF and PNG need them all equal
+    const float* pixels = nullptr;  // width * height * channels values
+
+    std::string software;     // always written
+    std::string dateTime;     // "YYYY:MM:DD HH:MM:SS"; empty: not written
+    std::string renderTime;   // seconds as text; empty: not written
+    // Row-vector (RIB, Imath) order; written on depth outputs only.
+    std::optional<std::array<float, 16>> worldToCamera;
+    std::optional<std::array<float, 16>> worldToNDC;
+    std::string compression;  // the display's "compression"; empty: the format's default (zip)
+    // Deflate level (zip, zips, PNG) or DWA level (dwaa, dwab); 0: the
+    // defaults above (and OpenEXR's DWA default).
+    int compressionLevel = 0;
+    int zipLevel() const {
+        if (compressionLevel > 0) return std::min(compressionLevel, 9);
+        bool integer = !types.empty() && (types[0] == SampleType::UInt8 || types[0] == SampleType::UInt16);
+        return integer ? kDefaultZipLevelInteger : kDefaultZipLevelFloat;
+    }
+
+    int channels() const { return int(channelNames.size()); }
+    int findRole(ChannelRole r) const {
+        for (size_t i = 0; i < roles.size(); ++i)
+            if (roles[i] == r) return int(i);
+        return -1;
+    }
+};
+
+/// Compression names each writer accepts, for the "compression" parameter's
+/// error message.
+bool exrCompressionKnown(const std::string& name);
+bool tiffCompressionKnown(const std::string& name);
+
+/// Scanline OpenEXR: data window = the crop region, display window = the
+/// full frame, ZIP unless told otherwise. On failure *error says why.
+bool writeExr(const ImageData& image, std::FILE* file, std::string* error);
+/// Strip TIFF, contiguous samples, 8/16-bit unsigned or 32-bit float.
+bool writeTiff(const ImageData& image, std::FILE* file, std::string* error);
+/// PNG, 8 or 16 bits, gray / gray-alpha / RGB / RGBA (alpha last, straight).
+bool writePng(const ImageData& image, std::FILE* file, std::string* error);
+
+}  // namespace umbra::film

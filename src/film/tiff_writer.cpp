@@ -1,0 +1,191 @@
+// TIFF output through libtiff.
+//
+// Strips of 32 rows, contiguous (interleaved) samples: 8/16-bit unsigned or
+// 32-bit IEEE float. One or two channels are min-is-black, three or more
+// RGB; channels past the photometric ones are ExtraSamples, "associated
+// alpha" for the alpha channel (the film's colour is premultiplied) and
+// "unspecified" for the rest (z, AOVs). A crop region is written as the
+// image, placed by XPosition/YPosition (in pixels: no resolution tags) and
+// the Pixar full-size tags, the convention OpenImageIO and PRMan read. Depth
+// outputs carry the Pixar world-to-camera and world-to-screen matrices.
+
+#include "image_file.h"
+
+#include <tiffio.h>
+
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdarg>
+#include <cstring>
+#include <memory>
+#include <optional>
+#include <vector>
+
+namespace umbra::film {
+
+namespace {
+
+/// The client handle libtiff passes to the I/O callbacks; the first error
+/// (from the stream or from libtiff) is kept for the caller's message.
+struct TiffSink {
+    std::FILE* file;
+    std::string failure;
+    void ioFailed() {
+        if (failure.empty()) failure = std::strerror(errno ? errno : EIO);
+    }
+};
+
+int onError(TIFF*, void* user, const char* module, const char* fmt, va_list ap) {
+    auto* sink = static_cast<TiffSink*>(user);
+    if (sink->failure.empty()) {
+        char buf[512];
+        std::vsnprintf(buf, sizeof buf, fmt, ap);
+        sink->failure = module && *module ? std::string(module) + ": " + buf : std::string(buf);
+    }
+    return 1;  // handled: not passed on to libtiff's global stderr handler
+}
+
+int onWarning(TIFF*, void*, const char*, const char*, va_list) { return 1; }
+
+tmsize_t readProc(thandle_t h, void* buf, tmsize_t n) {
+    auto* s = static_cast<TiffSink*>(h);
+    return tmsize_t(std::fread(buf, 1, size_t(n), s->file));
+}
+
+tmsize_t writeProc(thandle_t h, void* buf, tmsize_t n) {
+    auto* s = static_cast<TiffSink*>(h);
+    size_t done = std::fwrite(buf, 1, size_t(n), s->file);
+    if (done != size_t(n)) s->ioFailed();
+    return tmsize_t(done);
+}
+
+toff_t seekProc(thandle_t h, toff_t offset, int whence) {
+    auto* s = static_cast<TiffSink*>(h);
+    if (::fseeko(s->file, off_t(offset), whence) != 0) {
+        s->ioFailed();
+        return toff_t(-1);
+    }
+    return toff_t(::ftello(s->file));
+}
+
+int closeProc(thandle_t) { return 0; }  // the caller owns and closes the stream
+
+toff_t sizeProc(thandle_t h) {
+    auto* s = static_cast<TiffSink*>(h);
+    std::fflush(s->file);
+    struct stat st {};
+    if (::fstat(::fileno(s->file), &st) != 0) return 0;
+    return toff_t(st.st_size);
+}
+
+int mapProc(thandle_t, void**, toff_t*) { return 0; }
+void unmapProc(thandle_t, void*, toff_t) {}
+
+std::optional<uint16_t> tiffCompression(const std::string& name) {
+    if (name.empty() || name == "zip" || name == "deflate") return uint16_t(COMPRESSION_ADOBE_DEFLATE);
+    if (name == "none") return uint16_t(COMPRESSION_NONE);
+    if (name == "lzw") return uint16_t(COMPRESSION_LZW);
+    if (name == "packbits") return uint16_t(COMPRESSION_PACKBITS);
+    return std::nullopt;
+}
+
+/// Closes the TIFF handle on every path.
+struct TiffCloser {
+    void operator()(TIFF* t) const { TIFFClose(t); }
+};
+
+}  // namespace
+
+bool tiffCompressionKnown(const std::string& name) { return tiffCompression(name).has_value(); }
+
+bool writeTiff(const ImageData& image, std::FILE* file, std::string* error) {
+    const int nch = image.channels();
+    const SampleType type = image.types[0];
+    const int bytesPerSample = type == SampleType::UInt8 ? 1 : type == SampleType::UInt16 ? 2 : 4;
+    const size_t rowValues = size_t(image.width) * size_t(nch);
+    const size_t rawBytes = rowValues * size_t(image.height) * size_t(bytesPerSample);
+
+    TiffSink sink{file, {}};
+    TIFFOpenOptions* opts = TIFFOpenOptionsAlloc();
+    TIFFOpenOptionsSetErrorHandlerExtR(opts, onError, &sink);
+    TIFFOpenOptionsSetWarningHandlerExtR(opts, onWarning, &sink);
+    // Classic TIFF addresses 4 GiB; bigger images need BigTIFF.
+    const char* mode = rawBytes > (uint64_t(3) << 30) ? "w8" : "w";
+    std::unique_ptr<TIFF, TiffCloser> tif(TIFFClientOpenExt("umbra image", mode, &sink, readProc, writeProc, seekProc,
+                                                            closeProc, sizeProc, mapProc, unmapProc, opts));
+    TIFFOpenOptionsFree(opts);
+    auto fail = [&](const char* what) {
+        *error = sink.failure.empty() ? std::string(what) : sink.failure;
+        return false;
+    };
+    if (!tif) return fail("libtiff could not start the file");
+    TIFF* t = tif.get();
+
+    const uint16_t compression = tiffCompression(image.compression).value_or(uint16_t(COMPRESSION_ADOBE_DEFLATE));
+    const uint32_t rowsPerStrip = 32;
+    const int photometricChannels = nch >= 3 ? 3 : 1;
+    std::vector<uint16_t> extra;
+    for (int c = photometricChannels; c < nch; ++c)
+        extra.push_back(image.roles[size_t(c)] == ChannelRole::Alpha ? uint16_t(EXTRASAMPLE_ASSOCALPHA)
+                                                                    : uint16_t(EXTRASAMPLE_UNSPECIFIED));
+    bool ok = TIFFSetField(t, TIFFTAG_IMAGEWIDTH, uint32_t(image.width)) &&
+              TIFFSetField(t, TIFFTAG_IMAGELENGTH, uint32_t(image.height)) &&
+              TIFFSetField(t, TIFFTAG_SAMPLESPERPIXEL, uint16_t(nch)) &&
+              TIFFSetField(t, TIFFTAG_BITSPERSAMPLE, uint16_t(8 * bytesPerSample)) &&
+              TIFFSetField(t, TIFFTAG_SAMPLEFORMAT,
+                           uint16_t(type == SampleType::Float ? SAMPLEFORMAT_IEEEFP : SAMPLEFORMAT_UINT)) &&
+              TIFFSetField(t, TIFFTAG_PHOTOMETRIC,
+                           uint16_t(photometricChannels == 3 ? PHOTOMETRIC_RGB : PHOTOMETRIC_MINISBLACK)) &&
+              TIFFSetField(t, TIFFTAG_PLANARCONFIG, uint16_t(PLANARCONFIG_CONTIG)) &&
+              TIFFSetField(t, TIFFTAG_ORIENTATION, uint16_t(ORIENTATION_TOPLEFT)) &&
+              TIFFSetField(t, TIFFTAG_ROWSPERSTRIP, rowsPerStrip) &&
+              TIFFSetField(t, TIFFTAG_COMPRESSION, compression) &&
+              TIFFSetField(t, TIFFTAG_SOFTWARE, image.software.c_str());
+    if (ok && !extra.empty()) ok = TIFFSetField(t, TIFFTAG_EXTRASAMPLES, uint16_t(extra.size()), extra.data());
+    if (ok && (compression == COMPRESSION_ADOBE_DEFLATE || compression == COMPRESSION_LZW))
+        ok = TIFFSetField(t, TIFFTAG_PREDICTOR,
+                          uint16_t(type == SampleType::Float ? PREDICTOR_FLOATINGPOINT : PREDICTOR_HORIZONTAL));
+    if (ok && compression == COMPRESSION_ADOBE_DEFLATE)
+        ok = TIFFSetField(t, TIFFTAG_ZIPQUALITY, image.zipLevel());
+    if (ok && !image.dateTime.empty()) ok = TIFFSetField(t, TIFFTAG_DATETIME, image.dateTime.c_str());
+    if (ok && (image.x != 0 || image.y != 0))
+        ok = TIFFSetField(t, TIFFTAG_XPOSITION, float(image.x)) && TIFFSetField(t, TIFFTAG_YPOSITION, float(image.y));
+    if (ok && (image.width != image.fullWidth || image.height != image.fullHeight))
+        ok = TIFFSetField(t, TIFFTAG_PIXAR_IMAGEFULLWIDTH, uint32_t(image.fullWidth)) &&
+             TIFFSetField(t, TIFFTAG_PIXAR_IMAGEFULLLENGTH, uint32_t(image.fullHeight));
+    if (ok && image.worldToCamera)
+        ok = TIFFSetField(t, TIFFTAG_PIXAR_MATRIX_WORLDTOCAMERA, image.worldToCamera->data());
+    if (ok && image.worldToNDC) ok = TIFFSetField(t, TIFFTAG_PIXAR_MATRIX_WORLDTOSCREEN, image.worldToNDC->data());
+    if (!ok) return fail("libtiff rejected a tag");
+
+    // Encode strip by strip from the float values; the encoder may modify
+    // its input (predictors work in place), so each strip is a fresh copy.
+    std::vector<unsigned char> strip(rowValues * rowsPerStrip * size_t(bytesPerSample));
+    for (uint32_t y0 = 0, s = 0; y0 < uint32_t(image.height); y0 += rowsPerStrip, ++s) {
+        const uint32_t rows = std::min(rowsPerStrip, uint32_t(image.height) - y0);
+        const size_t n = rowValues * rows;
+        const float* src = image.pixels + rowValues * y0;
+        switch (type) {
+        case SampleType::UInt8:
+            for (size_t i = 0; i < n; ++i) strip[i] = static_cast<unsigned char>(src[i]);
+            break;
+        case SampleType::UInt16: {
+            auto* dst = reinterpret_cast<uint16_t*>(strip.data());
+            for (size_t i = 0; i < n; ++i) dst[i] = static_cast<uint16_t>(src[i]);
+            break;
+        }
+        case SampleType::Half:
+        case SampleType::Float: std::memcpy(strip.data(), src, n * sizeof(float)); break;
+        }
+        if (TIFFWriteEncodedStrip(t, s, strip.data(), tmsize_t(n * size_t(bytesPerSample))) < 0)
+            return fail("libtiff could not write a strip");
+    }
+    if (!TIFFWriteDirectory(t)) return fail("libtiff could not write the directory");
+    tif.reset();
+    if (!sink.failure.empty()) return fail("");
+    return true;
+}
+
+}  // namespace umbra::film

@@ -1,0 +1,535 @@
+// Lexer and preprocessor of the shading language. The preprocessor works on
+// tokens (not text), so every token keeps the location it came from and
+// error carets point into the right file; tokens produced by a macro carry
+// the location of the macro's use.
+
+#include "slc.h"
+
+#include <cctype>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+namespace umbra::shading {
+
+namespace {
+constexpr int kMaxIncludeDepth = 32;
+constexpr int kMaxMacroDepth = 64;
+constexpr size_t kMaxExpandedTokens = 1u << 20;
+}  // namespace
+
+int SourceSet::add(const std::string& name, std::string text) {
+    files.push_back({std::make_shared<const std::string>(name), std::move(text)});
+    return int(files.size()) - 1;
+}
+
+std::string SourceSet::lineText(int file, int line) const {
+    if (file < 0 || file >= int(files.size()) || line <= 0) return {};
+    const std::string& t = files[file].text;
+    size_t pos = 0;
+    for (int l = 1; l < line; ++l) {
+        pos = t.find('\n', pos);
+        if (pos == std::string::npos) return {};
+        ++pos;
+    }
+    size_t end = t.find('\n', pos);
+    std::string s = t.substr(pos, end == std::string::npos ? std::string::npos : end - pos);
+    if (!s.empty() && s.back() == '\r') s.pop_back();
+    return s;
+}
+
+FileLoc CompileErrors::fileLoc(const SrcLoc& loc) const {
+    if (loc.file < 0 || loc.file >= int(m_src.files.size())) return {};
+    return FileLoc(m_src.files[loc.file].name, loc.line, loc.col);
+}
+
+std::string CompileErrors::quote(const SrcLoc& loc) const {
+    std::string line = m_src.lineText(loc.file, loc.line);
+    if (line.empty()) return {};
+    std::string caret;
+    for (int i = 0; i + 1 < loc.col && i < int(line.size()); ++i) caret += line[i] == '\t' ? '\t' : ' ';
+    return "\n    " + line + "\n    " + caret + "^";
+}
+
+void CompileErrors::error(const SrcLoc& loc, const std::string& msg) {
+    ++m_count;
+    m_diag.report(Severity::Error, fileLoc(loc), msg + quote(loc));
+}
+
+void CompileErrors::warning(const SrcLoc& loc, const std::string& msg) {
+    m_diag.report(Severity::Warning, fileLoc(loc), msg + quote(loc));
+}
+
+std::vector<Token> lexFile(const SourceSet& src, int file, CompileErrors& errs) {
+    const std::string& s = src.files[file].text;
+    std::vector<Token> out;
+    size_t i = 0, n = s.size();
+    int line = 1;
+    size_t lineBegin = 0;
+    bool lineStart = true, space = false;
+    auto loc = [&](size_t at) { return SrcLoc{file, line, int(at - lineBegin) + 1}; };
+    while (i < n) {
+        char c = s[i];
+        if (c == '\n') {
+            ++line;
+            lineBegin = ++i;
+            lineStart = true;
+            continue;
+        }
+        if (c == '\\' && i + 1 < n && (s[i + 1] == '\n' || (s[i + 1] == '\r' && i + 2 < n && s[i + 2] == '\n'))) {
+            i += s[i + 1] == '\n' ? 2 : 3;  // line continuation: the directive goes on
+            ++line;
+            lineBegin = i;
+            space = true;
+            continue;
+        }
+        if (std::isspace(static_cast<unsigned char>(c))) {
+            ++i;
+            space = true;
+            continue;
+        }
+        if (c == '/' && i + 1 < n && s[i + 1] == '/') {
+            while (i < n && s[i] != '\n') ++i;
+            continue;
+        }
+        if (c == '/' && i + 1 < n && s[i + 1] == '*') {
+            SrcLoc start = loc(i);
+            i += 2;
+            while (i + 1 < n && !(s[i] == '*' && s[i + 1] == '/')) {
+                if (s[i] == '\n') {
+                    ++line;
+                    lineBegin = i + 1;
+                }
+                ++i;
+            }
+            if (i + 1 >= n) {
+                errs.error(start, "unterminated comment");
+                break;
+            }
+            i += 2;
+            space = true;
+            continue;
+        }
+        Token t;
+        t.loc = loc(i);
+        t.lineStart = lineStart;
+        t.spaceBefore = space;
+        lineStart = false;
+        space = false;
+        if (std::isalpha(static_cast<unsigned char>(c)) || c == '_') {
+            size_t b = i;
+            while (i < n && (std::isalnum(static_cast<unsigned char>(s[i])) || s[i] == '_')) ++i;
+            t.kind = Tok::Ident;
+            t.text = s.substr(b, i - b);
+        } else if (std::isdigit(static_cast<unsigned char>(c)) || (c == '.' && i + 1 < n && std::isdigit(static_cast<unsigned char>(s[i + 1])))) {
+            size_t b = i;
+            while (i < n && std::isdigit(static_cast<unsigned char>(s[i]))) ++i;
+            if (i < n && s[i] == '.') {
+                ++i;
+                while (i < n && std::isdigit(static_cast<unsigned char>(s[i]))) ++i;
+            }
+            if (i < n && (s[i] == 'e' || s[i] == 'E')) {
+                size_t e = i + 1;
+                if (e < n && (s[e] == '+' || s[e] == '-')) ++e;
+                if (e < n && std::isdigit(static_cast<unsigned char>(s[e]))) {
+                    i = e;
+                    while (i < n && std::isdigit(static_cast<unsigned char>(s[i]))) ++i;
+                }
+            }
+            t.kind = Tok::Number;
+            t.text = s.substr(b, i - b);
+            t.number = std::strtod(t.text.c_str(), nullptr);
+            if (i < n && (s[i] == 'f' || s[i] == 'F')) ++i;
+        } else if (c == '"') {
+            ++i;
+            t.kind = Tok::String;
+            bool closed = false;
+            while (i < n && s[i] != '\n') {
+                if (s[i] == '"') {
+                    closed = true;
+                    ++i;
+                    break;
+                }
+                if (s[i] == '\\' && i + 1 < n) {
+                    char e = s[i + 1];
+                    t.text += e == 'n' ? '\n' : e == 't' ? '\t' : e == 'r' ? '\r' : e;
+                    i += 2;
+                    continue;
+                }
+                t.text += s[i++];
+            }
+            if (!closed) errs.error(t.loc, "unterminated string");
+        } else if (c == '#') {
+            ++i;
+            t.kind = Tok::Hash;
+            t.text = "#";
+        } else {
+            static const char* kTwo[] = {"==", "!=", "<=", ">=", "&&", "||", "+=", "-=", "*=", "/=", "++", "--"};
+            t.kind = Tok::Punct;
+            bool two = false;
+            if (i + 1 < n)
+                for (const char* p : kTwo)
+                    if (s[i] == p[0] && s[i + 1] == p[1]) {
+                        t.text = p;
+                        i += 2;
+                        two = true;
+                        break;
+                    }
+            if (!two) {
+                if (std::string_view("+-*/^.,;:?(){}[]=<>!").find(c) == std::string_view::npos) {
+                    errs.error(t.loc, fmt::format("unexpected character '{}'", std::isprint(static_cast<unsigned char>(c)) ? std::string(1, c) : fmt::format("\\x{:02x}", static_cast<unsigned char>(c))));
+                    ++i;
+                    continue;
+                }
+                t.text = std::string(1, c);
+                ++i;
+            }
+        }
+        out.push_back(std::move(t));
+    }
+    return out;
+}
+
+namespace {
+
+struct Macro {
+    bool function = false;
+    std::vector<std::string> params;
+    std::vector<Token> body;
+};
+
+/// Token-level preprocessor state.
+class Preprocessor {
+public:
+    Preprocessor(SourceSet& src, const std::vector<std::string>& path, CompileErrors& errs)
+        : m_src(src), m_path(path), m_errs(errs) {}
+
+    void run(int file, int depth, std::vector<Token>& out) {
+        std::vector<Token> toks = lexFile(m_src, file, m_errs);
+        struct Cond {
+            bool active;      // this branch is taken
+            bool anyTaken;    // some branch of this #if was taken
+            bool parentActive;
+            SrcLoc loc;
+        };
+        std::vector<Cond> conds;
+        auto active = [&] { return conds.empty() || conds.back().active; };
+        size_t i = 0;
+        std::vector<Token> pending;  // tokens of the active text to expand
+        auto flush = [&] {
+            expand(pending, 0, out);
+            pending.clear();
+        };
+        while (i < toks.size()) {
+            if (toks[i].kind == Tok::Hash && toks[i].lineStart) {
+                int line = toks[i].loc.line;
+                SrcLoc hashLoc = toks[i].loc;
+                ++i;
+                std::vector<Token> dir;
+                while (i < toks.size() && !(toks[i].lineStart && toks[i].loc.line != line)) {
+                    if (toks[i].lineStart) break;
+                    dir.push_back(toks[i++]);
+                }
+                flush();
+                if (dir.empty()) continue;
+                const std::string& d = dir[0].text;
+                if (d == "ifdef" || d == "ifndef") {
+                    bool def = dir.size() > 1 && m_macros.count(dir[1].text);
+                    bool take = active() && (d == "ifdef" ? def : !def);
+                    if (dir.size() < 2) m_errs.error(dir[0].loc, fmt::format("expected a macro name after #{}", d));
+                    conds.push_back({take, take, active(), hashLoc});
+                } else if (d == "if") {
+                    bool take = active() && evalCondition(dir, 1);
+                    conds.push_back({take, take, active(), hashLoc});
+                } else if (d == "elif") {
+                    if (conds.empty()) {
+                        m_errs.error(dir[0].loc, "#elif without #if");
+                        continue;
+                    }
+                    Cond& c = conds.back();
+                    bool take = c.parentActive && !c.anyTaken && evalCondition(dir, 1);
+                    c.active = take;
+                    c.anyTaken |= take;
+                } else if (d == "else") {
+                    if (conds.empty()) {
+                        m_errs.error(dir[0].loc, "#else without #if");
+                        continue;
+                    }
+                    Cond& c = conds.back();
+                    c.active = c.parentActive && !c.anyTaken;
+                    c.anyTaken = true;
+                } else if (d == "endif") {
+                    if (conds.empty())
+                        m_errs.error(dir[0].loc, "#endif without #if");
+                    else
+                        conds.pop_back();
+                } else if (!active()) {
+                    continue;
+                } else if (d == "define") {
+                    define(dir);
+                } else if (d == "undef") {
+                    if (dir.size() > 1) m_macros.erase(dir[1].text);
+                } else if (d == "include") {
+                    include(dir, file, depth, out);
+                } else if (d == "pragma" || d == "line" || d == "error" || d == "warning") {
+                    if (d == "error") m_errs.error(dir[0].loc, "#error");
+                } else {
+                    m_errs.error(dir[0].loc, fmt::format("unknown preprocessor directive '#{}'", d));
+                }
+                continue;
+            }
+            if (active()) pending.push_back(toks[i]);
+            ++i;
+        }
+        flush();
+        if (!conds.empty()) m_errs.error(conds.back().loc, "unterminated #if/#ifdef (expected #endif)");
+    }
+
+private:
+    void define(const std::vector<Token>& dir) {
+        if (dir.size() < 2 || dir[1].kind != Tok::Ident) {
+            m_errs.error(dir.size() > 1 ? dir[1].loc : dir[0].loc, "expected a macro name after #define");
+            return;
+        }
+        Macro m;
+        size_t k = 2;
+        if (k < dir.size() && dir[k].text == "(" && dir[k].kind == Tok::Punct && !dir[k].spaceBefore) {
+            m.function = true;
+            ++k;
+            while (k < dir.size() && dir[k].text != ")") {
+                if (dir[k].kind == Tok::Ident) m.params.push_back(dir[k].text);
+                else if (dir[k].text != ",") {
+                    m_errs.error(dir[k].loc, "expected a parameter name in macro definition");
+                    return;
+                }
+                ++k;
+            }
+            if (k >= dir.size()) {
+                m_errs.error(dir[1].loc, "expected ')' in macro definition");
+                return;
+            }
+            ++k;
+        }
+        m.body.assign(dir.begin() + std::ptrdiff_t(k), dir.end());
+        m_macros[dir[1].text] = std::move(m);
+    }
+
+    void include(const std::vector<Token>& dir, int file, int depth, std::vector<Token>& out) {
+        std::string name;
+        if (dir.size() > 1 && dir[1].kind == Tok::String) {
+            name = dir[1].text;
+        } else if (dir.size() > 1 && dir[1].text == "<") {
+            for (size_t k = 2; k < dir.size() && dir[k].text != ">"; ++k) name += dir[k].text;
+        }
+        if (name.empty()) {
+            m_errs.error(dir[0].loc, "expected a file name after #include");
+            return;
+        }
+        if (depth >= kMaxIncludeDepth) {
+            m_errs.error(dir[0].loc, "#include nested too deeply");
+            return;
+        }
+        namespace fs = std::filesystem;
+        std::vector<std::string> dirs;
+        dirs.push_back(fs::path(*m_src.files[file].name).parent_path().string());
+        dirs.insert(dirs.end(), m_path.begin(), m_path.end());
+        for (const std::string& d : dirs) {
+            fs::path p = d.empty() ? fs::path(name) : fs::path(d) / name;
+            std::error_code ec;
+            if (!fs::is_regular_file(p, ec)) continue;
+            std::ifstream in(p, std::ios::binary);
+            std::stringstream ss;
+            ss << in.rdbuf();
+            int idx = m_src.add(p.string(), ss.str());
+            run(idx, depth + 1, out);
+            return;
+        }
+        m_errs.error(dir[1].loc, fmt::format("cannot find include file '{}'", name));
+    }
+
+    /// #if expression: integers, defined(X), !, &&, ||, ==, !=, <, >, parentheses.
+    bool evalCondition(const std::vector<Token>& dir, size_t from) {
+        std::vector<Token> raw(dir.begin() + std::ptrdiff_t(from), dir.end()), toks;
+        for (size_t k = 0; k < raw.size(); ++k) {
+            if (raw[k].text == "defined") {
+                size_t j = k + 1;
+                bool paren = j < raw.size() && raw[j].text == "(";
+                if (paren) ++j;
+                Token t;
+                t.kind = Tok::Number;
+                t.number = (j < raw.size() && m_macros.count(raw[j].text)) ? 1 : 0;
+                toks.push_back(t);
+                k = j + (paren ? 1 : 0);
+                continue;
+            }
+            toks.push_back(raw[k]);
+        }
+        std::vector<Token> ex;
+        expand(toks, 0, ex);
+        size_t pos = 0;
+        int depth = 0;
+        double v = condOr(ex, pos, depth);
+        if (pos != ex.size()) m_errs.error(ex.empty() ? dir[0].loc : ex[std::min(pos, ex.size() - 1)].loc, "malformed #if expression");
+        return v != 0;
+    }
+    double condOr(const std::vector<Token>& t, size_t& p, int& depth) {
+        double v = condAnd(t, p, depth);
+        while (p < t.size() && t[p].text == "||") {
+            ++p;
+            double r = condAnd(t, p, depth);
+            v = (v != 0 || r != 0);
+        }
+        return v;
+    }
+    double condAnd(const std::vector<Token>& t, size_t& p, int& depth) {
+        double v = condCmp(t, p, depth);
+        while (p < t.size() && t[p].text == "&&") {
+            ++p;
+            double r = condCmp(t, p, depth);
+            v = (v != 0 && r != 0);
+        }
+        return v;
+    }
+    double condCmp(const std::vector<Token>& t, size_t& p, int& depth) {
+        double v = condUnary(t, p, depth);
+        while (p < t.size() && t[p].kind == Tok::Punct &&
+               (t[p].text == "==" || t[p].text == "!=" || t[p].text == "<" || t[p].text == ">" || t[p].text == "<=" || t[p].text == ">=")) {
+            std::string op = t[p++].text;
+            double r = condUnary(t, p, depth);
+            v = op == "==" ? v == r : op == "!=" ? v != r : op == "<" ? v < r : op == ">" ? v > r : op == "<=" ? v <= r : v >= r;
+        }
+        return v;
+    }
+    double condUnary(const std::vector<Token>& t, size_t& p, int& depth) {
+        if (p >= t.size()) return 0;
+        if (++depth > kMaxMacroDepth) return 0;
+        double r = 0;
+        if (t[p].text == "!" && t[p].kind == Tok::Punct) {
+            ++p;
+            r = condUnary(t, p, depth) == 0;
+        } else if (t[p].text == "-" && t[p].kind == Tok::Punct) {
+            ++p;
+            r = -condUnary(t, p, depth);
+        } else if (t[p].text == "(" && t[p].kind == Tok::Punct) {
+            ++p;
+            r = condOr(t, p, depth);
+            if (p < t.size() && t[p].text == ")") ++p;
+        } else {
+            r = t[p].kind == Tok::Number ? t[p].number : 0;  // unknown identifiers are 0, as in C
+            ++p;
+        }
+        --depth;
+        return r;
+    }
+
+    /// Expands macros in `in`, appending to `out`. `depth` bounds nesting;
+    /// a macro is not re-expanded inside its own expansion.
+    void expand(const std::vector<Token>& in, int depth, std::vector<Token>& out) {
+        for (size_t k = 0; k < in.size(); ++k) {
+            const Token& t = in[k];
+            if (m_expanded > kMaxExpandedTokens) {
+                if (!m_reportedBlowup) m_errs.error(t.loc, "macro expansion too large");
+                m_reportedBlowup = true;
+                return;
+            }
+            auto it = t.kind == Tok::Ident ? m_macros.find(t.text) : m_macros.end();
+            if (it == m_macros.end() || m_active.count(t.text)) {
+                out.push_back(t);
+                continue;
+            }
+            if (depth >= kMaxMacroDepth) {
+                if (!m_reportedBlowup) m_errs.error(t.loc, "macro expansion nested too deeply");
+                m_reportedBlowup = true;
+                out.push_back(t);
+                continue;
+            }
+            const Macro& m = it->second;
+            std::vector<Token> body;
+            if (m.function) {
+                if (k + 1 >= in.size() || in[k + 1].text != "(" || in[k + 1].kind != Tok::Punct) {
+                    out.push_back(t);  // a function-like macro name without arguments is left alone
+                    continue;
+                }
+                std::vector<std::vector<Token>> argsv(1);
+                size_t j = k + 2;
+                int level = 0;
+                for (; j < in.size(); ++j) {
+                    const Token& a = in[j];
+                    if (a.kind == Tok::Punct && a.text == "(") ++level;
+                    if (a.kind == Tok::Punct && a.text == ")") {
+                        if (level == 0) break;
+                        --level;
+                    }
+                    if (a.kind == Tok::Punct && a.text == "," && level == 0) {
+                        argsv.emplace_back();
+                        continue;
+                    }
+                    argsv.back().push_back(a);
+                }
+                if (j >= in.size()) {
+                    m_errs.error(t.loc, fmt::format("unterminated argument list of macro '{}'", t.text));
+                    return;
+                }
+                if (argsv.size() == 1 && argsv[0].empty() && m.params.empty()) argsv.clear();
+                if (argsv.size() != m.params.size()) {
+                    m_errs.error(t.loc, fmt::format("macro '{}' expects {} arguments, got {}", t.text, m.params.size(), argsv.size()));
+                    k = j;
+                    continue;
+                }
+                for (const Token& b : m.body) {
+                    size_t pi = 0;
+                    for (; pi < m.params.size(); ++pi)
+                        if (b.kind == Tok::Ident && b.text == m.params[pi]) break;
+                    if (pi < m.params.size()) {
+                        std::vector<Token> argEx;
+                        expand(argsv[pi], depth + 1, argEx);
+                        for (Token a : argEx) {
+                            a.lineStart = false;
+                            body.push_back(std::move(a));
+                        }
+                    } else {
+                        body.push_back(b);
+                    }
+                }
+                k = j;
+            } else {
+                body = m.body;
+            }
+            for (Token& b : body) {
+                b.loc = t.loc;  // errors inside an expansion point at the use
+                b.lineStart = false;
+            }
+            m_expanded += body.size();
+            m_active.insert(t.text);
+            expand(body, depth + 1, out);
+            m_active.erase(t.text);
+        }
+    }
+
+    SourceSet& m_src;
+    const std::vector<std::string>& m_path;
+    CompileErrors& m_errs;
+    std::map<std::string, Macro> m_macros;
+    std::set<std::string> m_active;
+    size_t m_expanded = 0;
+    bool m_reportedBlowup = false;
+};
+
+}  // namespace
+
+std::vector<Token> preprocess(SourceSet& src, int mainFile, const std::vector<std::string>& includePath,
+                              CompileErrors& errs) {
+    Preprocessor pp(src, includePath, errs);
+    std::vector<Token> out;
+    pp.run(mainFile, 0, out);
+    Token end;
+    end.kind = Tok::End;
+    if (!out.empty()) end.loc = out.back().loc;
+    else end.loc = SrcLoc{mainFile, 1, 1};
+    out.push_back(end);
+    return out;
+}
+
+}  // namespace umbra::shading

@@ -1,0 +1,1100 @@
+// Built-in functions ("shadeops") over a grid: math, geometry, derivatives,
+// transforms, colour, matrices, strings, noise, lighting, texture, shadow
+// and message passing. Each runs once per grid over the active points.
+
+#include "builtins.h"
+#include "vm.h"
+
+#include "umbra/util/rng.h"
+
+
+#include <cstring>
+#include <regex>
+
+namespace umbra::shading {
+
+namespace {
+
+struct M16 {
+    float m[16];
+};
+
+template <class T> struct In;
+template <> struct In<float> {
+    const float* p;
+    int s;
+    float operator[](int i) const { return p[i * s]; }
+};
+template <> struct In<Vec3> {
+    const float* p;
+    int s;
+    Vec3 operator[](int i) const {
+        const float* q = p + 3 * i * s;
+        return {q[0], q[1], q[2]};
+    }
+};
+template <> struct In<M16> {
+    const float* p;
+    int s;
+    M16 operator[](int i) const {
+        M16 r;
+        std::memcpy(r.m, p + 16 * i * s, sizeof r.m);
+        return r;
+    }
+};
+inline void put(float* p, int i, float v) { p[i] = v; }
+inline void put(float* p, int i, const Vec3& v) {
+    float* q = p + 3 * i;
+    q[0] = v.x;
+    q[1] = v.y;
+    q[2] = v.z;
+}
+inline void put(float* p, int i, const M16& v) { std::memcpy(p + 16 * i, v.m, sizeof v.m); }
+
+template <class F> void forActive(const Exec& x, bool varying, F&& f) {
+    if (!varying) f(0);
+    else if (x.allOn) for (int i = 0; i < x.n; ++i) f(i);
+    else for (int i : x.active) f(i);
+}
+
+template <class F, class... A> void map(Exec& x, int dst, F&& f, A... args) {
+    float* d = x.ptr[size_t(dst)];
+    forActive(x, x.vary[size_t(dst)], [&](int i) { put(d, i, f(args[i]...)); });
+}
+
+/// Operand helper for one Call instruction.
+struct Args {
+    Exec& x;
+    const Instr& in;
+    int reg(int k) const { return x.cs->args[size_t(in.argBase + k)]; }
+    In<float> f(int k) const { return {x.ptr[size_t(reg(k))], x.vary[size_t(reg(k))]}; }
+    In<Vec3> v(int k) const { return {x.ptr[size_t(reg(k))], x.vary[size_t(reg(k))]}; }
+    In<M16> m(int k) const { return {x.ptr[size_t(reg(k))], x.vary[size_t(reg(k))]}; }
+    const std::string& s(int k) const { return x.strs[size_t(reg(k))][0]; }
+    Ty ty(int k) const { return x.cs->regs[size_t(reg(k))].ty; }
+    bool varying(int k) const { return x.vary[size_t(reg(k))] != 0; }
+};
+
+/// float to int without undefined behaviour for NaN or huge values.
+int toInt(float f) {
+    if (!(f > -2e9f)) return f != f ? 0 : -2000000000;
+    if (!(f < 2e9f)) return 2000000000;
+    return int(f);
+}
+int clampIndexM(float f) { return f >= 0 ? std::min(toInt(f), 3) : 0; }
+float safeSqrt(float a) { return a > 0 ? std::sqrt(a) : 0.f; }
+float fixNan(float a) { return std::isfinite(a) ? a : 0.f; }
+
+Vec3 faceforward(const Vec3& N, const Vec3& I, const Vec3& Nref) { return dot(I, Nref) < 0 ? N : -N; }
+Vec3 reflect(const Vec3& I, const Vec3& N) { return I - N * (2 * dot(I, N)); }
+Vec3 refract(const Vec3& I, const Vec3& N, float eta) {
+    float IdotN = dot(I, N);
+    float k = 1 - eta * eta * (1 - IdotN * IdotN);
+    return k < 0 ? Vec3(0.f) : I * eta - N * (eta * IdotN + std::sqrt(k));
+}
+void fresnel(const Vec3& I, const Vec3& N, float eta, float* Kr, float* Kt) {
+    Vec3 In = normalize(I), Nn = normalize(N);
+    float ci = -dot(In, Nn);
+    if (ci < 0) ci = -ci;
+    float st2 = eta * eta * (1 - ci * ci);
+    if (st2 >= 1) {
+        *Kr = 1;
+        *Kt = 0;
+        return;
+    }
+    float ct = std::sqrt(1 - st2);
+    float rs = (eta * ci - ct) / (eta * ci + ct);
+    float rp = (ci - eta * ct) / (ci + eta * ct);
+    *Kr = fixNan(0.5f * (rs * rs + rp * rp));
+    *Kt = 1 - *Kr;
+}
+float smoothstep(float e0, float e1, float x) {
+    if (x < e0) return 0;
+    if (x >= e1) return 1;
+    float t = (x - e0) / (e1 - e0);
+    return t * t * (3 - 2 * t);
+}
+
+float determinant(const M16& a) {
+    Mat4 m;
+    std::memcpy(m.m, a.m, sizeof a.m);
+    const auto& q = m.m;
+    float d = 0;
+    for (int c = 0; c < 4; ++c) {
+        float minor[3][3];
+        for (int r = 1; r < 4; ++r)
+            for (int cc = 0, k = 0; cc < 4; ++cc)
+                if (cc != c) minor[r - 1][k++] = q[r][cc];
+        float m3 = minor[0][0] * (minor[1][1] * minor[2][2] - minor[1][2] * minor[2][1]) -
+                   minor[0][1] * (minor[1][0] * minor[2][2] - minor[1][2] * minor[2][0]) +
+                   minor[0][2] * (minor[1][0] * minor[2][1] - minor[1][1] * minor[2][0]);
+        d += ((c & 1) ? -1.f : 1.f) * q[0][c] * m3;
+    }
+    return d;
+}
+M16 mulM(const M16& a, const M16& b) {
+    M16 r;
+    for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j) {
+            float s = 0;
+            for (int k = 0; k < 4; ++k) s += a.m[i * 4 + k] * b.m[k * 4 + j];
+            r.m[i * 4 + j] = s;
+        }
+    return r;
+}
+/// A column-vector Mat4 as an RSL (row-vector) matrix.
+M16 toRsl(const Mat4& m) {
+    M16 r;
+    m.toRib(r.m);
+    return r;
+}
+Vec3 rslPoint(const M16& m, const Vec3& p) {
+    const float* a = m.m;
+    float x = p.x * a[0] + p.y * a[4] + p.z * a[8] + a[12];
+    float y = p.x * a[1] + p.y * a[5] + p.z * a[9] + a[13];
+    float z = p.x * a[2] + p.y * a[6] + p.z * a[10] + a[14];
+    float w = p.x * a[3] + p.y * a[7] + p.z * a[11] + a[15];
+    if (w != 1 && w != 0) return {x / w, y / w, z / w};
+    return {x, y, z};
+}
+Vec3 rslVector(const M16& m, const Vec3& p) {
+    const float* a = m.m;
+    return {p.x * a[0] + p.y * a[4] + p.z * a[8], p.x * a[1] + p.y * a[5] + p.z * a[9], p.x * a[2] + p.y * a[6] + p.z * a[10]};
+}
+
+/// currentFromSpace for a named space.
+Mat4 spaceMatrix(Exec& x, const std::string& name, const Instr& in) {
+    if (name == "current" || name == "camera") return Mat4::identity();
+    if (name == "shader") return x.currentFromShader;
+    auto it = x.ctx->spaces.find(name);
+    if (it != x.ctx->spaces.end()) return it->second;
+    Mat4 m;
+    if (!x.ctx->services->getMatrix(*x.ctx->grid, name, &m)) {
+        x.ctx->system->diagnostics().warningOnce("shading:space:" + name, FileLoc::inFile(x.cs->fileName, in.loc.line, in.loc.col),
+                                                 "unknown coordinate system '{}' (using \"current\")", name);
+        m = Mat4::identity();
+    }
+    x.ctx->spaces[name] = m;
+    return m;
+}
+
+enum class XKind { Point, Vector, Normal };
+Vec3 xform(const Mat4& m, const Mat4& inv, XKind k, const Vec3& v) {
+    switch (k) {
+    case XKind::Point: return m.point(v);
+    case XKind::Vector: return m.vector(v);
+    case XKind::Normal: return Mat4::normal(inv, v);
+    }
+    return v;
+}
+
+/// Derivative along u (dir 0) or v (dir 1) of register r at point i, per
+/// unit of u/v: central differences inside, one-sided at the edges.
+template <class T> T deriv(const Exec& x, In<T> a, int i, int dir, float step) {
+    if (a.s == 0 || step == 0) return T(0);
+    int nu = x.nu, nv = x.nv;
+    int iu = i % nu, iv = i / nu;
+    int count = dir == 0 ? nu : nv;
+    int pos = dir == 0 ? iu : iv;
+    int stride = dir == 0 ? 1 : nu;
+    if (count < 2) return T(0);
+    if (pos == 0) return (a[i + stride] - a[i]) * (1.0f / step);
+    if (pos == count - 1) return (a[i] - a[i - stride]) * (1.0f / step);
+    return (a[i + stride] - a[i - stride]) * (0.5f / step);
+}
+float gridDu(const Exec& x) { return x.ctx->grid->du; }
+float gridDv(const Exec& x) { return x.ctx->grid->dv; }
+
+// --- splines ------------------------------------------------------------
+
+struct SplineBasis {
+    float m[4][4];
+    int step;
+};
+bool splineBasis(const std::string& name, SplineBasis* b) {
+    static const SplineBasis kCatmull = {{{-0.5f, 1.5f, -1.5f, 0.5f}, {1, -2.5f, 2, -0.5f}, {-0.5f, 0, 0.5f, 0}, {0, 1, 0, 0}}, 1};
+    static const SplineBasis kBezier = {{{-1, 3, -3, 1}, {3, -6, 3, 0}, {-3, 3, 0, 0}, {1, 0, 0, 0}}, 3};
+    static const SplineBasis kBspline = {{{-1 / 6.f, 3 / 6.f, -3 / 6.f, 1 / 6.f}, {3 / 6.f, -6 / 6.f, 3 / 6.f, 0}, {-3 / 6.f, 0, 3 / 6.f, 0}, {1 / 6.f, 4 / 6.f, 1 / 6.f, 0}}, 1};
+    static const SplineBasis kHermite = {{{2, 1, -2, 1}, {-3, -2, 3, -1}, {0, 1, 0, 0}, {1, 0, 0, 0}}, 2};
+    static const SplineBasis kLinear = {{{0, 0, 0, 0}, {0, 0, 0, 0}, {0, -1, 1, 0}, {0, 1, 0, 0}}, 1};
+    if (name == "catmull-rom" || name == "catrom") *b = kCatmull;
+    else if (name == "bezier") *b = kBezier;
+    else if (name == "bspline" || name == "b-spline") *b = kBspline;
+    else if (name == "hermite") *b = kHermite;
+    else if (name == "linear") *b = kLinear;
+    else return false;
+    return true;
+}
+template <class T, class Get> T evalSpline(const SplineBasis& b, float t, int count, Get get) {
+    if (count < 4) return T(0);
+    int segs = (count - 4) / b.step + 1;
+    float ft = (t >= 0 ? std::min(t, 1.f) : 0.f) * float(segs);  // NaN -> 0
+    int seg = std::min(int(ft), segs - 1);
+    float u = ft - float(seg);
+    float w[4];
+    for (int k = 0; k < 4; ++k) w[k] = ((b.m[0][k] * u + b.m[1][k]) * u + b.m[2][k]) * u + b.m[3][k];
+    T r = get(seg * b.step) * w[0];
+    for (int k = 1; k < 4; ++k) r = r + get(seg * b.step + k) * w[k];
+    return r;
+}
+
+void spline(Exec& x, const Instr& in, Args& A, bool triple, bool hasBasis) {
+    int k = 0;
+    SplineBasis basis;
+    splineBasis("catmull-rom", &basis);
+    if (hasBasis) {
+        const std::string& name = A.s(k++);
+        if (!splineBasis(name, &basis))
+            x.ctx->system->diagnostics().warningOnce("shading:spline:" + name, FileLoc::inFile(x.cs->fileName, in.loc.line, in.loc.col),
+                                                     "unknown spline basis '{}' (using catmull-rom)", name);
+    }
+    In<float> t = A.f(k++);
+    int first = k;
+    int valuesReg = A.reg(first);
+    const RegInfo& vr = x.cs->regs[size_t(valuesReg)];
+    bool array = vr.arrayLen > 0 && in.nargs == first + 1;
+    int count = array ? vr.arrayLen : in.nargs - first;
+    float* d = x.ptr[size_t(in.dst)];
+    int comps = triple ? 3 : 1;
+    forActive(x, x.vary[size_t(in.dst)], [&](int i) {
+        auto get = [&](int j) -> Vec3 {
+            if (array) {
+                int vs = x.vary[size_t(valuesReg)];
+                const float* p = x.ptr[size_t(valuesReg)] + size_t(j) * size_t(comps) * size_t(vs ? x.n : 1) + size_t(i * vs * comps);
+                return triple ? Vec3(p[0], p[1], p[2]) : Vec3(p[0]);
+            }
+            return triple ? A.v(first + j)[i] : Vec3(A.f(first + j)[i]);
+        };
+        Vec3 r = evalSpline<Vec3>(basis, t[i], count, get);
+        if (triple) put(d, i, r);
+        else d[i] = r.x;
+    });
+}
+
+// --- strings ------------------------------------------------------------
+
+std::string formatString(Exec& x, Args& A, int first, int i) {
+    const std::string& f = A.s(first);
+    std::string out;
+    int arg = first + 1;
+    for (size_t k = 0; k < f.size(); ++k) {
+        if (f[k] != '%') {
+            out += f[k];
+            continue;
+        }
+        size_t b = k++;
+        while (k < f.size() && std::strchr("-+ #0123456789.", f[k])) ++k;
+        if (k >= f.size()) break;
+        char c = f[k];
+        std::string flags = f.substr(b, k - b);
+        if (c == '%') {
+            out += '%';
+            continue;
+        }
+        if (arg >= A.in.nargs) {
+            out += "<missing>";
+            continue;
+        }
+        int r = A.reg(arg++);
+        Ty t = x.cs->regs[size_t(r)].ty;
+        char buf[128];
+        auto fmtF = [&](float v, char conv) {
+            std::string spec = flags + conv;
+            std::snprintf(buf, sizeof buf, spec.c_str(), double(v));
+            return std::string(buf);
+        };
+        if (t == Ty::String) {
+            out += x.strs[size_t(r)][0];
+        } else if (t == Ty::Float) {
+            float v = In<float>{x.ptr[size_t(r)], x.vary[size_t(r)]}[i];
+            if (c == 'd' || c == 'i') {
+                std::string spec = flags + "d";
+                std::snprintf(buf, sizeof buf, spec.c_str(), toInt(v));
+                out += buf;
+            } else {
+                out += fmtF(v, c == 'e' || c == 'g' ? c : 'f');
+            }
+        } else if (t == Ty::Matrix) {
+            M16 m = In<M16>{x.ptr[size_t(r)], x.vary[size_t(r)]}[i];
+            for (int e = 0; e < 16; ++e) {
+                if (e) out += ' ';
+                out += fmtF(m.m[e], 'f');
+            }
+        } else {
+            Vec3 v = In<Vec3>{x.ptr[size_t(r)], x.vary[size_t(r)]}[i];
+            out += fmtF(v.x, 'f') + " " + fmtF(v.y, 'f') + " " + fmtF(v.z, 'f');
+        }
+    }
+    return out;
+}
+
+// --- lighting -----------------------------------------------------------
+
+void ensureLights(Exec& x) {
+    if (x.ctx->lightsRun) return;
+    int Pr = x.cs->globalRegs[gP];
+    runLights(*x.ctx, x.ptr[size_t(Pr)], x.vary[size_t(Pr)]);
+}
+
+[[gnu::always_inline]] inline Vec3 unit(const Vec3& v) {
+    float l2 = dot(v, v);
+    if (l2 > 0.999999f && l2 < 1.000001f) return v;  // already unit (Nf, normalize()d vectors)
+    return l2 > 0 ? v * (1.0f / std::sqrt(l2)) : v;
+}
+
+/// diffuse(), specular(), phong(): sums over the non-ambient lights that
+/// reached each point from the front hemisphere of N, point by point so
+/// that the normalised N and V are computed once for all lights.
+enum class LightModel { Diffuse, Specular, Phong };
+template <LightModel model> void lightSum(Exec& x, const Instr& in, const Args& A) {
+    ensureLights(x);
+    float* d = x.ptr[size_t(in.dst)];
+    // The non-ambient lights, flattened for the inner loop.
+    constexpr int kMax = 64;
+    struct Src {
+        const Vec3* dir;
+        const float* cl;
+        int cls;
+        const uint8_t* lit;
+    };
+    Src local[kMax];
+    std::vector<Src> many;
+    Src* src = local;
+    int count = 0;
+    for (const LightRun& lr : x.ctx->lights)
+        if (!lr.ambient) ++count;
+    if (count > kMax) {
+        many.resize(size_t(count));
+        src = many.data();
+    }
+    count = 0;
+    for (const LightRun& lr : x.ctx->lights)
+        if (!lr.ambient) src[count++] = {lr.dir, lr.Clp, 3 * lr.Cls, lr.litp};
+    In<Vec3> N = A.v(0);
+    In<Vec3> V = model == LightModel::Diffuse ? N : A.v(1);
+    In<float> k = model == LightModel::Diffuse ? In<float>{nullptr, 0} : A.f(2);
+    auto one = [&](int i) {
+        Vec3 Nn = unit(N[i]);
+        Vec3 sum(0.f);
+        if constexpr (model == LightModel::Diffuse) {
+            for (int l = 0; l < count; ++l) {
+                const Src& s = src[l];
+                if (!s.lit[i]) continue;
+                float c = dot(s.dir[i], Nn);
+                if (c <= 0) continue;
+                const float* cl = s.cl + i * s.cls;
+                sum += Vec3(cl[0], cl[1], cl[2]) * c;
+            }
+        } else if constexpr (model == LightModel::Specular) {
+            Vec3 Vn = unit(V[i]);
+            float r = k[i];
+            if (r > 0) {
+                float e = 1.0f / r;
+                for (int l = 0; l < count; ++l) {
+                    const Src& s = src[l];
+                    if (!s.lit[i]) continue;
+                    const Vec3& Ln = s.dir[i];
+                    if (dot(Ln, Nn) <= 0) continue;
+                    Vec3 H = unit(Ln + Vn);
+                    const float* cl = s.cl + i * s.cls;
+                    sum += Vec3(cl[0], cl[1], cl[2]) * std::pow(std::max(0.f, dot(Nn, H)), e);
+                }
+            }
+        } else {
+            Vec3 R = reflect(-unit(V[i]), Nn);
+            float size = k[i];
+            for (int l = 0; l < count; ++l) {
+                const Src& s = src[l];
+                if (!s.lit[i]) continue;
+                const Vec3& Ln = s.dir[i];
+                if (dot(Ln, Nn) <= 0) continue;
+                const float* cl = s.cl + i * s.cls;
+                sum += Vec3(cl[0], cl[1], cl[2]) * std::pow(std::max(0.f, dot(R, Ln)), size);
+            }
+        }
+        put(d, i, sum);
+    };
+    if (x.allOn) for (int i = 0; i < x.n; ++i) one(i);
+    else for (int i : x.active) one(i);
+}
+
+// --- texture ------------------------------------------------------------
+
+TextureOptions textureOptions(Exec& x, Args& A, int pairsAt, float* swidth, float* twidth) {
+    TextureOptions opt;
+    int pairs = toInt(A.f(pairsAt)[0]);
+    for (int k = 0; k < pairs; ++k) {
+        const std::string& name = A.s(pairsAt + 1 + 2 * k);
+        int vr = A.reg(pairsAt + 2 + 2 * k);
+        const RegInfo& ri = x.cs->regs[size_t(vr)];
+        float v = ri.ty == Ty::String ? 0.f : x.ptr[size_t(vr)][0];
+        if (name == "blur") opt.sblur = opt.tblur = v;
+        else if (name == "sblur") opt.sblur = v;
+        else if (name == "tblur") opt.tblur = v;
+        else if (name == "width") *swidth = *twidth = v;
+        else if (name == "swidth") *swidth = v;
+        else if (name == "twidth") *twidth = v;
+        else if (name == "fill") opt.fill = v;
+        else if (name == "filter" || name == "samples" || name == "lerp") {
+        } else {
+            x.ctx->system->diagnostics().warningOnce("shading:texparam:" + name, FileLoc::inFile(x.cs->fileName, A.in.loc.line, A.in.loc.col),
+                                                     "unknown texture parameter '{}' ignored", name);
+        }
+    }
+    opt.swidth = *swidth;
+    opt.twidth = *twidth;
+    return opt;
+}
+
+void texture(Exec& x, const Instr& in, Args& A, bool color, bool fourPoint) {
+    TextureBackend* ts = x.ctx->system->textures();
+    if (A.s(0).empty()) {  // no texture named: 0, as RenderMan
+        float* d = x.ptr[size_t(in.dst)];
+        forActive(x, x.vary[size_t(in.dst)], [&](int i) {
+            if (color) put(d, i, Vec3(0.f));
+            else d[i] = 0;
+        });
+        return;
+    }
+    int nc = color ? 3 : 1;
+    float* d = x.ptr[size_t(in.dst)];
+    bool vd = x.vary[size_t(in.dst)];
+    const std::string& name = A.s(0);
+    int channel = std::max(0, std::min(toInt(A.f(1)[0]), 1 << 16));
+    int pairsAt = fourPoint ? 10 : 4;
+    float sw = 1, tw = 1;
+    TextureOptions opt = textureOptions(x, A, pairsAt, &sw, &tw);
+    opt.firstChannel = channel;
+    const std::string& file = name;
+    bool ok = true;
+    forActive(x, vd, [&](int i) {
+        float s, t, dsdx, dtdx, dsdy, dtdy;
+        if (fourPoint) {
+            float ss[4], tt[4];
+            for (int k = 0; k < 4; ++k) {
+                ss[k] = A.f(2 + 2 * k)[i];
+                tt[k] = A.f(3 + 2 * k)[i];
+            }
+            s = 0.25f * (ss[0] + ss[1] + ss[2] + ss[3]);
+            t = 0.25f * (tt[0] + tt[1] + tt[2] + tt[3]);
+            dsdx = ss[1] - ss[0];
+            dtdx = tt[1] - tt[0];
+            dsdy = ss[2] - ss[0];
+            dtdy = tt[2] - tt[0];
+        } else {
+            In<float> S = A.f(2), T = A.f(3);
+            s = S[i];
+            t = T[i];
+            dsdx = deriv(x, S, i, 0, 1.f);
+            dtdx = deriv(x, T, i, 0, 1.f);
+            dsdy = deriv(x, S, i, 1, 1.f);
+            dtdy = deriv(x, T, i, 1, 1.f);
+        }
+        float r[3] = {0, 0, 0};
+        if (!ts || !ts->texture(file, opt, s, t, dsdx, dtdx, dsdy, dtdy, nc, r)) ok = false;
+        if (color) put(d, i, Vec3(r[0], r[1], r[2]));
+        else d[i] = r[0];
+    });
+    if (!ok)
+        x.ctx->system->diagnostics().warningOnce("shading:texture:" + name, FileLoc::inFile(x.cs->fileName, in.loc.line, in.loc.col),
+                                                 "cannot read texture '{}'", name);
+}
+
+void environment(Exec& x, const Instr& in, Args& A, bool color) {
+    TextureBackend* ts = x.ctx->system->textures();
+    int nc = color ? 3 : 1;
+    float* d = x.ptr[size_t(in.dst)];
+    const std::string& name = A.s(0);
+    float sw = 1, tw = 1;
+    TextureOptions opt = textureOptions(x, A, 3, &sw, &tw);
+    opt.firstChannel = std::max(0, std::min(toInt(A.f(1)[0]), 1 << 16));
+    const std::string& file = name;
+    In<Vec3> R = A.v(2);  // in the space the caller chose (shinymetal passes "world")
+    bool ok = true;
+    forActive(x, x.vary[size_t(in.dst)], [&](int i) {
+        Vec3 r = R[i], dx = deriv(x, R, i, 0, 1.f), dy = deriv(x, R, i, 1, 1.f);
+        float out[3] = {0, 0, 0};
+        if (!ts || !ts->environment(file, opt, r, dx, dy, nc, out))
+            ok = false;
+        if (color) put(d, i, Vec3(out[0], out[1], out[2]));
+        else d[i] = out[0];
+    });
+    if (!ok)
+        x.ctx->system->diagnostics().warningOnce("shading:env:" + name, FileLoc::inFile(x.cs->fileName, in.loc.line, in.loc.col),
+                                                 "cannot read environment map '{}'", name);
+}
+
+void shadow(Exec& x, const Instr& in, Args& A, bool four) {
+    float* d = x.ptr[size_t(in.dst)];
+    // The result is varying (marked by codegen).
+    for (int i : x.active) d[i] = 0;
+    ShadowQuery q;
+    q.mapName = A.s(0);
+    int first = 2;
+    int nPoints = four ? 4 : 1;
+    int nArg = first + nPoints;
+    int pairsAt = nArg + 1;
+    std::vector<Vec3> P(size_t(x.n)), dPdu(size_t(x.n)), dPdv(size_t(x.n)), N(size_t(x.n)), corners[4];
+    In<Vec3> Pin = A.v(first);
+    In<Vec3> Nin = A.v(nArg);
+    float du = gridDu(x), dv = gridDv(x);
+    for (int i : x.active) {
+        P[size_t(i)] = Pin[i];
+        dPdu[size_t(i)] = deriv(x, Pin, i, 0, 1.f);
+        dPdv[size_t(i)] = deriv(x, Pin, i, 1, 1.f);
+        N[size_t(i)] = Nin[i];
+    }
+    (void)du;
+    (void)dv;
+    if (four) {
+        for (int k = 0; k < 4; ++k) {
+            corners[k].resize(size_t(x.n));
+            In<Vec3> c = A.v(first + k);
+            for (int i : x.active) corners[k][size_t(i)] = c[i];
+            q.corners[k] = corners[k].data();
+        }
+        for (int i : x.active) P[size_t(i)] = (corners[0][size_t(i)] + corners[1][size_t(i)] + corners[2][size_t(i)] + corners[3][size_t(i)]) * 0.25f;
+    }
+    std::vector<Vec3> Lv;
+    if (x.cs->kind == ShaderKind::Light && x.lightConstruct != 0) {
+        // Inside illuminate()/solar(): where the light is, for "raytrace".
+        const int Lreg = x.cs->globalRegs[gL];
+        In<Vec3> Lin{x.ptr[size_t(Lreg)], x.vary[size_t(Lreg)]};
+        Lv.resize(size_t(x.n));
+        for (int i : x.active) Lv[size_t(i)] = Lin[i];
+        q.L = Lv.data();
+        q.lightAtInfinity = x.lightConstruct == 2;
+    }
+    q.count = int(x.active.size());
+    q.indices = x.active.data();
+    q.P = P.data();
+    q.dPdu = dPdu.data();
+    q.dPdv = dPdv.data();
+    q.N = N.data();
+    int pairs = toInt(A.f(pairsAt)[0]);
+    for (int k = 0; k < pairs; ++k) {
+        ShadeValue v;
+        v.name = A.s(pairsAt + 1 + 2 * k);
+        int vr = A.reg(pairsAt + 2 + 2 * k);
+        const RegInfo& ri = x.cs->regs[size_t(vr)];
+        if (ri.ty == Ty::String) {
+            v.type = ValueType::String;
+            v.strings.push_back(x.strs[size_t(vr)][0]);
+        } else {
+            v.type = ri.ty == Ty::Color ? ValueType::Color : ri.ty == Ty::Float ? ValueType::Float : ri.ty == Ty::Matrix ? ValueType::Matrix : ValueType::Vector;
+            v.floats.assign(x.ptr[size_t(vr)], x.ptr[size_t(vr)] + tyFloats(ri.ty));
+        }
+        q.params.push_back(std::move(v));
+    }
+    q.seed = hashKeys(x.ctx->grid->seed, uint32_t(&in - x.cs->code.data()), x.ctx->callCounter++);
+    if (!x.ctx->services->shadow(*x.ctx->grid, q, d))
+        for (int i : x.active) d[i] = 0;  // no map: unshadowed; the renderer reports it
+    for (int i : x.active) d[i] = fixNan(d[i]);
+}
+
+// --- message passing ----------------------------------------------------
+
+/// Copies another shader's parameter `name` into output register `dst`
+/// (for the active points); false when there is no such parameter of a
+/// compatible type.
+bool copyParam(Exec& x, const Exec* from, const std::string& name, int dst) {
+    if (!from) return false;
+    const RegInfo& d = x.cs->regs[size_t(dst)];
+    for (size_t p = 0; p < from->cs->params.size(); ++p) {
+        if (from->cs->params[p].name != name) continue;
+        int sr = from->cs->paramRegs[p];
+        const RegInfo& s = from->cs->regs[size_t(sr)];
+        bool compatible = s.ty == d.ty || (isSpatial(s.ty) && isSpatial(d.ty));
+        if (!compatible || s.arrayLen != d.arrayLen) return false;
+        if (d.ty == Ty::String) {
+            x.strs[size_t(dst)] = from->strs[size_t(sr)];
+            return true;
+        }
+        int comps = tyFloats(d.ty) * std::max(1, d.arrayLen);
+        int sv = from->vary[size_t(sr)];
+        float* dp = x.ptr[size_t(dst)];
+        const float* sp = from->ptr[size_t(sr)];
+        if (d.arrayLen > 0) {
+            int c = tyFloats(d.ty);
+            for (int e = 0; e < d.arrayLen; ++e)
+                forActive(x, x.vary[size_t(dst)], [&](int i) {
+                    std::memcpy(dp + size_t(e) * size_t(c) * size_t(x.vary[size_t(dst)] ? x.n : 1) + size_t(i * c),
+                                sp + size_t(e) * size_t(c) * size_t(sv ? x.n : 1) + size_t(i * sv * c), sizeof(float) * size_t(c));
+                });
+            return true;
+        }
+        forActive(x, x.vary[size_t(dst)], [&](int i) { std::memcpy(dp + i * comps, sp + i * sv * comps, sizeof(float) * size_t(comps)); });
+        return true;
+    }
+    return false;
+}
+
+bool fromShadeValue(Exec& x, const ShadeValue& v, int dst) {
+    const RegInfo& d = x.cs->regs[size_t(dst)];
+    if (d.ty == Ty::String) {
+        if (v.strings.empty()) return false;
+        for (size_t k = 0; k < x.strs[size_t(dst)].size() && k < v.strings.size(); ++k) x.strs[size_t(dst)][k] = v.strings[k];
+        return true;
+    }
+    int per = d.floatsPerValue();
+    if (int(v.floats.size()) < per) return false;
+    forActive(x, x.vary[size_t(dst)], [&](int i) { std::memcpy(x.ptr[size_t(dst)] + i * per, v.floats.data(), sizeof(float) * size_t(per)); });
+    return true;
+}
+
+ValueType valueTypeOf(Ty t) {
+    switch (t) {
+    case Ty::Color: return ValueType::Color;
+    case Ty::Point: return ValueType::Point;
+    case Ty::Vector: return ValueType::Vector;
+    case Ty::Normal: return ValueType::Normal;
+    case Ty::Matrix: return ValueType::Matrix;
+    case Ty::String: return ValueType::String;
+    default: return ValueType::Float;
+    }
+}
+
+void setResult(Exec& x, const Instr& in, float v) {
+    if (in.dst >= 0) forActive(x, x.vary[size_t(in.dst)], [&](int i) { x.ptr[size_t(in.dst)][i] = v; });
+}
+
+void noise(Exec& x, const Instr& in, Args& A, int dims, bool triple, bool periodic, bool cell) {
+    float* d = x.ptr[size_t(in.dst)];
+    // Argument layout: 1: f; 2: f f; 3: p; 4: p f. Periodic forms add a
+    // period after each position argument.
+    bool pFirst = dims >= 3;
+    forActive(x, x.vary[size_t(in.dst)], [&](int i) {
+        float p[4] = {0, 0, 0, 0}, per[4] = {0, 0, 0, 0};
+        int k = 0;
+        if (pFirst) {
+            Vec3 v = A.v(k++)[i];
+            p[0] = v.x;
+            p[1] = v.y;
+            p[2] = v.z;
+            if (periodic) {
+                Vec3 pp = A.v(k++)[i];
+                per[0] = pp.x;
+                per[1] = pp.y;
+                per[2] = pp.z;
+            }
+            if (dims == 4) {
+                p[3] = A.f(k++)[i];
+                if (periodic) per[3] = A.f(k++)[i];
+            }
+        } else {
+            p[0] = A.f(k++)[i];
+            if (periodic) per[0] = A.f(k++)[i];
+            if (dims == 2) {
+                p[1] = A.f(k++)[i];
+                if (periodic) per[1] = A.f(k++)[i];
+            }
+        }
+        if (!triple) {
+            d[i] = cell ? cellNoise(p, dims, 0) : gradientNoise(p, dims, periodic ? per : nullptr, 0);
+        } else {
+            Vec3 r;
+            for (int c = 0; c < 3; ++c)
+                r[c] = cell ? cellNoise(p, dims, uint32_t(c + 1)) : gradientNoise(p, dims, periodic ? per : nullptr, uint32_t(c + 1));
+            put(d, i, r);
+        }
+    });
+}
+
+}  // namespace
+
+void execCall(Exec& x, const Instr& in) {
+    Args A{x, in};
+    int dst = in.dst;
+    switch (Bi(in.sub)) {
+    case Bi::Sin: map(x, dst, [](float a) { return std::sin(a); }, A.f(0)); break;
+    case Bi::Cos: map(x, dst, [](float a) { return std::cos(a); }, A.f(0)); break;
+    case Bi::Tan: map(x, dst, [](float a) { return fixNan(std::tan(a)); }, A.f(0)); break;
+    case Bi::Asin: map(x, dst, [](float a) { return std::asin(clamp(a, -1.f, 1.f)); }, A.f(0)); break;
+    case Bi::Acos: map(x, dst, [](float a) { return std::acos(clamp(a, -1.f, 1.f)); }, A.f(0)); break;
+    case Bi::Atan: map(x, dst, [](float a) { return std::atan(a); }, A.f(0)); break;
+    case Bi::Atan2: map(x, dst, [](float y, float xx) { return std::atan2(y, xx); }, A.f(0), A.f(1)); break;
+    case Bi::Exp: map(x, dst, [](float a) { return fixNan(std::exp(a)); }, A.f(0)); break;
+    case Bi::Log: map(x, dst, [](float a) { return a > 0 ? std::log(a) : 0.f; }, A.f(0)); break;
+    case Bi::LogBase: map(x, dst, [](float a, float b) { return a > 0 && b > 0 && b != 1 ? std::log(a) / std::log(b) : 0.f; }, A.f(0), A.f(1)); break;
+    case Bi::Sqrt: map(x, dst, [](float a) { return safeSqrt(a); }, A.f(0)); break;
+    case Bi::InvSqrt: map(x, dst, [](float a) { return a > 0 ? 1.0f / std::sqrt(a) : 0.f; }, A.f(0)); break;
+    case Bi::Abs: map(x, dst, [](float a) { return std::fabs(a); }, A.f(0)); break;
+    case Bi::AbsT: map(x, dst, [](const Vec3& a) { return Vec3(std::fabs(a.x), std::fabs(a.y), std::fabs(a.z)); }, A.v(0)); break;
+    case Bi::Sign: map(x, dst, [](float a) { return a > 0 ? 1.f : a < 0 ? -1.f : 0.f; }, A.f(0)); break;
+    case Bi::Floor: map(x, dst, [](float a) { return std::floor(a); }, A.f(0)); break;
+    case Bi::FloorT: map(x, dst, [](const Vec3& a) { return Vec3(std::floor(a.x), std::floor(a.y), std::floor(a.z)); }, A.v(0)); break;
+    case Bi::Ceil: map(x, dst, [](float a) { return std::ceil(a); }, A.f(0)); break;
+    case Bi::CeilT: map(x, dst, [](const Vec3& a) { return Vec3(std::ceil(a.x), std::ceil(a.y), std::ceil(a.z)); }, A.v(0)); break;
+    case Bi::Round: map(x, dst, [](float a) { return std::round(a); }, A.f(0)); break;
+    case Bi::Radians: map(x, dst, [](float a) { return radians(a); }, A.f(0)); break;
+    case Bi::Degrees: map(x, dst, [](float a) { return degrees(a); }, A.f(0)); break;
+    case Bi::Pow:
+        map(x, dst, [](float a, float b) {
+            if (a < 0 && b != std::floor(b)) return 0.f;
+            return fixNan(std::pow(a, b));
+        }, A.f(0), A.f(1));
+        break;
+    case Bi::Mod: map(x, dst, [](float a, float b) { return b == 0 ? 0.f : a - b * std::floor(a / b); }, A.f(0), A.f(1)); break;
+    case Bi::ModT:
+        map(x, dst, [](const Vec3& a, float b) {
+            auto m = [b](float v) { return b == 0 ? 0.f : v - b * std::floor(v / b); };
+            return Vec3(m(a.x), m(a.y), m(a.z));
+        }, A.v(0), A.f(1));
+        break;
+    case Bi::MinF: map(x, dst, [](float a, float b) { return std::min(a, b); }, A.f(0), A.f(1)); break;
+    case Bi::MaxF: map(x, dst, [](float a, float b) { return std::max(a, b); }, A.f(0), A.f(1)); break;
+    case Bi::MinT: map(x, dst, [](const Vec3& a, const Vec3& b) { return vmin(a, b); }, A.v(0), A.v(1)); break;
+    case Bi::MaxT: map(x, dst, [](const Vec3& a, const Vec3& b) { return vmax(a, b); }, A.v(0), A.v(1)); break;
+    case Bi::ClampF: map(x, dst, [](float a, float lo, float hi) { return std::min(std::max(a, lo), hi); }, A.f(0), A.f(1), A.f(2)); break;
+    case Bi::ClampT: map(x, dst, [](const Vec3& a, const Vec3& lo, const Vec3& hi) { return vmin(vmax(a, lo), hi); }, A.v(0), A.v(1), A.v(2)); break;
+    case Bi::MixF: map(x, dst, [](float a, float b, float t) { return a + (b - a) * t; }, A.f(0), A.f(1), A.f(2)); break;
+    case Bi::MixTF: map(x, dst, [](const Vec3& a, const Vec3& b, float t) { return a + (b - a) * t; }, A.v(0), A.v(1), A.f(2)); break;
+    case Bi::MixT: map(x, dst, [](const Vec3& a, const Vec3& b, const Vec3& t) { return a + (b - a) * t; }, A.v(0), A.v(1), A.v(2)); break;
+    case Bi::Step: map(x, dst, [](float e, float a) { return a < e ? 0.f : 1.f; }, A.f(0), A.f(1)); break;
+    case Bi::SmoothStep: map(x, dst, [](float a, float b, float c) { return smoothstep(a, b, c); }, A.f(0), A.f(1), A.f(2)); break;
+    case Bi::FilterStep: {
+        // A step filtered over the point's footprint: the change of x
+        // across one micropolygon in u and v.
+        In<float> e = A.f(0), v = A.f(1);
+        float* d = x.ptr[size_t(dst)];
+        forActive(x, x.vary[size_t(dst)], [&](int i) {
+            float w = std::fabs(deriv(x, v, i, 0, 1.f)) + std::fabs(deriv(x, v, i, 1, 1.f));
+            d[i] = w <= 0 ? (v[i] < e[i] ? 0.f : 1.f) : clamp((v[i] - e[i]) / w + 0.5f, 0.f, 1.f);
+        });
+        break;
+    }
+    case Bi::SplineF: spline(x, in, A, false, false); break;
+    case Bi::SplineT: spline(x, in, A, true, false); break;
+    case Bi::SplineBasisF: spline(x, in, A, false, true); break;
+    case Bi::SplineBasisT: spline(x, in, A, true, true); break;
+    case Bi::Xcomp: map(x, dst, [](const Vec3& a) { return a.x; }, A.v(0)); break;
+    case Bi::Ycomp: map(x, dst, [](const Vec3& a) { return a.y; }, A.v(0)); break;
+    case Bi::Zcomp: map(x, dst, [](const Vec3& a) { return a.z; }, A.v(0)); break;
+    case Bi::SetXcomp:
+    case Bi::SetYcomp:
+    case Bi::SetZcomp: {
+        int c = in.sub - int16_t(Bi::SetXcomp);
+        int r = A.reg(0);
+        In<float> v = A.f(1);
+        float* p = x.ptr[size_t(r)];
+        forActive(x, x.vary[size_t(r)], [&](int i) { p[3 * i + c] = v[i]; });
+        break;
+    }
+    case Bi::CompM: map(x, dst, [](const M16& m, float r, float c) { return m.m[clampIndexM(r) * 4 + clampIndexM(c)]; }, A.m(0), A.f(1), A.f(2)); break;
+    case Bi::SetCompM: {
+        int r = A.reg(0);
+        In<float> row = A.f(1), col = A.f(2), v = A.f(3);
+        float* p = x.ptr[size_t(r)];
+        forActive(x, x.vary[size_t(r)], [&](int i) { p[16 * i + clampIndexM(row[i]) * 4 + clampIndexM(col[i])] = v[i]; });
+        break;
+    }
+    case Bi::Length: map(x, dst, [](const Vec3& a) { return length(a); }, A.v(0)); break;
+    case Bi::Distance: map(x, dst, [](const Vec3& a, const Vec3& b) { return length(a - b); }, A.v(0), A.v(1)); break;
+    case Bi::Normalize: map(x, dst, [](const Vec3& a) { return unit(a); }, A.v(0)); break;
+    case Bi::FaceForward: {
+        int ng = x.cs->globalRegs[gNg];
+        map(x, dst, [](const Vec3& n, const Vec3& i, const Vec3& r) { return faceforward(n, i, r); }, A.v(0), A.v(1), In<Vec3>{x.ptr[size_t(ng)], x.vary[size_t(ng)]});
+        break;
+    }
+    case Bi::FaceForward3: map(x, dst, [](const Vec3& n, const Vec3& i, const Vec3& r) { return faceforward(n, i, r); }, A.v(0), A.v(1), A.v(2)); break;
+    case Bi::Reflect: map(x, dst, [](const Vec3& i, const Vec3& n) { return reflect(i, n); }, A.v(0), A.v(1)); break;
+    case Bi::Refract: map(x, dst, [](const Vec3& i, const Vec3& n, float e) { return refract(i, n, e); }, A.v(0), A.v(1), A.f(2)); break;
+    case Bi::Fresnel:
+    case Bi::FresnelRT: {
+        bool rt = Bi(in.sub) == Bi::FresnelRT;
+        In<Vec3> I = A.v(0), N = A.v(1);
+        In<float> eta = A.f(2);
+        int kr = A.reg(3), kt = A.reg(4);
+        bool v = x.vary[size_t(kr)] || x.vary[size_t(kt)] || (rt && (x.vary[size_t(A.reg(5))] || x.vary[size_t(A.reg(6))]));
+        forActive(x, v, [&](int i) {
+            float r, t;
+            fresnel(I[i], N[i], eta[i], &r, &t);
+            x.ptr[size_t(kr)][i * x.vary[size_t(kr)]] = r;
+            x.ptr[size_t(kt)][i * x.vary[size_t(kt)]] = t;
+            if (rt) {
+                put(x.ptr[size_t(A.reg(5))], i * x.vary[size_t(A.reg(5))], reflect(I[i], normalize(N[i])));
+                put(x.ptr[size_t(A.reg(6))], i * x.vary[size_t(A.reg(6))], refract(normalize(I[i]), normalize(N[i]), eta[i]));
+            }
+        });
+        break;
+    }
+    case Bi::Transform: case Bi::VTransform: case Bi::NTransform:
+    case Bi::TransformFT: case Bi::VTransformFT: case Bi::NTransformFT: {
+        Bi id = Bi(in.sub);
+        bool ft = id == Bi::TransformFT || id == Bi::VTransformFT || id == Bi::NTransformFT;
+        XKind kind = (id == Bi::Transform || id == Bi::TransformFT) ? XKind::Point
+                     : (id == Bi::VTransform || id == Bi::VTransformFT) ? XKind::Vector : XKind::Normal;
+        Mat4 currentFromFrom = ft ? spaceMatrix(x, A.s(0), in) : Mat4::identity();
+        const std::string& to = A.s(ft ? 1 : 0);
+        Mat4 toFromFrom = (to == "current" || to == "camera") ? currentFromFrom
+                                                              : spaceMatrix(x, to, in).inverse() * currentFromFrom;
+        Mat4 inv = kind == XKind::Normal ? toFromFrom.inverse() : Mat4();
+        map(x, dst, [&](const Vec3& p) { return xform(toFromFrom, inv, kind, p); }, A.v(ft ? 2 : 1));
+        break;
+    }
+    case Bi::TransformM: map(x, dst, rslPoint, A.m(0), A.v(1)); break;
+    case Bi::VTransformM: map(x, dst, rslVector, A.m(0), A.v(1)); break;
+    case Bi::NTransformM:
+        map(x, dst, [](const M16& m, const Vec3& n) {
+            Mat4 a;
+            std::memcpy(a.m, m.m, sizeof m.m);
+            Mat4 inv = a.inverse();  // RSL order: n' = n * inverse(m)^T
+            const auto& q = inv.m;
+            return Vec3(n.x * q[0][0] + n.y * q[0][1] + n.z * q[0][2], n.x * q[1][0] + n.y * q[1][1] + n.z * q[1][2],
+                        n.x * q[2][0] + n.y * q[2][1] + n.z * q[2][2]);
+        }, A.m(0), A.v(1));
+        break;
+    case Bi::SpaceMatrix: {
+        M16 spaceToCurrent = toRsl(spaceMatrix(x, A.s(0), in));
+        map(x, dst, [&](const M16& m) { return mulM(m, spaceToCurrent); }, A.m(1));
+        break;
+    }
+    case Bi::ColorFromSpace: {
+        const std::string& space = A.s(0);
+        Vec3 probe;
+        if (!colorToRgb(space, Vec3(0.f), &probe))
+            x.ctx->system->diagnostics().warningOnce("shading:color:" + space, FileLoc::inFile(x.cs->fileName, in.loc.line, in.loc.col),
+                                                     "unknown color space '{}'", space);
+        map(x, dst, [&](const Vec3& c) {
+            Vec3 r = c;
+            colorToRgb(space, c, &r);
+            return r;
+        }, A.v(1));
+        break;
+    }
+    case Bi::CTransform:
+    case Bi::CTransformFT: {
+        bool ft = Bi(in.sub) == Bi::CTransformFT;
+        std::string from = ft ? A.s(0) : "rgb", to = A.s(ft ? 1 : 0);
+        map(x, dst, [&](const Vec3& c) {
+            Vec3 rgb = c, r = c;
+            colorToRgb(from, c, &rgb);
+            colorFromRgb(to, rgb, &r);
+            return r;
+        }, A.v(ft ? 2 : 1));
+        break;
+    }
+    case Bi::CalculateNormal: {
+        In<Vec3> P = A.v(0);
+        bool flip = x.ctx->grid->flipNormals;
+        float du = gridDu(x), dv = gridDv(x);
+        float* d = x.ptr[size_t(dst)];
+        forActive(x, x.vary[size_t(dst)], [&](int i) {
+            Vec3 n = cross(deriv(x, P, i, 0, du), deriv(x, P, i, 1, dv));
+            put(d, i, flip ? -n : n);
+        });
+        break;
+    }
+    case Bi::Area: {
+        In<Vec3> P = A.v(0);
+        float du = gridDu(x), dv = gridDv(x);
+        float* d = x.ptr[size_t(dst)];
+        forActive(x, x.vary[size_t(dst)], [&](int i) {
+            d[i] = length(cross(deriv(x, P, i, 0, du) * du, deriv(x, P, i, 1, dv) * dv));
+        });
+        break;
+    }
+    case Bi::Depth: {
+        float nearZ = x.ctx->grid->nearClip, farZ = x.ctx->grid->farClip;
+        map(x, dst, [&](const Vec3& p) { return farZ > nearZ ? (p.z - nearZ) / (farZ - nearZ) : 0.f; }, A.v(0));
+        break;
+    }
+    case Bi::PtLined:
+        map(x, dst, [](const Vec3& a, const Vec3& b, const Vec3& q) {
+            Vec3 ab = b - a;
+            float l2 = dot(ab, ab);
+            float t = l2 > 0 ? clamp(dot(q - a, ab) / l2, 0.f, 1.f) : 0.f;
+            return length(q - (a + ab * t));
+        }, A.v(0), A.v(1), A.v(2));
+        break;
+    case Bi::Rotate3:
+        map(x, dst, [](const Vec3& p, float angle, const Vec3& p0, const Vec3& p1) {
+            Vec3 axis = p1 - p0;
+            if (length(axis) <= 0) return p;
+            return Mat4::rotate(degrees(angle), axis).point(p - p0) + p0;
+        }, A.v(0), A.f(1), A.v(2), A.v(3));
+        break;
+    case Bi::DuF:
+    case Bi::DvF: {
+        int dir = Bi(in.sub) == Bi::DvF;
+        float step = dir ? gridDv(x) : gridDu(x);
+        In<float> a = A.f(0);
+        float* d = x.ptr[size_t(dst)];
+        forActive(x, x.vary[size_t(dst)], [&](int i) { d[i] = deriv(x, a, i, dir, step); });
+        break;
+    }
+    case Bi::DuT:
+    case Bi::DvT: {
+        int dir = Bi(in.sub) == Bi::DvT;
+        float step = dir ? gridDv(x) : gridDu(x);
+        In<Vec3> a = A.v(0);
+        float* d = x.ptr[size_t(dst)];
+        forActive(x, x.vary[size_t(dst)], [&](int i) { put(d, i, deriv(x, a, i, dir, step)); });
+        break;
+    }
+    case Bi::DerivF: {
+        In<float> num = A.f(0), den = A.f(1);
+        float du = gridDu(x), dv = gridDv(x);
+        float* d = x.ptr[size_t(dst)];
+        forActive(x, x.vary[size_t(dst)], [&](int i) {
+            float a = deriv(x, den, i, 0, du), b = deriv(x, den, i, 1, dv);
+            d[i] = (a != 0 ? deriv(x, num, i, 0, du) / a : 0.f) + (b != 0 ? deriv(x, num, i, 1, dv) / b : 0.f);
+        });
+        break;
+    }
+    case Bi::DerivT: {
+        In<Vec3> num = A.v(0);
+        In<float> den = A.f(1);
+        float du = gridDu(x), dv = gridDv(x);
+        float* d = x.ptr[size_t(dst)];
+        forActive(x, x.vary[size_t(dst)], [&](int i) {
+            float a = deriv(x, den, i, 0, du), b = deriv(x, den, i, 1, dv);
+            Vec3 r(0.f);
+            if (a != 0) r += deriv(x, num, i, 0, du) / a;
+            if (b != 0) r += deriv(x, num, i, 1, dv) / b;
+            put(d, i, r);
+        });
+        break;
+    }
+    case Bi::Determinant: map(x, dst, determinant, A.m(0)); break;
+    case Bi::TranslateM: map(x, dst, [](const M16& m, const Vec3& t) { return mulM(toRsl(Mat4::translate(t)), m); }, A.m(0), A.v(1)); break;
+    case Bi::ScaleM: map(x, dst, [](const M16& m, const Vec3& s) { return mulM(toRsl(Mat4::scale(s)), m); }, A.m(0), A.v(1)); break;
+    case Bi::RotateM:
+        map(x, dst, [](const M16& m, float angle, const Vec3& axis) { return mulM(toRsl(Mat4::rotate(degrees(angle), axis)), m); }, A.m(0), A.f(1), A.v(2));
+        break;
+    case Bi::Concat: {
+        std::string s;
+        for (int k = 0; k < in.nargs; ++k) s += A.s(k);
+        x.strs[size_t(dst)][0] = s;
+        break;
+    }
+    case Bi::Format: x.strs[size_t(dst)][0] = formatString(x, A, 0, x.active.empty() ? 0 : x.active[0]); break;
+    case Bi::Printf: {
+        bool anyVarying = false;
+        for (int k = 1; k < in.nargs; ++k) anyVarying = anyVarying || A.varying(k);
+        forActive(x, anyVarying, [&](int i) { x.ctx->services->print(formatString(x, A, 0, i)); });
+        break;
+    }
+    case Bi::Match: {
+        float r = 0;
+        try {
+            std::regex re(A.s(0), std::regex::extended);
+            r = std::regex_search(A.s(1), re) ? 1.f : 0.f;
+        } catch (const std::regex_error&) {
+            x.ctx->system->diagnostics().warningOnce("shading:regex:" + A.s(0), FileLoc::inFile(x.cs->fileName, in.loc.line, in.loc.col),
+                                                     "invalid regular expression '{}' in match()", A.s(0));
+        }
+        setResult(x, in, r);
+        break;
+    }
+    case Bi::NoiseF1: noise(x, in, A, 1, false, false, false); break;
+    case Bi::NoiseF2: noise(x, in, A, 2, false, false, false); break;
+    case Bi::NoiseF3: noise(x, in, A, 3, false, false, false); break;
+    case Bi::NoiseF4: noise(x, in, A, 4, false, false, false); break;
+    case Bi::NoiseT1: noise(x, in, A, 1, true, false, false); break;
+    case Bi::NoiseT2: noise(x, in, A, 2, true, false, false); break;
+    case Bi::NoiseT3: noise(x, in, A, 3, true, false, false); break;
+    case Bi::NoiseT4: noise(x, in, A, 4, true, false, false); break;
+    case Bi::PNoiseF1: noise(x, in, A, 1, false, true, false); break;
+    case Bi::PNoiseF2: noise(x, in, A, 2, false, true, false); break;
+    case Bi::PNoiseF3: noise(x, in, A, 3, false, true, false); break;
+    case Bi::PNoiseF4: noise(x, in, A, 4, false, true, false); break;
+    case Bi::PNoiseT1: noise(x, in, A, 1, true, true, false); break;
+    case Bi::PNoiseT2: noise(x, in, A, 2, true, true, false); break;
+    case Bi::PNoiseT3: noise(x, in, A, 3, true, true, false); break;
+    case Bi::PNoiseT4: noise(x, in, A, 4, true, true, false); break;
+    case Bi::CellF1: noise(x, in, A, 1, false, false, true); break;
+    case Bi::CellF2: noise(x, in, A, 2, false, false, true); break;
+    case Bi::CellF3: noise(x, in, A, 3, false, false, true); break;
+    case Bi::CellF4: noise(x, in, A, 4, false, false, true); break;
+    case Bi::CellT1: noise(x, in, A, 1, true, false, true); break;
+    case Bi::CellT2: noise(x, in, A, 2, true, false, true); break;
+    case Bi::CellT3: noise(x, in, A, 3, true, false, true); break;
+    case Bi::CellT4: noise(x, in, A, 4, true, false, true); break;
+    case Bi::RandomF:
+    case Bi::RandomT: {
+        uint32_t call = hashKeys(x.ctx->grid->seed, uint32_t(&in - x.cs->code.data()), x.ctx->callCounter++);
+        float* d = x.ptr[size_t(dst)];
+        bool t = Bi(in.sub) == Bi::RandomT;
+        forActive(x, x.vary[size_t(dst)], [&](int i) {
+            uint32_t h = hashKeys(call, uint32_t(i));
+            if (t) put(d, i, Vec3(hashToUnit(h), hashToUnit(hash32(h + 1)), hashToUnit(hash32(h + 2))));
+            else d[i] = hashToUnit(h);
+        });
+        break;
+    }
+    case Bi::Ambient: {
+        ensureLights(x);
+        float* d = x.ptr[size_t(dst)];
+        forActive(x, true, [&](int i) { put(d, i, Vec3(0.f)); });
+        for (const LightRun& lr : x.ctx->lights)
+            if (lr.ambient)
+                forActive(x, true, [&](int i) {
+                    Vec3 c = In<Vec3>{d, 1}[i] + lr.Cl(i);
+                    put(d, i, c);
+                });
+        break;
+    }
+    case Bi::Diffuse: lightSum<LightModel::Diffuse>(x, in, A); break;
+    case Bi::Specular: lightSum<LightModel::Specular>(x, in, A); break;
+    case Bi::Phong: lightSum<LightModel::Phong>(x, in, A); break;
+    case Bi::SpecularBrdf:
+        map(x, dst, [](const Vec3& L, const Vec3& N, const Vec3& V, float r) {
+            Vec3 H = normalize(normalize(L) + normalize(V));
+            return Vec3(r > 0 ? std::pow(std::max(0.f, dot(normalize(N), H)), 1.0f / r) : 0.f);
+        }, A.v(0), A.v(1), A.v(2), A.f(3));
+        break;
+    case Bi::TextureF: texture(x, in, A, false, false); break;
+    case Bi::TextureC: texture(x, in, A, true, false); break;
+    case Bi::TextureF4: texture(x, in, A, false, true); break;
+    case Bi::TextureC4: texture(x, in, A, true, true); break;
+    case Bi::EnvironmentF: environment(x, in, A, false); break;
+    case Bi::EnvironmentC: environment(x, in, A, true); break;
+    case Bi::Shadow: shadow(x, in, A, false); break;
+    case Bi::Shadow4: shadow(x, in, A, true); break;
+    case Bi::TextureInfo: {
+        TextureBackend* ts = x.ctx->system->textures();
+        int out = A.reg(2);
+        const RegInfo& ri = x.cs->regs[size_t(out)];
+        bool ok = false;
+        if (ts) {
+            if (ri.ty == Ty::String) {
+                std::string s;
+                ok = ts->textureInfoString(A.s(0), A.s(1), &s);
+                if (ok) x.strs[size_t(out)][0] = s;
+            } else {
+                int per = ri.floatsPerValue();
+                std::vector<float> f(static_cast<size_t>(per), 0.f);
+                ok = ts->textureInfoFloats(A.s(0), A.s(1), per, f.data());
+                if (ok) forActive(x, x.vary[size_t(out)], [&](int i) { std::memcpy(x.ptr[size_t(out)] + i * per, f.data(), sizeof(float) * size_t(per)); });
+            }
+        }
+        setResult(x, in, ok ? 1.f : 0.f);
+        break;
+    }
+    case Bi::LightSource: {
+        bool ok = x.currentLight >= 0 && copyParam(x, x.ctx->lights[size_t(x.currentLight)].exec, A.s(0), A.reg(1));
+        setResult(x, in, ok);
+        break;
+    }
+    case Bi::SurfaceMsg: setResult(x, in, copyParam(x, x.ctx->surface, A.s(0), A.reg(1))); break;
+    case Bi::DisplacementMsg: setResult(x, in, copyParam(x, x.ctx->displacement, A.s(0), A.reg(1))); break;
+    case Bi::AtmosphereMsg: setResult(x, in, copyParam(x, x.ctx->atmosphere, A.s(0), A.reg(1))); break;
+    case Bi::Attribute:
+    case Bi::Option:
+    case Bi::RendererInfo: {
+        ShadeValue v;
+        int out = A.reg(1);
+        v.name = A.s(0);
+        v.type = valueTypeOf(x.cs->regs[size_t(out)].ty);
+        bool ok = Bi(in.sub) == Bi::Attribute ? x.ctx->services->attribute(*x.ctx->grid, v.name, &v)
+                  : Bi(in.sub) == Bi::Option   ? x.ctx->services->option(v.name, &v)
+                                               : x.ctx->services->rendererInfo(v.name, &v);
+        setResult(x, in, ok && fromShadeValue(x, v, out));
+        break;
+    }
+    case Bi::Count: break;
+    }
+}
+
+}  // namespace umbra::shading

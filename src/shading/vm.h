@@ -1,0 +1,115 @@
+#pragma once
+// The grid-at-a-time interpreter. An Exec runs one shader instance over
+// every point of a ShadingGrid: each instruction loops over the active
+// points (a run-mask stack implements varying control flow), and uniform
+// registers hold a single value, so dispatch costs once per grid.
+//
+// Register storage for n points (one float block per Exec, reused):
+//   uniform float  : 1 float        varying float  : n floats
+//   uniform triple : 3 floats       varying triple : 3n floats (xyz xyz ...)
+//   matrix         : 16 (or 16n)    arrays         : one such block per element
+
+#include "slc.h"
+
+#include <deque>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace umbra::shading {
+
+struct Exec;
+
+/// A light evaluated once over a grid: its Cl and L (from the light to the
+/// surface) at each point, and which points it reached.
+struct LightRun {
+    const ShaderInstance* instance = nullptr;
+    Exec* exec = nullptr;  // alive until the grid is shaded; L and Cl point into it
+    const float* Lp = nullptr;
+    const float* Clp = nullptr;
+    int Ls = 0, Cls = 0;              // strides: 0 when uniform
+    const uint8_t* litp = nullptr;    // null: every point (ambient lights)
+    const Vec3* dir = nullptr;        // unit vector from the surface towards the light
+    bool ambient = false;
+
+    Vec3 L(int i) const { return {Lp[3 * i * Ls], Lp[3 * i * Ls + 1], Lp[3 * i * Ls + 2]}; }
+    Vec3 Cl(int i) const { return {Clp[3 * i * Cls], Clp[3 * i * Cls + 1], Clp[3 * i * Cls + 2]}; }
+    bool lit(int i) const { return !litp || litp[i]; }
+};
+
+/// State shared by the shaders run on one grid.
+struct ShadeContext {
+    const ShadingSystem* system = nullptr;
+    ShadingGrid* grid = nullptr;
+    RendererServices* services = nullptr;
+    std::vector<LightRun> lights;
+    bool lightsRun = false;
+    Exec* surface = nullptr;
+    Exec* displacement = nullptr;
+    Exec* atmosphere = nullptr;
+    std::map<std::string, Mat4> spaces;  // currentFromSpace cache (not "shader")
+    Mat4 currentFromWorld;
+    bool haveWorld = false;
+    uint32_t callCounter = 0;
+};
+
+/// One running shader instance.
+struct Exec {
+    const CompiledShader* cs = nullptr;
+    const ShaderInstance* inst = nullptr;
+    ShadeContext* ctx = nullptr;
+    int n = 0, nu = 0, nv = 0;
+    std::vector<float> store;
+    std::vector<float*> ptr;
+    std::vector<uint8_t> vary;
+    std::vector<std::vector<std::string>> strs;  // per string register (array elements)
+    std::deque<std::vector<uint8_t>> frames;  // deque: references stay valid as it grows
+    int depth = 0;
+    std::vector<int> active;
+    bool allOn = true;
+    // illuminance loops in progress (nested illuminance is allowed)
+    struct Illum {
+        int next = 0;
+        int p = -1, axis = -1, angle = -1;
+        std::string category;
+    };
+    std::vector<Illum> illum;
+    int currentLight = -1;
+    /// Light shaders: 1 inside illuminate(), 2 inside solar(), else 0
+    /// (what shadow("raytrace") traces towards).
+    int lightConstruct = 0;
+    std::vector<uint8_t> lit;        // light shaders: points some illuminate/solar reached
+    std::vector<Vec3> ownPs;         // light shaders: Ps
+    std::vector<Vec3> lightDir;      // light shaders: unit -L, for diffuse()/specular()
+    Mat4 currentFromShader;
+
+    /// Sets up registers for a grid; `Ps` (lights only) is the surface position.
+    /// `Ps`/`PsStride` (lights only): the surface positions lights run for.
+    void setup(const CompiledShader& code, const ShaderInstance* instance, ShadeContext& context,
+               const float* Ps = nullptr, int PsStride = 1);
+    void run();
+
+    int activeCount() const { return int(active.size()); }
+    void refreshActive();
+};
+
+/// Per-thread pool of Execs, so shading a grid allocates nothing once warm.
+Exec* acquireExec();
+void releaseExecs(size_t mark);
+size_t execMark();
+
+/// Runs every light of the context over the grid at positions `Ps` (xyz per
+/// point, stride 0 for a single position), once per grid.
+void runLights(ShadeContext& ctx, const float* Ps, int stride);
+
+/// Gradient noise in [0,1] of 1-4 dimensions, optionally periodic
+/// (`period` entries <= 0 are not periodic), and cell noise in [0,1).
+float gradientNoise(const float* p, int dims, const float* period, uint32_t seed);
+float cellNoise(const float* p, int dims, uint32_t seed);
+
+/// Colour conversions between RGB and "hsv", "hsl", "xyz"/"XYZ", "yiq"/"YIQ", "rgb".
+bool colorToRgb(const std::string& space, const Vec3& c, Vec3* rgb);
+bool colorFromRgb(const std::string& space, const Vec3& rgb, Vec3* c);
+
+}  // namespace umbra::shading
