@@ -5,6 +5,7 @@
 #include "umbra/util/rng.h"
 
 #include <algorithm>
+#include <cstring>
 #include <cmath>
 
 namespace umbra::hider {
@@ -12,6 +13,9 @@ namespace umbra::hider {
 namespace {
 
 /// The total order on hits: nearer first, then grid id, then triangle.
+/// Four floats in one SSE register (GCC vector extension).
+typedef float Vec4f __attribute__((vector_size(16)));
+
 inline bool keyLess(float z, uint64_t id, uint32_t sub, float z2, uint64_t id2, uint32_t sub2) {
     if (z != z2) return z < z2;
     if (id != id2) return id < id2;
@@ -170,21 +174,25 @@ void SampleBuffer::reset(const SampleBufferConfig& c) {
                 m_py[k] = p.y;
             }
         }
+    // Only the depths (and fragment lists) need clearing: a sample's id,
+    // colour, alpha and AOVs are read only once its depth is finite, and
+    // every write of a finite depth writes them too. That keeps the reset
+    // of a bucket at 8 bytes a sample instead of 40.
     m_z.assign(n, kInfinity);
-    m_id.assign(n, 0);
-    m_sub.assign(n, 0);
+    m_id.resize(n);
+    m_sub.resize(n);
     if (c.mode == HiderMode::Colour) {
-        m_ci.assign(n, Color(0.0f));
-        m_alpha.assign(n, 0.0f);
-        m_aov.assign(n * size_t(c.aovCount), 0.0f);
+        m_ci.resize(n);
+        m_alpha.resize(n);
+        m_aov.resize(n * size_t(c.aovCount));
         m_fragHead.assign(n, -1);
         m_z2.clear();
         m_id2.clear();
         m_sub2.clear();
     } else {
         m_z2.assign(n, kInfinity);
-        m_id2.assign(n, 0);
-        m_sub2.assign(n, 0);
+        m_id2.resize(n);
+        m_sub2.resize(n);
         m_ci.clear();
         m_alpha.clear();
         m_aov.clear();
@@ -477,6 +485,11 @@ void SampleBuffer::resolve(film::Film& film) {
         float* out = &m_res[s * size_t(stride)];
         const float* opAov = aovN > 0 ? &m_aov[s * size_t(aovN)] : nullptr;
         if (m_fragHead[s] < 0) {
+            if (aovN == 0) continue;  // read straight from the opaque hit in step 2
+            if (m_z[s] == kInfinity) {
+                std::fill_n(out, stride, 0.0f);
+                continue;
+            }
             out[0] = m_ci[s].x;
             out[1] = m_ci[s].y;
             out[2] = m_ci[s].z;
@@ -523,6 +536,11 @@ void SampleBuffer::resolve(film::Film& film) {
         for (int k = 0; k < aovN; ++k) out[4 + k] = m_scratchAov[size_t(k)];
     }
 
+    if (aovN == 0 && filter.separable()) {
+        resolveColour(film, bx0, by0, bx1, by1);
+        return;
+    }
+
     // 2. Filter: every sample adds its weighted value to the bucket pixels
     // its filter support reaches, in a fixed order (deterministic sums).
     const int bw = bx1 - bx0, bh = by1 - by0;
@@ -545,6 +563,13 @@ void SampleBuffer::resolve(film::Film& film) {
             const size_t s = size_t(sy) * size_t(m_sw) + size_t(sx);
             const float x = m_px[s], y = m_py[s];
             const float* val = &m_res[s * size_t(stride)];
+            Vec4f opaque{0, 0, 0, 0};
+            if (aovN == 0) {
+                if (m_fragHead[s] >= 0)
+                    opaque = Vec4f{val[0], val[1], val[2], val[3]};
+                else if (m_z[s] != kInfinity)
+                    opaque = Vec4f{m_ci[s].x, m_ci[s].y, m_ci[s].z, m_alpha[s]};
+            }
             if (separable) {
                 for (int tx = tx0; tx <= tx1; ++tx) wx[tx - tx0] = filter.weightX(x - (float(tx) + 0.5f));
                 for (int ty = ty0; ty <= ty1; ++ty) wy[ty - ty0] = filter.weightY(y - (float(ty) + 0.5f));
@@ -556,11 +581,11 @@ void SampleBuffer::resolve(film::Film& film) {
                     if (w == 0.0f) continue;
                     float* acc = &m_acc[(size_t(ty - by0) * size_t(bw) + size_t(tx - bx0)) * size_t(accStride)];
                     if (aovN == 0) {
-                        // The common case, unrolled: r g b a and the weight.
-                        acc[0] += w * val[0];
-                        acc[1] += w * val[1];
-                        acc[2] += w * val[2];
-                        acc[3] += w * val[3];
+                        // The common case: r g b a in one vector, then the weight.
+                        Vec4f a;
+                        std::memcpy(&a, acc, sizeof a);
+                        a += w * opaque;
+                        std::memcpy(acc, &a, sizeof a);
                         acc[4] += w;
                         continue;
                     }
@@ -582,6 +607,70 @@ void SampleBuffer::resolve(film::Film& film) {
             float* aov = film.aov(px, py);
             for (int k = 0; k < aovN; ++k) aov[k] = acc[4 + k] * inv;
             film.z(px, py) = minOver(m_z, px, py);
+        }
+}
+
+void SampleBuffer::resolveColour(film::Film& film, int bx0, int by0, int bx1, int by1) {
+    // The common case (no AOVs, a separable filter), written for speed: r g
+    // b a travel in one vector, weights are looked up once per sample and
+    // axis, and sums run in the same fixed order as the general path, so
+    // both give the same pixels.
+    const film::PixelFilter& filter = film.filter();
+    const int xs = m_cfg.xSamples, ys = m_cfg.ySamples;
+    const int bw = bx1 - bx0, bh = by1 - by0;
+    const int mx = filter.xMargin(), my = filter.yMargin();
+    m_acc.assign(size_t(bw) * size_t(bh) * 5, 0.0f);
+    float* acc = m_acc.data();
+    const int qy0 = std::max(m_ry0, by0 - my), qy1 = std::min(m_ry0 + m_rh, by1 + my);
+    const int qx0 = std::max(m_rx0, bx0 - mx), qx1 = std::min(m_rx0 + m_rw, bx1 + mx);
+    float wx[64], wy[64];
+    for (int sy = (qy0 - m_ry0) * ys; sy < (qy1 - m_ry0) * ys; ++sy) {
+        const int qy = m_ry0 + sy / ys;
+        const int ty0 = std::max(by0, qy - my), ty1 = std::min(by1 - 1, qy + my);
+        const size_t rowBase = size_t(sy) * size_t(m_sw);
+        for (int sx = (qx0 - m_rx0) * xs; sx < (qx1 - m_rx0) * xs; ++sx) {
+            const int qx = m_rx0 + sx / xs;
+            const int tx0 = std::max(bx0, qx - mx), tx1 = std::min(bx1 - 1, qx + mx);
+            const size_t s = rowBase + size_t(sx);
+            Vec4f value{0, 0, 0, 0};
+            if (m_fragHead[s] >= 0) {
+                const float* r = &m_res[s * 4];
+                value = Vec4f{r[0], r[1], r[2], r[3]};
+            } else if (m_z[s] != kInfinity) {
+                value = Vec4f{m_ci[s].x, m_ci[s].y, m_ci[s].z, m_alpha[s]};
+            }
+            const float x = m_px[s], y = m_py[s];
+            for (int tx = tx0; tx <= tx1; ++tx) wx[tx - tx0] = filter.weightX(x - (float(tx) + 0.5f));
+            for (int ty = ty0; ty <= ty1; ++ty) wy[ty - ty0] = filter.weightY(y - (float(ty) + 0.5f));
+            for (int ty = ty0; ty <= ty1; ++ty) {
+                const float wyv = wy[ty - ty0];
+                if (wyv == 0.0f) continue;
+                float* row = acc + (size_t(ty - by0) * size_t(bw)) * 5;
+                for (int tx = tx0; tx <= tx1; ++tx) {
+                    const float w = wx[tx - tx0] * wyv;
+                    if (w == 0.0f) continue;
+                    float* a = row + size_t(tx - bx0) * 5;
+                    Vec4f sum;
+                    std::memcpy(&sum, a, sizeof sum);
+                    sum += w * value;
+                    std::memcpy(a, &sum, sizeof sum);
+                    a[4] += w;
+                }
+            }
+        }
+    }
+    for (int py = by0; py < by1; ++py)
+        for (int px = bx0; px < bx1; ++px) {
+            const float* a = &acc[(size_t(py - by0) * size_t(bw) + size_t(px - bx0)) * 5];
+            const float inv = a[4] != 0.0f ? 1.0f / a[4] : 0.0f;
+            float* rgba = film.rgba(px, py);
+            for (int k = 0; k < 4; ++k) rgba[k] = a[k] * inv;
+            float z = kInfinity;
+            for (int j = 0; j < ys; ++j) {
+                const size_t row = size_t((py - m_ry0) * ys + j) * size_t(m_sw) + size_t((px - m_rx0) * xs);
+                for (int i = 0; i < xs; ++i) z = std::min(z, m_z[row + size_t(i)]);
+            }
+            film.z(px, py) = z;
         }
 }
 

@@ -153,6 +153,8 @@ private:
     bool record(const MicroGrid& g, const HitContext& ctx, const Tri& t, size_t s, float w0, float w1, float w2);
     void markDirty(int sx0, int sy0, int sx1, int sy1);
     void updatePixelMax() const;
+    /// resolve() for frames without AOVs and a separable filter.
+    void resolveColour(film::Film& film, int bx0, int by0, int bx1, int by1);
 
     SampleBufferConfig m_cfg;
     int m_rx0 = 0, m_ry0 = 0;        // sampled region's first pixel (raster)
