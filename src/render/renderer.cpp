@@ -173,6 +173,31 @@ void Renderer::make(const scene::MakeRecord& make) {
         m_impl->maps->invalidate(make.output);
         return;
     }
+    if (make.request == "MakeTexture" || make.request == "MakeLatLongEnvironment") {
+        shading::MakeTextureRequest request;
+        request.kind = make.request == "MakeTexture" ? "texture" : "latlong";
+        request.inputs = make.inputs;
+        request.output = make.output;
+        if (make.request == "MakeTexture" && make.stringArgs.size() >= 3) {
+            request.swrap = make.stringArgs[0];
+            request.twrap = make.stringArgs[1];
+            request.filter = make.stringArgs[2];
+        } else if (!make.stringArgs.empty()) {
+            request.filter = make.stringArgs[0];
+        }
+        if (make.floatArgs.size() >= 2) {
+            request.swidth = make.floatArgs[0];
+            request.twidth = make.floatArgs[1];
+        }
+        std::string error;
+        shading::TextureBackend* backend = shading::textureBackend(&error);
+        if (!backend || !backend->makeTexture(request, &error)) {
+            diag.error(make.loc, "{}: cannot make \"{}\" from \"{}\": {}", make.request, make.output,
+                       make.inputs.empty() ? "" : make.inputs[0], error);
+            ++m_failed;
+        }
+        return;
+    }
     diag.warningOnce("unsupported " + make.request, make.loc, "{}: not supported yet; no file written",
                      make.request);
 }

@@ -77,7 +77,14 @@ public:
         OIIO::ImageBufAlgo::MakeTextureMode mode = OIIO::ImageBufAlgo::MakeTxTexture;
         if (r.kind == "latlong") mode = OIIO::ImageBufAlgo::MakeTxEnvLatl;
         OIIO::ImageBuf input(r.inputs[0]);
-        std::string tmp = r.output + ".umbra-tmp";
+        // The temporary name keeps the extension: OIIO picks the format by it.
+        std::string tmp = r.output;
+        size_t dot = tmp.find_last_of('.');
+        size_t slash = tmp.find_last_of('/');
+        if (dot == std::string::npos || (slash != std::string::npos && dot < slash))
+            tmp += ".umbra-tmp";
+        else
+            tmp.insert(dot, ".umbra-tmp");
         std::stringstream log;
         if (!OIIO::ImageBufAlgo::make_texture(mode, input, tmp, config, &log)) {
             *error = OIIO::geterror();
