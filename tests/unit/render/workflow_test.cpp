@@ -1,0 +1,171 @@
+// RenderMan workflows end to end: the two-RIB shadow pipeline (zfile,
+// MakeShadow, shadow lookups), automatic maps, textures made in the RIB.
+
+#include "support/render_harness.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <gtest/gtest.h>
+
+#include <fmt/format.h>
+
+using namespace umbra;
+using umbra::test::Image;
+using umbra::test::ScratchDir;
+
+namespace {
+
+/// A sphere of radius 0.5, 1.5 above the ground plane y = 0, lit straight
+/// down by a distant light: the shadow is the disk x^2 + z^2 < 0.25 on the
+/// ground. The sphere is invisible to the camera but casts shadows, so the
+/// whole shadow can be seen from above.
+/// The camera looks straight down too (orthographic, from y = 10; camera
+/// +z is world -y, camera +y is world +z), so raster position maps linearly
+/// to ground coordinates: x in [-3,3] left to right, z in [3,-3] top to
+/// bottom, over 120x120 pixels.
+const char* kDownCamera = R"(
+Format 120 120 1
+ScreenWindow -3 3 -3 3
+Projection "orthographic"
+Rotate -90 1 0 0
+Translate 0 -10 0
+)";
+
+std::string world(const std::string& light) {
+    return fmt::format(R"(
+WorldBegin
+  {}
+  Surface "matte"
+  AttributeBegin
+    Attribute "visibility" "transmission" [0]
+    Polygon "P" [-5 0 -5  -5 0 5  5 0 5  5 0 -5]
+  AttributeEnd
+  AttributeBegin
+    Attribute "visibility" "camera" [0]
+    Translate 0 1.5 0
+    Sphere 0.5 -0.5 0.5 360
+  AttributeEnd
+WorldEnd
+)", light);
+}
+
+/// Brightness of the ground at world (x, z), read from the image.
+float groundAt(const Image& img, float x, float z) {
+    int px = int((x + 3) / 6 * img.width), py = int((3 - z) / 6 * img.height);
+    return img.at(px, py, 0);
+}
+
+}  // namespace
+
+TEST(Workflow, ZfileMakeShadowThenLookup) {
+    ScratchDir dir("zfile");
+    Diagnostics diag;
+    // Pass 1: the light's view, orthographic straight down, to a zfile.
+    test::renderRib(fmt::format(R"(
+Display "{0}" "zfile" "z"
+Format 128 128 1
+PixelSamples 1 1
+Hider "hidden" "jitter" [0]
+ScreenWindow -3 3 -3 3
+Projection "orthographic"
+Rotate -90 1 0 0
+Translate 0 -10 0
+{1}
+MakeShadow "{0}" "{2}"
+)", dir.file("light.z"), world(""), dir.file("light.shd")),
+                    diag);
+    ASSERT_EQ(diag.errorCount(), 0);
+    ASSERT_TRUE(std::filesystem::exists(dir.file("light.shd")));
+    // Pass 2: the beauty render looks the map up.
+    test::renderRib(fmt::format(R"(Display "{}" "openexr" "rgba" "string type" "float"
+PixelSamples 2 2
+{}
+{})", dir.file("beauty.exr"), kDownCamera,
+                                world(fmt::format(R"(LightSource "shadowdistant" 1 "from" [0 1 0] "to" [0 0 0] "shadowname" ["{}"] "bias" [0.05])",
+                                                  dir.file("light.shd")))),
+                    diag);
+    ASSERT_EQ(diag.errorCount(), 0);
+    Image img;
+    ASSERT_TRUE(test::readImage(dir.file("beauty.exr"), &img));
+    // Lit ground outside the shadow disk, shadowed inside.
+    EXPECT_GT(groundAt(img, 0.8f, 0), 0.5f);
+    EXPECT_GT(groundAt(img, 0, -2.0f), 0.5f);
+    EXPECT_LT(groundAt(img, 0.0f, 0.0f), 0.05f);
+    EXPECT_LT(groundAt(img, 0.3f, 0.1f), 0.05f);
+}
+
+TEST(Workflow, AutomaticMapMatchesRayTracedShadow) {
+    // The same scene with an automatic map and with exact ray-traced shadows:
+    // the shadowed areas must agree except along the edge.
+    ScratchDir dir("auto");
+    Diagnostics diag;
+    auto frame = [&](const std::string& out, const std::string& shadowName) {
+        return fmt::format(R"(Display "{}" "openexr" "rgba" "string type" "float"
+PixelSamples 2 2
+Option "umbra" "shadowmapsize" [512]
+{}
+{})", out, kDownCamera,
+                           world(fmt::format(R"(LightSource "shadowdistant" 1 "from" [0 1 0] "to" [0 0 0] "shadowname" ["{}"] "samples" [16])",
+                                             shadowName)));
+    };
+    test::renderRib(frame(dir.file("map.exr"), "auto"), diag);
+    test::renderRib(frame(dir.file("ray.exr"), "raytrace"), diag);
+    ASSERT_EQ(diag.errorCount(), 0);
+    Image a, b;
+    ASSERT_TRUE(test::readImage(dir.file("map.exr"), &a));
+    ASSERT_TRUE(test::readImage(dir.file("ray.exr"), &b));
+    int differ = 0, shadowed = 0, lit = 0;
+    for (int y = 0; y < a.height; ++y)
+        for (int x = 0; x < a.width; ++x) {
+            bool sa = a.at(x, y, 0) < 0.5f, sb = b.at(x, y, 0) < 0.5f;
+            differ += sa != sb;
+            shadowed += sb;
+            lit += !sb;
+        }
+    // The shadow disk covers pi 0.25 / (6/120)^2 = 314 pixels.
+    EXPECT_NEAR(shadowed, 314, 40);
+    EXPECT_GT(lit, 10000);
+    EXPECT_LT(groundAt(b, 0.0f, 0.0f), 0.05f);
+    EXPECT_GT(groundAt(b, 0.8f, 0.0f), 0.5f);
+    // Only pixels on the outline may differ: it is 2 pi 0.5 / (6/120) = 63
+    // pixels long.
+    EXPECT_LT(differ, 63);
+}
+
+TEST(Workflow, MakeTextureThenTexture) {
+    ScratchDir dir("texture");
+    // A 2x1 picture: red on the left half, green on the right.
+    {
+        auto out = OIIO::ImageOutput::create(dir.file("pic.tif"));
+        ASSERT_TRUE(out);
+        OIIO::ImageSpec spec(64, 32, 3, OIIO::TypeDesc::FLOAT);
+        ASSERT_TRUE(out->open(dir.file("pic.tif"), spec));
+        std::vector<float> px(64 * 32 * 3, 0.0f);
+        for (int y = 0; y < 32; ++y)
+            for (int x = 0; x < 64; ++x) px[size_t((y * 64 + x) * 3 + (x < 32 ? 0 : 1))] = 1.0f;
+        ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, px.data()));
+        out->close();
+    }
+    Diagnostics diag;
+    test::renderRib(fmt::format(R"(
+MakeTexture "{0}" "{1}" "clamp" "clamp" "gaussian" 2 2
+Display "{2}" "openexr" "rgba" "string type" "float"
+Format 80 40 1
+ScreenWindow -2 2 -1 1
+Projection "orthographic"
+Translate 0 0 5
+WorldBegin
+  Surface "paintedplastic" "texturename" ["{1}"] "Ka" [1] "Kd" [0] "Ks" [0]
+  LightSource "ambientlight" 1 "intensity" [1]
+  Polygon "P" [-2 -1 0  2 -1 0  2 1 0  -2 1 0] "st" [0 0  1 0  1 1  0 1]
+WorldEnd
+)", dir.file("pic.tif"), dir.file("pic.tx"), dir.file("out.exr")),
+                    diag);
+    ASSERT_EQ(diag.errorCount(), 0);
+    Image img;
+    ASSERT_TRUE(test::readImage(dir.file("out.exr"), &img));
+    EXPECT_GT(img.at(10, 20, 0), 0.9f);
+    EXPECT_LT(img.at(10, 20, 1), 0.1f);
+    EXPECT_LT(img.at(70, 20, 0), 0.1f);
+    EXPECT_GT(img.at(70, 20, 1), 0.9f);
+}
