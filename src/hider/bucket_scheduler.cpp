@@ -150,9 +150,12 @@ struct Frame {
         node.state = Node::State::Grid;
     }
 
+    /// Frees a node's grid and pieces (pieces a bucket skipped behind
+    /// opaque samples still hold theirs until their parent goes).
     void release(Node& node) {
         if (node.grid) --gridsAlive;
         node.grid.reset();
+        for (auto& child : node.children) release(*child);
         node.children.clear();
         node.children.shrink_to_fit();
     }
