@@ -80,26 +80,36 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
     g.transform(c, c.inverse());
 
     const PreparedAttributes& pa = m_frame.attributes.at(&attrs);
-    GridState state{&m_frame, &m_pass, &rec, c};
+    const bool flip = attrs.outsideIsLeft != (c.det3() < 0);
+    // A depth pass needs only positions; it runs the shading system just for
+    // displacement.
+    const std::vector<Vec3>* positions = &g.P;
     shading::ShadingGrid& sg = m_grids.local();
-    sg.resize(nu + 1, nv + 1);
-    sg.bind(g, attrs.color, attrs.opacity, cam.perspective);
-    sg.flipNormals = attrs.outsideIsLeft != (c.det3() < 0);
-    sg.seed = hashKeys(m_frame.frameSeed, uint32_t(id), uint32_t(id >> 32));
-    sg.renderState = &state;
+    if (!m_pass.depthOnly || pa.displacement) {
+        GridState state{&m_frame, &m_pass, &rec, c};
+        sg.resize(nu + 1, nv + 1);
+        sg.bind(g, attrs.color, attrs.opacity, cam.perspective);
+        sg.flipNormals = flip;
+        sg.seed = hashKeys(m_frame.frameSeed, uint32_t(id), uint32_t(id >> 32));
+        sg.renderState = &state;
 
-    shading::ShadeRequest request;
-    request.displacement = pa.displacement.get();
-    if (!m_pass.depthOnly) {
-        request.surface = pa.surface.get();
-        request.atmosphere = pa.atmosphere.get();
-        request.lights = pa.lights;
-        request.outputs = m_frame.aovNames;
+        shading::ShadeRequest request;
+        request.displacement = pa.displacement.get();
+        if (m_pass.depthOnly) {
+            request.displacementOnly = true;
+        } else {
+            request.surface = pa.surface.get();
+            request.atmosphere = pa.atmosphere.get();
+            request.lights = pa.lights;
+            request.outputs = m_frame.aovNames;
+        }
+        auto t0 = std::chrono::steady_clock::now();
+        m_frame.shading->shade(sg, request, m_services);
+        m_frame.shadingNanoseconds += uint64_t(
+            std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - t0).count());
+        positions = &sg.P;
     }
-    auto t0 = std::chrono::steady_clock::now();
-    m_frame.shading->shade(sg, request, m_services);
-    m_frame.shadingNanoseconds += uint64_t(
-        std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - t0).count());
+    const std::vector<Vec3>& P = *positions;
 
     const int n = (nu + 1) * (nv + 1);
     out.nu = nu;
@@ -110,7 +120,7 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
     out.bound = Bound3();
     bool anyInFront = false;
     for (int i = 0; i < n; ++i) {
-        const Vec3& p = sg.P[size_t(i)];
+        const Vec3& p = P[size_t(i)];
         if (cam.perspective && p.z < m_eyeZ) {
             // Displaced behind the eye: keep it out of the image.
             out.P[size_t(i)] = {0, 0, -kInfinity};
@@ -123,7 +133,7 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
     if (!anyInFront) return false;
 
     out.culled.clear();
-    if (attrs.sides == 1 && m_pass.cull != Pass::Cull::None && !cullFacing(sg, out)) return false;
+    if (attrs.sides == 1 && m_pass.cull != Pass::Cull::None && !cullFacing(P, flip, out)) return false;
 
     if (m_pass.depthOnly) {
         out.Ci.clear();
@@ -137,7 +147,7 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
     return true;
 }
 
-bool SurfacePipeline::cullFacing(const shading::ShadingGrid& sg, hider::ShadedGrid& out) const {
+bool SurfacePipeline::cullFacing(const std::vector<Vec3>& P, bool flip, hider::ShadedGrid& out) const {
     // A micropolygon faces the eye when its outward normal points at it.
     // The outward normal is (P(i+1,j) - P(i,j)) x (P(i,j+1) - P(i,j)), the
     // direction of dPdu x dPdv, negated when the grid's orientation is
@@ -149,11 +159,11 @@ bool SurfacePipeline::cullFacing(const shading::ShadingGrid& sg, hider::ShadedGr
     bool anyKept = false;
     for (int j = 0; j < nv; ++j)
         for (int i = 0; i < nu; ++i) {
-            const Vec3& a = sg.P[size_t(j * nu1 + i)];
-            Vec3 n = cross(sg.P[size_t(j * nu1 + i + 1)] - a, sg.P[size_t((j + 1) * nu1 + i)] - a);
-            Vec3 centre = (a + sg.P[size_t((j + 1) * nu1 + i + 1)]) * 0.5f;
+            const Vec3& a = P[size_t(j * nu1 + i)];
+            Vec3 n = cross(P[size_t(j * nu1 + i + 1)] - a, P[size_t((j + 1) * nu1 + i)] - a);
+            Vec3 centre = (a + P[size_t((j + 1) * nu1 + i + 1)]) * 0.5f;
             float toward = perspective ? dot(n, centre) : n.z;  // > 0: faces away (unflipped)
-            bool front = sg.flipNormals ? toward > 0 : toward < 0;
+            bool front = flip ? toward > 0 : toward < 0;
             bool drop = dropFront ? front : !front;
             out.culled[size_t(j * nu + i)] = drop ? 1 : 0;
             anyKept |= !drop;

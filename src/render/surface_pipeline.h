@@ -31,7 +31,7 @@ private:
     void fillAovs(const shading::ShadingGrid& sg, hider::ShadedGrid& out) const;
     /// Marks the micropolygons the pass culls by facing (see Pass::Cull);
     /// false when none is left.
-    bool cullFacing(const shading::ShadingGrid& sg, hider::ShadedGrid& out) const;
+    bool cullFacing(const std::vector<Vec3>& P, bool flip, hider::ShadedGrid& out) const;
 
     FrameState& m_frame;
     const Pass& m_pass;

@@ -426,7 +426,7 @@ void ShadingSystem::shade(ShadingGrid& grid, const ShadeRequest& request, Render
     };
     if (request.displacement) ctx.displacement = runOne(request.displacement->shader().code(), request.displacement);
     if (request.surface) ctx.surface = runOne(request.surface->shader().code(), request.surface);
-    else ctx.surface = runOne(m_default->code(), nullptr);
+    else if (!request.displacementOnly) ctx.surface = runOne(m_default->code(), nullptr);
     for (const std::string& name : request.outputs) {
         for (Exec* e : {ctx.surface, ctx.displacement}) {
             if (!e) continue;

@@ -141,6 +141,9 @@ struct ShadeRequest {
     const ShaderInstance* surface = nullptr;       // null: defaultsurface behaviour
     const ShaderInstance* atmosphere = nullptr;
     std::vector<const ShaderInstance*> lights;
+    /// Run the displacement shader only (depth passes): no surface, no
+    /// default surface, no lights.
+    bool displacementOnly = false;
     /// Names of output parameters to keep for AOVs (ShadingGrid::output).
     std::vector<std::string> outputs;
 };
