@@ -1,18 +1,23 @@
 /* shadowpoint: pointlight with six shadow maps, one per cube face in
-   "shader" space (sfpx: the map looking down +x, sfnx down -x, ...). */
+   "shader" space (sfpx: the map looking down +x, sfnx down -x, ...).
+   umbra extension: "shadowname" names one cube map holding all six faces
+   (what "shadowname" "auto" renders); it takes precedence when set. */
 #define SHADOW_ARGS "samples", samples, "width", width, "blur", blur, \
                     "bias", bias, "bias0", bias0, "bias1", bias1
 
 light shadowpoint(float intensity = 1; color lightcolor = 1;
                   point from = point "shader" (0, 0, 0);
                   string sfpx = "", sfnx = "", sfpy = "", sfny = "", sfpz = "", sfnz = "";
+                  string shadowname = "";
                   float samples = 16, width = 1, blur = 0, bias = 0, bias0 = 0, bias1 = 0;)
 {
     illuminate(from) {
         vector Ls = vtransform("shader", L);
         float ax = abs(xcomp(Ls)), ay = abs(ycomp(Ls)), az = abs(zcomp(Ls));
         float shad = 0;
-        if (ax >= ay && ax >= az) {
+        if (shadowname != "") {
+            shad = shadow(shadowname, Ps, SHADOW_ARGS);
+        } else if (ax >= ay && ax >= az) {
             if (xcomp(Ls) > 0) {
                 if (sfpx != "") shad = shadow(sfpx, Ps, SHADOW_ARGS);
             } else {

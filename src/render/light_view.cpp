@@ -110,7 +110,31 @@ std::optional<Pass> lightPass(const LightGeometry& light, const std::vector<geom
     return pass;
 }
 
-DepthImage depthImageOf(const film::Film& film, const hider::Camera& camera, DepthFilter filter, float dualOffset) {
+std::array<Pass, 6> cubeFacePasses(const LightGeometry& light, int resolution, const std::string& name) {
+    static const Vec3 kAxes[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    static const char* kFaces[6] = {"+x", "-x", "+y", "-y", "+z", "-z"};
+    std::array<Pass, 6> passes;
+    for (int f = 0; f < 6; ++f) {
+        Pass& pass = passes[size_t(f)];
+        pass.name = name + kFaces[f];
+        pass.depthOnly = true;
+        hider::Camera& cam = pass.camera;
+        cam.xResolution = cam.yResolution = std::max(1, resolution);
+        cam.perspective = true;
+        // A little over 90 degrees, so filter regions at a face's edge stay
+        // inside the face the lookup picks.
+        cam.tanHalfFov = 1.02f;
+        cam.cameraFromWorld = lookAt(light.from, light.from + kAxes[f]);
+        cam.nearClip = 1e-3f;
+        cam.farClip = 1e30f;
+        cam.finish();
+    }
+    return passes;
+}
+
+DepthImage depthImageOf(const film::Film& film, const Pass& pass, DepthFilter filter, float dualOffset) {
+    const hider::Camera& camera = pass.camera;
+    const bool frontCulled = pass.cull == Pass::Cull::Front;
     DepthImage image(film.xResolution(), film.yResolution());
     image.lightFromWorld = camera.cameraFromWorld;
     image.ndcFromWorld = camera.ndcFromScreen() * camera.screenFromCamera() * camera.cameraFromWorld;
@@ -127,7 +151,7 @@ DepthImage depthImageOf(const film::Film& film, const hider::Camera& camera, Dep
             case DepthFilter::Min:
             case DepthFilter::Max:
             case DepthFilter::Average: z = z1; break;  // one sample per pixel: all three agree
-            case DepthFilter::Second: z = z2; break;   // single layer: nothing behind, +infinity
+            case DepthFilter::Second: z = frontCulled ? z1 : z2; break;  // single layer: +infinity
             case DepthFilter::Midpoint:
                 // Single layer: the dual rule keeps the midpoint finite.
                 z = single ? z1 + dualOffset : 0.5f * (z1 + z2);

@@ -7,6 +7,8 @@
 //                    (coneangle + conedeltaangle) filling the map
 //   distant lights   orthographic along from->to, fitted to the bound of
 //                    every shadow-casting primitive
+//   point lights     six perspective faces of a cube around "from", stored
+//                    as one multi-part map
 // and a resolution from Option "umbra" "shadowmapsize" (default: the larger
 // side of the image, as Reeves recommends).
 
@@ -16,6 +18,7 @@
 #include "umbra/geometry/primitive.h"
 #include "umbra/shadow/depth_image.h"
 
+#include <array>
 #include <optional>
 #include <string>
 #include <vector>
@@ -37,9 +40,13 @@ struct LightGeometry {
 LightGeometry lightGeometry(const scene::LightRecord& light, const shading::Shader* shader);
 
 /// The view of a depth pass for `light`, or nothing (with a warning) when
-/// umbra cannot derive one (e.g. point lights: cube maps are not written yet).
+/// umbra cannot derive one. Point lights use cubeFacePasses instead.
 std::optional<Pass> lightPass(const LightGeometry& light, const std::vector<geometry::PrimitivePtr>& prims,
                               int resolution, const std::string& name, Diagnostics& diag, const FileLoc& loc);
+
+/// The six 90-degree views of a point light's cube map, in the face order
+/// of writeCubeDepthMap (+x -x +y -y +z -z).
+std::array<Pass, 6> cubeFacePasses(const LightGeometry& light, int resolution, const std::string& name);
 
 /// A camera at `from` looking at `to` (RenderMan's left-handed camera
 /// space: +z along the view, +y as close to world +y as possible).
@@ -47,6 +54,9 @@ Mat4 lookAt(const Vec3& from, const Vec3& to);
 
 /// The depth image of a depth-mode film, with the pass's matrices, reduced
 /// to one layer by `filter` (see docs/shadows.md for single-layer pixels).
-DepthImage depthImageOf(const film::Film& film, const hider::Camera& camera, DepthFilter filter, float dualOffset);
+/// A pass that culled the light-facing surfaces of solids already made the
+/// nearest remaining surface the second depth (Wang & Molnar's culling), so
+/// "second" then stores that.
+DepthImage depthImageOf(const film::Film& film, const Pass& pass, DepthFilter filter, float dualOffset);
 
 }  // namespace umbra::render

@@ -350,7 +350,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     meta.cameraFromWorld = pass.camera.cameraFromWorld;
     meta.ndcFromWorld = pass.camera.ndcFromScreen() * pass.camera.screenFromCamera() * pass.camera.cameraFromWorld;
     film::DepthWriter depthWriter = [&](const scene::DisplayRecord& d, const film::Film& f) {
-        DepthImage image = depthImageOf(f, pass.camera, depthFilterOf(options, d.loc), dualOffsetOf(options));
+        DepthImage image = depthImageOf(f, pass, depthFilterOf(options, d.loc), dualOffsetOf(options));
         bool ok = d.driver == "zfile" ? writeZFile(d.name, image, diag, d.loc) : writeDepthMap(d.name, image, diag, d.loc);
         maps->invalidate(d.name);
         return ok;
@@ -424,24 +424,39 @@ std::string Renderer::Impl::renderLightMap(FrameState& frame, const scene::Light
         if (!it->second.ints.empty()) size = it->second.ints[0];
         else if (!it->second.floats.empty()) size = int(it->second.floats[0]);
     }
-    auto pass = lightPass(geometry, prims, size, "depth:" + handle, diag, light.shader.loc);
-    if (!pass) return "";
-    pass->cull = depthCullOf(options, light.shader.loc);
-    float crop[4] = {0, 1, 0, 1};
-    film::Film film(size, size, crop, *film::PixelFilter::create("box", 1, 1), {}, true);
-    PassResult r = runPass(frame, *pass, prims, film, fmt::format("depth map {}", handle));
-    passes.push_back({{"name", pass->name},
-                      {"wall_seconds", r.wall},
-                      {"cpu_seconds", r.cpu},
-                      {"counts", schedulerJson(r.counters)},
-                      {"samples", r.samples}});
+    const DepthFilter filter = depthFilterOf(options, light.shader.loc);
+    const float offset = dualOffsetOf(options);
+    const Pass::Cull cull = depthCullOf(options, light.shader.loc);
+    // One depth pass: rendered, recorded in the statistics, reduced to a map image.
+    auto render = [&](Pass& pass) {
+        pass.cull = cull;
+        float crop[4] = {0, 1, 0, 1};
+        film::Film film(size, size, crop, *film::PixelFilter::create("box", 1, 1), {}, true);
+        PassResult r = runPass(frame, pass, prims, film, fmt::format("depth map {}", pass.name));
+        passes.push_back({{"name", pass.name},
+                          {"wall_seconds", r.wall},
+                          {"cpu_seconds", r.cpu},
+                          {"counts", schedulerJson(r.counters)},
+                          {"samples", r.samples}});
+        return depthImageOf(film, pass, filter, offset);
+    };
 
     // The map is written beside the first image, named after it and the light.
     std::filesystem::path base(options.displays.empty() ? std::string("umbra") : options.displays[0].name);
     std::string frameTag = frame.world->frameNumber >= 0 ? fmt::format(".{:04d}", frame.world->frameNumber) : "";
     std::string path = (base.parent_path() / fmt::format("{}{}.{}.shd", base.stem().string(), frameTag, handle)).string();
-    DepthImage image = depthImageOf(film, pass->camera, depthFilterOf(options, light.shader.loc), dualOffsetOf(options));
-    if (!writeDepthMap(path, image, diag, light.shader.loc)) {
+    bool ok;
+    if (geometry.shape == LightShape::Point) {
+        std::array<Pass, 6> faces = cubeFacePasses(geometry, size, "depth:" + handle);
+        std::array<DepthImage, 6> images;
+        for (size_t f = 0; f < 6; ++f) images[f] = render(faces[f]);
+        ok = writeCubeDepthMap(path, images, diag, light.shader.loc);
+    } else {
+        auto pass = lightPass(geometry, prims, size, "depth:" + handle, diag, light.shader.loc);
+        if (!pass) return "";
+        ok = writeDepthMap(path, render(*pass), diag, light.shader.loc);
+    }
+    if (!ok) {
         ++failed;
         return "";
     }
