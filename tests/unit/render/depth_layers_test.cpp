@@ -138,8 +138,14 @@ TEST(DepthLayers, CullingDropsFacesOfOneSidedSolidsOnly) {
     // The same box two-sided is never culled: both layers stay.
     auto twoSided = depthRow("cull-front-2", "min", "front", 0.05f, box(2), cols);
     EXPECT_FLOAT_EQ(twoSided[0], 5.0f);
+    // With front culling the pass has already removed the first layer of
+    // solids, so "second" stores the nearest remaining surface: for a
+    // two-sided (unculled) box that is its near face, which the lookup's
+    // virtual samples keep from shadowing itself.
     auto twoSidedSecond = depthRow("cull-front-2s", "second", "front", 0.05f, box(2), cols);
-    EXPECT_FLOAT_EQ(twoSidedSecond[0], 6.0f);
+    EXPECT_FLOAT_EQ(twoSidedSecond[0], 5.0f);
+    auto oneSidedSecond = depthRow("cull-front-1s", "second", "front", 0.05f, box(1), cols);
+    EXPECT_FLOAT_EQ(oneSidedSecond[0], 6.0f);
     // One-sided, no culling: the second layer is the far face.
     auto second = depthRow("cull-none-2s", "second", "none", 0.05f, box(1), cols);
     EXPECT_FLOAT_EQ(second[0], 6.0f);
