@@ -81,6 +81,19 @@ nlohmann::json schedulerJson(const hider::SchedulerStats& s) {
             {"buckets", s.buckets},       {"peak_grids_alive", s.peakGridsAlive}};
 }
 
+/// The frame's displays with modes that name a DisplayChannel replaced by
+/// the channel's declaration ("myaov" -> "color myaov"), as PRMan reads them.
+std::vector<scene::DisplayRecord> withDisplayChannels(const scene::Options& options) {
+    std::vector<scene::DisplayRecord> displays = options.displays;
+    for (auto& d : displays)
+        for (const auto& channel : options.displayChannels) {
+            const std::string& decl = channel.name;  // e.g. "varying color myaov"
+            size_t space = decl.find_last_of(' ');
+            if (space != std::string::npos && decl.substr(space + 1) == d.mode) d.mode = decl;
+        }
+    return displays;
+}
+
 nlohmann::json tileCacheJson(const TileCacheStats& c) {
     return {{"lookups", c.lookups}, {"hits", c.hits},           {"misses", c.misses},
             {"tiles_read", c.tilesRead}, {"evictions", c.evictions}, {"peak_bytes", c.peakBytes}};
@@ -327,11 +340,12 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     Pass pass;
     pass.name = "camera";
     pass.camera = hider::Camera::fromOptions(options);
-    bool depthFrame = !options.displays.empty();
-    for (const auto& d : options.displays) depthFrame = depthFrame && d.mode == "z";
+    const std::vector<scene::DisplayRecord> displays = withDisplayChannels(options);
+    bool depthFrame = !displays.empty();
+    for (const auto& d : displays) depthFrame = depthFrame && d.mode == "z";
     pass.depthOnly = depthFrame;
     if (depthFrame) pass.cull = depthCullOf(options, options.loc);
-    std::vector<film::AovChannel> aovs = depthFrame ? std::vector<film::AovChannel>{} : film::aovChannelsFor(options.displays);
+    std::vector<film::AovChannel> aovs = depthFrame ? std::vector<film::AovChannel>{} : film::aovChannelsFor(displays);
     for (const auto& a : aovs) {
         frame.aovNames.push_back(a.name);
         frame.aovComponents.push_back(a.components);
@@ -355,7 +369,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
         maps->invalidate(d.name);
         return ok;
     };
-    bool wrote = film.write(options.displays, options, meta, diag, depthWriter);
+    bool wrote = film.write(displays, options, meta, diag, depthWriter);
 
     double wall = frameClock.wall(), cpu = frameClock.cpu();
     ShadowStats shadowStats = services->shadowStats();
