@@ -15,41 +15,7 @@ namespace umbra::shading {
 
 namespace {
 
-struct M16 {
-    float m[16];
-};
 
-template <class T> struct In;
-template <> struct In<float> {
-    const float* p;
-    int s;
-    float operator[](int i) const { return p[i * s]; }
-};
-template <> struct In<Vec3> {
-    const float* p;
-    int s;
-    Vec3 operator[](int i) const {
-        const float* q = p + 3 * i * s;
-        return {q[0], q[1], q[2]};
-    }
-};
-template <> struct In<M16> {
-    const float* p;
-    int s;
-    M16 operator[](int i) const {
-        M16 r;
-        std::memcpy(r.m, p + 16 * i * s, sizeof r.m);
-        return r;
-    }
-};
-inline void put(float* p, int i, float v) { p[i] = v; }
-inline void put(float* p, int i, const Vec3& v) {
-    float* q = p + 3 * i;
-    q[0] = v.x;
-    q[1] = v.y;
-    q[2] = v.z;
-}
-inline void put(float* p, int i, const M16& v) { std::memcpy(p + 16 * i, v.m, sizeof v.m); }
 
 template <class F> void forActive(const Exec& x, bool varying, F&& f) {
     if (!varying) f(0);
