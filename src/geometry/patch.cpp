@@ -72,10 +72,7 @@ Grid BilinearPatch::dice(int nu, int nv) const {
 
 void BilinearPatch::dicePositions(int nu, int nv, std::vector<Vec3>& P) const {
     thread_local std::vector<float> a, b;
-    a.resize(size_t(nu) + 1);
-    b.resize(size_t(nv) + 1);
-    for (int i = 0; i <= nu; ++i) a[size_t(i)] = m_range.u0 + (m_range.u1 - m_range.u0) * float(i) / float(nu);
-    for (int j = 0; j <= nv; ++j) b[size_t(j)] = m_range.v0 + (m_range.v1 - m_range.v0) * float(j) / float(nv);
+    m_range.steps(nu, nv, a, b);
     P.resize(size_t(nu + 1) * size_t(nv + 1));
     evalPositions(a, b, P.data());
 }
@@ -258,10 +255,7 @@ Grid BicubicPatch::dice(int nu, int nv) const {
 
 void BicubicPatch::dicePositions(int nu, int nv, std::vector<Vec3>& P) const {
     thread_local std::vector<float> a, b, h;
-    a.resize(size_t(nu) + 1);
-    b.resize(size_t(nv) + 1);
-    for (int i = 0; i <= nu; ++i) a[size_t(i)] = m_range.u0 + (m_range.u1 - m_range.u0) * float(i) / float(nu);
-    for (int j = 0; j <= nv; ++j) b[size_t(j)] = m_range.v0 + (m_range.v1 - m_range.v0) * float(j) / float(nv);
+    m_range.steps(nu, nv, a, b);
     const size_t n = size_t(nu + 1) * size_t(nv + 1);
     P.resize(n);
     h.resize(n * 4);

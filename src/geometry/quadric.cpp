@@ -298,10 +298,7 @@ Grid Quadric::dice(int nu, int nv) const {
 
 void Quadric::dicePositions(int nu, int nv, std::vector<Vec3>& P) const {
     thread_local std::vector<float> a, b;
-    a.resize(size_t(nu) + 1);
-    b.resize(size_t(nv) + 1);
-    for (int i = 0; i <= nu; ++i) a[size_t(i)] = m_range.u0 + (m_range.u1 - m_range.u0) * float(i) / float(nu);
-    for (int j = 0; j <= nv; ++j) b[size_t(j)] = m_range.v0 + (m_range.v1 - m_range.v0) * float(j) / float(nv);
+    m_range.steps(nu, nv, a, b);
     P.resize(size_t(nu + 1) * size_t(nv + 1));
     evalGrid(nu, nv, a, b, P.data(), nullptr);
 }

@@ -107,6 +107,14 @@ struct ParamRange {
         }
         return r;
     }
+    /// The parameters of an nu x nv dicing of this range: nu+1 values of u
+    /// in `us`, nv+1 of v in `vs`.
+    void steps(int nu, int nv, std::vector<float>& us, std::vector<float>& vs) const {
+        us.resize(size_t(nu) + 1);
+        vs.resize(size_t(nv) + 1);
+        for (int i = 0; i <= nu; ++i) us[size_t(i)] = u0 + (u1 - u0) * float(i) / float(nu);
+        for (int j = 0; j <= nv; ++j) vs[size_t(j)] = v0 + (v1 - v0) * float(j) / float(nv);
+    }
 };
 
 /// Maps the corner domain to the u, v the grid reports (e.g. a patch of a
