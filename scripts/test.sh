@@ -35,7 +35,7 @@ done
 if [ ${#tsan_targets[@]} -gt 0 ]; then
   cmake --build build-tsan -j"$jobs" --target "${tsan_targets[@]}"
   for t in "${tsan_targets[@]}"; do
-    TSAN_OPTIONS=halt_on_error=1 "build-tsan/bin/$t" --gtest_filter='*Concurrent*:*Thread*:*Determinis*'
+    TSAN_OPTIONS="halt_on_error=1 suppressions=$PWD/tests/tsan.supp" "build-tsan/bin/$t"
   done
 fi
 
