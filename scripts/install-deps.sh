@@ -3,7 +3,7 @@
 # ../shared/DEPENDENCIES.md). Does nothing when they are all present.
 set -euo pipefail
 packages=(
-  cmake ninja-build g++ pkg-config
+  cmake ninja-build g++ pkg-config python3
   libopenimageio-dev openimageio-tools libopenexr-dev libtbb-dev
   libcli11-dev nlohmann-json3-dev libfmt-dev zlib1g-dev libtiff-dev libpng-dev
   libgtest-dev libbenchmark-dev libembree-dev
