@@ -375,12 +375,12 @@ def write_report(docs, figdir, scenes, sizes, refs, results, seconds):
 
     p('## Findings for the renderer')
     p('')
-    p('* `second` with `depthcull "front"` leaks the shadow of every solid onto the floor (its leak row in '
-      'the tables below is the whole cast shadow). The depth pass stores z2 = the nearest hit *after* the culled '
-      'light-facing surfaces, i.e. the third surface overall: Wang & Molnar\'s front-face culling is an '
-      '*alternative way to obtain* the second depth and must be paired with the nearest remaining layer (z1 '
-      'after culling). Until src/render/light_view.cpp stores z1 for (second, front), use `second` without '
-      'culling, which is what the verdicts above rest on.')
+    p('* `second` with `depthcull "front"`: front-face culling is Wang & Molnar\'s *other way to obtain* the '
+      'second depth, so the map stores the nearest surface left after culling (z1 of the culled pass; '
+      'src/render/light_view.cpp). It no longer leaks cast shadows; its remaining acne at small map sizes '
+      'comes from two-sided open surfaces (the floor), whose own depth is then stored and which only the '
+      'virtual-sample tolerance keeps lit. For scenes with open receivers, `second` without culling is the '
+      'safer choice, and the verdicts above use it.')
     p('* Leaks of `second` (no culling) on the curved solids (tori, sphere) at small maps are most likely on the '
       'terminator, where the tangent plane is nearly parallel to the light (Wang & Molnar Fig. 9).')
     p('* The `min` filter at bias 0 self-shadows about a third of all pixels at every map size: a '

@@ -45,9 +45,12 @@ CC=clang CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWit
   -DUMBRA_SANITIZE=address,undefined >/dev/null
 cmake --build build-fuzz -j"$jobs" --target fuzzers
 for f in build-fuzz/bin/fuzz_*; do
-  corpus="tests/fuzz/corpus/$(basename "$f")"
+  # Seeds: the project's own scenes and shaders.
   work=$(mktemp -d)
-  cp -r "$corpus"/. "$work"/ 2>/dev/null || true
+  case "$(basename "$f")" in
+    fuzz_rib) find scenes tests/rib_errors -name '*.rib' -size -64k -exec cp {} "$work"/ \; ;;
+    fuzz_slc) cp shaders_dsl/*.sl "$work"/ ;;
+  esac
   "$f" -max_total_time="$fuzz_seconds" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 "$work" 2>&1 | tail -3
   rm -rf "$work"
 done
