@@ -38,6 +38,12 @@ struct Pass {
     /// surfaces are never culled.
     enum class Cull { None, Front, Back };
     Cull cull = Cull::Back;
+    /// Automatic depth maps dice no finer than this many map pixels per
+    /// micropolygon (Option "umbra" "depthshadingrate"; default 4 for
+    /// nearest-depth maps, none for two-layer ones): depth is interpolated
+    /// linearly across a micropolygon, so coarser dicing costs a biased map
+    /// no accuracy on flat surfaces and little on curved ones.
+    float minShadingRate = 0;
 };
 
 /// Everything the per-grid code needs about the current world.

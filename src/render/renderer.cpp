@@ -442,8 +442,16 @@ std::string Renderer::Impl::renderLightMap(FrameState& frame, const scene::Light
     const float offset = dualOffsetOf(options);
     const Pass::Cull cull = depthCullOf(options, light.shader.loc);
     // One depth pass: rendered, recorded in the statistics, reduced to a map image.
+    // Nearest-depth maps are compared with a bias anyway: dice them at 4
+    // pixels a micropolygon. The two-layer filters store the far sides of
+    // curved solids, where coarser chords leak light (measured in
+    // docs/shadow-quality.md), so they keep the surfaces' own rate.
+    float depthRate = (filter == DepthFilter::Min || filter == DepthFilter::Max || filter == DepthFilter::Average) ? 4 : 0;
+    if (auto it = options.user.find("umbra:depthshadingrate"); it != options.user.end() && !it->second.floats.empty())
+        depthRate = it->second.floats[0];
     auto render = [&](Pass& pass) {
         pass.cull = cull;
+        pass.minShadingRate = depthRate;
         float crop[4] = {0, 1, 0, 1};
         film::Film film(size, size, crop, *film::PixelFilter::create("box", 1, 1), {}, true);
         PassResult r = runPass(frame, pass, prims, film, fmt::format("depth map {}", pass.name));

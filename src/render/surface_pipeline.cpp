@@ -33,7 +33,7 @@ dice::DiceParams SurfacePipeline::diceParams(const geometry::Primitive& prim) co
     p.cameraFromObject = cameraFromObject(prim);
     p.rasterFromCamera = m_rasterFromCamera;
     for (int i = 0; i < 4; ++i) p.rasterWindow[i] = m_rasterWindow[i];
-    p.shadingRate = attrs.shadingRate;
+    p.shadingRate = std::max(attrs.shadingRate, m_pass.minShadingRate);
     p.gridSize = m_frame.world->options.gridSize;
     p.nearClip = cam.nearClip;
     p.farClip = cam.farClip;

@@ -34,7 +34,7 @@ constexpr const char* kStandard[] = {
     "uniform string depthfilter", "uniform float offset",
     // umbra's own options (docs/shadows.md).
     "uniform integer shadowmapsize", "uniform float dualoffset", "uniform integer tilecachemb",
-    "uniform string depthcull",
+    "uniform string depthcull", "uniform float depthshadingrate",
     // Option "searchpath", "limits", "statistics".
     "uniform string shader", "uniform string texture", "uniform string archive",
     "uniform string procedural", "uniform string resource", "uniform string display",
