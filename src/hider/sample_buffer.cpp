@@ -447,7 +447,9 @@ bool SampleBuffer::occluded(const Bound3& b) const {
 
 void SampleBuffer::resolve(film::Film& film) {
     const film::PixelFilter& filter = film.filter();
-    UMBRA_CHECK(filter.xMargin() <= m_cfg.margin && filter.yMargin() <= m_cfg.margin,
+    // Depth mode takes minima over each pixel's own samples: no filter, so
+    // no margin is needed.
+    UMBRA_CHECK(m_cfg.mode == HiderMode::Depth || (filter.xMargin() <= m_cfg.margin && filter.yMargin() <= m_cfg.margin),
                 "sample buffer margin {} is smaller than the {} filter's reach ({}, {})", m_cfg.margin, filter.name(),
                 filter.xMargin(), filter.yMargin());
     const int xs = m_cfg.xSamples, ys = m_cfg.ySamples;

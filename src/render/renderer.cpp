@@ -234,10 +234,14 @@ PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const st
     ss.sampling.aovCount = film.aovFloats();
     ss.sampling.nearClip = pass.camera.nearClip;
     ss.sampling.farClip = pass.camera.farClip;
+    if (pass.depthOnly) ss.filterMargin = 0;  // depths are per-pixel minima, never filtered
     if (pass.depthOnly && pass.name != "camera") {
-        // Automatic depth maps: one regular sample at each pixel centre (Reeves).
+        // Automatic depth maps: one regular sample at each pixel centre
+        // (Reeves), in buckets holding about as many samples as a camera
+        // bucket does.
         ss.sampling.xSamples = ss.sampling.ySamples = 1;
         ss.sampling.jitter = false;
+        if (settings.bucketSize <= 0) ss.bucketSize[0] = ss.bucketSize[1] = 64;
     } else {
         ss.sampling.xSamples = std::max(1, options.pixelSamples[0]);
         ss.sampling.ySamples = std::max(1, options.pixelSamples[1]);

@@ -500,7 +500,13 @@ void shadow(Exec& x, const Instr& in, Args& A, bool four) {
     int nPoints = four ? 4 : 1;
     int nArg = first + nPoints;
     int pairsAt = nArg + 1;
-    std::vector<Vec3> P(size_t(x.n)), dPdu(size_t(x.n)), dPdv(size_t(x.n)), N(size_t(x.n)), corners[4];
+    // Per-thread scratch: a shadow() call runs once per grid and light, and
+    // must not allocate each time.
+    thread_local std::vector<Vec3> P, dPdu, dPdv, N, corners[4], Lv;
+    P.resize(size_t(x.n));
+    dPdu.resize(size_t(x.n));
+    dPdv.resize(size_t(x.n));
+    N.resize(size_t(x.n));
     In<Vec3> Pin = A.v(first);
     In<Vec3> Nin = A.v(nArg);
     float du = gridDu(x), dv = gridDv(x);
@@ -521,7 +527,6 @@ void shadow(Exec& x, const Instr& in, Args& A, bool four) {
         }
         for (int i : x.active) P[size_t(i)] = (corners[0][size_t(i)] + corners[1][size_t(i)] + corners[2][size_t(i)] + corners[3][size_t(i)]) * 0.25f;
     }
-    std::vector<Vec3> Lv;
     if (x.cs->kind == ShaderKind::Light && x.lightConstruct != 0) {
         // Inside illuminate()/solar(): where the light is, for "raytrace".
         const int Lreg = x.cs->globalRegs[gL];
