@@ -127,6 +127,9 @@ bool prepareMap(const DepthImage& image, PreparedMap& out, std::string& why) {
     out.data = Imath::Box2i(Imath::V2i(x0, y0), Imath::V2i(x1, y1));
     Imf::Header header(display, out.data, 1.0f, Imath::V2f(0, 0), 1.0f, Imf::INCREASING_Y, Imf::ZIP_COMPRESSION);
     header.setTileDescription(Imf::TileDescription(kMapTileSize, kMapTileSize, Imf::ONE_LEVEL));
+    // zlib level 4 instead of 6: a 1024^2 map writes about twice as fast
+    // for a few per cent more bytes (maps are written every shadowed frame).
+    header.zipCompressionLevel() = 4;
     header.channels().insert("Z", Imf::Channel(Imf::FLOAT));
     if (!out.crop2.empty()) header.channels().insert("Z2", Imf::Channel(Imf::FLOAT));
     header.insert(kAttrWorldToCamera, Imf::M44fAttribute(toImath(image.lightFromWorld)));
