@@ -128,9 +128,6 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
 
     // Second-depth maps with normals get virtual samples (Wang & Molnar).
     const bool secondDepth = !kPointSample && m_filter == DepthFilter::Second && batch.N && m_virtualMode != 0;
-    Mat4 currentFromLight;
-    if (secondDepth) currentFromLight = lightFromCurrent.inverse();
-    const auto& planeM = m_planeFromLight.m;
 
     for (int i = 0; i < batch.count; ++i) {
         out[i] = 0;
@@ -321,17 +318,9 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                 // Wang & Molnar Fig. 10, mixed comparisons: the tangent plane
                 // at P, in the light's screen space, gives the surface's own
                 // depth at each sample's texel centre.
-                const Vec3 Pl = lightFromCurrent.point(P);
-                const Vec3 Nl = Mat4::normal(currentFromLight, batch.N[i]);
-                const float tc[4] = {Nl.x, Nl.y, Nl.z, -dot(Nl, Pl)};
-                float pl[4];
-                for (int r = 0; r < 4; ++r)
-                    pl[r] = planeM[r][0] * tc[0] + planeM[r][1] * tc[1] + planeM[r][2] * tc[2] + planeM[r][3] * tc[3];
-                // An edge-on plane (c = 0) says nothing about depth: keep the
-                // plain comparisons.
-                if (std::abs(pl[2]) > 1e-30f && std::isfinite(pl[0] + pl[1] + pl[2] + pl[3])) {
+                const TangentPlane plane = tangentPlane(P, batch.N[i], lightFromCurrent);
+                if (plane.valid) {
                     ++st.virtualPoints;
-                    const float ca = -pl[0] / pl[2], cb = -pl[1] / pl[2], cd = -pl[3] / pl[2];
                     Rng replay(hashKeys(batch.seed, uint32_t(i)));  // the same samples again
                     float virtShadow = 0;
                     for (int a = 0; a < ns; ++a) {
@@ -340,12 +329,7 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                             nextSample(replay, a, b, ds, dt, &u, &v, &bias);
                             const int iu = clamp(floorInt(u), iLo, iHi), iv = clamp(floorInt(v), jLo, jHi);
                             if (!regionInside && (iu < dx0 || iu > dx1 || iv < dy0 || iv > dy1)) continue;
-                            const float Z = ca * (float(iu) + 0.5f) + cb * (float(iv) + 0.5f) + cd;
-                            float zv;
-                            if (m_virtualMode == 1)
-                                zv = Z > 0 ? 1.0f / (m_wScale * Z) : kInfinity;  // no crossing in front: far away
-                            else
-                                zv = m_wScale * Z;
+                            const float zv = virtualDepth(plane, iu, iv);
                             const float d = single ? single[((iv - singleY) << shiftX) + (iu - singleX)] : depthAt(iu, iv);
                             // Relative slack for the rounding of the plane
                             // transform: a planar surface stored in the map
@@ -363,6 +347,27 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
         }
     }
     stats += st;
+}
+
+ShadowMap::TangentPlane ShadowMap::tangentPlane(const Vec3& P, const Vec3& N, const Mat4& lightFromSpace) const {
+    TangentPlane plane;
+    if (m_virtualMode == 0) return plane;
+    // The plane n.x + w = 0 through P in light camera space, carried to the
+    // light's screen space by the inverse transpose of screenFromLight.
+    const Vec3 Pl = lightFromSpace.point(P);
+    const Vec3 Nl = Mat4::normal(lightFromSpace.inverse(), N);
+    const float tc[4] = {Nl.x, Nl.y, Nl.z, -dot(Nl, Pl)};
+    const auto& planeM = m_planeFromLight.m;
+    float pl[4];
+    for (int r = 0; r < 4; ++r)
+        pl[r] = planeM[r][0] * tc[0] + planeM[r][1] * tc[1] + planeM[r][2] * tc[2] + planeM[r][3] * tc[3];
+    // An edge-on plane (c = 0) says nothing about depth.
+    if (!(std::abs(pl[2]) > 1e-30f) || !std::isfinite(pl[0] + pl[1] + pl[2] + pl[3])) return plane;
+    plane.a = -pl[0] / pl[2];
+    plane.b = -pl[1] / pl[2];
+    plane.d = -pl[3] / pl[2];
+    plane.valid = true;
+    return plane;
 }
 
 void ShadowMap::lookupCube(const ShadowBatch& batch, const ShadowParams& params, float* out, ShadowStats& stats,

@@ -146,6 +146,26 @@ public:
     /// samples = 1 (any width).
     void lookupPoint(const ShadowBatch& batch, const ShadowParams& params, float* outShadowed, ShadowStats& stats) const;
 
+    /// The tangent plane of a receiver in the light's raster space (Wang &
+    /// Molnar Fig. 10): raster depth Z(x, y) = a x + b y + d, linear there
+    /// although camera-space depth is not. Invalid (second-depth lookups
+    /// keep plain comparisons) when the map cannot take virtual samples or
+    /// the plane is seen edge-on.
+    struct TangentPlane {
+        float a = 0, b = 0, d = 0;
+        bool valid = false;
+    };
+    /// The plane through P with normal N (both in the space `lightFromSpace`
+    /// maps to the light's camera space).
+    TangentPlane tangentPlane(const Vec3& P, const Vec3& N, const Mat4& lightFromSpace) const;
+    /// The light camera-space depth of the plane at the centre of texel
+    /// (x, y): the virtual sample compared with the map's depth there.
+    float virtualDepth(const TangentPlane& plane, int x, int y) const {
+        const float Z = plane.a * (float(x) + 0.5f) + plane.b * (float(y) + 0.5f) + plane.d;
+        if (m_virtualMode == 1) return Z > 0 ? 1.0f / (m_wScale * Z) : kInfinity;  // no crossing in front: far away
+        return m_wScale * Z;
+    }
+
     /// The stored depth of texel (x, y) in raster coordinates (+infinity
     /// outside the bounding box); reads through the cache. For tools/tests.
     float texel(int x, int y) const;
