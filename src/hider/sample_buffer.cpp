@@ -327,7 +327,7 @@ bool SampleBuffer::record(const MicroGrid& g, const HitContext& ctx, const Tri& 
         if (keyLess(z, gid, sub, m_z[s], m_id[s], m_sub[s])) {
             // The nearest hit from another grid than the new nearest is the
             // old nearest (it was nearer than everything else).
-            if (m_z[s] != kInfinity && m_id[s] != gid) {
+            if (m_cfg.depthLayers > 1 && m_z[s] != kInfinity && m_id[s] != gid) {
                 m_z2[s] = m_z[s];
                 m_id2[s] = m_id[s];
                 m_sub2[s] = m_sub[s];
@@ -337,7 +337,7 @@ bool SampleBuffer::record(const MicroGrid& g, const HitContext& ctx, const Tri& 
             m_sub[s] = sub;
             return true;
         }
-        if (gid != m_id[s] && keyLess(z, gid, sub, m_z2[s], m_id2[s], m_sub2[s])) {
+        if (m_cfg.depthLayers > 1 && gid != m_id[s] && keyLess(z, gid, sub, m_z2[s], m_id2[s], m_sub2[s])) {
             m_z2[s] = z;
             m_id2[s] = gid;
             m_sub2[s] = sub;
@@ -412,7 +412,7 @@ void SampleBuffer::markDirty(int sx0, int sy0, int sx1, int sy1) {
 void SampleBuffer::updatePixelMax() const {
     if (!m_anyDirty) return;
     const int xs = m_cfg.xSamples, ys = m_cfg.ySamples;
-    const std::vector<float>& depth = m_cfg.mode == HiderMode::Depth ? m_z2 : m_z;
+    const std::vector<float>& depth = m_cfg.mode == HiderMode::Depth && m_cfg.depthLayers > 1 ? m_z2 : m_z;
     for (int py = 0; py < m_rh; ++py)
         for (int px = 0; px < m_rw; ++px) {
             size_t p = size_t(py) * size_t(m_rw) + size_t(px);
@@ -468,9 +468,30 @@ void SampleBuffer::resolve(film::Film& film) {
         return m;
     };
     if (m_cfg.mode == HiderMode::Depth) {
+        using Reduce = SampleBufferConfig::DepthReduce;
+        // RenderMan's "max": the farthest sample (+infinity if any missed);
+        // "average": the mean of the samples that hit something.
+        auto reduce = [&](int px, int py) {
+            if (m_cfg.depthReduce == Reduce::Min) return minOver(m_z, px, py);
+            float mx = -kInfinity, sum = 0;
+            int hits = 0;
+            for (int j = 0; j < ys; ++j) {
+                size_t row = size_t((py - m_ry0) * ys + j) * size_t(m_sw) + size_t((px - m_rx0) * xs);
+                for (int i = 0; i < xs; ++i) {
+                    float z = m_z[row + size_t(i)];
+                    mx = std::max(mx, z);
+                    if (z != kInfinity) {
+                        sum += z;
+                        ++hits;
+                    }
+                }
+            }
+            if (m_cfg.depthReduce == Reduce::Max) return mx;
+            return hits > 0 ? sum / float(hits) : kInfinity;
+        };
         for (int py = by0; py < by1; ++py)
             for (int px = bx0; px < bx1; ++px) {
-                film.z(px, py) = minOver(m_z, px, py);
+                film.z(px, py) = reduce(px, py);
                 if (film.hasDepthPair()) film.z2(px, py) = minOver(m_z2, px, py);
             }
         return;

@@ -150,7 +150,7 @@ DepthImage depthImageOf(const film::Film& film, const Pass& pass, DepthFilter fi
             switch (filter) {
             case DepthFilter::Min:
             case DepthFilter::Max:
-            case DepthFilter::Average: z = z1; break;  // one sample per pixel: all three agree
+            case DepthFilter::Average: z = z1; break;  // the hider already reduced the pixel's samples
             case DepthFilter::Second: z = frontCulled ? z1 : z2; break;  // single layer: +infinity
             case DepthFilter::Midpoint:
                 // Single layer: the dual rule keeps the midpoint finite.

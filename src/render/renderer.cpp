@@ -248,6 +248,15 @@ PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const st
         ss.sampling.jitter = options.jitter;
     }
     ss.sampling.mode = pass.depthOnly ? hider::HiderMode::Depth : hider::HiderMode::Colour;
+    if (pass.depthOnly) {
+        using Reduce = hider::SampleBufferConfig::DepthReduce;
+        DepthFilter filter = depthFilterOf(options, options.loc);
+        ss.sampling.depthReduce = filter == DepthFilter::Max       ? Reduce::Max
+                                  : filter == DepthFilter::Average ? Reduce::Average
+                                                                   : Reduce::Min;
+        if (auto it = options.user.find("umbra:depthlayers"); it != options.user.end() && !it->second.ints.empty())
+            ss.sampling.depthLayers = std::clamp(it->second.ints[0], 1, 2);
+    }
     ss.maxEyeSplits = options.eyeSplits;
     Progress progress(settings.progress, label);
     ss.progress = [&](int done, int total) { progress.update(done, total); };

@@ -79,6 +79,14 @@ struct SampleBufferConfig {
     int aovCount = 0;                    // extra floats per sample (the film's AOV floats)
     HiderMode mode = HiderMode::Colour;
     float nearClip = 1e-10f, farClip = 1e30f;  // camera-space z range that is visible
+    /// Depth mode: how a pixel's samples make its z (RenderMan's
+    /// "depthfilter" min/max/average; the two-layer filters use min).
+    enum class DepthReduce { Min, Max, Average };
+    DepthReduce depthReduce = DepthReduce::Min;
+    /// Depth mode: 2 keeps the nearest two surfaces per sample, 1 only the
+    /// nearest (z2 stays +infinity) -- the single-layer baseline the
+    /// two-layer pass is measured against.
+    int depthLayers = 2;
 };
 
 /// The visible-surface samples of one bucket (see the file comment). One per
