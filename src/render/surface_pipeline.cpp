@@ -149,9 +149,9 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
 
 bool SurfacePipeline::cullFacing(const std::vector<Vec3>& P, bool flip, hider::ShadedGrid& out) const {
     // A micropolygon faces the eye when its outward normal points at it.
-    // The outward normal is (P(i+1,j) - P(i,j)) x (P(i,j+1) - P(i,j)), the
-    // direction of dPdu x dPdv, negated when the grid's orientation is
-    // flipped (left-handed "outside", or a mirroring transform).
+    // The outward normal has the direction of dPdu x dPdv, negated when the
+    // grid's orientation is flipped (left-handed "outside", or a mirroring
+    // transform).
     const int nu = out.nu, nv = out.nv, nu1 = nu + 1;
     const bool perspective = m_pass.camera.perspective;
     const bool dropFront = m_pass.cull == Pass::Cull::Front;
@@ -159,9 +159,12 @@ bool SurfacePipeline::cullFacing(const std::vector<Vec3>& P, bool flip, hider::S
     bool anyKept = false;
     for (int j = 0; j < nv; ++j)
         for (int i = 0; i < nu; ++i) {
+            // The cross of the diagonals, (a+b) x (b-a) = 2 a x b, stays
+            // right where one edge collapses (a sphere's pole).
             const Vec3& a = P[size_t(j * nu1 + i)];
-            Vec3 n = cross(P[size_t(j * nu1 + i + 1)] - a, P[size_t((j + 1) * nu1 + i)] - a);
-            Vec3 centre = (a + P[size_t((j + 1) * nu1 + i + 1)]) * 0.5f;
+            const Vec3& d = P[size_t((j + 1) * nu1 + i + 1)];
+            Vec3 n = cross(d - a, P[size_t((j + 1) * nu1 + i)] - P[size_t(j * nu1 + i + 1)]);
+            Vec3 centre = (a + d) * 0.5f;
             float toward = perspective ? dot(n, centre) : n.z;  // > 0: faces away (unflipped)
             bool front = flip ? toward > 0 : toward < 0;
             bool drop = dropFront ? front : !front;

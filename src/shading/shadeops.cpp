@@ -851,7 +851,20 @@ void execCall(Exec& x, const Instr& in) {
         float du = gridDu(x), dv = gridDv(x);
         float* d = x.ptr[size_t(dst)];
         forActive(x, x.vary[size_t(dst)], [&](int i) {
-            Vec3 n = cross(deriv(x, P, i, 0, du), deriv(x, P, i, 1, dv));
+            Vec3 pu = deriv(x, P, i, 0, du), pv = deriv(x, P, i, 1, dv);
+            Vec3 n = cross(pu, pv);
+            const float uu = dot(pu, pu) * du * du, vv = dot(pv, pv) * dv * dv;
+            if ((uu <= 1e-8f * vv || vv <= 1e-8f * uu || dot(n, n) == 0) && P.s != 0 && x.nu > 1 && x.nv > 1) {
+                // A degenerate row or column (a sphere's pole): the cross of
+                // the cell's diagonals, (a+b) x (b-a) = 2 a x b, scaled back
+                // to a derivative cross product.
+                const int iu = i % x.nu, iv = i / x.nu;
+                const int i0 = std::max(0, iu - 1), i1 = std::min(x.nu - 1, iu + 1);
+                const int j0 = std::max(0, iv - 1), j1 = std::min(x.nv - 1, iv + 1);
+                Vec3 d1 = P[j1 * x.nu + i1] - P[j0 * x.nu + i0], d2 = P[j1 * x.nu + i0] - P[j0 * x.nu + i1];
+                float scale = 2.0f * float(i1 - i0) * float(j1 - j0) * du * dv;
+                n = scale > 0 ? cross(d1, d2) / scale : cross(d1, d2);
+            }
             put(d, i, flip ? -n : n);
         });
         break;
