@@ -169,3 +169,41 @@ WorldEnd
     EXPECT_LT(img.at(70, 20, 0), 0.1f);
     EXPECT_GT(img.at(70, 20, 1), 0.9f);
 }
+
+TEST(Workflow, TinyTileCacheRendersTheSameImage) {
+    // A 2048^2 map (16 MiB of depths) looked up through a 1 MiB tile cache
+    // must give the same pixels as through the default 64 MiB one, while
+    // actually evicting tiles.
+    ScratchDir dir("tinycache");
+    auto frame = [&](const std::string& out, int mb) {
+        return fmt::format(R"(Display "{}" "openexr" "rgba" "string type" "float"
+PixelSamples 2 2
+Option "umbra" "shadowmapsize" [2048] "tilecachemb" [{}]
+Option "shadow" "bias" [0.02]
+{}
+{})", out, mb, kDownCamera,
+                           // The floor casts too, so lookups read tiles all over the map.
+                           R"(WorldBegin
+  LightSource "shadowspot" 1 "from" [0.5 4 0.3] "to" [0 0 0] "coneangle" [0.9] "intensity" [16] "shadowname" ["auto"]
+  Surface "matte"
+  Polygon "P" [-5 0 -5  -5 0 5  5 0 5  5 0 -5]
+  AttributeBegin Translate 0 1.5 0 Sphere 0.5 -0.5 0.5 360 AttributeEnd
+WorldEnd)");
+    };
+    Diagnostics diag;
+    auto big = test::renderRib(frame(dir.file("big.exr"), 64), diag);
+    auto tiny = test::renderRib(frame(dir.file("tiny.exr"), 1), diag);
+    ASSERT_EQ(diag.errorCount(), 0);
+    EXPECT_EQ(big["frames"][0]["shadow"]["tile_cache"]["evictions"].get<uint64_t>(), 0u);
+    EXPECT_GT(tiny["frames"][0]["shadow"]["tile_cache"]["evictions"].get<uint64_t>(), 0u);
+    Image a, b;
+    ASSERT_TRUE(test::readImage(dir.file("big.exr"), &a));
+    ASSERT_TRUE(test::readImage(dir.file("tiny.exr"), &b));
+    ASSERT_EQ(a.pixels.size(), b.pixels.size());
+    double lit = 0;
+    for (size_t i = 0; i < a.pixels.size(); ++i) {
+        ASSERT_EQ(a.pixels[i], b.pixels[i]) << "at float " << i;
+        lit += a.pixels[i];
+    }
+    EXPECT_GT(lit, 1000.0);
+}
