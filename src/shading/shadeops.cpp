@@ -98,16 +98,6 @@ float determinant(const M16& a) {
     }
     return d;
 }
-M16 mulM(const M16& a, const M16& b) {
-    M16 r;
-    for (int i = 0; i < 4; ++i)
-        for (int j = 0; j < 4; ++j) {
-            float s = 0;
-            for (int k = 0; k < 4; ++k) s += a.m[i * 4 + k] * b.m[k * 4 + j];
-            r.m[i * 4 + j] = s;
-        }
-    return r;
-}
 /// A column-vector Mat4 as an RSL (row-vector) matrix.
 M16 toRsl(const Mat4& m) {
     M16 r;

@@ -34,16 +34,6 @@ template <class F, class... A> void map(Exec& x, int dst, F&& f, A... args) {
 inline float safeDiv(float a, float b) { return b == 0 ? 0.f : a / b; }
 inline Vec3 safeDiv3(const Vec3& a, const Vec3& b) { return {safeDiv(a.x, b.x), safeDiv(a.y, b.y), safeDiv(a.z, b.z)}; }
 
-M16 mulM(const M16& a, const M16& b) {
-    M16 r;
-    for (int i = 0; i < 4; ++i)
-        for (int j = 0; j < 4; ++j) {
-            float s = 0;
-            for (int k = 0; k < 4; ++k) s += a.m[i * 4 + k] * b.m[k * 4 + j];
-            r.m[i * 4 + j] = s;
-        }
-    return r;
-}
 M16 invM(const M16& a) {
     Mat4 m;
     std::memcpy(m.m, a.m, sizeof a.m);

@@ -154,4 +154,16 @@ inline void put(float* p, int i, const M16& v) { std::memcpy(p + 16 * i, v.m, si
 
 template <class T> In<T> rd(const Exec& x, int r) { return In<T>{x.ptr[size_t(r)], x.vary[size_t(r)]}; }
 
+/// The product of two matrices in the VM's (row-major, RSL) layout.
+inline M16 mulM(const M16& a, const M16& b) {
+    M16 r;
+    for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j) {
+            float s = 0;
+            for (int k = 0; k < 4; ++k) s += a.m[i * 4 + k] * b.m[k * 4 + j];
+            r.m[i * 4 + j] = s;
+        }
+    return r;
+}
+
 }  // namespace umbra::shading
