@@ -99,9 +99,14 @@ nlohmann::json tileCacheJson(const TileCacheStats& c) {
             {"tiles_read", c.tilesRead}, {"evictions", c.evictions}, {"peak_bytes", c.peakBytes}};
 }
 
-}  // namespace
+/// The result of one pass through the REYES core.
+struct PassResult {
+    hider::SchedulerStats counters;
+    double wall = 0, cpu = 0;
+    uint64_t samples = 0;
+};
 
-struct PassResult;
+}  // namespace
 
 struct Renderer::Impl {
     RenderSettings settings;
@@ -214,13 +219,6 @@ void Renderer::make(const scene::MakeRecord& make) {
     diag.warningOnce("unsupported " + make.request, make.loc, "{}: not supported yet; no file written",
                      make.request);
 }
-
-/// The result of one pass through the REYES core.
-struct PassResult {
-    hider::SchedulerStats counters;
-    double wall = 0, cpu = 0;
-    uint64_t samples = 0;
-};
 
 PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const std::vector<geometry::PrimitivePtr>& prims,
                                    film::Film& film, const std::string& label) {
