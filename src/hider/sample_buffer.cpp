@@ -647,14 +647,20 @@ void SampleBuffer::resolveColour(film::Film& film, int bx0, int by0, int bx1, in
     const int qy0 = std::max(m_ry0, by0 - my), qy1 = std::min(m_ry0 + m_rh, by1 + my);
     const int qx0 = std::max(m_rx0, bx0 - mx), qx1 = std::min(m_rx0 + m_rw, bx1 + mx);
     float wx[64], wy[64];
+    const float rx = filter.xRadius(), ry = filter.yRadius();
     for (int sy = (qy0 - m_ry0) * ys; sy < (qy1 - m_ry0) * ys; ++sy) {
-        const int qy = m_ry0 + sy / ys;
-        const int ty0 = std::max(by0, qy - my), ty1 = std::min(by1 - 1, qy + my);
         const size_t rowBase = size_t(sy) * size_t(m_sw);
         for (int sx = (qx0 - m_rx0) * xs; sx < (qx1 - m_rx0) * xs; ++sx) {
-            const int qx = m_rx0 + sx / xs;
-            const int tx0 = std::max(bx0, qx - mx), tx1 = std::min(bx1 - 1, qx + mx);
             const size_t s = rowBase + size_t(sx);
+            const float x = m_px[s], y = m_py[s];
+            // Only the pixels whose centres lie within the filter's radius
+            // (the support is closed, as in PixelFilter::weight).
+            // (floorToInt, not std::floor: on baseline x86-64 that is a libm call.)
+            const int tx0 = std::max(bx0, -floorToInt(rx + 0.5f - x));
+            const int tx1 = std::min(bx1 - 1, floorToInt(x - 0.5f + rx));
+            const int ty0 = std::max(by0, -floorToInt(ry + 0.5f - y));
+            const int ty1 = std::min(by1 - 1, floorToInt(y - 0.5f + ry));
+            if (tx0 > tx1 || ty0 > ty1) continue;
             Vec4f value{0, 0, 0, 0};
             if (m_fragHead[s] >= 0) {
                 const float* r = &m_res[s * 4];
@@ -662,7 +668,6 @@ void SampleBuffer::resolveColour(film::Film& film, int bx0, int by0, int bx1, in
             } else if (m_z[s] != kInfinity) {
                 value = Vec4f{m_ci[s].x, m_ci[s].y, m_ci[s].z, m_alpha[s]};
             }
-            const float x = m_px[s], y = m_py[s];
             for (int tx = tx0; tx <= tx1; ++tx) wx[tx - tx0] = filter.weightX(x - (float(tx) + 0.5f));
             for (int ty = ty0; ty <= ty1; ++ty) wy[ty - ty0] = filter.weightY(y - (float(ty) + 0.5f));
             for (int ty = ty0; ty <= ty1; ++ty) {
