@@ -283,7 +283,7 @@ private:
         m_cs.regs[r].loc = p.loc;
         ShaderParamInfo info;
         info.name = p.name;
-        info.type = toValueType(p.type.ty);
+        info.type = valueTypeOf(p.type.ty);
         info.varying = varying;
         info.output = p.type.output;
         info.arraySize = arr;
@@ -299,17 +299,6 @@ private:
         (void)init;
     }
 
-    static ValueType toValueType(Ty t) {
-        switch (t) {
-        case Ty::Color: return ValueType::Color;
-        case Ty::Point: return ValueType::Point;
-        case Ty::Vector: return ValueType::Vector;
-        case Ty::Normal: return ValueType::Normal;
-        case Ty::Matrix: return ValueType::Matrix;
-        case Ty::String: return ValueType::String;
-        default: return ValueType::Float;
-        }
-    }
 
     /// Evaluates a literal default (numbers, strings, tuples, casts of them
     /// without a space) for ShaderParamInfo.

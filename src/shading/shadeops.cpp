@@ -542,7 +542,7 @@ void shadow(Exec& x, const Instr& in, Args& A, bool four) {
             v.type = ValueType::String;
             v.strings.push_back(x.strs[size_t(vr)][0]);
         } else {
-            v.type = ri.ty == Ty::Color ? ValueType::Color : ri.ty == Ty::Float ? ValueType::Float : ri.ty == Ty::Matrix ? ValueType::Matrix : ValueType::Vector;
+            v.type = valueTypeOf(ri.ty);
             v.floats.assign(x.ptr[size_t(vr)], x.ptr[size_t(vr)] + tyFloats(ri.ty));
         }
         q.params.push_back(std::move(v));
@@ -603,17 +603,6 @@ bool fromShadeValue(Exec& x, const ShadeValue& v, int dst) {
     return true;
 }
 
-ValueType valueTypeOf(Ty t) {
-    switch (t) {
-    case Ty::Color: return ValueType::Color;
-    case Ty::Point: return ValueType::Point;
-    case Ty::Vector: return ValueType::Vector;
-    case Ty::Normal: return ValueType::Normal;
-    case Ty::Matrix: return ValueType::Matrix;
-    case Ty::String: return ValueType::String;
-    default: return ValueType::Float;
-    }
-}
 
 void setResult(Exec& x, const Instr& in, float v) {
     if (in.dst >= 0) forActive(x, x.vary[size_t(in.dst)], [&](int i) { x.ptr[size_t(in.dst)][i] = v; });

@@ -74,6 +74,19 @@ std::vector<Token> preprocess(SourceSet& src, int mainFile, const std::vector<st
 /// Tuple is an untyped parenthesised triple that becomes whichever triple
 /// type it is assigned to.
 enum class Ty : uint8_t { Void, Float, Color, Point, Vector, Normal, Matrix, String, Bool, Tuple };
+
+/// The public value type of a language type (Float for the internal ones).
+inline ValueType valueTypeOf(Ty t) {
+    switch (t) {
+    case Ty::Color: return ValueType::Color;
+    case Ty::Point: return ValueType::Point;
+    case Ty::Vector: return ValueType::Vector;
+    case Ty::Normal: return ValueType::Normal;
+    case Ty::Matrix: return ValueType::Matrix;
+    case Ty::String: return ValueType::String;
+    default: return ValueType::Float;
+    }
+}
 const char* tyName(Ty t);
 inline bool isTriple(Ty t) { return t == Ty::Color || t == Ty::Point || t == Ty::Vector || t == Ty::Normal || t == Ty::Tuple; }
 inline bool isSpatial(Ty t) { return t == Ty::Point || t == Ty::Vector || t == Ty::Normal || t == Ty::Tuple; }
