@@ -42,15 +42,7 @@ std::array<DepthImage, 6> cubeFaces(int res) {
             rot.m[2][c] = d[c];
         }
         img.lightFromWorld = rot * Mat4::translate(-kLight);
-        Mat4 persp;
-        persp.m[3][2] = 1;
-        persp.m[3][3] = 0;
-        Mat4 ndcFromScreen;
-        ndcFromScreen.m[0][0] = 0.5f;
-        ndcFromScreen.m[0][3] = 0.5f;
-        ndcFromScreen.m[1][1] = -0.5f;
-        ndcFromScreen.m[1][3] = 0.5f;
-        img.ndcFromWorld = ndcFromScreen * persp * img.lightFromWorld;
+        img.ndcFromWorld = test::ndcFromCamera90() * img.lightFromWorld;
         for (int y = 0; y < res; ++y)
             for (int x = 0; x < res; ++x) {
                 float sx = (float(x) + 0.5f) / float(res) * 2 - 1, sy = 1 - (float(y) + 0.5f) / float(res) * 2;

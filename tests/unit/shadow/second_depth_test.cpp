@@ -116,15 +116,7 @@ TEST(SecondDepth, PerspectivePlaneIsLinearInScreenSpace) {
     // z = 20 / (1 - 0.8 sx).
     const int res = 128;
     DepthImage img(res, res);
-    Mat4 persp;
-    persp.m[3][2] = 1;
-    persp.m[3][3] = 0;
-    Mat4 ndcFromScreen;
-    ndcFromScreen.m[0][0] = 0.5f;
-    ndcFromScreen.m[0][3] = 0.5f;
-    ndcFromScreen.m[1][1] = -0.5f;
-    ndcFromScreen.m[1][3] = 0.5f;
-    img.ndcFromWorld = ndcFromScreen * persp;
+    img.ndcFromWorld = test::ndcFromCamera90();
     img.filter = DepthFilter::Second;
     for (int y = 0; y < res; ++y)
         for (int x = 0; x < res; ++x) {

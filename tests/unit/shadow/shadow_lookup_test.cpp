@@ -299,16 +299,8 @@ TEST(ShadowLookup, PerspectiveMapComparesCameraDepth) {
     // NDC x = (x/z + 1)/2, y = (1 - y/z)/2. The map holds an occluder at
     // depth 10 over the left half (x/z < 0).
     DepthImage img(128, 128);
-    Mat4 persp;
-    persp.m[3][2] = 1;
-    persp.m[3][3] = 0;
-    Mat4 ndcFromScreen;
-    ndcFromScreen.m[0][0] = 0.5f;
-    ndcFromScreen.m[0][3] = 0.5f;
-    ndcFromScreen.m[1][1] = -0.5f;
-    ndcFromScreen.m[1][3] = 0.5f;
     img.lightFromWorld = Mat4::identity();
-    img.ndcFromWorld = ndcFromScreen * persp;
+    img.ndcFromWorld = test::ndcFromCamera90();
     for (int y = 0; y < 128; ++y)
         for (int x = 0; x < 64; ++x) img.at(x, y) = 10;
     auto map = test::writeAndOpen(img, "persp.exr");

@@ -39,6 +39,20 @@ inline void setRasterIsWorld(DepthImage& img) {
     img.projection = Projection::Orthographic;
 }
 
+/// NDC from light camera space for a 90-degree pinhole looking down +z:
+/// NDC x = (x/z + 1)/2, y = (1 - y/z)/2.
+inline Mat4 ndcFromCamera90() {
+    Mat4 persp;
+    persp.m[3][2] = 1;
+    persp.m[3][3] = 0;
+    Mat4 ndcFromScreen;
+    ndcFromScreen.m[0][0] = 0.5f;
+    ndcFromScreen.m[0][3] = 0.5f;
+    ndcFromScreen.m[1][1] = -0.5f;
+    ndcFromScreen.m[1][3] = 0.5f;
+    return ndcFromScreen * persp;
+}
+
 /// Writes `img` to `name` in the scratch directory and opens it.
 inline std::shared_ptr<ShadowMap> writeAndOpen(const DepthImage& img, const std::string& name,
                                                std::shared_ptr<TileCache> cache = nullptr) {
