@@ -128,6 +128,8 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
 
     // Second-depth maps with normals get virtual samples (Wang & Molnar).
     const bool secondDepth = !kPointSample && m_filter == DepthFilter::Second && batch.N && m_virtualMode != 0;
+    // Once per batch, not per ambiguous point: normals need the inverse.
+    const Mat4 currentFromLight = secondDepth ? lightFromCurrent.inverse() : Mat4();
 
     for (int i = 0; i < batch.count; ++i) {
         out[i] = 0;
@@ -318,7 +320,7 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                 // Wang & Molnar Fig. 10, mixed comparisons: the tangent plane
                 // at P, in the light's screen space, gives the surface's own
                 // depth at each sample's texel centre.
-                const TangentPlane plane = tangentPlane(P, batch.N[i], lightFromCurrent);
+                const TangentPlane plane = tangentPlane(P, batch.N[i], lightFromCurrent, currentFromLight);
                 if (plane.valid) {
                     ++st.virtualPoints;
                     Rng replay(hashKeys(batch.seed, uint32_t(i)));  // the same samples again
@@ -349,13 +351,14 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
     stats += st;
 }
 
-ShadowMap::TangentPlane ShadowMap::tangentPlane(const Vec3& P, const Vec3& N, const Mat4& lightFromSpace) const {
+ShadowMap::TangentPlane ShadowMap::tangentPlane(const Vec3& P, const Vec3& N, const Mat4& lightFromSpace,
+                                                const Mat4& spaceFromLight) const {
     TangentPlane plane;
     if (m_virtualMode == 0) return plane;
     // The plane n.x + w = 0 through P in light camera space, carried to the
     // light's screen space by the inverse transpose of screenFromLight.
     const Vec3 Pl = lightFromSpace.point(P);
-    const Vec3 Nl = Mat4::normal(lightFromSpace.inverse(), N);
+    const Vec3 Nl = Mat4::normal(spaceFromLight, N);
     const float tc[4] = {Nl.x, Nl.y, Nl.z, -dot(Nl, Pl)};
     const auto& planeM = m_planeFromLight.m;
     float pl[4];

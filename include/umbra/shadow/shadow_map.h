@@ -156,8 +156,13 @@ public:
         bool valid = false;
     };
     /// The plane through P with normal N (both in the space `lightFromSpace`
-    /// maps to the light's camera space).
-    TangentPlane tangentPlane(const Vec3& P, const Vec3& N, const Mat4& lightFromSpace) const;
+    /// maps to the light's camera space; `spaceFromLight` is its inverse,
+    /// which normals need).
+    TangentPlane tangentPlane(const Vec3& P, const Vec3& N, const Mat4& lightFromSpace,
+                              const Mat4& spaceFromLight) const;
+    TangentPlane tangentPlane(const Vec3& P, const Vec3& N, const Mat4& lightFromSpace) const {
+        return tangentPlane(P, N, lightFromSpace, lightFromSpace.inverse());
+    }
     /// The light camera-space depth of the plane at the centre of texel
     /// (x, y): the virtual sample compared with the map's depth there.
     float virtualDepth(const TangentPlane& plane, int x, int y) const {
