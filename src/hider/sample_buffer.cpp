@@ -1,21 +1,28 @@
 #include "umbra/hider/sample_buffer.h"
 
+#include "sample_pattern.h"
+
 #include "umbra/film/film.h"
 #include "umbra/util/error.h"
-#include "umbra/util/rng.h"
 
 #include <algorithm>
-#include <cstring>
 #include <cmath>
+#include <cstring>
+
+#include <emmintrin.h>
 
 namespace umbra::hider {
 
 namespace {
 
-/// The total order on hits: nearer first, then grid id, then triangle.
-/// Four floats in one SSE register (GCC vector extension).
+/// Four floats (or ints) in one SSE register (GCC vector extensions).
 typedef float Vec4f __attribute__((vector_size(16)));
+typedef int32_t Vec4i __attribute__((vector_size(16)));
 
+/// Bit k set when lane k of a comparison's result is true.
+inline int laneMask(Vec4i m) { return _mm_movemask_ps(__m128(m)); }
+
+/// The total order on hits: nearer first, then grid id, then triangle.
 inline bool keyLess(float z, uint64_t id, uint32_t sub, float z2, uint64_t id2, uint32_t sub2) {
     if (z != z2) return z < z2;
     if (id != id2) return id < id2;
@@ -27,26 +34,29 @@ inline bool keyLess(float z, uint64_t id, uint32_t sub, float z2, uint64_t id2, 
 /// triangles sharing an edge compute bit-identical values of opposite sign.
 /// A sample exactly on the edge belongs to the triangle that runs along the
 /// edge in the canonical direction: exactly one of the two (a top-left
-/// rule), so shared edges are neither missed nor hit twice.
+/// rule), so shared edges are neither missed nor hit twice. Evaluated for
+/// four samples at once; each lane computes exactly what scalar code would.
 struct Edge {
-    float bx, by, dx, dy;
-    float sign;
-    bool inclusive;
+    // The edge function's constants, with the sign of the direction folded
+    // into dx, dy (negation is exact, so the values are unchanged) and
+    // spread over four lanes.
+    Vec4f bx, by, dx, dy;
+    Vec4i inclusive;  // all ones when samples exactly on the edge are inside
 
     void setup(const Vec3& u, const Vec3& v) {
         bool canonical = u.y < v.y || (u.y == v.y && u.x < v.x);
         const Vec3& a = canonical ? u : v;
         const Vec3& b = canonical ? v : u;
-        bx = a.x;
-        by = a.y;
-        dx = b.x - a.x;
-        dy = b.y - a.y;
-        sign = canonical ? 1.0f : -1.0f;
-        inclusive = canonical;
+        const float sign = canonical ? 1.0f : -1.0f;
+        bx = Vec4f{} + a.x;
+        by = Vec4f{} + a.y;
+        dx = Vec4f{} + sign * (b.x - a.x);
+        dy = Vec4f{} + sign * (b.y - a.y);
+        inclusive = Vec4i{} - int32_t(canonical);
     }
     /// Positive inside (for a triangle of positive orientation).
-    float eval(float x, float y) const { return sign * (dx * (y - by) - dy * (x - bx)); }
-    bool inside(float e) const { return e > 0.0f || (e == 0.0f && inclusive); }
+    Vec4f eval(Vec4f x, Vec4f y) const { return dx * (y - by) - dy * (x - bx); }
+    Vec4i inside(Vec4f e) const { return (e > 0.0f) | ((e == 0.0f) & inclusive); }
 };
 
 inline float mean3(const Color& c) { return (c.x + c.y + c.z) * (1.0f / 3.0f); }
@@ -61,6 +71,7 @@ struct SampleBuffer::Tri {
     int i0, i1, i2;
     uint32_t sub;
     Edge e0, e1, e2;  // e0 is opposite p0 (its barycentric weight), and so on
+    float invArea;    // 1 / (e0 + e1 + e2), the edge functions' sum (twice the area) at every point
     bool valid;
 
     void setup(const MicroGrid& g, int a, int b, int c, uint32_t subIndex) {
@@ -72,7 +83,9 @@ struct SampleBuffer::Tri {
         p2 = g.P[c];
         sub = subIndex;
         float area = (p1.x - p0.x) * (p2.y - p0.y) - (p1.y - p0.y) * (p2.x - p0.x);
-        valid = area != 0.0f && std::isfinite(area);  // degenerate (or NaN) triangles cover nothing
+        invArea = 1.0f / std::fabs(area);
+        // Degenerate (or NaN, or too small to invert) triangles cover nothing.
+        valid = area != 0.0f && std::isfinite(area) && std::isfinite(invArea);
         if (!valid) return;
         if (area < 0) {
             std::swap(p1, p2);
@@ -82,13 +95,14 @@ struct SampleBuffer::Tri {
         e1.setup(p2, p0);
         e2.setup(p0, p1);
     }
-    bool inside(float x, float y, float* w0, float* w1, float* w2) const {
-        *w0 = e0.eval(x, y);
-        if (!e0.inside(*w0)) return false;
-        *w1 = e1.eval(x, y);
-        if (!e1.inside(*w1)) return false;
-        *w2 = e2.eval(x, y);
-        return e2.inside(*w2);
+    /// Which of four samples the triangle covers (bit k for lane k), and
+    /// their barycentric weights of p1 and p2.
+    int cover(Vec4f x, Vec4f y, Vec4f* b1, Vec4f* b2) const {
+        const Vec4f w0 = e0.eval(x, y), w1 = e1.eval(x, y), w2 = e2.eval(x, y);
+        const int covered = laneMask(e0.inside(w0) & e1.inside(w1) & e2.inside(w2));
+        *b1 = w1 * invArea;
+        *b2 = w2 * invArea;
+        return covered;
     }
 };
 
@@ -96,51 +110,28 @@ struct SampleBuffer::Tri {
 struct SampleBuffer::HitContext {
     bool depthMode;
     bool gridOpaque;  // no Oi, or every Oi >= 1
+    /// Per sample, a depth beyond which no hit changes anything: the opaque
+    /// depth (depth mode: the second depth, or the first with one layer).
+    const float* farthestUseful;
 };
 
 namespace {
-
-/// floor() without a libm call (x86-64 without SSE4.1 has no rounding
-/// instruction); exact for the magnitudes of raster coordinates.
-inline int floorToInt(float v) {
-    int i = int(v);
-    return float(i) > v ? i - 1 : i;
-}
 
 inline bool opaqueColor(const Color& o) { return o.x >= 1.0f && o.y >= 1.0f && o.z >= 1.0f; }
 
 }  // namespace
 
-namespace {
-
-/// The position of sample s of a pixel given the pixel's hash
-/// hashKeys(frameSeed, px, py) (so hashKeys(frameSeed, px, py, s) is
-/// hashCombine(pixelHash, s)).
-inline Vec2 positionFromHash(uint32_t pixelHash, int px, int py, int s, int xs, int ys, bool jitter) {
-    int i = s % xs, j = s / xs;
-    float jx = 0.5f, jy = 0.5f;
-    if (jitter) {
-        uint32_t h = hashCombine(pixelHash, uint32_t(s));
-        jx = hashToUnit(h);
-        jy = hashToUnit(hash32(h ^ 0x68e31da4u));
-    }
-    const float fxs = float(xs), fys = float(ys);
-    float x = float(px) + (float(i) + jx) / fxs;
-    float y = float(py) + (float(j) + jy) / fys;
-    // Rounding may push a sample onto its stratum's far edge; the rasteriser
-    // finds samples by floor(x * xs), so keep every sample strictly inside.
-    const int tx = px * xs + i, ty = py * ys + j;
-    while (floorToInt(x * fxs) > tx) x = std::nextafter(x, -kInfinity);
-    while (floorToInt(x * fxs) < tx) x = std::nextafter(x, kInfinity);
-    while (floorToInt(y * fys) > ty) y = std::nextafter(y, -kInfinity);
-    while (floorToInt(y * fys) < ty) y = std::nextafter(y, kInfinity);
-    return {x, y};
-}
-
-}  // namespace
+SampleBuffer::SampleBuffer()
+    : m_pattern(std::make_unique<SamplePattern>()), m_weights(std::make_unique<PatternFilterWeights>()) {}
+SampleBuffer::~SampleBuffer() = default;
+SampleBuffer::SampleBuffer(SampleBuffer&&) noexcept = default;
+SampleBuffer& SampleBuffer::operator=(SampleBuffer&&) noexcept = default;
 
 Vec2 SampleBuffer::samplePosition(int px, int py, int s, int xs, int ys, bool jitter, uint32_t frameSeed) {
-    return positionFromHash(hashKeys(frameSeed, uint32_t(px), uint32_t(py)), px, py, s, xs, ys, jitter);
+    const Vec2 o = SamplePattern::offset(positiveMod(px, kPatternPeriod), positiveMod(py, kPatternPeriod), s,
+                                         PatternSettings{xs, ys, jitter, frameSeed});
+    return {placeInStratum(float(px) + o.x, px * xs + s % xs, xs),
+            placeInStratum(float(py) + o.y, py * ys + s / xs, ys)};
 }
 
 void SampleBuffer::reset(const SampleBufferConfig& c) {
@@ -162,23 +153,53 @@ void SampleBuffer::reset(const SampleBufferConfig& c) {
     m_fy1 = float(m_ry0 + m_rh);
 
     const size_t n = size_t(m_sw) * size_t(m_sh);
-    m_px.resize(n);
-    m_py.resize(n);
-    for (int py = 0; py < m_rh; ++py)
-        for (int px = 0; px < m_rw; ++px) {
-            const uint32_t pixelHash = hashKeys(c.frameSeed, uint32_t(m_rx0 + px), uint32_t(m_ry0 + py));
-            for (int s = 0; s < xs * ys; ++s) {
-                Vec2 p = positionFromHash(pixelHash, m_rx0 + px, m_ry0 + py, s, xs, ys, c.jitter);
-                size_t k = size_t(py * ys + s / xs) * size_t(m_sw) + size_t(px * xs + s % xs);
-                m_px[k] = p.x;
-                m_py[k] = p.y;
+    m_px.resize(n + 3);  // rasterizeQuad reads groups of four
+    m_py.resize(n + 3);
+    // Positions as samplePosition(): pixel + tabulated offset, kept inside
+    // the stratum (rounding of the sum rarely needs it; checking is cheap).
+    m_pattern->prepare(PatternSettings{xs, ys, c.jitter, c.frameSeed});
+    const int columns = m_pattern->columns(), rows = m_pattern->rows();
+    const float fxs = float(xs), fys = float(ys);
+    m_columnPixel.resize(size_t(m_sw));
+    for (int sx = 0; sx < m_sw; ++sx) m_columnPixel[size_t(sx)] = float(m_rx0 + sx / xs);
+    for (int sy = 0; sy < m_sh; ++sy) {
+        const int gy = m_sy0 + sy;  // global stratum row
+        const int ty = positiveMod(gy, rows);
+        const float pixelY = float(m_ry0 + sy / ys);
+        float* x = &m_px[size_t(sy) * size_t(m_sw)];
+        float* y = &m_py[size_t(sy) * size_t(m_sw)];
+        // The row of the table wraps at most once across the region's row.
+        bool outside = false;
+        for (int sx = 0; sx < m_sw;) {
+            const int tx = positiveMod(m_sx0 + sx, columns);
+            const int count = std::min(m_sw - sx, columns - tx);
+            const float* __restrict ox = m_pattern->xRow(ty) + tx;
+            const float* __restrict oy = m_pattern->yRow(ty) + tx;
+            const float* __restrict pixelX = &m_columnPixel[size_t(sx)];
+            float* __restrict xk = x + sx;
+            float* __restrict yk = y + sx;
+            const int gx = m_sx0 + sx;
+            int misplaced = 0;
+            for (int k = 0; k < count; ++k) {
+                const float xv = pixelX[k] + ox[k], yv = pixelY + oy[k];
+                xk[k] = xv;
+                yk[k] = yv;
+                misplaced |= (floorToInt(xv * fxs) - gx - k) | (floorToInt(yv * fys) - gy);
             }
+            outside |= misplaced != 0;
+            sx += count;
         }
+        if (!outside) continue;
+        for (int sx = 0; sx < m_sw; ++sx) {
+            x[sx] = placeInStratum(x[sx], m_sx0 + sx, xs);
+            y[sx] = placeInStratum(y[sx], gy, ys);
+        }
+    }
     // Only the depths (and fragment lists) need clearing: a sample's id,
     // colour, alpha and AOVs are read only once its depth is finite, and
     // every write of a finite depth writes them too. That keeps the reset
     // of a bucket at 8 bytes a sample instead of 40.
-    m_z.assign(n, kInfinity);
+    m_z.assign(n + 3, kInfinity);  // rasterizeQuad reads groups of four
     m_id.resize(n);
     m_sub.resize(n);
     if (c.mode == HiderMode::Colour) {
@@ -190,7 +211,7 @@ void SampleBuffer::reset(const SampleBufferConfig& c) {
         m_id2.clear();
         m_sub2.clear();
     } else {
-        m_z2.assign(n, kInfinity);
+        m_z2.assign(n + 3, kInfinity);
         m_id2.resize(n);
         m_sub2.resize(n);
         m_ci.clear();
@@ -253,6 +274,7 @@ void SampleBuffer::sample(const MicroGrid& g) {
     ctx.gridOpaque = true;
     if (g.Oi && !ctx.depthMode)
         for (int k = 0; k < nverts && ctx.gridOpaque; ++k) ctx.gridOpaque = opaqueColor(g.Oi[k]);
+    ctx.farthestUseful = ctx.depthMode && m_cfg.depthLayers > 1 ? m_z2.data() : m_z.data();
 
     for (int j = 0; j < g.nv; ++j) {
         const Vec3* row0 = g.P + j * nu1;
@@ -297,29 +319,44 @@ void SampleBuffer::rasterizeQuad(const MicroGrid& g, const HitContext& ctx, int 
     const int sy1 = std::min(m_sh - 1, floorToInt(maxy * float(ys)) - m_sy0);
     if (sx0 > sx1 || sy0 > sy1) return;
 
+    // Four samples of a row at a time (positions are padded so the last
+    // group may read past the end); lanes past sx1 are masked off.
     bool wrote = false;
     for (int sy = sy0; sy <= sy1; ++sy) {
         const size_t row = size_t(sy) * size_t(m_sw);
-        for (int sx = sx0; sx <= sx1; ++sx) {
+        for (int sx = sx0; sx <= sx1; sx += 4) {
             const size_t s = row + size_t(sx);
-            const float x = m_px[s], y = m_py[s];
-            float w0, w1, w2;
+            Vec4f x, y;
+            std::memcpy(&x, &m_px[s], sizeof x);
+            std::memcpy(&y, &m_py[s], sizeof y);
+            const int lanes = sx1 - sx >= 3 ? 0xf : (1 << (sx1 - sx + 1)) - 1;
+            Vec4f useful;
+            std::memcpy(&useful, &ctx.farthestUseful[s], sizeof useful);
             // Both halves are tested: a bow-tie's triangles may overlap.
-            if (ta.valid && ta.inside(x, y, &w0, &w1, &w2)) wrote |= record(g, ctx, ta, s, w0, w1, w2);
-            if (tb.valid && tb.inside(x, y, &w0, &w1, &w2)) wrote |= record(g, ctx, tb, s, w0, w1, w2);
+            for (const Tri* t : {&ta, &tb}) {
+                if (!t->valid) continue;
+                Vec4f b1, b2;
+                int hits = t->cover(x, y, &b1, &b2) & lanes;
+                if (!hits) continue;
+                // Interpolated as v0 + b1 (v1 - v0) + b2 (v2 - v0): exact
+                // where the values are equal (flat surfaces, constant colours).
+                const Vec4f z = t->p0.z + b1 * (t->p1.z - t->p0.z) + b2 * (t->p2.z - t->p0.z);
+                // Hits behind what the sample holds, or clipped, change
+                // nothing; record() decides ties by the full key.
+                hits &= laneMask((z <= useful) & (z >= m_cfg.nearClip) & (z <= m_cfg.farClip));
+                while (hits) {
+                    const int k = __builtin_ctz(unsigned(hits));
+                    wrote |= record(g, ctx, *t, s + size_t(k), z[k], b1[k], b2[k]);
+                    hits &= hits - 1;
+                }
+            }
         }
     }
     if (wrote) markDirty(sx0, sy0, sx1, sy1);
 }
 
-bool SampleBuffer::record(const MicroGrid& g, const HitContext& ctx, const Tri& t, size_t s, float w0, float w1,
-                          float w2) {
-    const float inv = 1.0f / (w0 + w1 + w2);
-    const float b1 = w1 * inv, b2 = w2 * inv;
-    // Interpolated as v0 + b1 (v1 - v0) + b2 (v2 - v0): exact where the
-    // values are equal (flat surfaces, constant colours).
-    const float z = t.p0.z + b1 * (t.p1.z - t.p0.z) + b2 * (t.p2.z - t.p0.z);
-    if (!(z >= m_cfg.nearClip && z <= m_cfg.farClip)) return false;
+bool SampleBuffer::record(const MicroGrid& g, const HitContext& ctx, const Tri& t, size_t s, float z, float b1,
+                          float b2) {
     const uint64_t gid = g.id;
     const uint32_t sub = t.sub;
 
@@ -502,13 +539,16 @@ void SampleBuffer::resolve(film::Film& film) {
     // 1. Each sample's composited value: r g b a aov...
     const int aovN = m_cfg.aovCount;
     const int stride = 4 + aovN;
+    const bool colourOnly = aovN == 0 && filter.separable();  // resolveColour()
     m_res.resize(n * size_t(stride));
     m_scratchAov.resize(size_t(aovN));
-    for (size_t s = 0; s < n; ++s) {
+    // resolveColour() reads samples without fragments straight from the hit.
+    const size_t composited = colourOnly && m_frags.empty() ? 0 : n;
+    for (size_t s = 0; s < composited; ++s) {
         float* out = &m_res[s * size_t(stride)];
         const float* opAov = aovN > 0 ? &m_aov[s * size_t(aovN)] : nullptr;
         if (m_fragHead[s] < 0) {
-            if (aovN == 0) continue;  // read straight from the opaque hit in step 2
+            if (colourOnly) continue;  // read straight from the opaque hit in step 2
             if (m_z[s] == kInfinity) {
                 std::fill_n(out, stride, 0.0f);
                 continue;
@@ -559,62 +599,49 @@ void SampleBuffer::resolve(film::Film& film) {
         for (int k = 0; k < aovN; ++k) out[4 + k] = m_scratchAov[size_t(k)];
     }
 
-    if (aovN == 0 && filter.separable()) {
+    const int bw = bx1 - bx0, bh = by1 - by0;
+    if (filter.separable()) m_weights->prepare(*m_pattern, filter);
+    if (colourOnly) {
         resolveColour(film, bx0, by0, bx1, by1);
         return;
     }
 
     // 2. Filter: every sample adds its weighted value to the bucket pixels
     // its filter support reaches, in a fixed order (deterministic sums).
-    const int bw = bx1 - bx0, bh = by1 - by0;
-    const int accStride = stride + 1;
-    m_acc.assign(size_t(bw) * size_t(bh) * size_t(accStride), 0.0f);
-    const int mx = filter.xMargin(), my = filter.yMargin();
+    // Separable filters use the tabulated weights, as resolveColour(), so
+    // both give the same pixels.
     const bool separable = filter.separable();
-    float wx[64], wy[64];
-    UMBRA_CHECK(2 * mx + 1 <= 64 && 2 * my + 1 <= 64, "pixel filter too wide ({} x {})", filter.xWidth(),
-                filter.yWidth());
-    // Only samples of pixels within the filter's reach of the bucket matter.
-    const int qy0 = std::max(m_ry0, by0 - my), qy1 = std::min(m_ry0 + m_rh, by1 + my);
-    const int qx0 = std::max(m_rx0, bx0 - mx), qx1 = std::min(m_rx0 + m_rw, bx1 + mx);
-    for (int sy = (qy0 - m_ry0) * ys; sy < (qy1 - m_ry0) * ys; ++sy) {
-        const int qy = m_ry0 + sy / ys;
-        const int ty0 = std::max(by0, qy - my), ty1 = std::min(by1 - 1, qy + my);
-        for (int sx = (qx0 - m_rx0) * xs; sx < (qx1 - m_rx0) * xs; ++sx) {
-            const int qx = m_rx0 + sx / xs;
-            const int tx0 = std::max(bx0, qx - mx), tx1 = std::min(bx1 - 1, qx + mx);
-            const size_t s = size_t(sy) * size_t(m_sw) + size_t(sx);
-            const float x = m_px[s], y = m_py[s];
+    const int accStride = separable ? stride : stride + 1;  // non-separable: the weight sum too
+    m_acc.assign(size_t(bw) * size_t(bh) * size_t(accStride), 0.0f);
+    if (separable) {
+        splatSeparable(bx0, by0, bx1, by1, accStride, [&](size_t s) {
             const float* val = &m_res[s * size_t(stride)];
-            Vec4f opaque{0, 0, 0, 0};
-            if (aovN == 0) {
-                if (m_fragHead[s] >= 0)
-                    opaque = Vec4f{val[0], val[1], val[2], val[3]};
-                else if (m_z[s] != kInfinity)
-                    opaque = Vec4f{m_ci[s].x, m_ci[s].y, m_ci[s].z, m_alpha[s]};
-            }
-            if (separable) {
-                for (int tx = tx0; tx <= tx1; ++tx) wx[tx - tx0] = filter.weightX(x - (float(tx) + 0.5f));
-                for (int ty = ty0; ty <= ty1; ++ty) wy[ty - ty0] = filter.weightY(y - (float(ty) + 0.5f));
-            }
-            for (int ty = ty0; ty <= ty1; ++ty) {
-                for (int tx = tx0; tx <= tx1; ++tx) {
-                    float w = separable ? wx[tx - tx0] * wy[ty - ty0]
-                                        : filter.weight(x - (float(tx) + 0.5f), y - (float(ty) + 0.5f));
-                    if (w == 0.0f) continue;
-                    float* acc = &m_acc[(size_t(ty - by0) * size_t(bw) + size_t(tx - bx0)) * size_t(accStride)];
-                    if (aovN == 0) {
-                        // The common case: r g b a in one vector, then the weight.
-                        Vec4f a;
-                        std::memcpy(&a, acc, sizeof a);
-                        a += w * opaque;
-                        std::memcpy(acc, &a, sizeof a);
-                        acc[4] += w;
-                        continue;
+            return [val, stride](float* acc, float w) {
+                for (int k = 0; k < stride; ++k) acc[k] += w * val[k];
+            };
+        });
+    } else {
+        // Only samples of pixels within the filter's reach of the bucket matter.
+        const int mx = filter.xMargin(), my = filter.yMargin();
+        const int qy0 = std::max(m_ry0, by0 - my), qy1 = std::min(m_ry0 + m_rh, by1 + my);
+        const int qx0 = std::max(m_rx0, bx0 - mx), qx1 = std::min(m_rx0 + m_rw, bx1 + mx);
+        for (int sy = (qy0 - m_ry0) * ys; sy < (qy1 - m_ry0) * ys; ++sy) {
+            const int qy = m_ry0 + sy / ys;
+            const int ty0 = std::max(by0, qy - my), ty1 = std::min(by1 - 1, qy + my);
+            for (int sx = (qx0 - m_rx0) * xs; sx < (qx1 - m_rx0) * xs; ++sx) {
+                const int qx = m_rx0 + sx / xs;
+                const int tx0 = std::max(bx0, qx - mx), tx1 = std::min(bx1 - 1, qx + mx);
+                const size_t s = size_t(sy) * size_t(m_sw) + size_t(sx);
+                const float x = m_px[s], y = m_py[s];
+                const float* val = &m_res[s * size_t(stride)];
+                for (int ty = ty0; ty <= ty1; ++ty)
+                    for (int tx = tx0; tx <= tx1; ++tx) {
+                        const float w = filter.weight(x - (float(tx) + 0.5f), y - (float(ty) + 0.5f));
+                        if (w == 0.0f) continue;
+                        float* acc = &m_acc[(size_t(ty - by0) * size_t(bw) + size_t(tx - bx0)) * size_t(accStride)];
+                        for (int k = 0; k < stride; ++k) acc[k] += w * val[k];
+                        acc[stride] += w;
                     }
-                    for (int k = 0; k < stride; ++k) acc[k] += w * val[k];
-                    acc[stride] += w;
-                }
             }
         }
     }
@@ -623,8 +650,13 @@ void SampleBuffer::resolve(film::Film& film) {
     for (int py = by0; py < by1; ++py)
         for (int px = bx0; px < bx1; ++px) {
             const float* acc = &m_acc[(size_t(py - by0) * size_t(bw) + size_t(px - bx0)) * size_t(accStride)];
-            const float wsum = acc[stride];
-            const float inv = wsum != 0.0f ? 1.0f / wsum : 0.0f;
+            float inv;
+            if (separable) {
+                inv = m_weights->inverseWeightSum(positiveMod(px, kPatternPeriod), positiveMod(py, kPatternPeriod));
+            } else {
+                const float wsum = acc[stride];
+                inv = wsum != 0.0f ? 1.0f / wsum : 0.0f;
+            }
             float* rgba = film.rgba(px, py);
             for (int k = 0; k < 4; ++k) rgba[k] = acc[k] * inv;
             float* aov = film.aov(px, py);
@@ -633,64 +665,73 @@ void SampleBuffer::resolve(film::Film& film) {
         }
 }
 
-void SampleBuffer::resolveColour(film::Film& film, int bx0, int by0, int bx1, int by1) {
-    // The common case (no AOVs, a separable filter), written for speed: r g
-    // b a travel in one vector, weights are looked up once per sample and
-    // axis, and sums run in the same fixed order as the general path, so
-    // both give the same pixels.
-    const film::PixelFilter& filter = film.filter();
+template <class Splat>
+void SampleBuffer::splatSeparable(int bx0, int by0, int bx1, int by1, int accStride, Splat splat) {
+    const PatternFilterWeights& table = *m_weights;
     const int xs = m_cfg.xSamples, ys = m_cfg.ySamples;
-    const int bw = bx1 - bx0, bh = by1 - by0;
-    const int mx = filter.xMargin(), my = filter.yMargin();
-    m_acc.assign(size_t(bw) * size_t(bh) * 5, 0.0f);
+    const int mx = table.xMargin(), my = table.yMargin();
+    const int columns = m_pattern->columns(), rows = m_pattern->rows();
+    const size_t rowStride = size_t(bx1 - bx0) * size_t(accStride);
     float* acc = m_acc.data();
+    // Only samples of pixels within the filter's reach of the bucket matter.
     const int qy0 = std::max(m_ry0, by0 - my), qy1 = std::min(m_ry0 + m_rh, by1 + my);
     const int qx0 = std::max(m_rx0, bx0 - mx), qx1 = std::min(m_rx0 + m_rw, bx1 + mx);
-    float wx[64], wy[64];
-    const float rx = filter.xRadius(), ry = filter.yRadius();
     for (int sy = (qy0 - m_ry0) * ys; sy < (qy1 - m_ry0) * ys; ++sy) {
+        const int qy = m_ry0 + sy / ys;
+        const int ty = positiveMod(m_sy0 + sy, rows);
+        const PatternFilterWeights::Reach* reach = table.reachRow(ty);
         const size_t rowBase = size_t(sy) * size_t(m_sw);
-        for (int sx = (qx0 - m_rx0) * xs; sx < (qx1 - m_rx0) * xs; ++sx) {
-            const size_t s = rowBase + size_t(sx);
-            const float x = m_px[s], y = m_py[s];
-            // Only the pixels whose centres lie within the filter's radius
-            // (the support is closed, as in PixelFilter::weight).
-            // (floorToInt, not std::floor: on baseline x86-64 that is a libm call.)
-            const int tx0 = std::max(bx0, -floorToInt(rx + 0.5f - x));
-            const int tx1 = std::min(bx1 - 1, floorToInt(x - 0.5f + rx));
-            const int ty0 = std::max(by0, -floorToInt(ry + 0.5f - y));
-            const int ty1 = std::min(by1 - 1, floorToInt(y - 0.5f + ry));
-            if (tx0 > tx1 || ty0 > ty1) continue;
-            Vec4f value{0, 0, 0, 0};
-            if (m_fragHead[s] >= 0) {
-                const float* r = &m_res[s * 4];
-                value = Vec4f{r[0], r[1], r[2], r[3]};
-            } else if (m_z[s] != kInfinity) {
-                value = Vec4f{m_ci[s].x, m_ci[s].y, m_ci[s].z, m_alpha[s]};
-            }
-            for (int tx = tx0; tx <= tx1; ++tx) wx[tx - tx0] = filter.weightX(x - (float(tx) + 0.5f));
-            for (int ty = ty0; ty <= ty1; ++ty) wy[ty - ty0] = filter.weightY(y - (float(ty) + 0.5f));
-            for (int ty = ty0; ty <= ty1; ++ty) {
-                const float wyv = wy[ty - ty0];
-                if (wyv == 0.0f) continue;
-                float* row = acc + (size_t(ty - by0) * size_t(bw)) * 5;
-                for (int tx = tx0; tx <= tx1; ++tx) {
-                    const float w = wx[tx - tx0] * wyv;
-                    if (w == 0.0f) continue;
-                    float* a = row + size_t(tx - bx0) * 5;
-                    Vec4f sum;
-                    std::memcpy(&sum, a, sizeof sum);
-                    sum += w * value;
-                    std::memcpy(a, &sum, sizeof sum);
-                    a[4] += w;
+        int tx = positiveMod((qx0 - m_rx0) * xs + m_sx0, columns);
+        for (int qx = qx0; qx < qx1; ++qx)
+            for (int i = 0; i < xs; ++i, tx = tx + 1 == columns ? 0 : tx + 1) {
+                const size_t s = rowBase + size_t((qx - m_rx0) * xs + i);
+                // Samples that hit nothing add zeros; their weights are in
+                // the tabulated sums all the same.
+                if (m_z[s] == kInfinity && m_fragHead[s] < 0) continue;
+                const PatternFilterWeights::Reach r = reach[tx];
+                const int py0 = std::max(by0, qy + r.y0), py1 = std::min(by1 - 1, qy + r.y1);
+                const int px0 = std::max(bx0, qx + r.x0), px1 = std::min(bx1 - 1, qx + r.x1);
+                if (px0 > px1 || py0 > py1) continue;
+                const float* wx = table.weights(tx, ty) + mx;  // by pixel offset from the sample's pixel
+                const float* wy = wx + mx + 1 + my;
+                auto add = splat(s);
+                for (int py = py0; py <= py1; ++py) {
+                    const float wyv = wy[py - qy];
+                    float* row = acc + size_t(py - by0) * rowStride;
+                    for (int px = px0; px <= px1; ++px)
+                        add(row + size_t(px - bx0) * size_t(accStride), wx[px - qx] * wyv);
                 }
             }
-        }
     }
+}
+
+void SampleBuffer::resolveColour(film::Film& film, int bx0, int by0, int bx1, int by1) {
+    // The common case (no AOVs, a separable filter), written for speed: r g
+    // b a travel in one vector. The sums are those of the general path.
+    const int xs = m_cfg.xSamples, ys = m_cfg.ySamples;
+    const int bw = bx1 - bx0, bh = by1 - by0;
+    m_acc.assign(size_t(bw) * size_t(bh) * 4, 0.0f);
+    splatSeparable(bx0, by0, bx1, by1, 4, [&](size_t s) {
+        Vec4f value;
+        if (m_fragHead[s] >= 0) {
+            const float* r = &m_res[s * 4];
+            value = Vec4f{r[0], r[1], r[2], r[3]};
+        } else {
+            value = Vec4f{m_ci[s].x, m_ci[s].y, m_ci[s].z, m_alpha[s]};
+        }
+        return [value](float* acc, float w) {
+            Vec4f sum;
+            std::memcpy(&sum, acc, sizeof sum);
+            sum += w * value;
+            std::memcpy(acc, &sum, sizeof sum);
+        };
+    });
+    const float* acc = m_acc.data();
     for (int py = by0; py < by1; ++py)
         for (int px = bx0; px < bx1; ++px) {
-            const float* a = &acc[(size_t(py - by0) * size_t(bw) + size_t(px - bx0)) * 5];
-            const float inv = a[4] != 0.0f ? 1.0f / a[4] : 0.0f;
+            const float* a = &acc[(size_t(py - by0) * size_t(bw) + size_t(px - bx0)) * 4];
+            const float inv =
+                m_weights->inverseWeightSum(positiveMod(px, kPatternPeriod), positiveMod(py, kPatternPeriod));
             float* rgba = film.rgba(px, py);
             for (int k = 0; k < 4; ++k) rgba[k] = a[k] * inv;
             float z = kInfinity;

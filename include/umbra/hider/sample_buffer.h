@@ -26,6 +26,7 @@
 #include "umbra/util/math.h"
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace umbra::film {
@@ -33,6 +34,9 @@ class Film;
 }
 
 namespace umbra::hider {
+
+class SamplePattern;
+class PatternFilterWeights;
 
 /// A shaded grid as the hider sees it: (nu+1) x (nv+1) vertices in the
 /// grid's layout (vertex (i, j) at j * (nu+1) + i). Pointers are borrowed
@@ -103,6 +107,11 @@ struct SampleBufferConfig {
 /// composited in do not depend on the order grids arrive in.
 class SampleBuffer {
 public:
+    SampleBuffer();
+    ~SampleBuffer();
+    SampleBuffer(SampleBuffer&&) noexcept;
+    SampleBuffer& operator=(SampleBuffer&&) noexcept;
+
     void reset(const SampleBufferConfig& config);
     const SampleBufferConfig& config() const { return m_cfg; }
 
@@ -132,6 +141,10 @@ public:
     /// The raster position of sample s (0 .. xs*ys-1, row-major in the
     /// pixel's strata) of pixel (px, py) for the given settings; what the
     /// buffer uses, exposed for tests and for the shadow lookups' users.
+    /// It is the pixel plus the offset of sample s in pixel (px mod 64,
+    /// py mod 64): the jitter repeats every 64 pixels (see
+    /// src/hider/sample_pattern.h), and each sample lies strictly inside its
+    /// stratum, floor(x * xs) == px * xs + s % xs (likewise in y).
     static Vec2 samplePosition(int px, int py, int s, int xSamples, int ySamples, bool jitter, uint32_t frameSeed);
 
     /// Inspection (tests, statistics). Pixel and sample as samplePosition;
@@ -158,11 +171,21 @@ private:
     int sampleIndex(int px, int py, int s) const;
     void rasterizeQuad(const MicroGrid& g, const HitContext& ctx, int i, int j, float minx, float miny, float maxx,
                        float maxy);
-    bool record(const MicroGrid& g, const HitContext& ctx, const Tri& t, size_t s, float w0, float w1, float w2);
+    /// Records a hit of triangle t at sample s: depth z (within the clipping
+    /// planes), barycentric weights b1, b2 of t's second and third vertices.
+    /// True if it changed a depth the occlusion bound is made of.
+    bool record(const MicroGrid& g, const HitContext& ctx, const Tri& t, size_t s, float z, float b1, float b2);
     void markDirty(int sx0, int sy0, int sx1, int sy1);
     void updatePixelMax() const;
     /// resolve() for frames without AOVs and a separable filter.
     void resolveColour(film::Film& film, int bx0, int by0, int bx1, int by1);
+    /// Adds each sample's weighted value to the accumulators (accStride
+    /// floats a pixel in m_acc) of the bucket pixels it reaches, with the
+    /// tabulated weights of a separable filter, in the fixed order of the
+    /// samples' strata: splat(s) gives the sample's adder, called as
+    /// add(pixel's accumulator, weight).
+    template <class Splat>
+    void splatSeparable(int bx0, int by0, int bx1, int by1, int accStride, Splat splat);
 
     SampleBufferConfig m_cfg;
     int m_rx0 = 0, m_ry0 = 0;        // sampled region's first pixel (raster)
@@ -173,6 +196,7 @@ private:
 
     // Per sample (structure of arrays).
     std::vector<float> m_px, m_py;   // raster position
+    std::vector<float> m_columnPixel;  // per region stratum column: its pixel's x (reset scratch)
     std::vector<float> m_z;          // opaque z (colour) or z1 (depth)
     std::vector<uint64_t> m_id;      // key of that hit: grid id ...
     std::vector<uint32_t> m_sub;     // ... and triangle index
@@ -183,6 +207,9 @@ private:
     std::vector<float> m_z2;         // depth mode: second depth ...
     std::vector<uint64_t> m_id2;     // ... its grid id and triangle
     std::vector<uint32_t> m_sub2;
+
+    std::unique_ptr<SamplePattern> m_pattern;          // positions of one period
+    std::unique_ptr<PatternFilterWeights> m_weights;   // the film filter's weights over it
 
     std::vector<Fragment> m_frags;
     std::vector<float> m_fragAov;
@@ -195,7 +222,7 @@ private:
 
     // Resolve scratch.
     std::vector<float> m_res;        // per sample: r g b a, aov...
-    std::vector<float> m_acc;        // per bucket pixel: r g b a aov..., weight
+    std::vector<float> m_acc;        // per bucket pixel: r g b a aov... (non-separable filters: and the weight)
     std::vector<int32_t> m_order;    // fragment sort scratch
     std::vector<float> m_scratchAov;
 };

@@ -110,9 +110,11 @@ TEST(SampleBuffer, PositionsAreStratifiedAndJittered) {
         EXPECT_GE(p.y, -3.0f + float(j) / ys);
         EXPECT_LT(p.y, -3.0f + float(j + 1) / ys);
         offsets.push_back(p.x - (7.0f + (float(i) + 0.5f) / xs));
-        // The jitter is keyed by (frame seed, pixel, sample index) only.
-        float jx = hashToUnit(hashKeys(99u, 7u, uint32_t(-3), uint32_t(s)));
-        EXPECT_NEAR(p.x, 7.0f + (float(i) + jx) / xs, 1e-5f);
+        // The jitter is keyed by (frame seed, pixel mod 64, sample index)
+        // only: -3 mod 64 is 61.
+        uint32_t h = hashKeys(99u, 7u, 61u, uint32_t(s));
+        EXPECT_NEAR(p.x, 7.0f + (float(i) + hashToUnit(h)) / xs, 1e-5f);
+        EXPECT_NEAR(p.y, -3.0f + (float(j) + hashToUnit(hash32(h ^ 0x68e31da4u))) / ys, 1e-5f);
         // Regular positions are the strata centres.
         Vec2 r = SampleBuffer::samplePosition(7, -3, s, xs, ys, false, 99);
         EXPECT_FLOAT_EQ(r.x, 7.0f + (float(i) + 0.5f) / xs);
@@ -126,6 +128,29 @@ TEST(SampleBuffer, PositionsAreStratifiedAndJittered) {
     Vec2 c = SampleBuffer::samplePosition(10, 20, 0, 1, 1, false, 5);
     EXPECT_EQ(c.x, 10.5f);
     EXPECT_EQ(c.y, 20.5f);
+}
+
+TEST(SampleBuffer, JitterRepeatsEvery64Pixels) {
+    const int xs = 4, ys = 4;
+    for (int s = 0; s < xs * ys; ++s) {
+        Vec2 p = SampleBuffer::samplePosition(5, 9, s, xs, ys, true, 7);
+        for (int k : {-3, -1, 1, 2, 10}) {
+            Vec2 q = SampleBuffer::samplePosition(5 + 64 * k, 9 - 64 * k, s, xs, ys, true, 7);
+            EXPECT_NEAR(q.x - float(64 * k), p.x, 1e-4f);
+            EXPECT_NEAR(q.y + float(64 * k), p.y, 1e-4f);
+        }
+        // Half the period is not a period.
+        EXPECT_NE(SampleBuffer::samplePosition(5 + 32, 9, s, xs, ys, true, 7).x - 32.0f, p.x);
+    }
+    // Far from the origin, rounding pixel + offset may cross a stratum's
+    // edge; samples stay strictly inside their strata all the same.
+    for (int px : {100003, -77777, 4095, -1}) {
+        for (int s = 0; s < 3 * 5; ++s) {
+            Vec2 p = SampleBuffer::samplePosition(px, -px, s, 3, 5, true, 3);
+            EXPECT_EQ(int(std::floor(p.x * 3.0f)), px * 3 + s % 3) << px << " " << s;
+            EXPECT_EQ(int(std::floor(p.y * 5.0f)), -px * 5 + s / 3) << px << " " << s;
+        }
+    }
 }
 
 TEST(SampleBuffer, MarginSamplesMatchTheNeighbourBucket) {
@@ -575,4 +600,78 @@ TEST(SampleBuffer, ResetReusesTheBufferForAnotherBucket) {
     }
     for (int y = 0; y < 16; ++y)
         for (int x = 0; x < 32; ++x) ASSERT_NEAR(film.rgba(x, y)[0], 0.25f, 1e-6f);
+}
+
+TEST(SampleBuffer, BufferPositionsAreSamplePositions) {
+    // Buckets far from the origin and at negative pixels, where rounding
+    // pixel + offset may need the sample moved back inside its stratum.
+    for (int x0 : {-40, 100000, -70001}) {
+        SampleBuffer b;
+        SampleBufferConfig c = config(x0, -x0 / 2, x0 + 9, -x0 / 2 + 7, 2, 3, 5, true);
+        b.reset(c);
+        forEachSample(b, [&](int px, int py, int s) {
+            Vec2 p = b.position(px, py, s), ref = SampleBuffer::samplePosition(px, py, s, 3, 5, true, c.frameSeed);
+            ASSERT_EQ(p.x, ref.x) << px << "," << py << " " << s;
+            ASSERT_EQ(p.y, ref.y) << px << "," << py << " " << s;
+        });
+    }
+}
+
+namespace {
+
+/// Renders a jittered frame of opaque, transparent and matte grids bucket
+/// by bucket; the buffer carries aovCount (unused, zero) AOV floats.
+std::vector<float> renderBuckets(const char* filter, float width, int bucketW, int bucketH, int aovCount) {
+    const int w = 37, h = 23;
+    std::vector<film::AovChannel> aovs;
+    if (aovCount > 0) aovs.push_back({"k", aovCount});
+    film::Film film = makeFilm(w, h, filter, width, aovs);
+    const int margin = film.filter().margin();
+    TestGrid back = rectGrid(-3, -2, 40, 26, 9, 7, [](float x, float y) { return 5 + 0.05f * x + 0.02f * y; },
+                             Color(0.2f, 0.5f, 0.9f), Color(1.0f), 1);
+    for (Vec3& p : back.P) p.x += 0.3f * std::sin(p.y);
+    TestGrid veil = flatGrid(4.3f, 3.1f, 30.7f, 19.4f, 5, 4, 2.0f, Color(0.4f, 0.1f, 0), Color(0.5f), 2);
+    TestGrid disc = flatGrid(11.2f, 6.6f, 19.9f, 15.3f, 3, 3, 1.0f, Color(0.9f, 0.8f, 0.1f), Color(1.0f), 3);
+    TestGrid matte = flatGrid(24.1f, 1.3f, 33.5f, 9.8f, 2, 2, 1.5f, Color(1.0f), Color(1.0f), 4);
+    matte.matte = true;
+    SampleBuffer b;
+    for (int y0 = 0; y0 < h; y0 += bucketH)
+        for (int x0 = 0; x0 < w; x0 += bucketW) {
+            SampleBufferConfig c =
+                config(x0, y0, std::min(x0 + bucketW, w), std::min(y0 + bucketH, h), margin, 3, 2, true);
+            c.aovCount = aovCount;
+            b.reset(c);
+            for (const TestGrid* g : {&back, &veil, &disc, &matte}) b.sample(g->view());
+            b.resolve(film);
+        }
+    std::vector<float> pixels;
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) pixels.insert(pixels.end(), film.rgba(x, y), film.rgba(x, y) + 4);
+    return pixels;
+}
+
+}  // namespace
+
+TEST(SampleBuffer, ResolveDoesNotDependOnBucketSizeOrAovs) {
+    // Sums run in one fixed order whatever the buckets, and the general
+    // (AOV) path filters with the same weights as the colour-only one: the
+    // pixels are bit-identical.
+    struct Case {
+        const char* name;
+        float width;
+    };
+    for (Case fc : {Case{"gaussian", 2}, Case{"sinc", 4}, Case{"box", 1}, Case{"catmull-rom", 4}}) {
+        SCOPED_TRACE(fc.name);
+        std::vector<float> reference = renderBuckets(fc.name, fc.width, 16, 16, 0);
+        for (int bw : {5, 37})
+            for (int bh : {3, 16}) {
+                std::vector<float> other = renderBuckets(fc.name, fc.width, bw, bh, 0);
+                EXPECT_EQ(std::memcmp(reference.data(), other.data(), reference.size() * sizeof(float)), 0)
+                    << bw << "x" << bh;
+            }
+        std::vector<float> withAovs = renderBuckets(fc.name, fc.width, 7, 9, 2);
+        EXPECT_EQ(std::memcmp(reference.data(), withAovs.data(), reference.size() * sizeof(float)), 0);
+        // Something was drawn.
+        EXPECT_GT(*std::max_element(reference.begin(), reference.end()), 0.5f);
+    }
 }

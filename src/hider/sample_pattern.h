@@ -1,0 +1,137 @@
+#pragma once
+// The stochastic hider's sample pattern and a pixel filter's weights over it
+// (internal to the hider; SampleBuffer is the interface).
+//
+// The jitter is periodic: the offset of sample s inside pixel (px, py) is
+// that of pixel (px mod P, py mod P), P = kPatternPeriod, the *pattern
+// pixel*. So positions and filter weights are computed once per frame into
+// tables, and each bucket copies positions and looks weights up instead of
+// hashing and evaluating them for every sample. (Tiling one jittered
+// pattern of 64 x 64 pixels is the usual trade: its period is far longer
+// than any filter, so the repetition does not show as aliasing.)
+//
+// Tables are indexed by *pattern stratum*: sample s = j * xs + i of pattern
+// pixel (ux, uy) is stratum column tx = ux * xs + i, row ty = uy * ys + j of
+// a (P * xs) x (P * ys) grid, row-major. Global stratum (sx, sy) (as in
+// sample_buffer.h) maps to (sx mod P * xs, sy mod P * ys), so a row of a
+// bucket's strata is a row of the table that wraps at most once.
+
+#include "umbra/util/math.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace umbra::film {
+class PixelFilter;
+}
+
+namespace umbra::hider {
+
+constexpr int kPatternPeriod = 64;
+
+/// v mod n in [0, n), also for negative v.
+inline int positiveMod(int v, int n) {
+    int r = v % n;
+    return r < 0 ? r + n : r;
+}
+
+/// floor() without a libm call (x86-64 without SSE4.1 has no rounding
+/// instruction); exact for the magnitudes of raster coordinates.
+inline int floorToInt(float v) {
+    int i = int(v);
+    return float(i) > v ? i - 1 : i;
+}
+
+/// v moved by the fewest ulps so that floor(v * n) == t: a coordinate kept
+/// strictly inside stratum t of an axis with n strata per pixel. The
+/// rasteriser finds samples by floor(x * xs), and rounding may otherwise
+/// push a sample onto its stratum's far edge.
+float placeInStratum(float v, int t, int n);
+
+/// What fixes a frame's sample pattern.
+struct PatternSettings {
+    int xSamples = 1, ySamples = 1;
+    bool jitter = true;
+    uint32_t frameSeed = 0;
+    bool operator==(const PatternSettings& o) const {
+        return xSamples == o.xSamples && ySamples == o.ySamples && jitter == o.jitter && frameSeed == o.frameSeed;
+    }
+};
+
+/// The offsets inside their pixel of one period of samples.
+class SamplePattern {
+public:
+    /// The offset, in [0, 1)^2 and strictly inside its stratum, of sample s
+    /// (0 .. xs*ys-1) of pattern pixel (ux, uy) in [0, P)^2: the jitter,
+    /// hashed from (frame seed, pattern pixel, sample index), or the
+    /// stratum's centre without jitter.
+    static Vec2 offset(int ux, int uy, int s, const PatternSettings& settings);
+
+    /// Builds the table unless it already holds these settings.
+    void prepare(const PatternSettings& settings);
+    const PatternSettings& settings() const { return m_settings; }
+    /// Counts rebuilds, so tables derived from this one know when to follow.
+    uint64_t generation() const { return m_generation; }
+
+    int columns() const { return m_columns; }  // P * xs
+    int rows() const { return m_rows; }        // P * ys
+    /// Offsets of the samples of pattern stratum row ty, by column tx.
+    const float* xRow(int ty) const { return &m_x[size_t(ty) * size_t(m_columns)]; }
+    const float* yRow(int ty) const { return &m_y[size_t(ty) * size_t(m_columns)]; }
+
+private:
+    PatternSettings m_settings;
+    bool m_built = false;
+    uint64_t m_generation = 0;
+    int m_columns = 0, m_rows = 0;
+    std::vector<float> m_x, m_y;
+};
+
+/// A separable pixel filter's weights for every sample of a pattern, and
+/// the sum of the weights that reach each pattern pixel.
+///
+/// A sample of pixel q reaches pixel q + d (|d| <= the filter's margin)
+/// with weight wx(d.x) * wy(d.y), where wx(dx) = filter.weightX(ox - (dx +
+/// 0.5)) for the sample's offset ox inside q (and likewise in y): the
+/// weights depend on the sample's offset only, so they repeat with the
+/// pattern. Every pixel is reached by all samples of the pixels within the
+/// margin (the sample buffer's region covers them), so the sum of weights
+/// reaching a pixel repeats with the pattern too and is tabulated, already
+/// inverted for normalising.
+class PatternFilterWeights {
+public:
+    /// Pixel offsets from the sample's pixel of the first and last pixel
+    /// the sample reaches with a non-zero weight, per axis (x1 < x0 when
+    /// none).
+    struct Reach {
+        int8_t x0, x1, y0, y1;
+    };
+
+    /// Builds the tables unless they hold this pattern and filter.
+    void prepare(const SamplePattern& pattern, const film::PixelFilter& filter);
+
+    int xMargin() const { return m_mx; }
+    int yMargin() const { return m_my; }
+    /// Pattern stratum (tx, ty)'s reach and weights: x weights for pixel
+    /// offsets -xMargin .. xMargin, then y weights for -yMargin .. yMargin.
+    const Reach* reachRow(int ty) const { return &m_reach[size_t(ty) * size_t(m_columns)]; }
+    const float* weights(int tx, int ty) const {
+        return &m_weights[(size_t(ty) * size_t(m_columns) + size_t(tx)) * size_t(m_stride)];
+    }
+    /// 1 / (sum of the weights reaching pattern pixel (ux, uy)), 0 if none.
+    float inverseWeightSum(int ux, int uy) const {
+        return m_inverseSum[size_t(uy) * size_t(kPatternPeriod) + size_t(ux)];
+    }
+
+private:
+    bool m_built = false;
+    uint64_t m_patternGeneration = 0;
+    int m_filterKind = -1;
+    float m_xWidth = 0, m_yWidth = 0;
+    int m_mx = 0, m_my = 0, m_stride = 0, m_columns = 0;
+    std::vector<Reach> m_reach;
+    std::vector<float> m_weights;
+    std::vector<float> m_inverseSum;
+};
+
+}  // namespace umbra::hider
