@@ -4,7 +4,8 @@
 //  1. z = the point's light camera-space depth; z < 0 (behind the light) is
 //     lit.
 //  2. The region: the micropolygon footprint (P +- dPdu_du/2 +- dPdv_dv/2)
-//     projected into the map's raster; half-widths (hs, ht) are the largest
+//     projected into the map's raster (to first order, through the
+//     projection's derivative at P); half-widths (hs, ht) are the largest
 //     distances of its corners from the projected P, scaled by swidth/twidth
 //     (ResFactor), widened by blur, and at least MinSize/2.
 //  3. A region wholly outside the map's bounding box (data window) is lit.
@@ -12,7 +13,8 @@
 //     z nearer than every covered tile's min z (with the lowest bias) is
 //     lit; z beyond every covered tile's max z (with the highest bias), for
 //     a region wholly inside the bounding box, is shadowed. Both are exact:
-//     they give the result filtering would.
+//     they give the result filtering would. A region inside one tile gets
+//     the same test again with the depth ranges of the tile's 8x8 blocks.
 //  5. ns x nt samples, counted as Reeves does (fewer for regions smaller
 //     than NumSamples texels, at least MinSamples per axis); each compares
 //     z > map + bias. Samples outside the bounding box see +infinity (lit).
@@ -42,11 +44,13 @@ struct TileMemo {
     static constexpr int kSlots = 16;
     int tx[kSlots], ty[kSlots];
     const float* data[kSlots];
+    const ShadowTile* tile[kSlots];
     ShadowTilePtr hold[kSlots];
     TileMemo() {
         for (int i = 0; i < kSlots; ++i) {
             tx[i] = ty[i] = -1;
             data[i] = nullptr;
+            tile[i] = nullptr;
         }
     }
 };
@@ -74,6 +78,23 @@ inline int floorInt(float v) {
 /// plane's transform and evaluation, measured at a few 1e-6).
 constexpr float kVirtualSlack = 1e-4f;
 
+/// The random numbers of sample k of a lookup whose point hash is
+/// `pointSeed`: a hash of the two, not a sequential generator, so a
+/// region's samples do not wait on one another (a generator's state update
+/// is a chain of dependent multiplies) and any sample can be replayed alone.
+struct SampleRandoms {
+    uint32_t h;
+    explicit SampleRandoms(uint32_t pointSeed, int k) : h(hash32(pointSeed + uint32_t(k) * 0x9e3779b9u)) {}
+    /// One hash, three uniforms in [0,1): the jitter inside the sample's
+    /// cell (11 bits each, 1/2048 of a cell) and the bias (10 bits, 1/1024
+    /// of the bias range).
+    float ju() const { return float(h & 0x7ffu) * (1.0f / 2048.0f); }
+    float jv() const { return float((h >> 11) & 0x7ffu) * (1.0f / 2048.0f); }
+    float jbias() const { return float(h >> 22) * (1.0f / 1024.0f); }
+    /// Further independent uniforms (24 bits), for Gaussian sampling.
+    float extra(uint32_t which) const { return hashToUnit(hash32(h ^ (0x5bd1e995u * (which + 1)))); }
+};
+
 /// A standard normal deviate from two uniforms (Box-Muller).
 inline void gaussianPair(float u1, float u2, float* g1, float* g2) {
     float r = std::sqrt(-2.0f * std::log(1.0f - u1));  // 1-u1 in (0,1]
@@ -83,6 +104,100 @@ inline void gaussianPair(float u1, float u2, float* g1, float* g2) {
 }
 
 }  // namespace
+
+bool ShadowMap::batchDecided(const ShadowBatch& batch, const ShadowParams& params, const Mat4& lightFromCurrent,
+                             const Mat4& rasterFromCurrent, float* out, ShadowStats& st) const {
+    // The tests of the point loop (bounding box, per-tile depth ranges)
+    // applied once to a bound of the whole batch -- a shaded grid -- before
+    // any point is projected: grids that miss the map's bounding box, or
+    // lie wholly nearer or farther than the tiles their regions cover, are
+    // decided at once. Every bound is conservative (with a margin for the
+    // rounding of the per-point arithmetic), so a batch decided here gets
+    // exactly what the point loop would give it.
+    if (batch.count < 4) return false;
+    Bound3 box;
+    float foot = 0;  // the largest distance from a point to its footprint's corners
+    for (int i = 0; i < batch.count; ++i) {
+        box.extend(batch.P[i]);
+        if (batch.dPdu_du && batch.dPdv_dv)
+            foot = std::max(foot, 0.5f * (length(batch.dPdu_du[i]) + length(batch.dPdv_dv[i])));
+    }
+    if (!std::isfinite(foot)) return false;
+    const auto& R = rasterFromCurrent.m;
+    const auto& L = lightFromCurrent.m;
+    float sLo = kInfinity, sHi = -kInfinity, tLo = kInfinity, tHi = -kInfinity;
+    float wMin = kInfinity, zLo = kInfinity, zHi = -kInfinity;
+    for (int c = 0; c < 8; ++c) {
+        const Vec3 p(c & 1 ? box.max.x : box.min.x, c & 2 ? box.max.y : box.min.y, c & 4 ? box.max.z : box.min.z);
+        const float w = R[3][0] * p.x + R[3][1] * p.y + R[3][2] * p.z + R[3][3];
+        // Points behind the projection centre have no convex image: no bound.
+        if (!(w > 0)) return false;
+        const float s = (R[0][0] * p.x + R[0][1] * p.y + R[0][2] * p.z + R[0][3]) / w;
+        const float t = (R[1][0] * p.x + R[1][1] * p.y + R[1][2] * p.z + R[1][3]) / w;
+        const float z = L[2][0] * p.x + L[2][1] * p.y + L[2][2] * p.z + L[2][3];
+        sLo = std::min(sLo, s), sHi = std::max(sHi, s);
+        tLo = std::min(tLo, t), tHi = std::max(tHi, t);
+        wMin = std::min(wMin, w);
+        zLo = std::min(zLo, z), zHi = std::max(zHi, z);
+    }
+    if (!std::isfinite(sLo + sHi + tLo + tHi + zLo + zHi)) return false;
+    // A footprint vector d moves the projection by (R0.d - s R3.d) / w in s:
+    // at most (|R0| + |s| |R3|) |d| / w.
+    auto norm3 = [](const float* row) { return std::sqrt(row[0] * row[0] + row[1] * row[1] + row[2] * row[2]); };
+    const float sAbs = std::max(std::abs(sLo), std::abs(sHi)), tAbs = std::max(std::abs(tLo), std::abs(tHi));
+    const float minHalf = std::max(0.0f, params.minSize) * 0.5f;
+    const float maxHalf = 4.0f * float(std::max(m_width, m_height)) + 4.0f;
+    float hs = (norm3(R[0]) + sAbs * norm3(R[3])) * foot / wMin * params.sWidth +
+               std::max(0.0f, params.blur) * float(m_width) * 0.5f;
+    float ht = (norm3(R[1]) + tAbs * norm3(R[3])) * foot / wMin * params.tWidth +
+               std::max(0.0f, params.blur) * float(m_height) * 0.5f;
+    if (!(hs >= 0) || !(ht >= 0)) return false;
+    hs = std::min(std::max(hs, minHalf), maxHalf);
+    ht = std::min(std::max(ht, minHalf), maxHalf);
+    // The margin covers the points' own rounding (relative 1e-6 of the
+    // coordinates) many times over.
+    const float marginS = 1e-3f + 1e-4f * (sAbs + hs), marginT = 1e-3f + 1e-4f * (tAbs + ht);
+    const float loS = sLo - hs - marginS, hiS = sHi + hs + marginS;
+    const float loT = tLo - ht - marginT, hiT = tHi + ht + marginT;
+    auto decide = [&](float value) {
+        for (int i = 0; i < batch.count; ++i) out[i] = value;
+        st.points += uint64_t(batch.count);
+    };
+    if (hiS < float(m_dx0) || loS >= float(m_dx1) + 1.0f || hiT < float(m_dy0) || loT >= float(m_dy1) + 1.0f) {
+        decide(0.0f);
+        st.outside += uint64_t(batch.count);
+        return true;
+    }
+    if (!params.tileCulling) return false;
+    // Tiles the regions can reach, clipped to the data window.
+    const int ci0 = std::max(int(std::floor(std::max(loS, float(m_dx0)))), m_dx0);
+    const int ci1 = std::min(int(std::floor(std::min(hiS, float(m_dx1)))), m_dx1);
+    const int cj0 = std::max(int(std::floor(std::max(loT, float(m_dy0)))), m_dy0);
+    const int cj1 = std::min(int(std::floor(std::min(hiT, float(m_dy1)))), m_dy1);
+    const int tx0 = (ci0 - m_fileX0) >> m_tileShiftX, tx1 = (ci1 - m_fileX0) >> m_tileShiftX;
+    const int ty0 = (cj0 - m_fileY0) >> m_tileShiftY, ty1 = (cj1 - m_fileY0) >> m_tileShiftY;
+    if ((tx1 - tx0 + 1) * (ty1 - ty0 + 1) > 256) return false;
+    float tileMin = kInfinity, tileMax = -kInfinity;
+    for (int ty = ty0; ty <= ty1; ++ty)
+        for (int tx = tx0; tx <= tx1; ++tx) {
+            tileMin = std::min(tileMin, m_tileMin[size_t(ty) * m_tilesX + tx]);
+            tileMax = std::max(tileMax, m_tileMax[size_t(ty) * m_tilesX + tx]);
+        }
+    const float zMargin = 1e-5f * std::max(std::abs(zLo), std::abs(zHi)) + 1e-6f;
+    if (zHi + zMargin <= tileMin + params.biasLow()) {
+        decide(0.0f);
+        st.culledLit += uint64_t(batch.count);
+        return true;
+    }
+    const bool inside = loS >= float(m_dx0) && hiS < float(m_dx1) + 1.0f && loT >= float(m_dy0) &&
+                        hiT < float(m_dy1) + 1.0f;
+    if (inside && zLo - zMargin >= 0 && zLo - zMargin > tileMax + params.biasHigh()) {
+        decide(1.0f);
+        st.culledShadowed += uint64_t(batch.count);
+        return true;
+    }
+    return false;
+}
 
 template <bool kPointSample>
 void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params, float* out,
@@ -118,6 +233,7 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
         const int slot = (tx & 3) | ((ty & 3) << 2);
         if (memo.tx[slot] != tx || memo.ty[slot] != ty) {
             memo.hold[slot] = fetchTile(tx, ty);
+            memo.tile[slot] = memo.hold[slot].get();
             memo.data[slot] = memo.hold[slot]->z.data();
             memo.tx[slot] = tx;
             memo.ty[slot] = ty;
@@ -130,6 +246,13 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
     const bool secondDepth = !kPointSample && m_filter == DepthFilter::Second && batch.N && m_virtualMode != 0;
     // Once per batch, not per ambiguous point: normals need the inverse.
     const Mat4 currentFromLight = secondDepth ? lightFromCurrent.inverse() : Mat4();
+
+    if constexpr (!kPointSample) {
+        if (hasData && batchDecided(batch, params, lightFromCurrent, rasterFromCurrent, out, st)) {
+            stats += st;
+            return;
+        }
+    }
 
     for (int i = 0; i < batch.count; ++i) {
         out[i] = 0;
@@ -153,16 +276,23 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
             out[i] = z > depthAt(floorInt(s), floorInt(t)) + biasMid ? 1.0f : 0.0f;
             continue;
         } else {
+            // The region: the footprint's corners P +- du +- dv projected to
+            // first order (the projection's derivative at P), so one divide
+            // serves the whole footprint; |+-a +- b| is at most |a| + |b|.
             float hs = 0, ht = 0;
             if (batch.dPdu_du && batch.dPdv_dv) {
-                const Vec3 du = batch.dPdu_du[i] * 0.5f, dv = batch.dPdv_dv[i] * 0.5f;
-                const Vec3 corners[4] = {P - du - dv, P + du - dv, P - du + dv, P + du + dv};
-                for (const Vec3& c : corners) {
-                    float cx, cy;
-                    if (!project(rasterFromCurrent, c, &cx, &cy)) continue;
-                    hs = std::max(hs, std::abs(cx - s));
-                    ht = std::max(ht, std::abs(cy - t));
-                }
+                const auto& R = rasterFromCurrent.m;
+                const float invW = 1.0f / (R[3][0] * P.x + R[3][1] * P.y + R[3][2] * P.z + R[3][3]);
+                auto extent = [&](const Vec3& d, float* ex, float* ey) {
+                    const float dw = R[3][0] * d.x + R[3][1] * d.y + R[3][2] * d.z;
+                    *ex = std::abs((R[0][0] * d.x + R[0][1] * d.y + R[0][2] * d.z - s * dw) * invW);
+                    *ey = std::abs((R[1][0] * d.x + R[1][1] * d.y + R[1][2] * d.z - t * dw) * invW);
+                };
+                float ux, uy, vx, vy;
+                extent(batch.dPdu_du[i] * 0.5f, &ux, &uy);
+                extent(batch.dPdv_dv[i] * 0.5f, &vx, &vy);
+                hs = ux + vx;
+                ht = uy + vy;
             }
             hs = clamp(std::max(hs * params.sWidth + blurS, minHalf), 0.0f, maxHalf);
             ht = clamp(std::max(ht * params.tWidth + blurT, minHalf), 0.0f, maxHalf);
@@ -177,31 +307,62 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
             // map widths of the map here, so the conversions are safe.
             const int iLo = floorInt(loS), iHi = floorInt(hiS);
             const int jLo = floorInt(loT), jHi = floorInt(hiT);
+            // ... clipped to the data window.
+            const int ci0 = std::max(iLo, dx0), ci1 = std::min(iHi, dx1);
+            const int cj0 = std::max(jLo, dy0), cj1 = std::min(jHi, dy1);
+            const bool regionInside = ci0 == iLo && ci1 == iHi && cj0 == jLo && cj1 == jHi;
 
-            if (params.tileCulling) {
-                const int ci0 = std::max(iLo, dx0), ci1 = std::min(iHi, dx1);
-                const int cj0 = std::max(jLo, dy0), cj1 = std::min(jHi, dy1);
-                const int tx0 = (ci0 - m_fileX0) >> m_tileShiftX, tx1 = (ci1 - m_fileX0) >> m_tileShiftX;
-                const int ty0 = (cj0 - m_fileY0) >> m_tileShiftY, ty1 = (cj1 - m_fileY0) >> m_tileShiftY;
-                if ((tx1 - tx0 + 1) * (ty1 - ty0 + 1) <= 64) {
+            // Exact culling: float addition is monotonic, so every sample's
+            // map + bias lies in [zMin + biasLo, zMax + biasHi] of the texels
+            // the region covers; outside the data window texels are
+            // +infinity, so "shadowed" needs the region wholly inside it.
+            auto culled = [&](float zMin, float zMax) {
+                if (z <= zMin + biasLo) {
+                    ++st.culledLit;
+                    return true;
+                }
+                if (regionInside && z > zMax + biasHi) {
+                    ++st.culledShadowed;
+                    out[i] = 1.0f;
+                    return true;
+                }
+                return false;
+            };
+            // First by the per-tile ranges of the header, without reading a
+            // texel (regions over more than 64 tiles are not worth it).
+            const int tx0 = (ci0 - m_fileX0) >> shiftX, tx1 = (ci1 - m_fileX0) >> shiftX;
+            const int ty0 = (cj0 - m_fileY0) >> shiftY, ty1 = (cj1 - m_fileY0) >> shiftY;
+            if (params.tileCulling && (tx1 - tx0 + 1) * (ty1 - ty0 + 1) <= 64) {
+                float zMin = kInfinity, zMax = -kInfinity;
+                for (int ty = ty0; ty <= ty1; ++ty)
+                    for (int tx = tx0; tx <= tx1; ++tx) {
+                        zMin = std::min(zMin, m_tileMin[size_t(ty) * m_tilesX + tx]);
+                        zMax = std::max(zMax, m_tileMax[size_t(ty) * m_tilesX + tx]);
+                    }
+                if (culled(zMin, zMax)) continue;
+            }
+            // When the region lies in one tile (the common case: regions are
+            // a few texels, tiles 32) its pointer is fetched once, and the
+            // tile's finer block ranges get a second chance to cull.
+            const float* single = nullptr;
+            int singleX = 0, singleY = 0;
+            if (tx0 == tx1 && ty0 == ty1) {
+                (void)depthAt(ci0, cj0);  // pins the tile in the memo
+                const int slot = (tx0 & 3) | ((ty0 & 3) << 2);
+                single = memo.data[slot];
+                singleX = m_fileX0 + (tx0 << shiftX);
+                singleY = m_fileY0 + (ty0 << shiftY);
+                if (params.tileCulling && m_blockShiftX >= 0) {
+                    const ShadowTile& tile = *memo.tile[slot];
+                    const int bx0 = (ci0 - singleX) >> m_blockShiftX, bx1 = (ci1 - singleX) >> m_blockShiftX;
+                    const int by0 = (cj0 - singleY) >> m_blockShiftY, by1 = (cj1 - singleY) >> m_blockShiftY;
                     float zMin = kInfinity, zMax = -kInfinity;
-                    for (int ty = ty0; ty <= ty1; ++ty)
-                        for (int tx = tx0; tx <= tx1; ++tx) {
-                            zMin = std::min(zMin, m_tileMin[size_t(ty) * m_tilesX + tx]);
-                            zMax = std::max(zMax, m_tileMax[size_t(ty) * m_tilesX + tx]);
+                    for (int by = by0; by <= by1; ++by)
+                        for (int bx = bx0; bx <= bx1; ++bx) {
+                            zMin = std::min(zMin, tile.blockMin[by * ShadowTile::kBlocks + bx]);
+                            zMax = std::max(zMax, tile.blockMax[by * ShadowTile::kBlocks + bx]);
                         }
-                    // Exact: float addition is monotonic, so map + bias >=
-                    // zMin + biasLo and <= zMax + biasHi for every sample.
-                    if (z <= zMin + biasLo) {
-                        ++st.culledLit;
-                        continue;
-                    }
-                    const bool inside = iLo >= dx0 && iHi <= dx1 && jLo >= dy0 && jHi <= dy1;
-                    if (inside && z > zMax + biasHi) {
-                        ++st.culledShadowed;
-                        out[i] = 1.0f;
-                        continue;
-                    }
+                    if (culled(zMin, zMax)) continue;
                 }
             }
 
@@ -221,65 +382,54 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
             ++st.filtered;
             st.samples += uint64_t(ns) * uint64_t(nt);
 
+            auto depthOf = [&](int iu, int iv) -> float {
+                return single ? single[((iv - singleY) << shiftX) + (iu - singleX)] : depthAt(iu, iv);
+            };
             if (ns == 1 && nt == 1) {
                 const int iu = clamp(floorInt(s), iLo, iHi), iv = clamp(floorInt(t), jLo, jHi);
-                if (iu >= dx0 && iu <= dx1 && iv >= dy0 && iv <= dy1)
-                    out[i] = z > depthAt(iu, iv) + biasMid ? 1.0f : 0.0f;
+                if (iu >= dx0 && iu <= dx1 && iv >= dy0 && iv <= dy1) out[i] = z > depthOf(iu, iv) + biasMid ? 1.0f : 0.0f;
                 continue;
-            }
-
-            // Texels the samples can reach, clipped to the data window; when
-            // they lie in one tile (the common case: regions are a few
-            // texels, tiles 32) its pointer is fetched once for the region.
-            const int ci0 = std::max(iLo, dx0), ci1 = std::min(iHi, dx1);
-            const int cj0 = std::max(jLo, dy0), cj1 = std::min(jHi, dy1);
-            const bool regionInside = ci0 == iLo && ci1 == iHi && cj0 == jLo && cj1 == jHi;
-            const float* single = nullptr;
-            int singleX = 0, singleY = 0;
-            if (((ci0 - m_fileX0) >> shiftX) == ((ci1 - m_fileX0) >> shiftX) &&
-                ((cj0 - m_fileY0) >> shiftY) == ((cj1 - m_fileY0) >> shiftY)) {
-                const int tx = (ci0 - m_fileX0) >> shiftX, ty = (cj0 - m_fileY0) >> shiftY;
-                (void)depthAt(ci0, cj0);  // pins the tile in the memo
-                single = memo.data[(tx & 3) | ((ty & 3) << 2)];
-                singleX = m_fileX0 + (tx << shiftX);
-                singleY = m_fileY0 + (ty << shiftY);
             }
             auto shadowedAt = [&](int iu, int iv, float bias) -> bool {
                 if (!regionInside && (iu < dx0 || iu > dx1 || iv < dy0 || iv > dy1)) return false;  // +infinity
-                const float d = single ? single[((iv - singleY) << shiftX) + (iu - singleX)] : depthAt(iu, iv);
-                return z > d + bias;
+                return z > depthOf(iu, iv) + bias;
             };
 
-            Rng rng(hashKeys(batch.seed, uint32_t(i)));
+            // Sample (a, b) of the region: its position (u, v) in raster
+            // space and its bias, a function of the point and the sample
+            // alone, so the virtual-sample pass below repeats them.
+            const uint32_t pointSeed = hashKeys(batch.seed, uint32_t(i));
             const float ds = 2.0f * hs / float(ns), dt = 2.0f * ht / float(nt);
-            float inShadow = 0, weightSum = 0;
-            // Sample i of the region: position (u, v) in raster space and
-            // its bias, drawn in a fixed order so a replay repeats them.
-            auto nextSample = [&](Rng& r, int a, int b, float ds_, float dt_, float* u, float* v, float* bias) {
+            auto sampleAt = [&](int a, int b, float* u, float* v, float* bias) {
+                const SampleRandoms r(pointSeed, a * nt + b);
                 switch (params.sampling) {
                 case ShadowParams::Sampling::Jittered:
-                    *u = loS + (float(a) + r.uniform()) * ds_;
-                    *v = loT + (float(b) + r.uniform()) * dt_;
+                    *u = loS + (float(a) + r.ju()) * ds;
+                    *v = loT + (float(b) + r.jv()) * dt;
                     break;
                 case ShadowParams::Sampling::Uniform:
-                    *u = loS + r.uniform() * 2.0f * hs;
-                    *v = loT + r.uniform() * 2.0f * ht;
+                    *u = loS + r.ju() * 2.0f * hs;
+                    *v = loT + r.jv() * 2.0f * ht;
                     break;
                 case ShadowParams::Sampling::Gaussian:
                 default: {
                     // Reeves' (b): a Gaussian over the box, sigma = half the
-                    // half-width, clamped into the box (|g| < 6, so u stays
-                    // within s +- 3 hs).
+                    // half-width, clamped into the box below (|g| < 6, so u
+                    // stays within s +- 3 hs).
                     float g1, g2;
-                    const float u1 = r.uniform();
-                    gaussianPair(u1, r.uniform(), &g1, &g2);
+                    gaussianPair(r.extra(1), r.extra(2), &g1, &g2);
                     *u = s + g1 * 0.5f * hs;
                     *v = t + g2 * 0.5f * ht;
                     break;
                 }
                 }
-                *bias = biasMid;
-                if (randomBias) *bias = std::min(biasHi, biasLo + r.uniform() * (biasHi - biasLo));
+                *bias = randomBias ? std::min(biasHi, biasLo + r.jbias() * (biasHi - biasLo)) : biasMid;
+            };
+            // floor is monotonic, so clamping the texel index equals clamping
+            // the position into the region first.
+            auto texelOf = [&](float u, float v, int* iu, int* iv) {
+                *iu = clamp(floorInt(u), iLo, iHi);
+                *iv = clamp(floorInt(v), jLo, jHi);
             };
             const bool gaussianFilter = params.filter == ShadowParams::Filter::Gaussian;
             const float invHs = hs > 0 ? 1.0f / hs : 0.0f, invHt = ht > 0 ? 1.0f / ht : 0.0f;
@@ -288,32 +438,34 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                 const float ru = (clamp(u, loS, hiS) - s) * invHs, rv = (clamp(v, loT, hiT) - t) * invHt;
                 return std::exp(-2.0f * (ru * ru + rv * rv));
             };
-            if (params.sampling == ShadowParams::Sampling::Jittered && params.filter == ShadowParams::Filter::Box) {
-                // The production path (Figure 3c, box filter), kept tight.
-                // floor is monotonic, so clamping the texel index equals
-                // clamping the position into the region first.
+            float inShadow = 0, weightSum = 0;
+            if (!gaussianFilter && params.sampling == ShadowParams::Sampling::Jittered) {
+                // The production path (Figure 3c, box filter): sampleAt()
+                // for jittered samples, written out so the loop stays tight.
                 int count = 0;
-                for (int a = 0; a < ns; ++a) {
+                const float biasRange = biasHi - biasLo;
+                for (int a = 0; a < ns; ++a)
                     for (int b = 0; b < nt; ++b) {
-                        const float u = loS + (float(a) + rng.uniform()) * ds;
-                        const float v = loT + (float(b) + rng.uniform()) * dt;
-                        float bias = biasMid;
-                        if (randomBias) bias = std::min(biasHi, biasLo + rng.uniform() * (biasHi - biasLo));
-                        count += shadowedAt(clamp(floorInt(u), iLo, iHi), clamp(floorInt(v), jLo, jHi), bias) ? 1 : 0;
+                        const SampleRandoms r(pointSeed, a * nt + b);
+                        const float u = loS + (float(a) + r.ju()) * ds, v = loT + (float(b) + r.jv()) * dt;
+                        const float bias = randomBias ? std::min(biasHi, biasLo + r.jbias() * biasRange) : biasMid;
+                        int iu, iv;
+                        texelOf(u, v, &iu, &iv);
+                        count += shadowedAt(iu, iv, bias) ? 1 : 0;
                     }
-                }
                 inShadow = float(count);
                 weightSum = float(ns * nt);
             } else {
-                for (int a = 0; a < ns; ++a) {
+                for (int a = 0; a < ns; ++a)
                     for (int b = 0; b < nt; ++b) {
                         float u, v, bias;
-                        nextSample(rng, a, b, ds, dt, &u, &v, &bias);
+                        int iu, iv;
+                        sampleAt(a, b, &u, &v, &bias);
+                        texelOf(u, v, &iu, &iv);
                         const float w = weight(u, v);
                         weightSum += w;
-                        if (shadowedAt(clamp(floorInt(u), iLo, iHi), clamp(floorInt(v), jLo, jHi), bias)) inShadow += w;
+                        if (shadowedAt(iu, iv, bias)) inShadow += w;
                     }
-                }
             }
 
             if (secondDepth && inShadow > 0 && inShadow < weightSum) {
@@ -323,16 +475,16 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                 const TangentPlane plane = tangentPlane(P, batch.N[i], lightFromCurrent, currentFromLight);
                 if (plane.valid) {
                     ++st.virtualPoints;
-                    Rng replay(hashKeys(batch.seed, uint32_t(i)));  // the same samples again
                     float virtShadow = 0;
                     for (int a = 0; a < ns; ++a) {
                         for (int b = 0; b < nt; ++b) {
                             float u, v, bias;
-                            nextSample(replay, a, b, ds, dt, &u, &v, &bias);
-                            const int iu = clamp(floorInt(u), iLo, iHi), iv = clamp(floorInt(v), jLo, jHi);
+                            int iu, iv;
+                            sampleAt(a, b, &u, &v, &bias);  // the same samples again
+                            texelOf(u, v, &iu, &iv);
                             if (!regionInside && (iu < dx0 || iu > dx1 || iv < dy0 || iv > dy1)) continue;
                             const float zv = virtualDepth(plane, iu, iv);
-                            const float d = single ? single[((iv - singleY) << shiftX) + (iu - singleX)] : depthAt(iu, iv);
+                            const float d = depthOf(iu, iv);
                             // Relative slack for the rounding of the plane
                             // transform: a planar surface stored in the map
                             // (two-sided, §3.3) then lights itself unbiased.

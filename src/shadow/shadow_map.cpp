@@ -193,6 +193,10 @@ bool ShadowMap::initPart(int partNumber, std::string& why) {
     m_tileH = int(td.ySize);
     m_tileShiftX = log2i(m_tileW);
     m_tileShiftY = log2i(m_tileH);
+    if (m_tileW >= ShadowTile::kBlocks && m_tileH >= ShadowTile::kBlocks) {
+        m_blockShiftX = m_tileShiftX - log2i(ShadowTile::kBlocks);
+        m_blockShiftY = m_tileShiftY - log2i(ShadowTile::kBlocks);
+    }
     m_tilesX = m_part->numXTiles();
     m_tilesY = m_part->numYTiles();
     const size_t nTiles = size_t(m_tilesX) * size_t(m_tilesY);
@@ -288,6 +292,7 @@ ShadowTilePtr ShadowMap::readTile(int tx, int ty) const {
                           m_path, tx, ty, e.what());
         }
     }
+    tile->computeBlockRanges();
     return tile;
 }
 
@@ -295,6 +300,32 @@ ShadowTilePtr ShadowMap::fetchTile(int tx, int ty) const {
     const uint32_t index = uint32_t(ty) * uint32_t(m_tilesX) + uint32_t(tx);
     if (ShadowTilePtr t = m_cache->find(m_mapId, index)) return t;
     return m_cache->insert(m_mapId, index, readTile(tx, ty));
+}
+
+int ShadowMap::preload(const DepthImage& image) const {
+    if (isCube() || image.width != m_width || image.height != m_height || empty()) return 0;
+    int added = 0;
+    for (int ty = 0; ty < m_tilesY; ++ty)
+        for (int tx = 0; tx < m_tilesX; ++tx) {
+            auto tile = std::make_shared<ShadowTile>();
+            tile->width = m_tileW;
+            tile->height = m_tileH;
+            tile->z.assign(size_t(m_tileW) * m_tileH, kInfinity);
+            // What readTile() would give: the data window's texels, with the
+            // non-finite depths writeDepthMap stores as +infinity.
+            for (int j = 0; j < m_tileH; ++j)
+                for (int i = 0; i < m_tileW; ++i) {
+                    const int x = m_fileX0 + tx * m_tileW + i, y = m_fileY0 + ty * m_tileH + j;
+                    if (x < m_dx0 || x > m_dx1 || y < m_dy0 || y > m_dy1) continue;
+                    const float z = image.at(x, y);
+                    tile->z[size_t(j) * m_tileW + i] = std::isfinite(z) ? z : kInfinity;
+                }
+            tile->computeBlockRanges();
+            const uint32_t index = uint32_t(ty) * uint32_t(m_tilesX) + uint32_t(tx);
+            if (!m_cache->preload(m_mapId, index, std::move(tile))) return added;
+            ++added;
+        }
+    return added;
 }
 
 float ShadowMap::texel(int x, int y) const {

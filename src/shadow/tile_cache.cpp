@@ -1,6 +1,32 @@
 #include "umbra/shadow/tile_cache.h"
 
+#include "umbra/util/math.h"
+
+#include <algorithm>
+
 namespace umbra {
+
+void ShadowTile::computeBlockRanges() {
+    const int bw = width / kBlocks, bh = height / kBlocks;
+    for (int b = 0; b < kBlocks * kBlocks; ++b) {
+        blockMin[b] = -kInfinity;
+        blockMax[b] = kInfinity;
+    }
+    if (bw * kBlocks != width || bh * kBlocks != height || z.size() != size_t(width) * size_t(height)) return;
+    for (int by = 0; by < kBlocks; ++by)
+        for (int bx = 0; bx < kBlocks; ++bx) {
+            float lo = kInfinity, hi = -kInfinity;
+            for (int y = by * bh; y < (by + 1) * bh; ++y) {
+                const float* row = z.data() + size_t(y) * size_t(width) + size_t(bx * bw);
+                for (int x = 0; x < bw; ++x) {
+                    lo = std::min(lo, row[x]);
+                    hi = std::max(hi, row[x]);
+                }
+            }
+            blockMin[by * kBlocks + bx] = lo;
+            blockMax[by * kBlocks + bx] = hi;
+        }
+}
 
 TileCache::TileCache(size_t capacityBytes) : m_capacity(capacityBytes), m_shardCapacity(capacityBytes / kShards) {}
 
@@ -73,6 +99,21 @@ ShadowTilePtr TileCache::insert(uint32_t mapId, uint32_t tileIndex, ShadowTilePt
     return tile;
 }
 
+bool TileCache::preload(uint32_t mapId, uint32_t tileIndex, ShadowTilePtr tile) {
+    const uint64_t k = key(mapId, tileIndex);
+    Shard& s = shardFor(k);
+    const size_t bytes = tile->bytes();
+    std::lock_guard<std::mutex> lock(s.mutex);
+    if (s.bytes + bytes > m_shardCapacity || s.index.count(k)) return false;
+    // At the back of the LRU: a preloaded tile nobody reads goes first.
+    s.lru.push_back(Entry{k, std::move(tile), bytes});
+    s.index.emplace(k, std::prev(s.lru.end()));
+    s.bytes += bytes;
+    addBytes(int64_t(bytes));
+    m_preloaded.fetch_add(1, std::memory_order_relaxed);
+    return true;
+}
+
 void TileCache::erase(uint32_t mapId) {
     for (Shard& s : m_shards) {
         std::vector<ShadowTilePtr> dropped;
@@ -97,6 +138,7 @@ TileCacheStats TileCache::stats() const {
     st.hits = m_hits.load(std::memory_order_relaxed);
     st.misses = m_misses.load(std::memory_order_relaxed);
     st.tilesRead = m_tilesRead.load(std::memory_order_relaxed);
+    st.preloaded = m_preloaded.load(std::memory_order_relaxed);
     st.evictions = m_evictions.load(std::memory_order_relaxed);
     st.bytes = m_bytes.load(std::memory_order_relaxed);
     st.peakBytes = m_peakBytes.load(std::memory_order_relaxed);

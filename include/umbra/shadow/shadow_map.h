@@ -171,6 +171,14 @@ public:
         return m_wScale * Z;
     }
 
+    /// Hands the depths of `image` -- the image this map was just written
+    /// from (writeDepthMap), or face f's image for face(f) of a cube -- to
+    /// the tile cache, so lookups in the frame that rendered the map do not
+    /// read back and decompress what is still in memory. Only tiles that fit
+    /// under the cache's bound are added; the rest are read from the file as
+    /// usual. Returns the tiles added; 0 when the image does not match.
+    int preload(const DepthImage& image) const;
+
     /// The stored depth of texel (x, y) in raster coordinates (+infinity
     /// outside the bounding box); reads through the cache. For tools/tests.
     float texel(int x, int y) const;
@@ -213,6 +221,11 @@ private:
                     bool pointSample) const;
     template <bool kPointSample>
     void lookupImpl(const ShadowBatch& batch, const ShadowParams& params, float* out, ShadowStats& stats) const;
+    /// Decides a whole batch at once from a bound of its points when it
+    /// misses the bounding box or clears the covered tiles' depth range
+    /// (writing `out` and counting it in `st`); false when undecided.
+    bool batchDecided(const ShadowBatch& batch, const ShadowParams& params, const Mat4& lightFromCurrent,
+                      const Mat4& rasterFromCurrent, float* out, ShadowStats& st) const;
 
     std::string m_path;
     Diagnostics* m_diag = nullptr;
@@ -230,6 +243,9 @@ private:
     int m_dx0 = 0, m_dy0 = 0, m_dx1 = -1, m_dy1 = -1;  // data window clipped to the display window
     int m_fileX0 = 0, m_fileY0 = 0;                    // the file's data window corner: tile (0,0)
     int m_tileW = 0, m_tileH = 0, m_tileShiftX = 0, m_tileShiftY = 0;
+    // log2 of a tile block's size (ShadowTile::kBlocks blocks per side), or
+    // -1 when tiles are too small to have blocks.
+    int m_blockShiftX = -1, m_blockShiftY = -1;
     int m_tilesX = 0, m_tilesY = 0;
     std::vector<float> m_tileMin, m_tileMax;
     float m_minZ = kInfinity, m_maxZ = -kInfinity;

@@ -18,9 +18,19 @@ namespace umbra {
 
 /// One tile of a depth map, as read from the file: `width` x `height`
 /// depths, row-major; texels the file does not cover are +infinity.
+///
+/// Each tile also knows the depth range of its kBlocks x kBlocks blocks
+/// (8x8 texels in a 32x32 tile), a finer level of the per-tile ranges in the
+/// map's header: once a lookup has the tile, a region inside a few blocks is
+/// often wholly nearer or farther than them and needs no samples.
 struct ShadowTile {
+    static constexpr int kBlocks = 4;
     int width = 0, height = 0;
     std::vector<float> z;
+    float blockMin[kBlocks * kBlocks], blockMax[kBlocks * kBlocks];
+    /// Fills blockMin/blockMax from z (call once z is final). Tiles whose
+    /// sides are not multiples of kBlocks get blocks that never cull.
+    void computeBlockRanges();
     size_t bytes() const { return z.size() * sizeof(float) + sizeof(ShadowTile); }
 };
 using ShadowTilePtr = std::shared_ptr<const ShadowTile>;
@@ -31,6 +41,7 @@ struct TileCacheStats {
     uint64_t hits = 0;       // found in the cache
     uint64_t misses = 0;     // not found (the caller then reads the tile)
     uint64_t tilesRead = 0;  // tiles read from files
+    uint64_t preloaded = 0;  // tiles handed over from memory by preload()
     uint64_t evictions = 0;  // tiles dropped to stay under the bound
     uint64_t bytes = 0;      // bytes held now
     uint64_t peakBytes = 0;  // most bytes ever held
@@ -63,6 +74,11 @@ public:
     /// Inserts a tile just read (counts a tile read); if another thread
     /// inserted the same key meanwhile, returns that one instead.
     ShadowTilePtr insert(uint32_t mapId, uint32_t tileIndex, ShadowTilePtr tile);
+    /// Adds a tile the renderer already holds in memory (a map it has just
+    /// rendered) if the shard has room for it without evicting anything;
+    /// false when it had no room (the tile is then read from the file when
+    /// needed) or the key is already cached.
+    bool preload(uint32_t mapId, uint32_t tileIndex, ShadowTilePtr tile);
     /// Drops every tile of a map (called when the map is closed).
     void erase(uint32_t mapId);
 
@@ -89,7 +105,7 @@ private:
     size_t m_capacity;
     size_t m_shardCapacity;
     std::array<Shard, kShards> m_shards;
-    std::atomic<uint64_t> m_lookups{0}, m_hits{0}, m_misses{0}, m_tilesRead{0}, m_evictions{0};
+    std::atomic<uint64_t> m_lookups{0}, m_hits{0}, m_misses{0}, m_tilesRead{0}, m_preloaded{0}, m_evictions{0};
     std::atomic<uint64_t> m_bytes{0}, m_peakBytes{0};
 };
 

@@ -192,6 +192,31 @@ TEST(DepthMap, ShadowMapReadsTexelsAndInfo) {
     EXPECT_NE(text.find("bounding box    [13, 7] - [81, 66]  (69 x 60)"), std::string::npos) << text;
 }
 
+TEST(DepthMap, PreloadedTilesEqualTheFileAndNeedNoReads) {
+    DepthImage img = sampleImage();
+    img.at(20, 20) = std::nanf("");  // stored as +infinity, in memory as on disk
+    auto cache = std::make_shared<TileCache>();
+    auto map = test::writeAndOpen(img, "preload.exr", cache);
+    ASSERT_TRUE(map);
+    EXPECT_EQ(map->preload(img), 6);  // 3 x 2 tiles cover the data window
+    EXPECT_EQ(cache->stats().preloaded, 6u);
+    auto fromFile = test::writeAndOpen(img, "preload-ref.exr", std::make_shared<TileCache>());
+    for (int y = 0; y < 70; ++y)
+        for (int x = 0; x < 100; ++x) ASSERT_EQ(map->texel(x, y), fromFile->texel(x, y)) << x << "," << y;
+    EXPECT_EQ(map->texel(20, 20), kInfinity);
+    EXPECT_EQ(cache->stats().tilesRead, 0u);
+    EXPECT_EQ(cache->stats().evictions, 0u);
+
+    // A cache with room for no tile takes none (never evicts for a preload);
+    // lookups then read the file. An image of another size is refused.
+    auto tiny = std::make_shared<TileCache>(1024);
+    auto map2 = test::writeAndOpen(img, "preload-tiny.exr", tiny);
+    EXPECT_EQ(map2->preload(img), 0);
+    EXPECT_EQ(map2->texel(30, 30), img.at(30, 30));
+    EXPECT_EQ(tiny->stats().tilesRead, 1u);
+    EXPECT_EQ(map->preload(DepthImage(50, 70)), 0);
+}
+
 TEST(DepthMap, EmptyImageGivesAValidEmptyMap) {
     DepthImage img(64, 48);
     test::setRasterIsWorld(img);

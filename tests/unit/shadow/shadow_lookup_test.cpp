@@ -232,6 +232,56 @@ TEST(ShadowLookup, TileCullingNeverChangesAResult) {
     }
 }
 
+TEST(ShadowLookup, BatchCullingMatchesThePointLoop) {
+    // Shaded grids as batches: 8x8 points on a small patch each, at random
+    // places and depths. Batches decided as a whole must get exactly what
+    // the point loop gives (tile culling off runs the point loop only).
+    auto map = test::writeAndOpen(blocksImage(320), "blocks-batch.exr");
+    ASSERT_TRUE(map);
+    Rng rng(29);
+    ShadowParams params;
+    params.bias0 = 0.1f;
+    params.bias1 = 0.4f;
+    ShadowStats on, off;
+    for (int g = 0; g < 400; ++g) {
+        Points pts;
+        const float x0 = 400 * rng.uniform() - 40, y0 = 400 * rng.uniform() - 40, z0 = 100 * rng.uniform();
+        for (int j = 0; j < 8; ++j)
+            for (int i = 0; i < 8; ++i) pts.add(Vec3(x0 + float(i), y0 + float(j), z0 + 0.05f * float(i + j)), 1.0f);
+        std::vector<float> a(pts.P.size()), b(pts.P.size());
+        params.tileCulling = true;
+        map->lookup(pts.batch(uint32_t(g)), params, a.data(), on);
+        params.tileCulling = false;
+        map->lookup(pts.batch(uint32_t(g)), params, b.data(), off);
+        ASSERT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(float)), 0) << "grid " << g;
+    }
+    EXPECT_EQ(on.points, off.points);
+    EXPECT_LT(on.samples, off.samples);
+
+    // A grid wholly outside the bounding box, one nearer than every depth
+    // and one beyond every depth inside it: all three decided at once.
+    auto decided = [&](Vec3 origin, float* first) {
+        Points pts;
+        for (int j = 0; j < 8; ++j)
+            for (int i = 0; i < 8; ++i) pts.add(origin + Vec3(float(i), float(j), 0), 1.0f);
+        std::vector<float> r(pts.P.size(), -1);
+        ShadowStats st;
+        params.tileCulling = true;
+        map->lookup(pts.batch(7), params, r.data(), st);
+        *first = r[0];
+        for (float v : r) EXPECT_EQ(v, r[0]);
+        return st;
+    };
+    float v;
+    ShadowStats st = decided(Vec3(-500, -500, 50), &v);
+    EXPECT_EQ(st.outside, 64u);
+    EXPECT_EQ(v, 0.0f);
+    st = decided(Vec3(150, 150, 1), &v);
+    EXPECT_EQ(st.culledLit, 64u);
+    EXPECT_EQ(v, 0.0f);
+    EXPECT_EQ(st.samples, 0u);
+}
+
 TEST(ShadowLookup, ATinyCacheGivesTheSameResultsAndEvicts) {
     DepthImage img = blocksImage(512);  // 256 tiles, about 1 MB
     auto big = test::writeAndOpen(img, "cache_big.exr", std::make_shared<TileCache>(size_t(64) << 20));
@@ -332,6 +382,32 @@ TEST(ShadowLookup, PerspectiveMapComparesCameraDepth) {
     std::vector<float> out2(pts.P.size());
     map->lookup(b, params, out2.data(), st);
     EXPECT_EQ(out2, out);
+}
+
+TEST(ShadowTile, BlockRangesAreTheMinAndMaxOfEachBlock) {
+    ShadowTile t;
+    t.width = t.height = 32;
+    t.z.resize(1024);
+    Rng rng(5);
+    for (float& z : t.z) z = rng.uniform() < 0.1f ? kInfinity : 100 * rng.uniform();
+    t.computeBlockRanges();
+    for (int b = 0; b < 16; ++b) {
+        float lo = kInfinity, hi = -kInfinity;
+        for (int y = (b / 4) * 8; y < (b / 4) * 8 + 8; ++y)
+            for (int x = (b % 4) * 8; x < (b % 4) * 8 + 8; ++x) {
+                lo = std::min(lo, t.z[size_t(y * 32 + x)]);
+                hi = std::max(hi, t.z[size_t(y * 32 + x)]);
+            }
+        EXPECT_EQ(t.blockMin[b], lo) << b;
+        EXPECT_EQ(t.blockMax[b], hi) << b;
+    }
+    // A tile whose sides do not split into blocks gets ranges that never cull.
+    ShadowTile odd;
+    odd.width = odd.height = 6;
+    odd.z.assign(36, 1.0f);
+    odd.computeBlockRanges();
+    EXPECT_EQ(odd.blockMin[0], -kInfinity);
+    EXPECT_EQ(odd.blockMax[15], kInfinity);
 }
 
 TEST(TileCache, EvictsLeastRecentlyUsedAndHandsOutLiveTiles) {
