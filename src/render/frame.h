@@ -44,6 +44,10 @@ struct Pass {
     /// linearly across a micropolygon, so coarser dicing costs a biased map
     /// no accuracy on flat surfaces and little on curved ones.
     float minShadingRate = 0;
+    /// A spotlight's automatic map keeps only the disc inscribed in it (the
+    /// cone plus its margin): the light never illuminates, so never looks
+    /// up, the corners, and storing them would only cost tiles.
+    bool discOnly = false;
 };
 
 /// Everything the per-grid code needs about the current world.

@@ -77,6 +77,7 @@ std::optional<Pass> lightPass(const LightGeometry& light, const std::vector<geom
         // The cone fills the map, with a little room for filter regions at its edge.
         float half = clamp(light.coneAngle * 1.05f, radians(0.5f), radians(85.0f));
         cam.tanHalfFov = std::tan(half);
+        pass.discOnly = true;
         cam.cameraFromWorld = lookAt(light.from, light.to);
         cam.nearClip = 1e-3f;
         cam.farClip = 1e30f;
@@ -159,6 +160,11 @@ DepthImage depthImageOf(const film::Film& film, const Pass& pass, DepthFilter fi
             case DepthFilter::Dual: z = single ? z1 + dualOffset : z1 + std::min(0.5f * (z2 - z1), dualOffset); break;
             }
             if (!std::isfinite(z1)) z = kInfinity;
+            if (pass.discOnly) {
+                const float u = 2.0f * (float(x) + 0.5f) / float(image.width) - 1.0f;
+                const float v = 2.0f * (float(y) + 0.5f) / float(image.height) - 1.0f;
+                if (u * u + v * v > 1.0f) z = kInfinity;
+            }
             image.at(x, y) = z;
         }
     return image;

@@ -13,6 +13,7 @@
 #include "umbra/shadow/depth_image.h"
 #include "umbra/util/rng.h"
 
+#include <ImfThreading.h>
 #include <fmt/chrono.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
@@ -96,7 +97,8 @@ std::vector<scene::DisplayRecord> withDisplayChannels(const scene::Options& opti
 
 nlohmann::json tileCacheJson(const TileCacheStats& c) {
     return {{"lookups", c.lookups}, {"hits", c.hits},           {"misses", c.misses},
-            {"tiles_read", c.tilesRead}, {"evictions", c.evictions}, {"peak_bytes", c.peakBytes}};
+            {"tiles_read", c.tilesRead}, {"preloaded", c.preloaded}, {"evictions", c.evictions},
+            {"peak_bytes", c.peakBytes}};
 }
 
 /// The result of one pass through the REYES core.
@@ -117,12 +119,17 @@ struct Renderer::Impl {
     std::unique_ptr<MapCatalog> maps;
     std::unique_ptr<Services> services;
     nlohmann::json frames = nlohmann::json::array();
+    double mapWriteSeconds = 0;  // this frame's automatic maps: writing and preloading
 
     Impl(const RenderSettings& s, Diagnostics& d) : settings(s), diag(d) {
         shading = std::make_unique<shading::ShadingSystem>(diag, settings.shaderPath);
         tileCache = std::make_shared<TileCache>();
         maps = std::make_unique<MapCatalog>(diag, tileCache);
         services = std::make_unique<Services>(diag, *maps);
+        // OpenEXR compresses the tiles of depth maps (and EXR images) on its
+        // own thread pool, which is empty by default: the render threads
+        // would wait idle while one core writes the file.
+        Imf::setGlobalThreadCount(settings.threads > 0 ? settings.threads : tbb::this_task_arena::max_concurrency());
     }
 
     /// Resolves the shaders of every Attributes object primitives use.
@@ -252,6 +259,11 @@ PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const st
         ss.sampling.depthReduce = filter == DepthFilter::Max       ? Reduce::Max
                                   : filter == DepthFilter::Average ? Reduce::Average
                                                                    : Reduce::Min;
+        // Only the two-layer filters read the second layer; the others keep
+        // one, which also lets occlusion culling skip hidden geometry (with
+        // two layers a sample is closed only once two surfaces cover it).
+        const bool oneLayer = filter == DepthFilter::Min || filter == DepthFilter::Max || filter == DepthFilter::Average;
+        ss.sampling.depthLayers = oneLayer ? 1 : 2;
         if (auto it = options.user.find("umbra:depthlayers"); it != options.user.end() && !it->second.ints.empty())
             ss.sampling.depthLayers = std::clamp(it->second.ints[0], 1, 2);
     }
@@ -273,6 +285,7 @@ PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const st
 
 void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     Stopwatch frameClock;
+    mapWriteSeconds = 0;
     const scene::Options& options = world.options;
     const int errorsBefore = diag.errorCount();
 
@@ -409,6 +422,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
           {"second_depth_shadowed", shadowStats.secondShadowed},
           {"virtual_sample_points", shadowStats.virtualPoints},
           {"lookup_seconds", services->lookupSeconds()},
+          {"map_write_seconds", mapWriteSeconds},
           {"tile_cache", tileCacheJson(tileCache->stats())}}},
         {"errors", diag.errorCount() - errorsBefore},
     };
@@ -478,22 +492,38 @@ std::string Renderer::Impl::renderLightMap(FrameState& frame, const scene::Light
     std::filesystem::path base(options.displays.empty() ? std::string("umbra") : options.displays[0].name);
     std::string frameTag = frame.world->frameNumber >= 0 ? fmt::format(".{:04d}", frame.world->frameNumber) : "";
     std::string path = (base.parent_path() / fmt::format("{}{}.{}.shd", base.stem().string(), frameTag, handle)).string();
-    bool ok;
+    std::vector<DepthImage> images;
+    Stopwatch writeClock;  // restarted once the depth passes are done
     if (geometry.shape == LightShape::Point) {
         std::array<Pass, 6> faces = cubeFacePasses(geometry, size, "depth:" + handle);
-        std::array<DepthImage, 6> images;
-        for (size_t f = 0; f < 6; ++f) images[f] = render(faces[f]);
-        ok = writeCubeDepthMap(path, images, diag, light.shader.loc);
+        std::array<DepthImage, 6> cube;
+        for (size_t f = 0; f < 6; ++f) cube[f] = render(faces[f]);
+        writeClock = Stopwatch();
+        if (!writeCubeDepthMap(path, cube, diag, light.shader.loc)) {
+            ++failed;
+            return "";
+        }
+        images.assign(std::make_move_iterator(cube.begin()), std::make_move_iterator(cube.end()));
     } else {
         auto pass = lightPass(geometry, prims, size, "depth:" + handle, diag, light.shader.loc);
         if (!pass) return "";
-        ok = writeDepthMap(path, render(*pass), diag, light.shader.loc);
+        images.push_back(render(*pass));
+        writeClock = Stopwatch();
+        if (!writeDepthMap(path, images[0], diag, light.shader.loc)) {
+            ++failed;
+            return "";
+        }
     }
-    if (!ok) {
-        ++failed;
-        return "";
-    }
+    // The lookups of this frame read the depths still in memory instead of
+    // reading back and decompressing the file just written.
     maps->invalidate(path);
+    if (auto map = maps->get(path)) {
+        if (map->isCube())
+            for (int f = 0; f < 6; ++f) map->face(f).preload(images[size_t(f)]);
+        else
+            map->preload(images[0]);
+    }
+    mapWriteSeconds += writeClock.wall();
     return path;
 }
 

@@ -3,6 +3,8 @@
 
 #include "support/render_harness.h"
 
+#include "umbra/shadow/shadow_map.h"
+
 #include <OpenImageIO/imageio.h>
 
 #include <gtest/gtest.h>
@@ -206,4 +208,40 @@ WorldEnd)");
         lit += a.pixels[i];
     }
     EXPECT_GT(lit, 1000.0);
+}
+
+TEST(Workflow, SpotMapsStoreOnlyTheDiscOfTheCone) {
+    // A floor fills the whole view of a spotlight looking straight down, so
+    // every texel of the square map sees it; the map keeps only the disc
+    // inscribed in the square (the cone and its margin).
+    ScratchDir dir("disc");
+    Diagnostics diag;
+    test::renderRib(fmt::format(R"(Display "{}" "openexr" "rgba" "string type" "float"
+Option "umbra" "shadowmapsize" [128]
+{}
+WorldBegin
+  LightSource "shadowspot" 1 "from" [0 4 0] "to" [0 0 0] "coneangle" [0.6] "shadowname" ["auto"]
+  Surface "matte"
+  Polygon "P" [-50 0 -50  -50 0 50  50 0 50  50 0 -50]
+WorldEnd)", dir.file("spot.exr"), kDownCamera),
+                    diag);
+    ASSERT_EQ(diag.errorCount(), 0);
+    auto map = ShadowMap::open(dir.file("spot.1.shd"), diag);
+    ASSERT_TRUE(map);
+    EXPECT_EQ(map->texel(0, 0), kInfinity);
+    EXPECT_EQ(map->texel(127, 127), kInfinity);
+    EXPECT_EQ(map->texel(10, 10), kInfinity);  // (10.5, 10.5) is 1.19 half-widths from the centre
+    // Inside the disc: the floor's depth, 4 along the axis (more off axis).
+    EXPECT_NEAR(map->texel(64, 64), 4.0f, 1e-3f);
+    EXPECT_LT(map->texel(2, 64), 10.0f);   // radius 0.95, on an axis
+    EXPECT_LT(map->texel(64, 125), 10.0f);
+    int finite = 0;
+    for (int y = 0; y < 128; ++y)
+        for (int x = 0; x < 128; ++x) {
+            const float u = (float(x) + 0.5f) / 64.0f - 1.0f, v = (float(y) + 0.5f) / 64.0f - 1.0f;
+            const bool inDisc = u * u + v * v <= 1.0f;
+            ASSERT_EQ(map->texel(x, y) < kInfinity, inDisc) << x << "," << y;
+            finite += inDisc;
+        }
+    EXPECT_NEAR(double(finite) / (128.0 * 128.0), kPi / 4, 0.01);
 }
