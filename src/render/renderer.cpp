@@ -393,7 +393,11 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
         maps->invalidate(d.name);
         return ok;
     };
-    bool wrote = film.write(displays, options, meta, diag, depthWriter);
+    // Output converts rows in parallel: on no more threads than --threads.
+    bool wrote = false;
+    tbb::task_arena(settings.threads > 0 ? settings.threads : tbb::this_task_arena::max_concurrency()).execute([&] {
+        wrote = film.write(displays, options, meta, diag, depthWriter);
+    });
 
     double wall = frameClock.wall(), cpu = frameClock.cpu();
     ShadowStats shadowStats = services->shadowStats();
