@@ -375,14 +375,18 @@ def write_report(docs, figdir, scenes, sizes, refs, results, seconds):
 
     p('## Findings for the renderer')
     p('')
-    p('* `second` with `depthcull "front"`: front-face culling is Wang & Molnar\'s *other way to obtain* the '
-      'second depth, so the map stores the nearest surface left after culling (z1 of the culled pass; '
-      'src/render/light_view.cpp). It no longer leaks cast shadows; its remaining acne at small map sizes '
-      'comes from two-sided open surfaces (the floor), whose own depth is then stored and which only the '
-      'virtual-sample tolerance keeps lit. For scenes with open receivers, `second` without culling is the '
-      'safer choice, and the verdicts above use it.')
-    p('* Leaks of `second` (no culling) on the curved solids (tori, sphere) at small maps are most likely on the '
-      'terminator, where the tangent plane is nearly parallel to the light (Wang & Molnar Fig. 9).')
+    p('* Two-sided (open) surfaces are their own second layer in a `second` map (Wang & Molnar §3.3: a solid '
+      'of no thickness), so they cast shadows; where nothing is nearer the floor stores its own depth. A point '
+      'compared with its own sloped surface can find every sample nearer than itself, which Figure 10 would call '
+      'shadowed at once; umbra takes virtual samples for such all-shadowed points when their normal faces the '
+      'light (never the far side of a solid, Figure 10\'s case), and the exact, perspective-correct depths of '
+      'the depth pass (1/z interpolated) keep a planar surface lit against itself.')
+    p('* `second` with `depthcull "front"` is Wang & Molnar\'s *other way to obtain* the second depth: the map '
+      'stores the nearest surface left after culling (z1 of the culled pass; src/render/light_view.cpp).')
+    p('* `second` without culling leaks on the curved solids (tori, sphere) at small maps along the shadow\'s '
+      'outline: texels on a solid\'s silhouette can hit its front but miss its back (the two tessellations '
+      'differ there), and a single layer stores +infinity. Front culling stores those texels\' back faces and '
+      'does not leak.')
     p('* The `min` filter at bias 0 self-shadows about a third of all pixels at every map size: a '
       'surface compared with its own depth samples fails half the time, whatever the resolution.')
     p('')

@@ -25,6 +25,7 @@ MicroGrid ShadedGrid::view() const {
     g.matte = matte;
     g.culled = culled.empty() ? nullptr : culled.data();
     g.id = id;
+    g.ownSecondLayer = ownSecondLayer;
     return g;
 }
 

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <cstring>
 
 #include <emmintrin.h>
@@ -72,9 +73,12 @@ struct SampleBuffer::Tri {
     uint32_t sub;
     Edge e0, e1, e2;  // e0 is opposite p0 (its barycentric weight), and so on
     float invArea;    // 1 / (e0 + e1 + e2), the edge functions' sum (twice the area) at every point
+    float d0, d1, d2; // what depth is interpolated from: z, or 1/z under perspective
     bool valid;
 
-    void setup(const MicroGrid& g, int a, int b, int c, uint32_t subIndex) {
+    /// `depthOf` (may be null: z itself) gives the per-vertex quantity
+    /// that is linear in raster space.
+    void setup(const MicroGrid& g, const float* depthOf, int a, int b, int c, uint32_t subIndex) {
         i0 = a;
         i1 = b;
         i2 = c;
@@ -94,6 +98,9 @@ struct SampleBuffer::Tri {
         e0.setup(p1, p2);
         e1.setup(p2, p0);
         e2.setup(p0, p1);
+        d0 = depthOf ? depthOf[i0] : p0.z;
+        d1 = depthOf ? depthOf[i1] : p1.z;
+        d2 = depthOf ? depthOf[i2] : p2.z;
     }
     /// Which of four samples the triangle covers (bit k for lane k), and
     /// their barycentric weights of p1 and p2.
@@ -113,6 +120,9 @@ struct SampleBuffer::HitContext {
     /// Per sample, a depth beyond which no hit changes anything: the opaque
     /// depth (depth mode: the second depth, or the first with one layer).
     const float* farthestUseful;
+    /// Perspective passes: 1/z per vertex, the quantity that is linear in
+    /// raster space across a planar micropolygon; null: z itself is.
+    const float* inverseDepth;
 };
 
 namespace {
@@ -275,6 +285,17 @@ void SampleBuffer::sample(const MicroGrid& g) {
     if (g.Oi && !ctx.depthMode)
         for (int k = 0; k < nverts && ctx.gridOpaque; ++k) ctx.gridOpaque = opaqueColor(g.Oi[k]);
     ctx.farthestUseful = ctx.depthMode && m_cfg.depthLayers > 1 ? m_z2.data() : m_z.data();
+    ctx.inverseDepth = nullptr;
+    if (m_cfg.perspective) {
+        // Vertices at or behind the eye have no 1/z: NaN fails every depth
+        // test downstream, as their z did before.
+        m_inverseDepth.resize(size_t(nverts));
+        for (int k = 0; k < nverts; ++k) {
+            const float z = g.P[k].z;
+            m_inverseDepth[size_t(k)] = z > 0 && z < kInfinity ? 1.0f / z : std::numeric_limits<float>::quiet_NaN();
+        }
+        ctx.inverseDepth = m_inverseDepth.data();
+    }
 
     for (int j = 0; j < g.nv; ++j) {
         const Vec3* row0 = g.P + j * nu1;
@@ -303,8 +324,8 @@ void SampleBuffer::rasterizeQuad(const MicroGrid& g, const HitContext& ctx, int 
     const int v00 = j * nu1 + i, v10 = v00 + 1, v01 = v00 + nu1, v11 = v01 + 1;
     const uint32_t mp = uint32_t(j * g.nu + i);
     Tri ta, tb;
-    ta.setup(g, v00, v10, v11, 2 * mp);
-    tb.setup(g, v00, v11, v01, 2 * mp + 1);
+    ta.setup(g, ctx.inverseDepth, v00, v10, v11, 2 * mp);
+    tb.setup(g, ctx.inverseDepth, v00, v11, v01, 2 * mp + 1);
     if (!ta.valid && !tb.valid) return;
 
     const int xs = m_cfg.xSamples, ys = m_cfg.ySamples;
@@ -340,7 +361,11 @@ void SampleBuffer::rasterizeQuad(const MicroGrid& g, const HitContext& ctx, int 
                 if (!hits) continue;
                 // Interpolated as v0 + b1 (v1 - v0) + b2 (v2 - v0): exact
                 // where the values are equal (flat surfaces, constant colours).
-                const Vec4f z = t->p0.z + b1 * (t->p1.z - t->p0.z) + b2 * (t->p2.z - t->p0.z);
+                // Under perspective 1/z is what is linear in raster space, so
+                // a planar micropolygon gets its plane's exact depth (the
+                // depth maps' virtual samples rely on it).
+                const Vec4f d = t->d0 + b1 * (t->d1 - t->d0) + b2 * (t->d2 - t->d0);
+                const Vec4f z = ctx.inverseDepth ? 1.0f / d : d;
                 // Hits behind what the sample holds, or clipped, change
                 // nothing; record() decides ties by the full key.
                 hits &= laneMask((z <= useful) & (z >= m_cfg.nearClip) & (z <= m_cfg.farClip));
@@ -363,8 +388,13 @@ bool SampleBuffer::record(const MicroGrid& g, const HitContext& ctx, const Tri& 
     if (ctx.depthMode) {
         if (keyLess(z, gid, sub, m_z[s], m_id[s], m_sub[s])) {
             // The nearest hit from another grid than the new nearest is the
-            // old nearest (it was nearer than everything else).
-            if (m_cfg.depthLayers > 1 && m_z[s] != kInfinity && m_id[s] != gid) {
+            // old nearest (it was nearer than everything else); a surface
+            // that is its own second layer is nearer still.
+            if (m_cfg.depthLayers > 1 && g.ownSecondLayer) {
+                m_z2[s] = z;
+                m_id2[s] = gid;
+                m_sub2[s] = sub;
+            } else if (m_cfg.depthLayers > 1 && m_z[s] != kInfinity && m_id[s] != gid) {
                 m_z2[s] = m_z[s];
                 m_id2[s] = m_id[s];
                 m_sub2[s] = m_sub[s];
@@ -374,7 +404,8 @@ bool SampleBuffer::record(const MicroGrid& g, const HitContext& ctx, const Tri& 
             m_sub[s] = sub;
             return true;
         }
-        if (m_cfg.depthLayers > 1 && gid != m_id[s] && keyLess(z, gid, sub, m_z2[s], m_id2[s], m_sub2[s])) {
+        if (m_cfg.depthLayers > 1 && (gid != m_id[s] || g.ownSecondLayer) &&
+            keyLess(z, gid, sub, m_z2[s], m_id2[s], m_sub2[s])) {
             m_z2[s] = z;
             m_id2[s] = gid;
             m_sub2[s] = sub;

@@ -48,6 +48,10 @@ struct Pass {
     /// cone plus its margin): the light never illuminates, so never looks
     /// up, the corners, and storing them would only cost tiles.
     bool discOnly = false;
+    /// A second-depth map's pass: two-sided (open) surfaces are their own
+    /// second layer, as Wang & Molnar §3.3 treat them, so they cast shadows
+    /// (docs/shadows.md).
+    bool openSurfacesAreOwnSecondLayer = false;
 };
 
 /// Everything the per-grid code needs about the current world.

@@ -238,6 +238,7 @@ PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const st
     ss.sampling.frameSeed = frame.frameSeed;
     ss.sampling.aovCount = film.aovFloats();
     ss.sampling.nearClip = pass.camera.nearClip;
+    ss.sampling.perspective = pass.camera.perspective;
     ss.sampling.farClip = pass.camera.farClip;
     if (pass.depthOnly) ss.filterMargin = 0;  // depths are per-pixel minima, never filtered
     if (pass.depthOnly && pass.name != "camera") {
@@ -368,7 +369,10 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     bool depthFrame = !displays.empty();
     for (const auto& d : displays) depthFrame = depthFrame && d.mode == "z";
     pass.depthOnly = depthFrame;
-    if (depthFrame) pass.cull = depthCullOf(options, options.loc);
+    if (depthFrame) {
+        pass.cull = depthCullOf(options, options.loc);
+        pass.openSurfacesAreOwnSecondLayer = depthFilterOf(options, options.loc) == DepthFilter::Second;
+    }
     std::vector<film::AovChannel> aovs = depthFrame ? std::vector<film::AovChannel>{} : film::aovChannelsFor(displays);
     for (const auto& a : aovs) {
         frame.aovNames.push_back(a.name);
@@ -480,6 +484,7 @@ std::string Renderer::Impl::renderLightMap(FrameState& frame, const scene::Light
         depthRate = it->second.floats[0];
     auto render = [&](Pass& pass) {
         pass.cull = cull;
+        pass.openSurfacesAreOwnSecondLayer = filter == DepthFilter::Second;
         pass.minShadingRate = depthRate;
         float crop[4] = {0, 1, 0, 1};
         film::Film film(size, size, crop, *film::PixelFilter::create("box", 1, 1), {}, true);

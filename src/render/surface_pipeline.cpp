@@ -135,6 +135,7 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
     out.culled.clear();
     if (attrs.sides == 1 && m_pass.cull != Pass::Cull::None && !cullFacing(P, flip, out)) return false;
 
+    out.ownSecondLayer = m_pass.depthOnly && m_pass.openSurfacesAreOwnSecondLayer && attrs.sides == 2;
     if (m_pass.depthOnly) {
         out.Ci.clear();
         out.Oi.clear();

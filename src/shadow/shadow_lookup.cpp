@@ -244,8 +244,8 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
 
     // Second-depth maps with normals get virtual samples (Wang & Molnar).
     const bool secondDepth = !kPointSample && m_filter == DepthFilter::Second && batch.N && m_virtualMode != 0;
-    // Once per batch, not per ambiguous point: normals need the inverse.
-    const Mat4 currentFromLight = secondDepth ? lightFromCurrent.inverse() : Mat4();
+    // Once per batch, not per point: what tangent planes need.
+    const PlaneFrame planes = secondDepth ? planeFrame(lightFromCurrent.inverse()) : PlaneFrame();
 
     if constexpr (!kPointSample) {
         if (hasData && batchDecided(batch, params, lightFromCurrent, rasterFromCurrent, out, st)) {
@@ -438,62 +438,73 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                 const float ru = (clamp(u, loS, hiS) - s) * invHs, rv = (clamp(v, loT, hiT) - t) * invHt;
                 return std::exp(-2.0f * (ru * ru + rv * rv));
             };
-            float inShadow = 0, weightSum = 0;
+            // Second-depth maps: for a point facing the light one shadowed
+            // comparison already means virtual samples decide (lookup()), so
+            // the comparisons may stop there.
+            // The region's samples, drawn once: texel, bias and weight. The
+            // virtual-sample pass below compares the same ones again.
+            struct Sample {
+                int iu, iv;
+                float bias, weight;
+            };
+            thread_local std::vector<Sample> t_samples;
+            const int count = ns * nt;
+            if (t_samples.size() < size_t(count)) t_samples.resize(size_t(count));
+            Sample* smp = t_samples.data();
             if (!gaussianFilter && params.sampling == ShadowParams::Sampling::Jittered) {
-                // The production path (Figure 3c, box filter): sampleAt()
-                // for jittered samples, written out so the loop stays tight.
-                int count = 0;
+                // The production path (Figure 3c, box filter): sampleAt() for
+                // jittered samples, written out so the loop stays tight.
                 const float biasRange = biasHi - biasLo;
                 for (int a = 0; a < ns; ++a)
                     for (int b = 0; b < nt; ++b) {
                         const SampleRandoms r(pointSeed, a * nt + b);
-                        const float u = loS + (float(a) + r.ju()) * ds, v = loT + (float(b) + r.jv()) * dt;
-                        const float bias = randomBias ? std::min(biasHi, biasLo + r.jbias() * biasRange) : biasMid;
-                        int iu, iv;
-                        texelOf(u, v, &iu, &iv);
-                        count += shadowedAt(iu, iv, bias) ? 1 : 0;
+                        Sample& x = smp[a * nt + b];
+                        texelOf(loS + (float(a) + r.ju()) * ds, loT + (float(b) + r.jv()) * dt, &x.iu, &x.iv);
+                        x.bias = randomBias ? std::min(biasHi, biasLo + r.jbias() * biasRange) : biasMid;
+                        x.weight = 1.0f;
                     }
-                inShadow = float(count);
-                weightSum = float(ns * nt);
             } else {
                 for (int a = 0; a < ns; ++a)
                     for (int b = 0; b < nt; ++b) {
-                        float u, v, bias;
-                        int iu, iv;
-                        sampleAt(a, b, &u, &v, &bias);
-                        texelOf(u, v, &iu, &iv);
-                        const float w = weight(u, v);
-                        weightSum += w;
-                        if (shadowedAt(iu, iv, bias)) inShadow += w;
+                        float u, v;
+                        Sample& x = smp[a * nt + b];
+                        sampleAt(a, b, &u, &v, &x.bias);
+                        texelOf(u, v, &x.iu, &x.iv);
+                        x.weight = weight(u, v);
                     }
             }
+            float inShadow = 0, weightSum = 0;
+            for (int k = 0; k < count; ++k) {
+                // Branch-free: which samples are shadowed is a coin toss in
+                // a penumbra.
+                weightSum += smp[k].weight;
+                inShadow += smp[k].weight * float(shadowedAt(smp[k].iu, smp[k].iv, smp[k].bias));
+            }
 
-            if (secondDepth && inShadow > 0 && inShadow < weightSum) {
-                // Wang & Molnar Fig. 10, mixed comparisons: the tangent plane
-                // at P, in the light's screen space, gives the surface's own
-                // depth at each sample's texel centre.
-                const TangentPlane plane = tangentPlane(P, batch.N[i], lightFromCurrent, currentFromLight);
-                if (plane.valid) {
-                    ++st.virtualPoints;
-                    float virtShadow = 0;
-                    for (int a = 0; a < ns; ++a) {
-                        for (int b = 0; b < nt; ++b) {
-                            float u, v, bias;
-                            int iu, iv;
-                            sampleAt(a, b, &u, &v, &bias);  // the same samples again
-                            texelOf(u, v, &iu, &iv);
-                            if (!regionInside && (iu < dx0 || iu > dx1 || iv < dy0 || iv > dy1)) continue;
-                            const float zv = virtualDepth(plane, iu, iv);
-                            const float d = depthOf(iu, iv);
-                            // Relative slack for the rounding of the plane
-                            // transform: a planar surface stored in the map
-                            // (two-sided, §3.3) then lights itself unbiased.
-                            if (!(zv <= d + bias + kVirtualSlack * std::abs(d))) virtShadow += weight(u, v);
-                        }
-                    }
-                    inShadow = virtShadow;
+            // Second-depth maps: Figure 10 (and, for points facing the light,
+            // all-shadowed comparisons too: see lookup()).
+            const bool mixed = inShadow > 0 && inShadow < weightSum;
+            TangentPlane plane;
+            if (secondDepth && (mixed || (inShadow > 0 && facesLight(planes, P, batch.N[i]))))
+                plane = tangentPlane(planes, P, batch.N[i]);
+            if (plane.valid) {
+                // Wang & Molnar Fig. 10, mixed comparisons (or shadowed ones
+                // on a light-facing surface): the tangent plane at P, in the
+                // light's screen space, gives the surface's own depth at each
+                // sample's texel centre.
+                ++st.virtualPoints;
+                float virtShadow = 0;
+                for (int k = 0; k < count; ++k) {
+                    const Sample& x = smp[k];
+                    if (!regionInside && (x.iu < dx0 || x.iu > dx1 || x.iv < dy0 || x.iv > dy1)) continue;
+                    const float d = depthOf(x.iu, x.iv);
+                    // Relative slack for the rounding of the plane transform:
+                    // a planar surface stored in the map (two-sided, §3.3)
+                    // then lights itself unbiased.
+                    virtShadow += x.weight * float(virtualDeeper(plane, x.iu, x.iv, d + x.bias + kVirtualSlack * std::abs(d)));
                 }
-            } else if (secondDepth) {
+                inShadow = virtShadow;
+            } else if (secondDepth && (inShadow == 0 || inShadow == weightSum)) {
                 if (inShadow == 0) ++st.secondLit;
                 else ++st.secondShadowed;
             }
@@ -503,25 +514,34 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
     stats += st;
 }
 
-ShadowMap::TangentPlane ShadowMap::tangentPlane(const Vec3& P, const Vec3& N, const Mat4& lightFromSpace,
-                                                const Mat4& spaceFromLight) const {
+ShadowMap::PlaneFrame ShadowMap::planeFrame(const Mat4& spaceFromLight) const {
+    // A plane covector c of the space becomes (spaceFromLight)^T c in the
+    // light's camera space and m_planeFromLight times that in its raster
+    // space (plane covectors go by the inverse transpose of point maps).
+    PlaneFrame f;
+    f.rasterPlaneFromSpace = m_planeFromLight * spaceFromLight.transposed();
+    f.light = m_projection == Projection::Perspective ? spaceFromLight.point(Vec3(0, 0, 0))
+                                                      : spaceFromLight.vector(Vec3(0, 0, 1));
+    return f;
+}
+
+ShadowMap::TangentPlane ShadowMap::tangentPlane(const PlaneFrame& frame, const Vec3& P, const Vec3& N) const {
     TangentPlane plane;
     if (m_virtualMode == 0) return plane;
-    // The plane n.x + w = 0 through P in light camera space, carried to the
-    // light's screen space by the inverse transpose of screenFromLight.
-    const Vec3 Pl = lightFromSpace.point(P);
-    const Vec3 Nl = Mat4::normal(spaceFromLight, N);
-    const float tc[4] = {Nl.x, Nl.y, Nl.z, -dot(Nl, Pl)};
-    const auto& planeM = m_planeFromLight.m;
+    // The plane n.x - n.P = 0 through P, carried to the light's raster
+    // space (x, y, 1/z or z), where it is linear.
+    const float c[4] = {N.x, N.y, N.z, -dot(N, P)};
+    const auto& M = frame.rasterPlaneFromSpace.m;
     float pl[4];
-    for (int r = 0; r < 4; ++r)
-        pl[r] = planeM[r][0] * tc[0] + planeM[r][1] * tc[1] + planeM[r][2] * tc[2] + planeM[r][3] * tc[3];
+    for (int r = 0; r < 4; ++r) pl[r] = M[r][0] * c[0] + M[r][1] * c[1] + M[r][2] * c[2] + M[r][3] * c[3];
     // An edge-on plane (c = 0) says nothing about depth.
     if (!(std::abs(pl[2]) > 1e-30f) || !std::isfinite(pl[0] + pl[1] + pl[2] + pl[3])) return plane;
-    plane.a = -pl[0] / pl[2];
-    plane.b = -pl[1] / pl[2];
-    plane.d = -pl[3] / pl[2];
+    const float inv = -1.0f / pl[2];
+    plane.a = pl[0] * inv;
+    plane.b = pl[1] * inv;
+    plane.d = pl[3] * inv;
     plane.valid = true;
+    plane.facesLight = facesLight(frame, P, N);
     return plane;
 }
 

@@ -43,6 +43,7 @@ struct ShadedGrid {
     bool matte = false;
     std::vector<uint8_t> culled;  // per micropolygon, non-zero to skip; empty: none
     uint64_t id = 0;
+    bool ownSecondLayer = false;  // see MicroGrid
     Bound3 bound;             // of P
 
     MicroGrid view() const;

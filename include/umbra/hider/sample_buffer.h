@@ -65,6 +65,10 @@ struct MicroGrid {
     /// culling of solids' light-facing surfaces. Null: nothing culled.
     const uint8_t* culled = nullptr;
     uint64_t id = 0;            // stable identity (same on every run) for deterministic ties
+    /// Depth mode: an open, two-sided surface that is its own second layer
+    /// (Wang & Molnar 1994 §3.3: a solid of no thickness), so a second-depth
+    /// map stores it where nothing else is nearer.
+    bool ownSecondLayer = false;
 };
 
 /// What a SampleBuffer records: the camera pass or a light's depth pass.
@@ -83,6 +87,9 @@ struct SampleBufferConfig {
     int aovCount = 0;                    // extra floats per sample (the film's AOV floats)
     HiderMode mode = HiderMode::Colour;
     float nearClip = 1e-10f, farClip = 1e30f;  // camera-space z range that is visible
+    /// A perspective camera: depth is interpolated as 1/z, which (unlike z)
+    /// is linear in raster space across a planar micropolygon.
+    bool perspective = false;
     /// Depth mode: how a pixel's samples make its z (RenderMan's
     /// "depthfilter" min/max/average; the two-layer filters use min).
     enum class DepthReduce { Min, Max, Average };
@@ -210,6 +217,8 @@ private:
 
     std::unique_ptr<SamplePattern> m_pattern;          // positions of one period
     std::unique_ptr<PatternFilterWeights> m_weights;   // the film filter's weights over it
+
+    std::vector<float> m_inverseDepth;  // perspective: 1/z per vertex of the grid being sampled
 
     std::vector<Fragment> m_frags;
     std::vector<float> m_fragAov;

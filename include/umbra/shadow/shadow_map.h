@@ -140,6 +140,10 @@ public:
     /// sample's texel centre ("virtual sample"), found by transforming the
     /// plane into the light's projective screen space (raster x, raster y,
     /// 1/z for perspective, z for orthographic lights) where it is linear.
+    /// All-shadowed comparisons of a point whose normal faces the light get
+    /// virtual samples too: such a point is never the far side of a solid
+    /// (Figure 10's case), but may be an open surface stored as its own
+    /// second layer (§3.3), compared with its own sloped depth.
     void lookup(const ShadowBatch& batch, const ShadowParams& params, float* outShadowed, ShadowStats& stats) const;
     /// Williams' point-sampled test: the nearest texel under each point,
     /// compared with bias (biasLow+biasHigh)/2. Equal to lookup() with
@@ -154,12 +158,17 @@ public:
     struct TangentPlane {
         float a = 0, b = 0, d = 0;
         bool valid = false;
+        /// The normal points towards the light: a surface the light reaches
+        /// from its front (its lit side), never the far side of a solid.
+        bool facesLight = false;
     };
     /// The plane through P with normal N (both in the space `lightFromSpace`
     /// maps to the light's camera space; `spaceFromLight` is its inverse,
     /// which normals need).
     TangentPlane tangentPlane(const Vec3& P, const Vec3& N, const Mat4& lightFromSpace,
-                              const Mat4& spaceFromLight) const;
+                              const Mat4& spaceFromLight) const {
+        return tangentPlane(planeFrame(spaceFromLight), P, N);
+    }
     TangentPlane tangentPlane(const Vec3& P, const Vec3& N, const Mat4& lightFromSpace) const {
         return tangentPlane(P, N, lightFromSpace, lightFromSpace.inverse());
     }
@@ -169,6 +178,17 @@ public:
         const float Z = plane.a * (float(x) + 0.5f) + plane.b * (float(y) + 0.5f) + plane.d;
         if (m_virtualMode == 1) return Z > 0 ? 1.0f / (m_wScale * Z) : kInfinity;  // no crossing in front: far away
         return m_wScale * Z;
+    }
+    /// virtualDepth(plane, x, y) > limit, without its divide: under a
+    /// perspective light the plane gives 1/z, and for 1/z > 0 the test
+    /// 1/(1/z) <= limit is 1/z * limit >= 1.
+    bool virtualDeeper(const TangentPlane& plane, int x, int y, float limit) const {
+        const float Z = plane.a * (float(x) + 0.5f) + plane.b * (float(y) + 0.5f) + plane.d;
+        if (m_virtualMode == 1) {
+            const float inverseDepth = m_wScale * Z;
+            return inverseDepth > 0 ? !(inverseDepth * limit >= 1.0f) : !(limit == kInfinity);
+        }
+        return !(m_wScale * Z <= limit);
     }
 
     /// Hands the depths of `image` -- the image this map was just written
@@ -221,6 +241,19 @@ private:
                     bool pointSample) const;
     template <bool kPointSample>
     void lookupImpl(const ShadowBatch& batch, const ShadowParams& params, float* out, ShadowStats& stats) const;
+    /// What the tangent planes of one batch need, in its space: the map
+    /// applied to a plane covector (n, -n.P) of that space gives the plane
+    /// in the light's raster space; and where the light is.
+    struct PlaneFrame {
+        Mat4 rasterPlaneFromSpace;  // (screenFromLight^-1)^T (spaceFromLight)^T
+        Vec3 light;                 // perspective: the light's position; orthographic: its view axis
+    };
+    PlaneFrame planeFrame(const Mat4& spaceFromLight) const;
+    TangentPlane tangentPlane(const PlaneFrame& frame, const Vec3& P, const Vec3& N) const;
+    bool facesLight(const PlaneFrame& frame, const Vec3& P, const Vec3& N) const {
+        return m_projection == Projection::Perspective ? dot(N, frame.light - P) > 0 : dot(N, frame.light) < 0;
+    }
+
     /// Decides a whole batch at once from a bound of its points when it
     /// misses the bounding box or clears the covered tiles' depth range
     /// (writing `out` and counting it in `st`); false when undecided.

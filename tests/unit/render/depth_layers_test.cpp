@@ -96,10 +96,28 @@ TEST(DepthLayers, MinKeepsNearestLayer) {
 }
 
 TEST(DepthLayers, SecondKeepsSecondLayerAndInfinityForOne) {
-    auto z = depthRow("layers-second", "second", "none", 0.05f, kStackedPlanes, kColumns);
+    // One-sided surfaces (culling off): each is one layer.
+    auto z = depthRow("layers-second", "second", "none", 0.05f, std::string("Sides 1\n") + kStackedPlanes, kColumns);
     EXPECT_FLOAT_EQ(z[0], 6.0f);
     EXPECT_EQ(z[1], kInf);  // nothing behind the far plane
     EXPECT_EQ(z[2], kInf);
+}
+
+TEST(DepthLayers, SecondTreatsOpenSurfacesAsTheirOwnSecondLayer) {
+    // Two-sided surfaces are solids of no thickness (Wang & Molnar §3.3):
+    // the nearest is also the second layer, so it casts shadows.
+    auto z = depthRow("layers-second-open", "second", "none", 0.05f, kStackedPlanes, kColumns);
+    EXPECT_FLOAT_EQ(z[0], 5.0f);
+    EXPECT_FLOAT_EQ(z[1], 6.0f);
+    EXPECT_EQ(z[2], kInf);
+    // A one-sided plane in front of a two-sided one: the second layer is the
+    // two-sided plane.
+    z = depthRow("layers-second-mixed", "second", "none", 0.05f,
+                 "AttributeBegin Sides 1 Polygon \"P\" [-2 -2 0  0 -2 0  0 2 0  -2 2 0] AttributeEnd\n"
+                 "Polygon \"P\" [-2 -2 1  1 -2 1  1 2 1  -2 2 1]\n",
+                 kColumns);
+    EXPECT_FLOAT_EQ(z[0], 6.0f);
+    EXPECT_FLOAT_EQ(z[1], 6.0f);
 }
 
 TEST(DepthLayers, MidpointAveragesLayers) {
