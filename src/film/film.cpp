@@ -143,15 +143,17 @@ inline float roundHalfAway(float v) {
     return t + float(frac >= 0.5f) - float(frac <= -0.5f);
 }
 
-float ditherNoise(int x, int y, int channel) {
-    // Uniform in (-1, 1) in steps of 1/128, fixed per pixel and channel: the
-    // same image every run. One hash of the pixel serves four channels, a
-    // byte each (a chain of hashes per value cost 27 ns a channel, most of
-    // a frame's serial output time).
-    const uint32_t h = hash32(uint32_t(x) * 0x9e3779b1u ^ uint32_t(y) * 0x85ebca77u ^
-                              uint32_t(channel >> 2) * 0xc2b2ae3du ^ 0x51ed27u);
-    const uint32_t byte = (h >> (8 * (channel & 3))) & 0xffu;
-    return (float(byte) + 0.5f) * (1.0f / 128.0f) - 1.0f;
+/// Dither noise of a pixel: one hash for each group of four channels, a
+/// byte each (a chain of hashes per value cost 27 ns a channel, most of a
+/// frame's serial output time). Fixed per pixel and channel: the same image
+/// every run.
+uint32_t ditherBits(int x, int y, int channelGroup) {
+    return hash32(uint32_t(x) * 0x9e3779b1u ^ uint32_t(y) * 0x85ebca77u ^ uint32_t(channelGroup) * 0xc2b2ae3du ^
+                  0x51ed27u);
+}
+/// Channel c's noise from its group's bits: uniform in (-1, 1), steps of 1/128.
+float ditherNoise(uint32_t bits, int channel) {
+    return (float((bits >> (8 * (channel & 3))) & 0xffu) + 0.5f) * (1.0f / 128.0f) - 1.0f;
 }
 
 }  // namespace
@@ -486,8 +488,10 @@ bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Option
         for (int x = m_x0; x < x1(); ++x) {
             size_t base = index(x, y) * size_t(nch);
             const float* p = rgba(x, y);
+            uint32_t bits = 0;
             for (int c = 0; c < nch; ++c) {
                 const ChannelSource& src = channels[size_t(c)];
+                if ((c & 3) == 0) bits = ditherBits(x, y, c >> 2);
                 float v = 0;
                 switch (src.kind) {
                 case ChannelSource::R: v = p[0]; break;
@@ -505,7 +509,7 @@ bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Option
                 if (unpremultiply && src.exposure && p[3] > 0) v /= p[3];
                 if (src.quantize.enabled()) {
                     const Quantize& q = src.quantize;
-                    float noise = q.dither != 0 ? q.dither * ditherNoise(x, y, c) : 0.0f;
+                    float noise = q.dither != 0 ? q.dither * ditherNoise(bits, c) : 0.0f;
                     float qv = roundHalfAway(q.one * v + noise);
                     if (!(qv >= q.min)) qv = q.min;  // NaN goes to min
                     if (qv > q.max) qv = q.max;

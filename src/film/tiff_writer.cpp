@@ -11,11 +11,14 @@
 
 #include "image_file.h"
 
+#include <tbb/parallel_for.h>
 #include <tiffio.h>
+#include <zlib.h>
 
 #include <sys/stat.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <cstdarg>
 #include <cstring>
@@ -26,6 +29,13 @@
 namespace umbra::film {
 
 namespace {
+
+/// TIFF's horizontal differencing predictor (Predictor 2) on one row of
+/// `count` samples of `channels` interleaved channels, in place.
+template <typename T>
+void horizontalDifference(T* row, size_t count, int channels) {
+    for (size_t i = count; i-- > size_t(channels);) row[i] = T(row[i] - row[i - size_t(channels)]);
+}
 
 /// The client handle libtiff passes to the I/O callbacks; the first error
 /// (from the stream or from libtiff) is kept for the caller's message.
@@ -160,8 +170,48 @@ bool writeTiff(const ImageData& image, std::FILE* file, std::string* error) {
     if (ok && image.worldToNDC) ok = TIFFSetField(t, TIFFTAG_PIXAR_MATRIX_WORLDTOSCREEN, image.worldToNDC->data());
     if (!ok) return fail("libtiff rejected a tag");
 
-    // Encode strip by strip from the float values; the encoder may modify
-    // its input (predictors work in place), so each strip is a fresh copy.
+    // Integer samples with deflate, the default: strips are packed,
+    // differenced and compressed in parallel (the frame's serial tail), then
+    // written in order as raw strips -- what libtiff's own encoder would
+    // produce, with zlib's framing and the same horizontal predictor.
+    const uint32_t nStrips = (uint32_t(image.height) + rowsPerStrip - 1) / rowsPerStrip;
+    if (compression == COMPRESSION_ADOBE_DEFLATE && (type == SampleType::UInt8 || type == SampleType::UInt16)) {
+        std::vector<std::vector<unsigned char>> packed(nStrips);
+        std::atomic<bool> deflateFailed{false};
+        tbb::parallel_for(uint32_t(0), nStrips, [&](uint32_t s) {
+            const uint32_t y0 = s * rowsPerStrip, rows = std::min(rowsPerStrip, uint32_t(image.height) - y0);
+            const size_t n = rowValues * rows;
+            const float* src = image.pixels + rowValues * y0;
+            std::vector<unsigned char> raw(n * size_t(bytesPerSample));
+            if (type == SampleType::UInt8) {
+                for (size_t i = 0; i < n; ++i) raw[i] = static_cast<unsigned char>(src[i]);
+                for (uint32_t r = 0; r < rows; ++r) horizontalDifference(raw.data() + r * rowValues, rowValues, nch);
+            } else {
+                // Native byte order: libtiff writes the file in it.
+                std::vector<uint16_t> v(n);
+                for (size_t i = 0; i < n; ++i) v[i] = static_cast<uint16_t>(src[i]);
+                for (uint32_t r = 0; r < rows; ++r) horizontalDifference(v.data() + r * rowValues, rowValues, nch);
+                std::memcpy(raw.data(), v.data(), raw.size());
+            }
+            uLongf size = compressBound(uLong(raw.size()));
+            packed[s].resize(size);
+            if (compress2(packed[s].data(), &size, raw.data(), uLong(raw.size()), image.zipLevel()) != Z_OK)
+                deflateFailed = true;
+            packed[s].resize(size);
+        });
+        if (deflateFailed) return fail("zlib could not compress a strip");
+        for (uint32_t s = 0; s < nStrips; ++s)
+            if (TIFFWriteRawStrip(t, s, packed[s].data(), tmsize_t(packed[s].size())) < 0)
+                return fail("libtiff could not write a strip");
+        if (!TIFFWriteDirectory(t)) return fail("libtiff could not write the directory");
+        tif.reset();
+        if (!sink.failure.empty()) return fail("");
+        return true;
+    }
+
+    // Otherwise strip by strip from the float values through libtiff's
+    // encoders; they may modify their input (predictors work in place), so
+    // each strip is a fresh copy.
     std::vector<unsigned char> strip(rowValues * rowsPerStrip * size_t(bytesPerSample));
     for (uint32_t y0 = 0, s = 0; y0 < uint32_t(image.height); y0 += rowsPerStrip, ++s) {
         const uint32_t rows = std::min(rowsPerStrip, uint32_t(image.height) - y0);
