@@ -233,7 +233,6 @@ void SampleBuffer::reset(const SampleBufferConfig& c) {
     m_fragAov.clear();
     m_pixelMax.assign(size_t(m_rw) * size_t(m_rh), kInfinity);
     m_pixelDirty.assign(size_t(m_rw) * size_t(m_rh), 0);
-    m_anyDirty = false;
 }
 
 int SampleBuffer::sampleIndex(int px, int py, int s) const {
@@ -474,43 +473,54 @@ void SampleBuffer::markDirty(int sx0, int sy0, int sx1, int sy1) {
     const int xs = m_cfg.xSamples, ys = m_cfg.ySamples;
     for (int py = sy0 / ys; py <= sy1 / ys; ++py)
         for (int px = sx0 / xs; px <= sx1 / xs; ++px) m_pixelDirty[size_t(py) * size_t(m_rw) + size_t(px)] = 1;
-    m_anyDirty = true;
 }
 
-void SampleBuffer::updatePixelMax() const {
-    if (!m_anyDirty) return;
-    const int xs = m_cfg.xSamples, ys = m_cfg.ySamples;
-    const std::vector<float>& depth = m_cfg.mode == HiderMode::Depth && m_cfg.depthLayers > 1 ? m_z2 : m_z;
-    for (int py = 0; py < m_rh; ++py)
-        for (int px = 0; px < m_rw; ++px) {
-            size_t p = size_t(py) * size_t(m_rw) + size_t(px);
-            if (!m_pixelDirty[p]) continue;
-            float mx = -kInfinity;
-            for (int j = 0; j < ys; ++j) {
-                size_t row = size_t(py * ys + j) * size_t(m_sw) + size_t(px * xs);
-                for (int i = 0; i < xs; ++i) mx = std::max(mx, depth[row + size_t(i)]);
-            }
-            m_pixelMax[p] = mx;
-            m_pixelDirty[p] = 0;
+float SampleBuffer::pixelMax(int px, int py) const {
+    // Recomputed on demand, only for the pixels a query reaches: a 64x64
+    // depth-pass bucket would otherwise rescan 4096 pixels per query.
+    const size_t p = size_t(py) * size_t(m_rw) + size_t(px);
+    if (m_pixelDirty[p]) {
+        const int xs = m_cfg.xSamples, ys = m_cfg.ySamples;
+        const std::vector<float>& depth = m_cfg.mode == HiderMode::Depth && m_cfg.depthLayers > 1 ? m_z2 : m_z;
+        float mx = -kInfinity;
+        for (int j = 0; j < ys; ++j) {
+            const size_t row = size_t(py * ys + j) * size_t(m_sw) + size_t(px * xs);
+            for (int i = 0; i < xs; ++i) mx = std::max(mx, depth[row + size_t(i)]);
         }
-    m_anyDirty = false;
+        m_pixelMax[p] = mx;
+        m_pixelDirty[p] = 0;
+    }
+    return m_pixelMax[p];
+}
+
+bool SampleBuffer::pixelRange(float xmin, float ymin, float xmax, float ymax, int* px0, int* py0, int* px1,
+                              int* py1) const {
+    if (!(xmax >= m_fx0 && xmin < m_fx1 && ymax >= m_fy0 && ymin < m_fy1)) return false;
+    *px0 = std::max(0, floorToInt(std::max(xmin, m_fx0)) - m_rx0);
+    *px1 = std::min(m_rw - 1, floorToInt(std::min(xmax, m_fx1)) - m_rx0);
+    *py0 = std::max(0, floorToInt(std::max(ymin, m_fy0)) - m_ry0);
+    *py1 = std::min(m_rh - 1, floorToInt(std::min(ymax, m_fy1)) - m_ry0);
+    return true;
 }
 
 float SampleBuffer::maxOpaqueDepth(float xmin, float ymin, float xmax, float ymax) const {
-    if (!(xmax >= m_fx0 && xmin < m_fx1 && ymax >= m_fy0 && ymin < m_fy1)) return -kInfinity;
-    updatePixelMax();
-    const int px0 = std::max(0, int(std::floor(std::max(xmin, m_fx0))) - m_rx0);
-    const int px1 = std::min(m_rw - 1, int(std::floor(std::min(xmax, m_fx1))) - m_rx0);
-    const int py0 = std::max(0, int(std::floor(std::max(ymin, m_fy0))) - m_ry0);
-    const int py1 = std::min(m_rh - 1, int(std::floor(std::min(ymax, m_fy1))) - m_ry0);
+    int px0, py0, px1, py1;
+    if (!pixelRange(xmin, ymin, xmax, ymax, &px0, &py0, &px1, &py1)) return -kInfinity;
     float mx = -kInfinity;
     for (int py = py0; py <= py1; ++py)
-        for (int px = px0; px <= px1; ++px) mx = std::max(mx, m_pixelMax[size_t(py) * size_t(m_rw) + size_t(px)]);
+        for (int px = px0; px <= px1; ++px) mx = std::max(mx, pixelMax(px, py));
     return mx;
 }
 
 bool SampleBuffer::occluded(const Bound3& b) const {
-    return maxOpaqueDepth(b.min.x, b.min.y, b.max.x, b.max.y) < b.min.z;
+    // maxOpaqueDepth(...) < b.min.z, stopping at the first pixel that is
+    // not closed in front of the bound (most queries that fail fail early).
+    int px0, py0, px1, py1;
+    if (!pixelRange(b.min.x, b.min.y, b.max.x, b.max.y, &px0, &py0, &px1, &py1)) return true;
+    for (int py = py0; py <= py1; ++py)
+        for (int px = px0; px <= px1; ++px)
+            if (!(pixelMax(px, py) < b.min.z)) return false;
+    return true;
 }
 
 void SampleBuffer::resolve(film::Film& film) {

@@ -69,6 +69,7 @@ using DepthWriter = std::function<bool(const scene::DisplayRecord&, const Film&)
 /// The filtered image of one render: r g b a, z (nearest opaque depth, camera
 /// space, +infinity where nothing was hit), optionally z2 (the depth pass's
 /// second-nearest depth), and the AOV channels, for the crop window's pixels.
+/// A depth film (depthPair) holds only z and z2: its colour reads as black.
 /// Buckets resolve into disjoint pixel ranges, so concurrent writers need no
 /// lock.
 class Film {
@@ -111,7 +112,7 @@ public:
 
     /// Pixel access by raster coordinates (must be inside the crop region).
     float* rgba(int x, int y) { return &m_rgba[4 * index(x, y)]; }
-    const float* rgba(int x, int y) const { return &m_rgba[4 * index(x, y)]; }
+    const float* rgba(int x, int y) const { return m_rgba.empty() ? kNoColour : &m_rgba[4 * index(x, y)]; }
     float& z(int x, int y) { return m_z[index(x, y)]; }
     float z(int x, int y) const { return m_z[index(x, y)]; }
     float& z2(int x, int y) { return m_z2[index(x, y)]; }
@@ -140,6 +141,7 @@ private:
     std::vector<int> m_aovOffsets;
     int m_aovFloats = 0;
     bool m_depthPair = false;
+    static constexpr float kNoColour[4] = {0, 0, 0, 0};  // a depth film's pixels
     std::vector<float> m_rgba, m_z, m_z2, m_aov;
 };
 

@@ -183,7 +183,11 @@ private:
     /// True if it changed a depth the occlusion bound is made of.
     bool record(const MicroGrid& g, const HitContext& ctx, const Tri& t, size_t s, float z, float b1, float b2);
     void markDirty(int sx0, int sy0, int sx1, int sy1);
-    void updatePixelMax() const;
+    /// Pixel (px, py) of the region: the max opaque (depth mode: second)
+    /// depth of its samples, recomputed if marked dirty.
+    float pixelMax(int px, int py) const;
+    /// The region's pixels overlapping a raster rectangle; false if none.
+    bool pixelRange(float xmin, float ymin, float xmax, float ymax, int* px0, int* py0, int* px1, int* py1) const;
     /// resolve() for frames without AOVs and a separable filter.
     void resolveColour(film::Film& film, int bx0, int by0, int bx1, int by1);
     /// Adds each sample's weighted value to the accumulators (accStride
@@ -227,7 +231,6 @@ private:
     // depth of its samples, recomputed lazily for pixels marked dirty.
     mutable std::vector<float> m_pixelMax;
     mutable std::vector<uint8_t> m_pixelDirty;
-    mutable bool m_anyDirty = false;
 
     // Resolve scratch.
     std::vector<float> m_res;        // per sample: r g b a, aov...
