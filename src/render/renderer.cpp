@@ -26,6 +26,7 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <future>
 
 namespace umbra::render {
 
@@ -108,6 +109,13 @@ struct PassResult {
     uint64_t samples = 0;
 };
 
+/// An automatic map's file being written on a thread of its own while the
+/// frame goes on.
+struct MapWrite {
+    std::shared_future<bool> written;  // the writer's result
+    std::future<void> thread;          // joins the writer when waited for or destroyed
+};
+
 }  // namespace
 
 struct Renderer::Impl {
@@ -119,7 +127,11 @@ struct Renderer::Impl {
     std::unique_ptr<MapCatalog> maps;
     std::unique_ptr<Services> services;
     nlohmann::json frames = nlohmann::json::array();
-    double mapWriteSeconds = 0;  // this frame's automatic maps: writing and preloading
+    // This frame's automatic maps: time spent making them usable (building
+    // them from memory, preloading, writing those written at once), and
+    // waiting at the end for the files written in the background.
+    double mapWriteSeconds = 0, mapWriteWaitSeconds = 0;
+    int backgroundMapWrites = 0;
 
     Impl(const RenderSettings& s, Diagnostics& d) : settings(s), diag(d) {
         shading = std::make_unique<shading::ShadingSystem>(diag, settings.shaderPath);
@@ -169,8 +181,10 @@ struct Renderer::Impl {
                        film::Film& film, const std::string& label);
     /// Renders the automatic depth map of `light`; returns its path, or ""
     /// when none could be made (the light is then unshadowed).
+    /// Its file may still be being written: then it is added to `writes`.
     std::string renderLightMap(FrameState& frame, const scene::LightRecord& light,
-                               const std::vector<geometry::PrimitivePtr>& prims, nlohmann::json& passes, int& failed);
+                               const std::vector<geometry::PrimitivePtr>& prims, nlohmann::json& passes,
+                               std::vector<MapWrite>& writes, int& failed);
     DepthFilter depthFilterOf(const scene::Options& options, const FileLoc& loc);
     float dualOffsetOf(const scene::Options& options);
     Pass::Cull depthCullOf(const scene::Options& options, const FileLoc& loc);
@@ -286,7 +300,8 @@ PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const st
 
 void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     Stopwatch frameClock;
-    mapWriteSeconds = 0;
+    mapWriteSeconds = mapWriteWaitSeconds = 0;
+    backgroundMapWrites = 0;
     const scene::Options& options = world.options;
     const int errorsBefore = diag.errorCount();
 
@@ -336,6 +351,8 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     frame.primitives = &prims;
 
     // First pass: a depth map for every light whose shadowname is "auto".
+    // Destroying `mapWrites` joins writers still running (when unwinding).
+    std::vector<MapWrite> mapWrites;
     nlohmann::json passes = nlohmann::json::array();
     std::vector<std::shared_ptr<const shading::ShaderInstance>> lights(world.lights.size());
     for (size_t i = 0; i < world.lights.size(); ++i) {
@@ -348,7 +365,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
         }
         scene::ShaderRecord withMap = light.shader;
         std::string mapName;
-        if (!settings.noShadows) mapName = renderLightMap(frame, light, prims, passes, failed);
+        if (!settings.noShadows) mapName = renderLightMap(frame, light, prims, passes, mapWrites, failed);
         ri::ParamList params;
         for (const ri::Param& p : light.shader.params.params()) {
             ri::Param q = p;
@@ -402,6 +419,15 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     tbb::task_arena(settings.threads > 0 ? settings.threads : tbb::this_task_arena::max_concurrency()).execute([&] {
         wrote = film.write(displays, options, meta, diag, depthWriter);
     });
+    // The frame is done when its maps' files are; a failed write (reported
+    // by the writer, naming the file) fails the frame.
+    Stopwatch waitClock;
+    for (MapWrite& w : mapWrites) {
+        w.thread.get();
+        if (!w.written.get()) ++failed;
+    }
+    mapWrites.clear();
+    mapWriteWaitSeconds = waitClock.wall();
 
     double wall = frameClock.wall(), cpu = frameClock.cpu();
     ShadowStats shadowStats = services->shadowStats();
@@ -431,6 +457,8 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
           {"virtual_sample_points", shadowStats.virtualPoints},
           {"lookup_seconds", services->lookupSeconds()},
           {"map_write_seconds", mapWriteSeconds},
+          {"map_write_wait_seconds", mapWriteWaitSeconds},
+          {"background_map_writes", backgroundMapWrites},
           {"tile_cache", tileCacheJson(tileCache->stats())}}},
         {"errors", diag.errorCount() - errorsBefore},
     };
@@ -461,7 +489,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
 
 std::string Renderer::Impl::renderLightMap(FrameState& frame, const scene::LightRecord& light,
                                            const std::vector<geometry::PrimitivePtr>& prims, nlohmann::json& passes,
-                                           int& failed) {
+                                           std::vector<MapWrite>& writes, int& failed) {
     const scene::Options& options = frame.world->options;
     std::string handle = light.handle.empty() ? "light" : light.handle;
     auto shader = shading->find(light.shader.name, light.shader.loc);
@@ -501,37 +529,51 @@ std::string Renderer::Impl::renderLightMap(FrameState& frame, const scene::Light
     std::filesystem::path base(options.displays.empty() ? std::string("umbra") : options.displays[0].name);
     std::string frameTag = frame.world->frameNumber >= 0 ? fmt::format(".{:04d}", frame.world->frameNumber) : "";
     std::string path = (base.parent_path() / fmt::format("{}{}.{}.shd", base.stem().string(), frameTag, handle)).string();
-    std::vector<DepthImage> images;
+    // The map goes to this frame's lookups from memory: its header from the
+    // image, its tiles handed to the cache. Its file, for later frames and
+    // tools, is then written on a thread of its own, overlapping the next
+    // passes, when every tile is cached; otherwise now, so the tiles that
+    // did not fit are read from a complete file.
+    const FileLoc& loc = light.shader.loc;
+    std::packaged_task<bool()> write;
+    std::shared_future<bool> written;
+    std::shared_ptr<ShadowMap> map;
+    bool everyTileCached = false;
     Stopwatch writeClock;  // restarted once the depth passes are done
     if (geometry.shape == LightShape::Point) {
         std::array<Pass, 6> faces = cubeFacePasses(geometry, size, "depth:" + handle);
-        std::array<DepthImage, 6> cube;
-        for (size_t f = 0; f < 6; ++f) cube[f] = render(faces[f]);
+        auto cube = std::make_shared<std::array<DepthImage, 6>>();
+        for (size_t f = 0; f < 6; ++f) (*cube)[f] = render(faces[f]);
         writeClock = Stopwatch();
-        if (!writeCubeDepthMap(path, cube, diag, light.shader.loc)) {
-            ++failed;
-            return "";
-        }
-        images.assign(std::make_move_iterator(cube.begin()), std::make_move_iterator(cube.end()));
+        write = std::packaged_task<bool()>(
+            [&d = diag, path, loc, cube] { return writeCubeDepthMap(path, *cube, d, loc); });
+        written = write.get_future().share();
+        map = ShadowMap::fromCubeImages(*cube, path, written, diag, loc, tileCache, &everyTileCached);
     } else {
-        auto pass = lightPass(geometry, prims, size, "depth:" + handle, diag, light.shader.loc);
+        auto pass = lightPass(geometry, prims, size, "depth:" + handle, diag, loc);
         if (!pass) return "";
-        images.push_back(render(*pass));
+        auto image = std::make_shared<DepthImage>(render(*pass));
         writeClock = Stopwatch();
-        if (!writeDepthMap(path, images[0], diag, light.shader.loc)) {
+        write = std::packaged_task<bool()>(
+            [&d = diag, path, loc, image] { return writeDepthMap(path, *image, d, loc); });
+        written = write.get_future().share();
+        map = ShadowMap::fromImage(*image, path, written, diag, loc, tileCache, &everyTileCached);
+    }
+    if (!map) {
+        ++failed;
+        return "";
+    }
+    if (everyTileCached) {
+        writes.push_back({written, std::async(std::launch::async, std::move(write))});
+        ++backgroundMapWrites;
+    } else {
+        write();
+        if (!written.get()) {
             ++failed;
             return "";
         }
     }
-    // The lookups of this frame read the depths still in memory instead of
-    // reading back and decompressing the file just written.
-    maps->invalidate(path);
-    if (auto map = maps->get(path)) {
-        if (map->isCube())
-            for (int f = 0; f < 6; ++f) map->face(f).preload(images[size_t(f)]);
-        else
-            map->preload(images[0]);
-    }
+    maps->put(path, std::move(map));
     mapWriteSeconds += writeClock.wall();
     return path;
 }

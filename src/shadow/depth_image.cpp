@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstdio>
 #include <exception>
+#include <limits>
 
 namespace umbra {
 
@@ -59,8 +60,10 @@ Imath::M44f toImath(const Mat4& m) {
 }
 
 // Depths that are not finite numbers (NaN from a degenerate projection, -inf)
-// must not reach the map: they would poison min/max and comparisons.
-inline float sanitize(float z) { return std::isfinite(z) ? z : kInfinity; }
+// must not reach the map: they would poison min/max and comparisons. (The
+// comparison is false for NaN, and vectorises where std::isfinite may not.)
+inline bool isFiniteDepth(float z) { return std::abs(z) <= std::numeric_limits<float>::max(); }
+inline float sanitize(float z) { return isFiniteDepth(z) ? z : kInfinity; }
 
 }  // namespace
 
@@ -71,16 +74,6 @@ Mat4 fromImath(const Imath::M44f& m) {
     return Mat4::fromRib(v);
 }
 
-namespace {
-
-/// One map (or cube face) ready to be written: its header, with every
-/// attribute known before the file is opened, and its cropped layers.
-struct PreparedMap {
-    Imf::Header header;
-    Imath::Box2i data;
-    std::vector<float> crop, crop2;
-};
-
 bool prepareMap(const DepthImage& image, PreparedMap& out, std::string& why) {
     const int w = image.width, h = image.height;
     if (w <= 0 || h <= 0 || image.z.size() != size_t(w) * size_t(h) ||
@@ -89,39 +82,64 @@ bool prepareMap(const DepthImage& image, PreparedMap& out, std::string& why) {
                           size_t(std::max(w, 0)) * size_t(std::max(h, 0)));
         return false;
     }
-    // Reeves §3.3: only the bounding box of finite depths is stored.
+    // Reeves §3.3: only the bounding box of finite depths is stored. Each
+    // row is trimmed from both ends; what is left is scanned without
+    // branches (the map is built while the frame waits for it).
     int x0 = w, y0 = h, x1 = -1, y1 = -1;
     int64_t finite = 0;
     float minZ = kInfinity, maxZ = -kInfinity;
-    for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x) {
-            float z = sanitize(image.at(x, y));
-            if (z == kInfinity) continue;
-            ++finite;
-            x0 = std::min(x0, x); x1 = std::max(x1, x);
-            y0 = std::min(y0, y); y1 = std::max(y1, y);
-            minZ = std::min(minZ, z); maxZ = std::max(maxZ, z);
+    for (int y = 0; y < h; ++y) {
+        const float* row = image.z.data() + size_t(y) * size_t(w);
+        int first = 0, last = w - 1;
+        while (first < w && !isFiniteDepth(row[first])) ++first;
+        if (first == w) continue;
+        while (!isFiniteDepth(row[last])) --last;
+        x0 = std::min(x0, first);
+        x1 = std::max(x1, last);
+        y0 = std::min(y0, y);
+        y1 = y;
+        int rowFinite = 0;
+        for (int x = first; x <= last; ++x) {
+            const float z = row[x];
+            const bool f = isFiniteDepth(z);
+            rowFinite += f;
+            minZ = std::min(minZ, f ? z : kInfinity);
+            maxZ = std::max(maxZ, f ? z : -kInfinity);
         }
+        finite += rowFinite;
+    }
     if (finite == 0) x0 = y0 = x1 = y1 = 0;  // OpenEXR needs a non-empty data window
     const int dw = x1 - x0 + 1, dh = y1 - y0 + 1;
     const int tilesX = (dw + kMapTileSize - 1) / kMapTileSize, tilesY = (dh + kMapTileSize - 1) / kMapTileSize;
 
     // The cropped layers and the per-tile depth ranges: all known before the
-    // file is opened, because OpenEXR writes the header at open.
-    out.crop.assign(size_t(dw) * dh, kInfinity);
+    // file is opened, because OpenEXR writes the header at open. Rows are
+    // taken a tile wide at a time, the range kept in registers.
+    out.crop.resize(size_t(dw) * dh);
     out.crop2.clear();
     if (!image.z2.empty()) out.crop2.resize(out.crop.size());
     std::vector<float> tileMin(size_t(tilesX) * tilesY, kInfinity), tileMax(size_t(tilesX) * tilesY, -kInfinity);
-    for (int y = 0; y < dh; ++y)
-        for (int x = 0; x < dw; ++x) {
-            size_t src = size_t(y + y0) * w + size_t(x + x0);
-            float z = sanitize(image.z[src]);
-            out.crop[size_t(y) * dw + x] = z;
-            if (!out.crop2.empty()) out.crop2[size_t(y) * dw + x] = sanitize(image.z2[src]);
-            size_t t = size_t(y / kMapTileSize) * tilesX + size_t(x / kMapTileSize);
-            tileMin[t] = std::min(tileMin[t], z);
-            tileMax[t] = std::max(tileMax[t], z);
+    for (int y = 0; y < dh; ++y) {
+        const size_t src = size_t(y + y0) * size_t(w) + size_t(x0), dst = size_t(y) * size_t(dw);
+        const float* in = image.z.data() + src;
+        float* crop = out.crop.data() + dst;
+        float* rowMin = tileMin.data() + size_t(y / kMapTileSize) * size_t(tilesX);
+        float* rowMax = tileMax.data() + size_t(y / kMapTileSize) * size_t(tilesX);
+        for (int tx = 0; tx < tilesX; ++tx) {
+            const int xa = tx * kMapTileSize, xb = std::min(dw, xa + kMapTileSize);
+            float lo = rowMin[tx], hi = rowMax[tx];
+            for (int x = xa; x < xb; ++x) {
+                const float z = sanitize(in[x]);
+                crop[x] = z;
+                lo = std::min(lo, z);
+                hi = std::max(hi, z);
+            }
+            rowMin[tx] = lo;
+            rowMax[tx] = hi;
         }
+        if (!out.crop2.empty())
+            for (int x = 0; x < dw; ++x) out.crop2[dst + size_t(x)] = sanitize(image.z2[src + size_t(x)]);
+    }
 
     Imath::Box2i display(Imath::V2i(0, 0), Imath::V2i(w - 1, h - 1));
     out.data = Imath::Box2i(Imath::V2i(x0, y0), Imath::V2i(x1, y1));
@@ -146,8 +164,12 @@ bool prepareMap(const DepthImage& image, PreparedMap& out, std::string& why) {
     // A double holds counts beyond 2^31 exactly (a 65536^2 map).
     header.insert(kAttrFiniteCount, Imf::DoubleAttribute(double(finite)));
     out.header = header;
+    out.tilesX = tilesX;
+    out.tilesY = tilesY;
     return true;
 }
+
+namespace {
 
 Imf::FrameBuffer frameBufferFor(PreparedMap& m) {
     Imf::FrameBuffer fb;

@@ -13,6 +13,7 @@
 #include <ImfStringAttribute.h>
 
 #include <string>
+#include <vector>
 
 namespace umbra {
 
@@ -33,6 +34,22 @@ inline constexpr const char* kAttrFiniteCount = "umbra:finiteCount";
 
 /// Imath matrix (row-vector convention) to Mat4 (column-vector convention).
 Mat4 fromImath(const Imath::M44f& m);
+
+/// One map (or cube face) as it is stored: its header, with every attribute
+/// (OpenEXR writes the header when the file is opened, so all of them are
+/// computed first), and the depths of its data window. The writer stores
+/// exactly this, and a map built from memory (ShadowMap::fromImage) reads
+/// its header, so the two cannot disagree.
+struct PreparedMap {
+    Imf::Header header;
+    Imath::Box2i data;
+    int tilesX = 0, tilesY = 0;    // kMapTileSize tiles covering the data window
+    std::vector<float> crop, crop2;  // the data window's layers, row-major
+};
+
+/// Prepares `image` for storing (see writeDepthMap for what the header
+/// holds). False with a reason in `why` when the image is malformed.
+bool prepareMap(const DepthImage& image, PreparedMap& out, std::string& why);
 
 /// The projection-related header fields of a map.
 struct MapMatrices {

@@ -12,9 +12,12 @@
 
 #include <cmath>
 #include <exception>
+#include <chrono>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <future>
+#include <mutex>
 
 namespace umbra {
 
@@ -80,6 +83,30 @@ std::string checkTileChunks(const std::string& path, uint64_t fileBytes, size_t 
 
 }  // namespace
 
+/// The file behind a map's tiles, shared by a cube map's faces.
+struct ShadowMap::File {
+    int parts = 1;  // 1, or a cube map's 6
+    /// Maps built from memory: the writer's result, set when the file is
+    /// complete (or failed); invalid when the file was there at the start.
+    std::shared_future<bool> written;
+    /// OpenEXR files are not safe for concurrent reads: one lock per file.
+    std::mutex mutex;
+    // Guarded by `mutex`:
+    std::shared_ptr<Imf::MultiPartInputFile> input;  // null until a part is opened
+    bool openFailed = false;                         // the file cannot be opened: no retries
+    bool readFailed = false;                         // a failure was reported: later ones stay quiet
+
+    /// True once the writer finished and succeeded (never waits).
+    bool writtenNow() const {
+        if (!written.valid() || written.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return false;
+        try {
+            return written.get();
+        } catch (const std::exception&) {
+            return false;
+        }
+    }
+};
+
 std::shared_ptr<ShadowMap> ShadowMap::open(const std::string& path, Diagnostics& diag, const FileLoc& loc,
                                            std::shared_ptr<TileCache> cache) {
     auto fail = [&](const std::string& why) {
@@ -92,13 +119,14 @@ std::shared_ptr<ShadowMap> ShadowMap::open(const std::string& path, Diagnostics&
     if (!cache) cache = TileCache::shared();
     std::shared_ptr<ShadowMap> map(new ShadowMap());
     try {
+        auto file = std::make_shared<File>();
         // No chunk-table reconstruction: a damaged file must fail here, not
         // be half-repaired.
-        auto multi = std::make_shared<Imf::MultiPartInputFile>(path.c_str(), Imf::globalThreadCount(), false);
-        auto mutex = std::make_shared<std::mutex>();
-        const int parts = multi->parts();
+        file->input = std::make_shared<Imf::MultiPartInputFile>(path.c_str(), Imf::globalThreadCount(), false);
+        const int parts = file->input->parts();
         if (parts != 1 && parts != 6)
             return fail(fmt::format("{} parts, expected 1 (a map) or 6 (a cube map's faces)", parts));
+        file->parts = parts;
         std::vector<std::shared_ptr<ShadowMap>> faces;
         for (int p = 0; p < parts; ++p) {
             std::shared_ptr<ShadowMap> face = parts == 1 ? map : std::shared_ptr<ShadowMap>(new ShadowMap());
@@ -106,35 +134,23 @@ std::shared_ptr<ShadowMap> ShadowMap::open(const std::string& path, Diagnostics&
             face->m_diag = &diag;
             face->m_cache = cache;
             face->m_fileBytes = fileBytes;
-            face->m_multi = multi;
-            face->m_fileMutex = mutex;
+            face->m_file = file;
+            face->m_partNumber = p;
+            Imf::TiledInputPart part(*file->input, p);
             std::string why;
-            if (!face->initPart(p, why)) return fail(parts == 1 ? why : fmt::format("face {}: {}", p, why));
-            if (parts == 1) {
-                std::string cut = checkTileChunks(path, fileBytes, size_t(face->m_tilesX) * size_t(face->m_tilesY));
-                if (!cut.empty()) return fail(cut);
-            }
+            if (!face->initHeader(part.header(), part.numXTiles(), part.numYTiles(), why) || !face->openPart(why))
+                return fail(parts == 1 ? why : fmt::format("face {}: {}", p, why));
             face->setupVirtualSampling();
             face->m_mapId = TileCache::newMapId();
             faces.push_back(std::move(face));
         }
         if (parts == 6) {
-            // The cube itself answers queries about the file and dispatches
-            // lookups; its own fields describe face 0.
-            const ShadowMap& f0 = *faces[0];
             map->m_path = path;
             map->m_diag = &diag;
             map->m_cache = cache;
             map->m_fileBytes = fileBytes;
-            map->m_width = f0.m_width;
-            map->m_height = f0.m_height;
-            map->m_lightFromWorld = f0.m_lightFromWorld;
-            map->m_ndcFromWorld = f0.m_ndcFromWorld;
-            map->m_projection = f0.m_projection;
-            map->m_filter = f0.m_filter;
-            map->m_dualOffset = f0.m_dualOffset;
-            for (const auto& f : faces) map->m_finiteCount += f->m_finiteCount;
-            map->m_faces = std::move(faces);
+            map->m_file = file;
+            map->setFaces(std::move(faces));
         }
     } catch (const std::exception& e) {
         return fail(e.what());
@@ -142,9 +158,120 @@ std::shared_ptr<ShadowMap> ShadowMap::open(const std::string& path, Diagnostics&
     return map;
 }
 
-bool ShadowMap::initPart(int partNumber, std::string& why) {
-    m_part = std::make_unique<Imf::TiledInputPart>(*m_multi, partNumber);
-    const Imf::Header& header = m_part->header();
+std::shared_ptr<ShadowMap> ShadowMap::fromImage(const DepthImage& image, const std::string& path,
+                                                std::shared_future<bool> written, Diagnostics& diag,
+                                                const FileLoc& loc, std::shared_ptr<TileCache> cache,
+                                                bool* everyTileCached) {
+    return fromImages(&image, 1, path, std::move(written), diag, loc, std::move(cache), everyTileCached);
+}
+
+std::shared_ptr<ShadowMap> ShadowMap::fromCubeImages(const std::array<DepthImage, 6>& faces, const std::string& path,
+                                                     std::shared_future<bool> written, Diagnostics& diag,
+                                                     const FileLoc& loc, std::shared_ptr<TileCache> cache,
+                                                     bool* everyTileCached) {
+    return fromImages(faces.data(), 6, path, std::move(written), diag, loc, std::move(cache), everyTileCached);
+}
+
+std::shared_ptr<ShadowMap> ShadowMap::fromImages(const DepthImage* images, int count, const std::string& path,
+                                                 std::shared_future<bool> written, Diagnostics& diag,
+                                                 const FileLoc& loc, std::shared_ptr<TileCache> cache,
+                                                 bool* everyTileCached) {
+    auto fail = [&](const std::string& why) {
+        diag.error(loc, "cannot make shadow map \"{}\": {}", path, why);
+        return nullptr;
+    };
+    if (!cache) cache = TileCache::shared();
+    auto file = std::make_shared<File>();
+    file->parts = count;
+    file->written = std::move(written);
+    std::shared_ptr<ShadowMap> map(new ShadowMap());
+    std::vector<std::shared_ptr<ShadowMap>> faces;
+    bool allCached = true;
+    try {
+        for (int p = 0; p < count; ++p) {
+            std::shared_ptr<ShadowMap> face = count == 1 ? map : std::shared_ptr<ShadowMap>(new ShadowMap());
+            face->m_path = path;
+            face->m_diag = &diag;
+            face->m_cache = cache;
+            face->m_file = file;
+            face->m_partNumber = p;
+            PreparedMap prepared;
+            std::string why;
+            if (!prepareMap(images[p], prepared, why) ||
+                !face->initHeader(prepared.header, prepared.tilesX, prepared.tilesY, why))
+                return fail(count == 1 ? why : fmt::format("face {}: {}", kCubeFaceNames[p], why));
+            face->setupVirtualSampling();
+            face->m_mapId = TileCache::newMapId();
+            const int added = face->preload(images[p]);
+            allCached = allCached && (face->empty() || added == face->m_tilesX * face->m_tilesY);
+            faces.push_back(std::move(face));
+        }
+    } catch (const std::exception& e) {  // OpenEXR header attributes allocate
+        return fail(e.what());
+    }
+    if (count == 6) {
+        map->m_path = path;
+        map->m_diag = &diag;
+        map->m_cache = cache;
+        map->m_file = file;
+        map->setFaces(std::move(faces));
+    }
+    if (everyTileCached) *everyTileCached = allCached;
+    return map;
+}
+
+void ShadowMap::setFaces(std::vector<std::shared_ptr<ShadowMap>> faces) {
+    const ShadowMap& f0 = *faces[0];
+    m_width = f0.m_width;
+    m_height = f0.m_height;
+    m_lightFromWorld = f0.m_lightFromWorld;
+    m_ndcFromWorld = f0.m_ndcFromWorld;
+    m_projection = f0.m_projection;
+    m_filter = f0.m_filter;
+    m_dualOffset = f0.m_dualOffset;
+    m_finiteCount = 0;
+    for (const auto& f : faces) m_finiteCount += f->m_finiteCount;
+    m_faces = std::move(faces);
+}
+
+bool ShadowMap::openPart(std::string& why) const {
+    if (!m_file->input) {
+        if (m_file->written.valid() && !m_file->written.get()) {
+            why = "the file was not written";
+            return false;
+        }
+        auto input = std::make_shared<Imf::MultiPartInputFile>(m_path.c_str(), Imf::globalThreadCount(), false);
+        if (input->parts() != m_file->parts) {
+            why = fmt::format("{} parts, expected {}", input->parts(), m_file->parts);
+            return false;
+        }
+        m_file->input = std::move(input);
+    }
+    auto part = std::make_unique<Imf::TiledInputPart>(*m_file->input, m_partNumber);
+    // Tiles are addressed by the layout initHeader() read: the file must
+    // have it (it does unless it was replaced since).
+    const Imath::Box2i data = part->header().dataWindow();
+    const Imf::TileDescription& td = part->header().tileDescription();
+    if (data.min.x != m_fileX0 || data.min.y != m_fileY0 || int(td.xSize) != m_tileW || int(td.ySize) != m_tileH ||
+        part->numXTiles() != m_tilesX || part->numYTiles() != m_tilesY) {
+        why = "the file's data window or tiles differ from the map's";
+        return false;
+    }
+    if (!part->isComplete()) {
+        why = "the file is truncated (tiles are missing)";
+        return false;
+    }
+    if (m_file->parts == 1) {
+        std::error_code ec;
+        why = checkTileChunks(m_path, std::filesystem::file_size(m_path, ec),
+                              size_t(m_tilesX) * size_t(m_tilesY));
+        if (!why.empty()) return false;
+    }
+    m_part = std::move(part);
+    return true;
+}
+
+bool ShadowMap::initHeader(const Imf::Header& header, int tilesX, int tilesY, std::string& why) {
     if (!header.hasTileDescription()) {
         why = "expected a tiled image (use MakeShadow to convert scanline images)";
         return false;
@@ -162,10 +289,6 @@ bool ShadowMap::initPart(int partNumber, std::string& why) {
     const Imf::Channel* z = header.channels().findChannel("Z");
     if (!z || z->type != Imf::FLOAT || z->xSampling != 1 || z->ySampling != 1) {
         why = "expected a full-resolution FLOAT channel \"Z\"";
-        return false;
-    }
-    if (!m_part->isComplete()) {
-        why = "the file is truncated (tiles are missing)";
         return false;
     }
     MapMatrices mm;
@@ -197,8 +320,8 @@ bool ShadowMap::initPart(int partNumber, std::string& why) {
         m_blockShiftX = m_tileShiftX - log2i(ShadowTile::kBlocks);
         m_blockShiftY = m_tileShiftY - log2i(ShadowTile::kBlocks);
     }
-    m_tilesX = m_part->numXTiles();
-    m_tilesY = m_part->numYTiles();
+    m_tilesX = tilesX;
+    m_tilesY = tilesY;
     const size_t nTiles = size_t(m_tilesX) * size_t(m_tilesY);
 
     // Per-tile depth ranges; without them (a foreign map) nothing is culled:
@@ -273,24 +396,30 @@ ShadowTilePtr ShadowMap::readTile(int tx, int ty) const {
     tile->width = m_tileW;
     tile->height = m_tileH;
     tile->z.assign(size_t(m_tileW) * m_tileH, kInfinity);
-    std::lock_guard<std::mutex> lock(*m_fileMutex);
+    std::lock_guard<std::mutex> lock(m_file->mutex);
+    std::string why;
     try {
-        Imath::Box2i box = m_part->dataWindowForTile(tx, ty);
-        Imf::FrameBuffer fb;
-        fb.insert("Z", Imf::Slice::Make(Imf::FLOAT, tile->z.data(), box.min, m_tileW, m_tileH, sizeof(float),
-                                        sizeof(float) * size_t(m_tileW), 1, 1, double(kInfinity)));
-        m_part->setFrameBuffer(fb);
-        m_part->readTile(tx, ty);
-        for (float& z : tile->z)
-            if (std::isnan(z)) z = kInfinity;
-    } catch (const std::exception& e) {
-        std::fill(tile->z.begin(), tile->z.end(), kInfinity);
-        if (!m_readFailed) {
-            m_readFailed = true;
-            m_diag->error(FileLoc::inFile(m_path), "shadow map \"{}\": cannot read tile ({}, {}): {}; "
-                                                   "its texels are treated as empty",
-                          m_path, tx, ty, e.what());
+        if (!m_part && !m_file->openFailed && !openPart(why)) m_file->openFailed = true;
+        if (m_part) {
+            Imath::Box2i box = m_part->dataWindowForTile(tx, ty);
+            Imf::FrameBuffer fb;
+            fb.insert("Z", Imf::Slice::Make(Imf::FLOAT, tile->z.data(), box.min, m_tileW, m_tileH, sizeof(float),
+                                            sizeof(float) * size_t(m_tileW), 1, 1, double(kInfinity)));
+            m_part->setFrameBuffer(fb);
+            m_part->readTile(tx, ty);
+            for (float& z : tile->z)
+                if (std::isnan(z)) z = kInfinity;
         }
+    } catch (const std::exception& e) {
+        why = e.what();
+        if (!m_part) m_file->openFailed = true;
+        std::fill(tile->z.begin(), tile->z.end(), kInfinity);
+    }
+    if (!why.empty() && !m_file->readFailed) {
+        m_file->readFailed = true;
+        m_diag->error(FileLoc::inFile(m_path), "shadow map \"{}\": cannot read tile ({}, {}): {}; "
+                                               "its texels are treated as empty",
+                      m_path, tx, ty, why);
     }
     tile->computeBlockRanges();
     return tile;
@@ -313,13 +442,14 @@ int ShadowMap::preload(const DepthImage& image) const {
             tile->z.assign(size_t(m_tileW) * m_tileH, kInfinity);
             // What readTile() would give: the data window's texels, with the
             // non-finite depths writeDepthMap stores as +infinity.
-            for (int j = 0; j < m_tileH; ++j)
-                for (int i = 0; i < m_tileW; ++i) {
-                    const int x = m_fileX0 + tx * m_tileW + i, y = m_fileY0 + ty * m_tileH + j;
-                    if (x < m_dx0 || x > m_dx1 || y < m_dy0 || y > m_dy1) continue;
-                    const float z = image.at(x, y);
-                    tile->z[size_t(j) * m_tileW + i] = std::isfinite(z) ? z : kInfinity;
-                }
+            const int tileX0 = m_fileX0 + tx * m_tileW, tileY0 = m_fileY0 + ty * m_tileH;
+            const int xa = std::max(tileX0, m_dx0), xb = std::min(tileX0 + m_tileW - 1, m_dx1);
+            const int ya = std::max(tileY0, m_dy0), yb = std::min(tileY0 + m_tileH - 1, m_dy1);
+            for (int y = ya; y <= yb; ++y) {
+                const float* in = &image.z[size_t(y) * size_t(m_width)];
+                float* out = tile->z.data() + size_t(y - tileY0) * size_t(m_tileW);
+                for (int x = xa; x <= xb; ++x) out[x - tileX0] = std::isfinite(in[x]) ? in[x] : kInfinity;
+            }
             tile->computeBlockRanges();
             const uint32_t index = uint32_t(ty) * uint32_t(m_tilesX) + uint32_t(tx);
             if (!m_cache->preload(m_mapId, index, std::move(tile))) return added;
@@ -380,7 +510,13 @@ MapInfo ShadowMap::info() const {
     in.rawBytes = uint64_t(m_width) * uint64_t(m_height) * 4;
     in.bboxBytes = in.empty ? 0 : uint64_t(m_dx1 - m_dx0 + 1) * uint64_t(m_dy1 - m_dy0 + 1) * 4;
     in.tileBytes = uint64_t(nonEmpty) * uint64_t(m_tileW) * uint64_t(m_tileH) * 4;
+    // A map built from memory has a size on disk once its file is written.
     in.fileBytes = m_fileBytes;
+    if (m_file->writtenNow()) {
+        std::error_code ec;
+        in.fileBytes = std::filesystem::file_size(m_path, ec);
+        if (ec) in.fileBytes = 0;
+    }
     return in;
 }
 

@@ -56,8 +56,10 @@ private:
 };
 
 /// Renders RIB text; returns the renderer's statistics. Errors are recorded
-/// in `diag` (pass one with setRecord(true) to inspect them).
-inline nlohmann::json renderRib(const std::string& rib, Diagnostics& diag, int threads = 0, int bucketSize = 0) {
+/// in `diag` (pass one with setRecord(true) to inspect them); `failedFrames`,
+/// if given, receives the number of frames that failed.
+inline nlohmann::json renderRib(const std::string& rib, Diagnostics& diag, int threads = 0, int bucketSize = 0,
+                                int* failedFrames = nullptr) {
     render::RenderSettings settings;
     settings.threads = threads;
     settings.bucketSize = bucketSize;
@@ -66,6 +68,7 @@ inline nlohmann::json renderRib(const std::string& rib, Diagnostics& diag, int t
     render::Renderer renderer(settings, diag);
     scene::Builder builder(renderer, diag);
     ri::parseString(rib, "test.rib", builder, diag);
+    if (failedFrames) *failedFrames = renderer.failedFrames();
     return renderer.statistics();
 }
 

@@ -17,6 +17,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <future>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -125,6 +126,28 @@ public:
     /// it (once per map) and those tiles read as empty.
     static std::shared_ptr<ShadowMap> open(const std::string& path, Diagnostics& diag, const FileLoc& loc = {},
                                            std::shared_ptr<TileCache> cache = nullptr);
+    /// The map writeDepthMap(path, image) stores, built from the image in
+    /// memory, so it can be used before the file exists: its header values
+    /// are the file's, and every tile that fits under the cache's bound goes
+    /// to the cache (preload()). `*everyTileCached` (if given) tells whether
+    /// all did (an empty map's lookups read no tile: always true).
+    ///
+    /// A tile that is not in the cache (it did not fit, or was evicted) is
+    /// read from the file, opened on first need after waiting for
+    /// `written`, the writer's result (an invalid future: the file is
+    /// already there). When the write failed, or the file is not whole, the
+    /// map's uncached tiles read as empty, with one error naming the file.
+    /// A malformed image gives an error naming `loc` and null.
+    static std::shared_ptr<ShadowMap> fromImage(const DepthImage& image, const std::string& path,
+                                                std::shared_future<bool> written, Diagnostics& diag,
+                                                const FileLoc& loc = {}, std::shared_ptr<TileCache> cache = nullptr,
+                                                bool* everyTileCached = nullptr);
+    /// The same for the cube map writeCubeDepthMap(path, faces) stores.
+    static std::shared_ptr<ShadowMap> fromCubeImages(const std::array<DepthImage, 6>& faces, const std::string& path,
+                                                     std::shared_future<bool> written, Diagnostics& diag,
+                                                     const FileLoc& loc = {},
+                                                     std::shared_ptr<TileCache> cache = nullptr,
+                                                     bool* everyTileCached = nullptr);
     ~ShadowMap();
     ShadowMap(const ShadowMap&) = delete;
     ShadowMap& operator=(const ShadowMap&) = delete;
@@ -191,10 +214,11 @@ public:
         return !(m_wScale * Z <= limit);
     }
 
-    /// Hands the depths of `image` -- the image this map was just written
-    /// from (writeDepthMap), or face f's image for face(f) of a cube -- to
-    /// the tile cache, so lookups in the frame that rendered the map do not
-    /// read back and decompress what is still in memory. Only tiles that fit
+    /// Hands the depths of `image` -- the image this map was written from
+    /// (writeDepthMap), or face f's image for face(f) of a cube -- to the
+    /// tile cache, so lookups in the frame that rendered the map do not
+    /// read back and decompress what is still in memory (fromImage() does
+    /// this for the maps it builds). Only tiles that fit
     /// under the cache's bound are added; the rest are read from the file as
     /// usual. Returns the tiles added; 0 when the image does not match.
     int preload(const DepthImage& image) const;
@@ -230,12 +254,27 @@ public:
     const std::string& path() const { return m_path; }
 
 private:
+    struct File;
     ShadowMap() = default;
+    static std::shared_ptr<ShadowMap> fromImages(const DepthImage* images, int count, const std::string& path,
+                                                 std::shared_future<bool> written, Diagnostics& diag,
+                                                 const FileLoc& loc, std::shared_ptr<TileCache> cache,
+                                                 bool* everyTileCached);
     /// The tile from the cache, reading it from the file on a miss.
     ShadowTilePtr fetchTile(int tx, int ty) const;
     ShadowTilePtr readTile(int tx, int ty) const;
     void setupVirtualSampling();
-    bool initPart(int partNumber, std::string& why);
+    /// Takes the map's layout (sizes, data window, tiles, matrices, depth
+    /// ranges) from a header, the file's or the one prepared in memory.
+    bool initHeader(const Imf::Header& header, int tilesX, int tilesY, std::string& why);
+    /// Opens this map's part of the file (and the file, if no part did) and
+    /// checks it is whole and laid out as initHeader() read; false with a
+    /// reason in `why`. Called with m_file->mutex held (or before the map
+    /// is handed out).
+    bool openPart(std::string& why) const;
+    /// Makes this map the cube of `faces`: it dispatches lookups to them,
+    /// and its own fields describe face 0.
+    void setFaces(std::vector<std::shared_ptr<ShadowMap>> faces);
     /// Cube maps: splits a batch by face and looks each part up there.
     void lookupCube(const ShadowBatch& batch, const ShadowParams& params, float* out, ShadowStats& stats,
                     bool pointSample) const;
@@ -264,12 +303,9 @@ private:
     Diagnostics* m_diag = nullptr;
     std::shared_ptr<TileCache> m_cache;
     uint32_t m_mapId = 0;
-    // OpenEXR files are not safe for concurrent reads: one mutex per file,
-    // shared by a cube map's faces (parts of one file).
-    std::shared_ptr<std::mutex> m_fileMutex;
-    std::shared_ptr<Imf::MultiPartInputFile> m_multi;
-    std::unique_ptr<Imf::TiledInputPart> m_part;
-    mutable bool m_readFailed = false;  // guarded by m_fileMutex
+    std::shared_ptr<File> m_file;  // shared by a cube map's faces (parts of one file)
+    int m_partNumber = 0;
+    mutable std::unique_ptr<Imf::TiledInputPart> m_part;  // guarded by m_file->mutex; null until opened
     std::vector<std::shared_ptr<ShadowMap>> m_faces;  // a cube map's six faces; empty otherwise
 
     int m_width = 0, m_height = 0;

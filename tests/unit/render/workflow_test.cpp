@@ -11,6 +11,10 @@
 
 #include <fmt/format.h>
 
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+
 using namespace umbra;
 using umbra::test::Image;
 using umbra::test::ScratchDir;
@@ -198,6 +202,9 @@ WorldEnd)");
     ASSERT_EQ(diag.errorCount(), 0);
     EXPECT_EQ(big["frames"][0]["shadow"]["tile_cache"]["evictions"].get<uint64_t>(), 0u);
     EXPECT_GT(tiny["frames"][0]["shadow"]["tile_cache"]["evictions"].get<uint64_t>(), 0u);
+    // The map that fits is written in the background, the other at once.
+    EXPECT_EQ(big["frames"][0]["shadow"]["background_map_writes"].get<int>(), 1);
+    EXPECT_EQ(tiny["frames"][0]["shadow"]["background_map_writes"].get<int>(), 0);
     Image a, b;
     ASSERT_TRUE(test::readImage(dir.file("big.exr"), &a));
     ASSERT_TRUE(test::readImage(dir.file("tiny.exr"), &b));
@@ -244,4 +251,104 @@ WorldEnd)", dir.file("spot.exr"), kDownCamera),
             finite += inDisc;
         }
     EXPECT_NEAR(double(finite) / (128.0 * 128.0), kPi / 4, 0.01);
+}
+
+namespace {
+
+/// A frame with three automatic maps: a spot light's, a distant light's and
+/// a point light's cube map, all of `mapSize` texels a side.
+std::string threeMapFrame(const std::string& image, int mapSize, int cacheMB) {
+    return fmt::format(R"(Display "{}" "openexr" "rgba" "string type" "float"
+PixelSamples 2 2
+Option "umbra" "shadowmapsize" [{}] "tilecachemb" [{}]
+Option "shadow" "bias" [0.05]
+{}
+WorldBegin
+  LightSource "shadowspot" 1 "from" [0.5 4 0.3] "to" [0 0 0] "coneangle" [0.9] "intensity" [8] "shadowname" ["auto"]
+  LightSource "shadowdistant" 2 "from" [1 3 0] "to" [0 0 0] "intensity" [0.3] "shadowname" ["auto"]
+  LightSource "shadowpoint" 3 "from" [-1 2.5 -0.5] "intensity" [3] "shadowname" ["auto"]
+  Surface "matte"
+  Polygon "P" [-5 0 -5  -5 0 5  5 0 5  5 0 -5]
+  AttributeBegin Translate 0 1.5 0 Sphere 0.5 -0.5 0.5 360 AttributeEnd
+WorldEnd)",
+                       image, mapSize, cacheMB, kDownCamera);
+}
+
+std::string fileBytes(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+bool anyTemporaryFile(const std::string& dir) {
+    for (const auto& e : std::filesystem::directory_iterator(dir))
+        if (e.path().extension() == ".tmp") return true;
+    return false;
+}
+
+}  // namespace
+
+TEST(Workflow, MapFilesWrittenInTheBackgroundAreCompleteWhenRenderReturns) {
+    // The same frame with every map's tiles cached (files written in the
+    // background) and with a cache too small for them (written at once):
+    // the same files and the same image.
+    ScratchDir bg("bgwrite"), now("nowwrite");
+    Diagnostics diag;
+    auto background = test::renderRib(threeMapFrame(bg.file("frame.exr"), 512, 64), diag);
+    auto atOnce = test::renderRib(threeMapFrame(now.file("frame.exr"), 512, 1), diag);
+    ASSERT_EQ(diag.errorCount(), 0);
+    EXPECT_EQ(background["frames"][0]["shadow"]["background_map_writes"].get<int>(), 3);
+    EXPECT_EQ(atOnce["frames"][0]["shadow"]["background_map_writes"].get<int>(), 0);
+    EXPECT_GE(background["frames"][0]["shadow"]["map_write_wait_seconds"].get<double>(), 0.0);
+    EXPECT_FALSE(anyTemporaryFile(bg.file("")));
+    for (const char* light : {"1", "2", "3"}) {
+        SCOPED_TRACE(light);
+        const std::string name = fmt::format("frame.{}.shd", light);
+        // Complete: opens (OpenEXR and the chunk table agree it is whole)
+        // and every texel reads back without an error.
+        Diagnostics readDiag;
+        auto map = ShadowMap::open(bg.file(name), readDiag, {}, std::make_shared<TileCache>());
+        ASSERT_TRUE(map);
+        EXPECT_EQ(map->isCube(), std::string(light) == "3");
+        int64_t finite = 0;
+        for (int f = 0; f < (map->isCube() ? 6 : 1); ++f) {
+            const ShadowMap& face = map->isCube() ? map->face(f) : *map;
+            for (int y = 0; y < face.height(); ++y)
+                for (int x = 0; x < face.width(); ++x) finite += face.texel(x, y) < kInfinity;
+        }
+        EXPECT_GT(finite, 512 * 512 / 4);  // the floor fills much of every map
+        EXPECT_EQ(readDiag.errorCount(), 0);
+        EXPECT_EQ(fileBytes(bg.file(name)), fileBytes(now.file(name)));
+    }
+    Image a, b;
+    ASSERT_TRUE(test::readImage(bg.file("frame.exr"), &a));
+    ASSERT_TRUE(test::readImage(now.file("frame.exr"), &b));
+    ASSERT_EQ(a.pixels.size(), b.pixels.size());
+    for (size_t i = 0; i < a.pixels.size(); ++i) ASSERT_EQ(a.pixels[i], b.pixels[i]) << "at float " << i;
+}
+
+TEST(Workflow, AMapThatCannotBeWrittenFailsTheFrame) {
+    // The spot light's map would replace a directory: the rename fails, in
+    // the background (tiles cached) or at once (cache too small).
+    for (int cacheMB : {64, 1}) {
+        SCOPED_TRACE(cacheMB);
+        ScratchDir dir("unwritable");
+        const std::string blocked = dir.file("frame.1.shd");
+        std::filesystem::create_directory(blocked);
+        Diagnostics diag;
+        diag.setRecord(true);
+        diag.setPolicy(Diagnostics::Policy::Ignore);
+        int failedFrames = 0;
+        auto stats = test::renderRib(threeMapFrame(dir.file("frame.exr"), 512, cacheMB), diag, 0, 0, &failedFrames);
+        EXPECT_EQ(failedFrames, 1);
+        EXPECT_EQ(stats["frames"][0]["errors"].get<int>(), 1);
+        const auto rec = diag.recorded();
+        ASSERT_EQ(rec.size(), 1u);
+        EXPECT_EQ(rec[0].message.rfind("cannot write depth map \"" + blocked + "\": ", 0), 0u) << rec[0].message;
+        EXPECT_TRUE(std::filesystem::is_directory(blocked));
+        EXPECT_FALSE(anyTemporaryFile(dir.file("")));
+        // The other maps and the image are written.
+        EXPECT_TRUE(std::filesystem::is_regular_file(dir.file("frame.2.shd")));
+        EXPECT_TRUE(std::filesystem::is_regular_file(dir.file("frame.3.shd")));
+        EXPECT_TRUE(std::filesystem::is_regular_file(dir.file("frame.exr")));
+    }
 }

@@ -4,7 +4,11 @@
 
 #include <OpenImageIO/imageio.h>
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <future>
+#include <thread>
 
 namespace umbra {
 namespace {
@@ -116,6 +120,55 @@ TEST(CubeMap, WritesSixPartsAndPicksTheFaceByDirection) {
     int subimages = 0;
     while (in->seek_subimage(subimages, 0)) ++subimages;
     EXPECT_EQ(subimages, 6);
+}
+
+TEST(CubeMap, FromMemoryEqualsTheFileAndWaitsForItForUncachedTiles) {
+    auto faces = cubeFaces(64);
+    // Points all around the light, a little nearer and farther than the
+    // walls and occluders they lie on or behind.
+    std::vector<Vec3> P, du, dv;
+    for (int i = 0; i < 2000; ++i) {
+        const float a = float(i) * 2.39996f, h = 1.0f - 2.0f * (float(i) + 0.5f) / 2000.0f;
+        const float r = std::sqrt(1.0f - h * h);
+        const Vec3 D(r * std::cos(a), h, r * std::sin(a));
+        const float t = sceneDepth(D / std::max({std::abs(D.x), std::abs(D.y), std::abs(D.z)})) /
+                        std::max({std::abs(D.x), std::abs(D.y), std::abs(D.z)});
+        P.push_back(kLight + D * (t * (i % 2 ? 1.02f : 0.98f)));
+        du.push_back(Vec3(0.05f, 0, 0));
+        dv.push_back(Vec3(0, 0, 0.05f));
+    }
+    ShadowParams params;
+    params.bias = 0.05f;
+
+    for (bool cacheAll : {true, false}) {
+        SCOPED_TRACE(cacheAll ? "every tile cached" : "some tiles cached");
+        Diagnostics diag;
+        const std::string path = test::scratchFile(cacheAll ? "cube-memory.exr" : "cube-late.exr");
+        // Too small for all 24 tiles: some are read from the file.
+        auto cache = cacheAll ? std::make_shared<TileCache>() : std::make_shared<TileCache>(64 << 10);
+        std::promise<bool> written;
+        bool everyTileCached = !cacheAll;
+        auto memory =
+            ShadowMap::fromCubeImages(faces, path, written.get_future().share(), diag, {}, cache, &everyTileCached);
+        ASSERT_TRUE(memory);
+        ASSERT_TRUE(memory->isCube());
+        EXPECT_EQ(everyTileCached, cacheAll);
+        std::thread writer([&] {
+            std::this_thread::sleep_for(std::chrono::milliseconds(cacheAll ? 0 : 50));
+            written.set_value(writeCubeDepthMap(path, faces, diag));
+        });
+        test::Lookups a = test::lookUp(*memory, P, du, dv, params);
+        writer.join();
+        auto file = ShadowMap::open(path, diag, {}, std::make_shared<TileCache>());
+        ASSERT_TRUE(file);
+        test::expectSameLookups(a, test::lookUp(*file, P, du, dv, params));
+        EXPECT_GT(std::count(a.filtered.begin(), a.filtered.end(), 1.0f), 50);
+        EXPECT_GT(std::count(a.filtered.begin(), a.filtered.end(), 0.0f), 50);
+        for (int f = 0; f < 6; ++f) test::expectSameMap(memory->face(f), file->face(f));
+        test::expectSameInfo(memory->info(), file->info());
+        EXPECT_EQ(cache->stats().tilesRead == 0, cacheAll);
+        EXPECT_EQ(diag.errorCount(), 0);
+    }
 }
 
 }  // namespace

@@ -12,7 +12,10 @@
 #include <OpenImageIO/imageio.h>
 #include <nlohmann/json.hpp>
 
+#include <chrono>
 #include <fstream>
+#include <future>
+#include <thread>
 
 namespace umbra {
 namespace {
@@ -215,6 +218,136 @@ TEST(DepthMap, PreloadedTilesEqualTheFileAndNeedNoReads) {
     EXPECT_EQ(map2->texel(30, 30), img.at(30, 30));
     EXPECT_EQ(tiny->stats().tilesRead, 1u);
     EXPECT_EQ(map->preload(DepthImage(50, 70)), 0);
+}
+
+// Points over the whole raster of a sampleImage() map whose raster is world
+// x, y and whose depth is world z (setRasterIsWorld): a little nearer and
+// farther than the stored surface, so lookups are lit, shadowed and mixed.
+struct SamplePoints {
+    std::vector<Vec3> P, du, dv;
+    SamplePoints() {
+        const float offsets[] = {-1.0f, -0.05f, 0.05f, 1.0f};
+        int k = 0;
+        for (float y = 0.25f; y < 70; y += 1.5f)
+            for (float x = 0.4f; x < 100; x += 1.25f, ++k) {
+                P.push_back(Vec3(x, y, 5.0f + 0.25f * x + 0.125f * y + offsets[k % 4]));
+                du.push_back(Vec3(1.3f, 0, 0));
+                dv.push_back(Vec3(0, 0.9f, 0));
+            }
+    }
+};
+
+TEST(MapFromMemory, EqualsTheMapWrittenAndOpened) {
+    DepthImage img = sampleImage();
+    test::setRasterIsWorld(img);
+    img.at(20, 20) = std::nanf("");
+    Diagnostics diag;
+    const std::string path = scratchFile("memory.exr");
+    ASSERT_TRUE(writeDepthMap(path, img, diag));
+    std::promise<bool> written;
+    written.set_value(true);
+    auto cache = std::make_shared<TileCache>();
+    bool everyTileCached = false;
+    auto memory = ShadowMap::fromImage(img, path, written.get_future().share(), diag, {}, cache, &everyTileCached);
+    ASSERT_TRUE(memory);
+    EXPECT_TRUE(everyTileCached);
+    EXPECT_EQ(cache->stats().preloaded, 6u);  // the 3 x 2 tiles of the data window
+    auto file = ShadowMap::open(path, diag, {}, std::make_shared<TileCache>());
+    ASSERT_TRUE(file);
+    test::expectSameMap(*memory, *file);
+    test::expectSameInfo(memory->info(), file->info());
+    EXPECT_EQ(memory->texel(20, 20), kInfinity);
+    const SamplePoints pts;
+    for (float bias : {0.0f, 0.3f}) {
+        ShadowParams params;
+        params.bias = bias;
+        test::Lookups a = test::lookUp(*memory, pts.P, pts.du, pts.dv, params);
+        test::Lookups b = test::lookUp(*file, pts.P, pts.du, pts.dv, params);
+        test::expectSameLookups(a, b);
+        EXPECT_GT(a.stats.filtered, 100u);
+        EXPECT_GT(std::count(a.filtered.begin(), a.filtered.end(), 0.0f), 100);
+        EXPECT_GT(std::count(a.filtered.begin(), a.filtered.end(), 1.0f), 100);
+    }
+    // Every texel came from memory.
+    EXPECT_EQ(cache->stats().tilesRead, 0u);
+    EXPECT_EQ(diag.errorCount(), 0);
+
+    // An empty image: a valid empty map, no tile to cache.
+    DepthImage none(40, 30);
+    test::setRasterIsWorld(none);
+    everyTileCached = false;
+    auto empty = ShadowMap::fromImage(none, scratchFile("none.exr"), {}, diag, {}, cache, &everyTileCached);
+    ASSERT_TRUE(empty);
+    EXPECT_TRUE(everyTileCached);
+    EXPECT_TRUE(empty->empty());
+    EXPECT_EQ(empty->info().tileCount, 1);
+}
+
+TEST(MapFromMemory, ReadsWaitForTheFileWhenTheCacheIsTooSmall) {
+    DepthImage img = sampleImage();
+    test::setRasterIsWorld(img);
+    Diagnostics diag;
+    const std::string path = scratchFile("memory-late.exr");
+    std::promise<bool> written;
+    auto tiny = std::make_shared<TileCache>(1024);  // room for no tile
+    bool everyTileCached = true;
+    auto memory = ShadowMap::fromImage(img, path, written.get_future().share(), diag, {}, tiny, &everyTileCached);
+    ASSERT_TRUE(memory);
+    EXPECT_FALSE(everyTileCached);
+    EXPECT_FALSE(std::filesystem::exists(path));
+    // The file appears a little later, written on another thread as a frame
+    // does; the lookups wait for it.
+    std::thread writer([&] {
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+        written.set_value(writeDepthMap(path, img, diag));
+    });
+    const SamplePoints pts;
+    ShadowParams params;
+    params.bias = 0.3f;
+    test::Lookups a = test::lookUp(*memory, pts.P, pts.du, pts.dv, params);
+    writer.join();
+    auto file = ShadowMap::open(path, diag, {}, std::make_shared<TileCache>());
+    ASSERT_TRUE(file);
+    test::expectSameLookups(a, test::lookUp(*file, pts.P, pts.du, pts.dv, params));
+    test::expectSameMap(*memory, *file);
+    test::expectSameInfo(memory->info(), file->info());
+    EXPECT_GT(tiny->stats().tilesRead, 0u);
+    EXPECT_EQ(tiny->stats().preloaded, 0u);
+    EXPECT_EQ(diag.errorCount(), 0);
+}
+
+TEST(MapFromMemory, AFailedWriteLeavesUncachedTilesEmptyWithOneError) {
+    DepthImage img = sampleImage();
+    test::setRasterIsWorld(img);
+    const std::string path = scratchFile("never-written.exr");
+    std::promise<bool> written;
+    written.set_value(false);
+    const std::shared_future<bool> failed = written.get_future().share();
+    Diagnostics diag;
+    diag.setRecord(true);
+    diag.setPolicy(Diagnostics::Policy::Ignore);
+
+    // Tiles in the cache do not need the file.
+    auto cached = ShadowMap::fromImage(img, path, failed, diag, {}, std::make_shared<TileCache>());
+    ASSERT_TRUE(cached);
+    for (int y = 0; y < 70; ++y)
+        for (int x = 0; x < 100; ++x) ASSERT_EQ(cached->texel(x, y), img.at(x, y)) << x << "," << y;
+    EXPECT_EQ(diag.errorCount(), 0);
+
+    auto uncached = ShadowMap::fromImage(img, path, failed, diag, {}, std::make_shared<TileCache>(1024));
+    ASSERT_TRUE(uncached);
+    for (int y = 0; y < 70; ++y)
+        for (int x = 0; x < 100; ++x) ASSERT_EQ(uncached->texel(x, y), kInfinity) << x << "," << y;
+    const SamplePoints pts;
+    test::Lookups lit = test::lookUp(*uncached, pts.P, pts.du, pts.dv, ShadowParams{});
+    for (float v : lit.filtered) ASSERT_EQ(v, 0.0f);
+    for (float v : lit.point) ASSERT_EQ(v, 0.0f);
+    auto rec = diag.recorded();
+    ASSERT_EQ(rec.size(), 1u);
+    EXPECT_EQ(rec[0].loc.str(), path);
+    EXPECT_EQ(rec[0].message, "shadow map \"" + path +
+                                  "\": cannot read tile (0, 0): the file was not written; its texels are treated "
+                                  "as empty");
 }
 
 TEST(DepthMap, EmptyImageGivesAValidEmptyMap) {

@@ -10,6 +10,7 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
 namespace umbra::test {
 
@@ -62,6 +63,93 @@ inline std::shared_ptr<ShadowMap> writeAndOpen(const DepthImage& img, const std:
     auto map = ShadowMap::open(path, diag, {}, std::move(cache));
     EXPECT_TRUE(map != nullptr);
     return map;
+}
+
+/// Expects two maps (or two faces of cube maps) to agree on everything
+/// their headers give and on every texel.
+inline void expectSameMap(const ShadowMap& a, const ShadowMap& b) {
+    ASSERT_EQ(a.width(), b.width());
+    ASSERT_EQ(a.height(), b.height());
+    EXPECT_TRUE(a.lightFromWorld() == b.lightFromWorld());
+    EXPECT_TRUE(a.ndcFromWorld() == b.ndcFromWorld());
+    EXPECT_EQ(a.projection(), b.projection());
+    EXPECT_EQ(a.depthFilter(), b.depthFilter());
+    EXPECT_EQ(a.dualOffset(), b.dualOffset());
+    EXPECT_EQ(a.empty(), b.empty());
+    EXPECT_EQ(a.dataMinX(), b.dataMinX());
+    EXPECT_EQ(a.dataMinY(), b.dataMinY());
+    EXPECT_EQ(a.dataMaxX(), b.dataMaxX());
+    EXPECT_EQ(a.dataMaxY(), b.dataMaxY());
+    ASSERT_EQ(a.tilesX(), b.tilesX());
+    ASSERT_EQ(a.tilesY(), b.tilesY());
+    for (int ty = 0; ty < a.tilesY(); ++ty)
+        for (int tx = 0; tx < a.tilesX(); ++tx) {
+            EXPECT_EQ(a.tileMinZ(tx, ty), b.tileMinZ(tx, ty)) << tx << "," << ty;
+            EXPECT_EQ(a.tileMaxZ(tx, ty), b.tileMaxZ(tx, ty)) << tx << "," << ty;
+        }
+    for (int y = 0; y < a.height(); ++y)
+        for (int x = 0; x < a.width(); ++x) ASSERT_EQ(a.texel(x, y), b.texel(x, y)) << x << "," << y;
+}
+
+inline void expectSameInfo(const MapInfo& a, const MapInfo& b) {
+    EXPECT_EQ(a.path, b.path);
+    EXPECT_EQ(a.width, b.width);
+    EXPECT_EQ(a.height, b.height);
+    EXPECT_EQ(a.empty, b.empty);
+    EXPECT_EQ(a.bboxMinX, b.bboxMinX);
+    EXPECT_EQ(a.bboxMinY, b.bboxMinY);
+    EXPECT_EQ(a.bboxMaxX, b.bboxMaxX);
+    EXPECT_EQ(a.bboxMaxY, b.bboxMaxY);
+    EXPECT_EQ(a.tileWidth, b.tileWidth);
+    EXPECT_EQ(a.tileHeight, b.tileHeight);
+    EXPECT_EQ(a.tilesX, b.tilesX);
+    EXPECT_EQ(a.tilesY, b.tilesY);
+    EXPECT_EQ(a.tileCount, b.tileCount);
+    EXPECT_EQ(a.emptyTiles, b.emptyTiles);
+    EXPECT_EQ(a.minZ, b.minZ);
+    EXPECT_EQ(a.maxZ, b.maxZ);
+    EXPECT_EQ(a.projection, b.projection);
+    EXPECT_EQ(a.depthFilter, b.depthFilter);
+    EXPECT_EQ(a.faces, b.faces);
+    EXPECT_EQ(a.rawBytes, b.rawBytes);
+    EXPECT_EQ(a.bboxBytes, b.bboxBytes);
+    EXPECT_EQ(a.tileBytes, b.tileBytes);
+    EXPECT_EQ(a.fileBytes, b.fileBytes);
+}
+
+/// Filtered and point-sampled lookups of the points P (footprint edges du,
+/// dv, in world space), and their counters.
+struct Lookups {
+    std::vector<float> filtered, point;
+    ShadowStats stats;
+};
+
+inline Lookups lookUp(const ShadowMap& map, const std::vector<Vec3>& P, const std::vector<Vec3>& du,
+                      const std::vector<Vec3>& dv, const ShadowParams& params) {
+    ShadowBatch b;
+    b.count = int(P.size());
+    b.P = P.data();
+    b.dPdu_du = du.data();
+    b.dPdv_dv = dv.data();
+    b.seed = 1234;
+    Lookups out;
+    out.filtered.resize(P.size());
+    out.point.resize(P.size());
+    map.lookup(b, params, out.filtered.data(), out.stats);
+    map.lookupPoint(b, params, out.point.data(), out.stats);
+    return out;
+}
+
+inline void expectSameLookups(const Lookups& a, const Lookups& b) {
+    EXPECT_EQ(a.filtered, b.filtered);
+    EXPECT_EQ(a.point, b.point);
+    EXPECT_EQ(a.stats.points, b.stats.points);
+    EXPECT_EQ(a.stats.outside, b.stats.outside);
+    EXPECT_EQ(a.stats.culledLit, b.stats.culledLit);
+    EXPECT_EQ(a.stats.culledShadowed, b.stats.culledShadowed);
+    EXPECT_EQ(a.stats.filtered, b.stats.filtered);
+    EXPECT_EQ(a.stats.samples, b.stats.samples);
+    EXPECT_EQ(a.stats.tileFetches, b.stats.tileFetches);
 }
 
 }  // namespace umbra::test
