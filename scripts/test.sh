@@ -35,7 +35,11 @@ done
 if [ ${#tsan_targets[@]} -gt 0 ]; then
   cmake --build build-tsan -j"$jobs" --target "${tsan_targets[@]}"
   for t in "${tsan_targets[@]}"; do
-    TSAN_OPTIONS="halt_on_error=1 suppressions=$PWD/tests/tsan.supp" "build-tsan/bin/$t"
+    # history_size=7: the largest per-thread history, so TSan can still
+    # restore the stacks of reads made long before a report (TBB workers
+    # reading the main thread's stack lost them at the default size, and
+    # the suppressions could not match).
+    TSAN_OPTIONS="halt_on_error=1 history_size=7 suppressions=$PWD/tests/tsan.supp" "build-tsan/bin/$t"
   done
 fi
 
