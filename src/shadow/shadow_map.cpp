@@ -129,29 +129,17 @@ std::shared_ptr<ShadowMap> ShadowMap::open(const std::string& path, Diagnostics&
         file->parts = parts;
         std::vector<std::shared_ptr<ShadowMap>> faces;
         for (int p = 0; p < parts; ++p) {
-            std::shared_ptr<ShadowMap> face = parts == 1 ? map : std::shared_ptr<ShadowMap>(new ShadowMap());
-            face->m_path = path;
-            face->m_diag = &diag;
-            face->m_cache = cache;
+            std::shared_ptr<ShadowMap> face = part(map, parts, p, path, diag, cache, file);
             face->m_fileBytes = fileBytes;
-            face->m_file = file;
-            face->m_partNumber = p;
-            Imf::TiledInputPart part(*file->input, p);
+            Imf::TiledInputPart input(*file->input, p);
             std::string why;
-            if (!face->initHeader(part.header(), part.numXTiles(), part.numYTiles(), why) || !face->openPart(why))
+            if (!face->initHeader(input.header(), input.numXTiles(), input.numYTiles(), why) || !face->openPart(why))
                 return fail(parts == 1 ? why : fmt::format("face {}: {}", p, why));
             face->setupVirtualSampling();
             face->m_mapId = TileCache::newMapId();
             faces.push_back(std::move(face));
         }
-        if (parts == 6) {
-            map->m_path = path;
-            map->m_diag = &diag;
-            map->m_cache = cache;
-            map->m_fileBytes = fileBytes;
-            map->m_file = file;
-            map->setFaces(std::move(faces));
-        }
+        if (parts == 6) map->setFaces(std::move(faces));
     } catch (const std::exception& e) {
         return fail(e.what());
     }
@@ -189,12 +177,7 @@ std::shared_ptr<ShadowMap> ShadowMap::fromImages(const DepthImage* images, int c
     bool allCached = true;
     try {
         for (int p = 0; p < count; ++p) {
-            std::shared_ptr<ShadowMap> face = count == 1 ? map : std::shared_ptr<ShadowMap>(new ShadowMap());
-            face->m_path = path;
-            face->m_diag = &diag;
-            face->m_cache = cache;
-            face->m_file = file;
-            face->m_partNumber = p;
+            std::shared_ptr<ShadowMap> face = part(map, count, p, path, diag, cache, file);
             PreparedMap prepared;
             std::string why;
             if (!prepareMap(images[p], prepared, why) ||
@@ -209,19 +192,30 @@ std::shared_ptr<ShadowMap> ShadowMap::fromImages(const DepthImage* images, int c
     } catch (const std::exception& e) {  // OpenEXR header attributes allocate
         return fail(e.what());
     }
-    if (count == 6) {
-        map->m_path = path;
-        map->m_diag = &diag;
-        map->m_cache = cache;
-        map->m_file = file;
-        map->setFaces(std::move(faces));
-    }
+    if (count == 6) map->setFaces(std::move(faces));
     if (everyTileCached) *everyTileCached = allCached;
     return map;
 }
 
+std::shared_ptr<ShadowMap> ShadowMap::part(const std::shared_ptr<ShadowMap>& whole, int parts, int p,
+                                           const std::string& path, Diagnostics& diag,
+                                           const std::shared_ptr<TileCache>& cache, const std::shared_ptr<File>& file) {
+    std::shared_ptr<ShadowMap> face = parts == 1 ? whole : std::shared_ptr<ShadowMap>(new ShadowMap());
+    face->m_path = path;
+    face->m_diag = &diag;
+    face->m_cache = cache;
+    face->m_file = file;
+    face->m_partNumber = p;
+    return face;
+}
+
 void ShadowMap::setFaces(std::vector<std::shared_ptr<ShadowMap>> faces) {
     const ShadowMap& f0 = *faces[0];
+    m_path = f0.m_path;
+    m_diag = f0.m_diag;
+    m_cache = f0.m_cache;
+    m_file = f0.m_file;
+    m_fileBytes = f0.m_fileBytes;
     m_width = f0.m_width;
     m_height = f0.m_height;
     m_lightFromWorld = f0.m_lightFromWorld;

@@ -272,8 +272,13 @@ private:
     /// reason in `why`. Called with m_file->mutex held (or before the map
     /// is handed out).
     bool openPart(std::string& why) const;
+    /// Part p of a map of `parts` parts on one file: `whole` itself for a
+    /// single map, a new face of it for a cube.
+    static std::shared_ptr<ShadowMap> part(const std::shared_ptr<ShadowMap>& whole, int parts, int p,
+                                           const std::string& path, Diagnostics& diag,
+                                           const std::shared_ptr<TileCache>& cache, const std::shared_ptr<File>& file);
     /// Makes this map the cube of `faces`: it dispatches lookups to them,
-    /// and its own fields describe face 0.
+    /// and its own fields (file, path, sizes, matrices) are face 0's.
     void setFaces(std::vector<std::shared_ptr<ShadowMap>> faces);
     /// Cube maps: splits a batch by face and looks each part up there.
     void lookupCube(const ShadowBatch& batch, const ShadowParams& params, float* out, ShadowStats& stats,
