@@ -494,15 +494,23 @@ private:
         m_cs.ctls[ctl].cond = cond;
         int condAt = here();
         emit(Op::LoopCond, s.loc, -1, cond);
+        genLoopRest(s, lDepth, ctl, saved, top, condAt, isFor ? s.exprs[2].get() : nullptr);
+    }
+
+    /// The rest of a loop (while, for, illuminance) after the instruction at
+    /// `exitAt` that leaves it: the body, with the loop on the break/continue
+    /// stack, then `step` (may be null), back to `top`; `exitAt` jumps past
+    /// the end.
+    void genLoopRest(const Stmt& s, int lDepth, int ctl, int saved, int top, int exitAt, const Expr* step) {
         ++m_frameDepth;
         m_loops.push_back({lDepth, ctl});
         genStmt(*s.body[0]);
         m_loops.pop_back();
         emit(Op::LoopCont, s.loc);
         --m_frameDepth;
-        if (isFor && s.exprs[2]) gen(*s.exprs[2], Ty::Void);
+        if (step) gen(*step, Ty::Void);
         emit(Op::Jump, s.loc).target = top;
-        m_cs.code[condAt].target = here();
+        m_cs.code[exitAt].target = here();
         m_ctl = saved;
         emit(Op::LoopEnd, s.loc);
         --m_frameDepth;
@@ -582,17 +590,7 @@ private:
         int ctl = m_ctl;
         int top = here();
         emit(Op::IllumNext, s.loc);
-        ++m_frameDepth;
-        m_loops.push_back({lDepth, ctl});
-        genStmt(*s.body[0]);
-        m_loops.pop_back();
-        emit(Op::LoopCont, s.loc);
-        --m_frameDepth;
-        emit(Op::Jump, s.loc).target = top;
-        m_cs.code[top].target = here();
-        m_ctl = saved;
-        emit(Op::LoopEnd, s.loc);
-        --m_frameDepth;
+        genLoopRest(s, lDepth, ctl, saved, top, top, nullptr);
     }
 
     void genIlluminate(const Stmt& s) {
