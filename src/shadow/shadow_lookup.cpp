@@ -227,6 +227,14 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
 
     const int shiftX = m_tileShiftX, shiftY = m_tileShiftY;
     TileMemo memo;
+    // A region's samples (texel, bias, weight): per-thread scratch, looked
+    // up once per batch.
+    struct Sample {
+        int iu, iv;
+        float bias, weight;
+    };
+    thread_local std::vector<Sample> t_samples;
+    std::vector<Sample>& region = t_samples;
     auto depthAt = [&](int iu, int iv) -> float {
         const int fx = iu - m_fileX0, fy = iv - m_fileY0;
         const int tx = fx >> m_tileShiftX, ty = fy >> m_tileShiftY;
@@ -438,19 +446,11 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                 const float ru = (clamp(u, loS, hiS) - s) * invHs, rv = (clamp(v, loT, hiT) - t) * invHt;
                 return std::exp(-2.0f * (ru * ru + rv * rv));
             };
-            // Second-depth maps: for a point facing the light one shadowed
-            // comparison already means virtual samples decide (lookup()), so
-            // the comparisons may stop there.
             // The region's samples, drawn once: texel, bias and weight. The
             // virtual-sample pass below compares the same ones again.
-            struct Sample {
-                int iu, iv;
-                float bias, weight;
-            };
-            thread_local std::vector<Sample> t_samples;
             const int count = ns * nt;
-            if (t_samples.size() < size_t(count)) t_samples.resize(size_t(count));
-            Sample* smp = t_samples.data();
+            if (region.size() < size_t(count)) region.resize(size_t(count));
+            Sample* smp = region.data();
             if (!gaussianFilter && params.sampling == ShadowParams::Sampling::Jittered) {
                 // The production path (Figure 3c, box filter): sampleAt() for
                 // jittered samples, written out so the loop stays tight.
