@@ -170,28 +170,42 @@ bool writeTiff(const ImageData& image, std::FILE* file, std::string* error) {
     if (ok && image.worldToNDC) ok = TIFFSetField(t, TIFFTAG_PIXAR_MATRIX_WORLDTOSCREEN, image.worldToNDC->data());
     if (!ok) return fail("libtiff rejected a tag");
 
-    // Integer samples with deflate, the default: strips are packed,
-    // differenced and compressed in parallel (the frame's serial tail), then
-    // written in order as raw strips -- what libtiff's own encoder would
-    // produce, with zlib's framing and the same horizontal predictor.
+    // Rows [y0, y0 + rows) as the file's samples, in native byte order (the
+    // order libtiff writes the file in).
+    auto pack = [&](uint32_t y0, uint32_t rows, unsigned char* dst) {
+        const size_t n = rowValues * rows;
+        const float* src = image.pixels + rowValues * y0;
+        switch (type) {
+        case SampleType::UInt8:
+            for (size_t i = 0; i < n; ++i) dst[i] = static_cast<unsigned char>(src[i]);
+            break;
+        case SampleType::UInt16: {
+            auto* d = reinterpret_cast<uint16_t*>(dst);
+            for (size_t i = 0; i < n; ++i) d[i] = static_cast<uint16_t>(src[i]);
+            break;
+        }
+        case SampleType::Half:
+        case SampleType::Float: std::memcpy(dst, src, n * sizeof(float)); break;
+        }
+    };
     const uint32_t nStrips = (uint32_t(image.height) + rowsPerStrip - 1) / rowsPerStrip;
+    auto rowsOf = [&](uint32_t s) { return std::min(rowsPerStrip, uint32_t(image.height) - s * rowsPerStrip); };
     if (compression == COMPRESSION_ADOBE_DEFLATE && (type == SampleType::UInt8 || type == SampleType::UInt16)) {
+        // Integer samples with deflate, the default: strips are packed,
+        // differenced and compressed in parallel (the frame's serial tail),
+        // then written in order as raw strips -- what libtiff's own encoder
+        // would produce, with zlib's framing and the same horizontal predictor.
         std::vector<std::vector<unsigned char>> packed(nStrips);
         std::atomic<bool> deflateFailed{false};
         tbb::parallel_for(uint32_t(0), nStrips, [&](uint32_t s) {
-            const uint32_t y0 = s * rowsPerStrip, rows = std::min(rowsPerStrip, uint32_t(image.height) - y0);
-            const size_t n = rowValues * rows;
-            const float* src = image.pixels + rowValues * y0;
-            std::vector<unsigned char> raw(n * size_t(bytesPerSample));
-            if (type == SampleType::UInt8) {
-                for (size_t i = 0; i < n; ++i) raw[i] = static_cast<unsigned char>(src[i]);
-                for (uint32_t r = 0; r < rows; ++r) horizontalDifference(raw.data() + r * rowValues, rowValues, nch);
-            } else {
-                // Native byte order: libtiff writes the file in it.
-                std::vector<uint16_t> v(n);
-                for (size_t i = 0; i < n; ++i) v[i] = static_cast<uint16_t>(src[i]);
-                for (uint32_t r = 0; r < rows; ++r) horizontalDifference(v.data() + r * rowValues, rowValues, nch);
-                std::memcpy(raw.data(), v.data(), raw.size());
+            const uint32_t rows = rowsOf(s);
+            std::vector<unsigned char> raw(rowValues * rows * size_t(bytesPerSample));
+            pack(s * rowsPerStrip, rows, raw.data());
+            for (uint32_t r = 0; r < rows; ++r) {
+                if (type == SampleType::UInt8)
+                    horizontalDifference(raw.data() + r * rowValues, rowValues, nch);
+                else
+                    horizontalDifference(reinterpret_cast<uint16_t*>(raw.data()) + r * rowValues, rowValues, nch);
             }
             uLongf size = compressBound(uLong(raw.size()));
             packed[s].resize(size);
@@ -203,34 +217,16 @@ bool writeTiff(const ImageData& image, std::FILE* file, std::string* error) {
         for (uint32_t s = 0; s < nStrips; ++s)
             if (TIFFWriteRawStrip(t, s, packed[s].data(), tmsize_t(packed[s].size())) < 0)
                 return fail("libtiff could not write a strip");
-        if (!TIFFWriteDirectory(t)) return fail("libtiff could not write the directory");
-        tif.reset();
-        if (!sink.failure.empty()) return fail("");
-        return true;
-    }
-
-    // Otherwise strip by strip from the float values through libtiff's
-    // encoders; they may modify their input (predictors work in place), so
-    // each strip is a fresh copy.
-    std::vector<unsigned char> strip(rowValues * rowsPerStrip * size_t(bytesPerSample));
-    for (uint32_t y0 = 0, s = 0; y0 < uint32_t(image.height); y0 += rowsPerStrip, ++s) {
-        const uint32_t rows = std::min(rowsPerStrip, uint32_t(image.height) - y0);
-        const size_t n = rowValues * rows;
-        const float* src = image.pixels + rowValues * y0;
-        switch (type) {
-        case SampleType::UInt8:
-            for (size_t i = 0; i < n; ++i) strip[i] = static_cast<unsigned char>(src[i]);
-            break;
-        case SampleType::UInt16: {
-            auto* dst = reinterpret_cast<uint16_t*>(strip.data());
-            for (size_t i = 0; i < n; ++i) dst[i] = static_cast<uint16_t>(src[i]);
-            break;
+    } else {
+        // Otherwise strip by strip through libtiff's encoders; they may
+        // modify their input (predictors work in place), so each strip is a
+        // fresh copy.
+        std::vector<unsigned char> strip(rowValues * rowsPerStrip * size_t(bytesPerSample));
+        for (uint32_t s = 0; s < nStrips; ++s) {
+            pack(s * rowsPerStrip, rowsOf(s), strip.data());
+            if (TIFFWriteEncodedStrip(t, s, strip.data(), tmsize_t(rowValues * rowsOf(s) * size_t(bytesPerSample))) < 0)
+                return fail("libtiff could not write a strip");
         }
-        case SampleType::Half:
-        case SampleType::Float: std::memcpy(strip.data(), src, n * sizeof(float)); break;
-        }
-        if (TIFFWriteEncodedStrip(t, s, strip.data(), tmsize_t(n * size_t(bytesPerSample))) < 0)
-            return fail("libtiff could not write a strip");
     }
     if (!TIFFWriteDirectory(t)) return fail("libtiff could not write the directory");
     tif.reset();
