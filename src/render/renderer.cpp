@@ -13,7 +13,6 @@
 #include "umbra/shadow/depth_image.h"
 #include "umbra/util/rng.h"
 
-#include <ImfThreading.h>
 #include <fmt/chrono.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
@@ -138,10 +137,6 @@ struct Renderer::Impl {
         tileCache = std::make_shared<TileCache>();
         maps = std::make_unique<MapCatalog>(diag, tileCache);
         services = std::make_unique<Services>(diag, *maps);
-        // OpenEXR compresses the tiles of depth maps (and EXR images) on its
-        // own thread pool, which is empty by default: the render threads
-        // would wait idle while one core writes the file.
-        Imf::setGlobalThreadCount(settings.threads > 0 ? settings.threads : tbb::this_task_arena::max_concurrency());
     }
 
     /// Resolves the shaders of every Attributes object primitives use.
