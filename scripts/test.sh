@@ -53,9 +53,18 @@ for f in build-fuzz/bin/fuzz_*; do
   work=$(mktemp -d)
   case "$(basename "$f")" in
     fuzz_rib) find scenes tests/rib_errors -name '*.rib' -size -64k -exec cp {} "$work"/ \; ;;
-    fuzz_slc) cp shaders_dsl/*.sl "$work"/ ;;
+    fuzz_slc) cp shaders_dsl/*.sl tests/unit/shading/errors/*.sl "$work"/ ;;
   esac
-  "$f" -max_total_time="$fuzz_seconds" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 "$work" 2>&1 | tail -3
-  rm -rf "$work"
+  log="$work.log"
+  # The crash report (the input, the sanitizer's stack) must reach the CI
+  # log: print the whole tail on failure, only the final statistics on success.
+  if ! "$f" -max_total_time="$fuzz_seconds" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
+       -artifact_prefix="$work/" "$work" >"$log" 2>&1; then
+    tail -n 80 "$log"
+    echo "umbra: $(basename "$f") found a failing input (above)" >&2
+    exit 1
+  fi
+  tail -n 3 "$log"
+  rm -rf "$work" "$log"
 done
 echo "umbra: all test stages passed"

@@ -379,6 +379,7 @@ private:
     }
 
     std::string describe(Val v) const {
+        if (!v) return "an invalid value";
         const RegInfo& r = m_cs.regs[v.reg];
         if (r.arrayLen > 0) return fmt::format("{}[{}]", tyName(v.ty), r.arrayLen);
         return tyName(v.ty);
@@ -734,7 +735,6 @@ private:
     Val genTuple(const Expr& e, Ty ty) {
         if (e.kids.size() == 16) {
             int t = temp(Ty::Matrix);
-            Instr in;
             std::vector<int> regs;
             for (auto& k : e.kids) {
                 Val v = coerce(gen(*k, Ty::Float), Ty::Float, k->loc);
@@ -1167,7 +1167,11 @@ private:
         }
         if ((e.name == "min" || e.name == "max") && e.kids.size() > 2) {
             Val acc = gen(*e.kids[0], hint);
-            for (size_t k = 1; k < e.kids.size() && acc; ++k) acc = builtinCall(e, e.name, {acc, gen(*e.kids[k], hint)}, hint);
+            for (size_t k = 1; k < e.kids.size() && acc; ++k) {
+                Val next = gen(*e.kids[k], hint);
+                if (!next) return {};  // the argument's error is already reported
+                acc = builtinCall(e, e.name, {acc, next}, hint);
+            }
             return acc;
         }
         if (e.name == "concat" && e.kids.empty()) return {constS(""), Ty::String};
