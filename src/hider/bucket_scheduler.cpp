@@ -230,11 +230,16 @@ SchedulerStats BucketScheduler::render(const std::vector<geometry::PrimitivePtr>
                 config.x1 = x1;
                 config.y1 = y1;
                 config.margin = m_settings.filterMargin;
-                buffer.reset(config);
                 auto& nodes = perBucket[size_t(b)];
-                std::sort(nodes.begin(), nodes.end(), nearerFirst);
-                for (Node* node : nodes) frame.visit(*node, bx, by, buffer, stats);
-                buffer.resolve(film);
+                // A depth film starts at +infinity, which is what a bucket
+                // no primitive reaches resolves to: such buckets (most of a
+                // sparse shadow map) need no samples at all.
+                if (!nodes.empty() || config.mode != HiderMode::Depth) {
+                    buffer.reset(config);
+                    std::sort(nodes.begin(), nodes.end(), nearerFirst);
+                    for (Node* node : nodes) frame.visit(*node, bx, by, buffer, stats);
+                    buffer.resolve(film);
+                }
                 ++stats.buckets;
                 int d = ++done;
                 if (m_settings.progress) m_settings.progress(d, bucketCount);
