@@ -31,6 +31,7 @@
 #include "umbra/util/rng.h"
 
 #include <cmath>
+#include <cstring>
 #include <vector>
 
 namespace umbra {
@@ -94,6 +95,73 @@ struct SampleRandoms {
     /// Further independent uniforms (24 bits), for Gaussian sampling.
     float extra(uint32_t which) const { return hashToUnit(hash32(h ^ (0x5bd1e995u * (which + 1)))); }
 };
+
+/// Four lanes (GCC/Clang vector extensions; SSE2 on x86-64): a region's
+/// samples are drawn and compared four at a time.
+typedef float F4 __attribute__((vector_size(16)));
+typedef int32_t I4 __attribute__((vector_size(16)));
+typedef uint32_t U4 __attribute__((vector_size(16)));
+
+/// hash32() of each lane.
+inline U4 hash32x4(U4 x) {
+    x ^= x >> 16;
+    x *= 0x7feb352dU;
+    x ^= x >> 15;
+    x *= 0x846ca68bU;
+    x ^= x >> 16;
+    return x;
+}
+inline F4 toF4(I4 v) { return __builtin_convertvector(v, F4); }
+/// floorInt() of each lane.
+inline I4 floorX4(F4 v) {
+    const I4 i = __builtin_convertvector(v, I4);
+    return i + (toF4(i) > v);  // a true comparison is -1
+}
+/// clamp() of each lane.
+inline I4 clampX4(I4 v, int lo, int hi) {
+    const I4 l = I4{} + lo, h = I4{} + hi;
+    return v < l ? l : (v > h ? h : v);
+}
+
+/// A region's samples, structure of arrays padded to a multiple of four:
+/// texel, bias, filter weight and the depth the map holds there (+infinity
+/// outside the data window and in the padding, whose weight is 0).
+struct RegionSamples {
+    std::vector<int32_t> iu, iv;
+    std::vector<float> bias, weight, depth;
+    int padded = 0;
+    void resize(int count) {
+        padded = (count + 3) & ~3;
+        if (iu.size() < size_t(padded)) {
+            for (auto* v : {&iu, &iv}) v->resize(size_t(padded));
+            for (auto* v : {&bias, &weight, &depth}) v->resize(size_t(padded));
+        }
+        for (int k = count; k < padded; ++k) {
+            iu[size_t(k)] = iv[size_t(k)] = 0;
+            bias[size_t(k)] = weight[size_t(k)] = 0;
+            depth[size_t(k)] = kInfinity;
+        }
+    }
+    F4 load(const std::vector<float>& v, int k) const {
+        F4 r;
+        std::memcpy(&r, &v[size_t(k)], sizeof r);
+        return r;
+    }
+    I4 load(const std::vector<int32_t>& v, int k) const {
+        I4 r;
+        std::memcpy(&r, &v[size_t(k)], sizeof r);
+        return r;
+    }
+};
+
+/// Adds the lanes' values to `sum` in lane order: the same sum, to the
+/// bit, as a scalar loop over the samples.
+inline void addInOrder(float& sum, F4 v) {
+    sum += v[0];
+    sum += v[1];
+    sum += v[2];
+    sum += v[3];
+}
 
 /// A standard normal deviate from two uniforms (Box-Muller).
 inline void gaussianPair(float u1, float u2, float* g1, float* g2) {
@@ -227,14 +295,9 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
 
     const int shiftX = m_tileShiftX, shiftY = m_tileShiftY;
     TileMemo memo;
-    // A region's samples (texel, bias, weight): per-thread scratch, looked
-    // up once per batch.
-    struct Sample {
-        int iu, iv;
-        float bias, weight;
-    };
-    thread_local std::vector<Sample> t_samples;
-    std::vector<Sample>& region = t_samples;
+    // A region's samples: per-thread scratch, looked up once per batch.
+    thread_local RegionSamples t_region;
+    RegionSamples& region = t_region;
     auto depthAt = [&](int iu, int iv) -> float {
         const int fx = iu - m_fileX0, fy = iv - m_fileY0;
         const int tx = fx >> m_tileShiftX, ty = fy >> m_tileShiftY;
@@ -398,10 +461,6 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                 if (iu >= dx0 && iu <= dx1 && iv >= dy0 && iv <= dy1) out[i] = z > depthOf(iu, iv) + biasMid ? 1.0f : 0.0f;
                 continue;
             }
-            auto shadowedAt = [&](int iu, int iv, float bias) -> bool {
-                if (!regionInside && (iu < dx0 || iu > dx1 || iv < dy0 || iv > dy1)) return false;  // +infinity
-                return z > depthOf(iu, iv) + bias;
-            };
 
             // Sample (a, b) of the region: its position (u, v) in raster
             // space and its bias, a function of the point and the sample
@@ -446,39 +505,65 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                 const float ru = (clamp(u, loS, hiS) - s) * invHs, rv = (clamp(v, loT, hiT) - t) * invHt;
                 return std::exp(-2.0f * (ru * ru + rv * rv));
             };
-            // The region's samples, drawn once: texel, bias and weight. The
-            // virtual-sample pass below compares the same ones again.
+            // The region's samples, drawn once: texel, bias, weight and the
+            // depth stored there. The virtual-sample pass below compares
+            // the same ones again.
             const int count = ns * nt;
-            if (region.size() < size_t(count)) region.resize(size_t(count));
-            Sample* smp = region.data();
+            region.resize(count);
             if (!gaussianFilter && params.sampling == ShadowParams::Sampling::Jittered) {
                 // The production path (Figure 3c, box filter): sampleAt() for
-                // jittered samples, written out so the loop stays tight.
-                const float biasRange = biasHi - biasLo;
-                for (int a = 0; a < ns; ++a)
-                    for (int b = 0; b < nt; ++b) {
-                        const SampleRandoms r(pointSeed, a * nt + b);
-                        Sample& x = smp[a * nt + b];
-                        texelOf(loS + (float(a) + r.ju()) * ds, loT + (float(b) + r.jv()) * dt, &x.iu, &x.iv);
-                        x.bias = randomBias ? std::min(biasHi, biasLo + r.jbias() * biasRange) : biasMid;
-                        x.weight = 1.0f;
+                // jittered samples, four at a time. Sample k is (a, b) =
+                // (k / nt, k % nt); the quotient from a float reciprocal is
+                // corrected by one step either way, so it is exact.
+                const float biasRange = biasHi - biasLo, invNt = 1.0f / float(nt);
+                U4 seeds = U4{} + pointSeed + U4{0, 1, 2, 3} * 0x9e3779b9u;
+                I4 k = I4{0, 1, 2, 3};
+                for (int q = 0; q < region.padded; q += 4, seeds += 4u * 0x9e3779b9u, k += 4) {
+                    const U4 h = hash32x4(seeds);
+                    I4 a = __builtin_convertvector((toF4(k) + 0.5f) * invNt, I4);
+                    I4 b = k - a * nt;
+                    const I4 over = b >= I4{} + nt, under = b < I4{};
+                    a -= over, b -= over & nt;
+                    a += under, b += under & nt;
+                    const F4 ju = toF4(I4(h & 0x7ffu)) * (1.0f / 2048.0f);
+                    const F4 jv = toF4(I4((h >> 11) & 0x7ffu)) * (1.0f / 2048.0f);
+                    const I4 iu = clampX4(floorX4(loS + (toF4(a) + ju) * ds), iLo, iHi);
+                    const I4 iv = clampX4(floorX4(loT + (toF4(b) + jv) * dt), jLo, jHi);
+                    F4 bias = F4{} + biasMid;
+                    if (randomBias) {
+                        const F4 drawn = biasLo + toF4(I4(h >> 22)) * (1.0f / 1024.0f) * biasRange;
+                        bias = drawn < F4{} + biasHi ? drawn : F4{} + biasHi;
                     }
+                    const int n = std::min(4, count - q);  // the padding keeps its zeros
+                    std::memcpy(&region.iu[size_t(q)], &iu, sizeof(int32_t) * size_t(n));
+                    std::memcpy(&region.iv[size_t(q)], &iv, sizeof(int32_t) * size_t(n));
+                    std::memcpy(&region.bias[size_t(q)], &bias, sizeof(float) * size_t(n));
+                    for (int l = 0; l < n; ++l) region.weight[size_t(q + l)] = 1.0f;
+                }
             } else {
                 for (int a = 0; a < ns; ++a)
                     for (int b = 0; b < nt; ++b) {
                         float u, v;
-                        Sample& x = smp[a * nt + b];
-                        sampleAt(a, b, &u, &v, &x.bias);
-                        texelOf(u, v, &x.iu, &x.iv);
-                        x.weight = weight(u, v);
+                        const size_t k = size_t(a * nt + b);
+                        sampleAt(a, b, &u, &v, &region.bias[k]);
+                        texelOf(u, v, &region.iu[k], &region.iv[k]);
+                        region.weight[k] = weight(u, v);
                     }
             }
-            float inShadow = 0, weightSum = 0;
+            // The depths: +infinity outside the data window.
             for (int k = 0; k < count; ++k) {
-                // Branch-free: which samples are shadowed is a coin toss in
-                // a penumbra.
-                weightSum += smp[k].weight;
-                inShadow += smp[k].weight * float(shadowedAt(smp[k].iu, smp[k].iv, smp[k].bias));
+                const int iu = region.iu[size_t(k)], iv = region.iv[size_t(k)];
+                const bool stored = regionInside || (iu >= dx0 && iu <= dx1 && iv >= dy0 && iv <= dy1);
+                region.depth[size_t(k)] = stored ? depthOf(iu, iv) : kInfinity;
+            }
+            // Branch-free comparisons: which samples are shadowed is a coin
+            // toss in a penumbra.
+            float inShadow = 0, weightSum = 0;
+            for (int q = 0; q < region.padded; q += 4) {
+                const F4 w = region.load(region.weight, q);
+                const I4 shadowed = F4{} + z > region.load(region.depth, q) + region.load(region.bias, q);
+                addInOrder(weightSum, w);
+                addInOrder(inShadow, shadowed ? w : F4{});
             }
 
             // Second-depth maps: Figure 10 (and, for points facing the light,
@@ -491,17 +576,28 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                 // Wang & Molnar Fig. 10, mixed comparisons (or shadowed ones
                 // on a light-facing surface): the tangent plane at P, in the
                 // light's screen space, gives the surface's own depth at each
-                // sample's texel centre.
+                // sample's texel centre (virtualDeeper(), four at a time).
                 ++st.virtualPoints;
                 float virtShadow = 0;
-                for (int k = 0; k < count; ++k) {
-                    const Sample& x = smp[k];
-                    if (!regionInside && (x.iu < dx0 || x.iu > dx1 || x.iv < dy0 || x.iv > dy1)) continue;
-                    const float d = depthOf(x.iu, x.iv);
+                for (int q = 0; q < region.padded; q += 4) {
+                    const F4 d = region.load(region.depth, q);
                     // Relative slack for the rounding of the plane transform:
                     // a planar surface stored in the map (two-sided, §3.3)
                     // then lights itself unbiased.
-                    virtShadow += x.weight * float(virtualDeeper(plane, x.iu, x.iv, d + x.bias + kVirtualSlack * std::abs(d)));
+                    const F4 limit = d + region.load(region.bias, q) + kVirtualSlack * (d < F4{} ? -d : d);
+                    const F4 Z = plane.a * (toF4(region.load(region.iu, q)) + 0.5f) +
+                                 plane.b * (toF4(region.load(region.iv, q)) + 0.5f) + plane.d;
+                    I4 deeper;
+                    if (m_virtualMode == 1) {
+                        const F4 inverseDepth = m_wScale * Z;
+                        deeper = inverseDepth > F4{} ? ~(inverseDepth * limit >= F4{} + 1.0f) : ~(limit == F4{} + kInfinity);
+                    } else {
+                        deeper = ~(m_wScale * Z <= limit);
+                    }
+                    // Texels outside the data window (and the padding) are
+                    // not compared; an empty texel is never deeper anyway.
+                    deeper &= d != F4{} + kInfinity;
+                    addInOrder(virtShadow, deeper ? region.load(region.weight, q) : F4{});
                 }
                 inShadow = virtShadow;
             } else if (secondDepth && (inShadow == 0 || inShadow == weightSum)) {
