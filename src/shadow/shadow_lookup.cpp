@@ -124,8 +124,10 @@ inline I4 clampX4(I4 v, int lo, int hi) {
 }
 
 /// A region's samples, structure of arrays padded to a multiple of four:
-/// texel, bias, filter weight and the depth the map holds there (+infinity
-/// outside the data window and in the padding, whose weight is 0).
+/// texel, bias, filter weight and the depth the map holds there. Lanes
+/// past the sample count hold anything but weigh 0 and read +infinity.
+/// Each array is written and read four lanes at a time where it can be: a
+/// vector load of values just stored one by one stalls on the store buffer.
 struct RegionSamples {
     std::vector<int32_t> iu, iv;
     std::vector<float> bias, weight, depth;
@@ -136,32 +138,21 @@ struct RegionSamples {
             for (auto* v : {&iu, &iv}) v->resize(size_t(padded));
             for (auto* v : {&bias, &weight, &depth}) v->resize(size_t(padded));
         }
-        for (int k = count; k < padded; ++k) {
-            iu[size_t(k)] = iv[size_t(k)] = 0;
-            bias[size_t(k)] = weight[size_t(k)] = 0;
-            depth[size_t(k)] = kInfinity;
-        }
+        for (int k = count; k < padded; ++k) weight[size_t(k)] = 0;
     }
-    F4 load(const std::vector<float>& v, int k) const {
-        F4 r;
+    template <typename V, typename T> static V load(const std::vector<T>& v, int k) {
+        V r;
         std::memcpy(&r, &v[size_t(k)], sizeof r);
         return r;
     }
-    I4 load(const std::vector<int32_t>& v, int k) const {
-        I4 r;
-        std::memcpy(&r, &v[size_t(k)], sizeof r);
-        return r;
+    template <typename V, typename T> static void store(std::vector<T>& v, int k, V x) {
+        std::memcpy(&v[size_t(k)], &x, sizeof x);
     }
 };
 
-/// Adds the lanes' values to `sum` in lane order: the same sum, to the
-/// bit, as a scalar loop over the samples.
-inline void addInOrder(float& sum, F4 v) {
-    sum += v[0];
-    sum += v[1];
-    sum += v[2];
-    sum += v[3];
-}
+/// The sum of the lanes. Box-filter weights are 1, so sums of them are
+/// exact in any order; Gaussian weights sum in this fixed order.
+inline float sumLanes(F4 v) { return (v[0] + v[1]) + (v[2] + v[3]); }
 
 /// A standard normal deviate from two uniforms (Box-Muller).
 inline void gaussianPair(float u1, float u2, float* g1, float* g2) {
@@ -510,7 +501,8 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
             // the same ones again.
             const int count = ns * nt;
             region.resize(count);
-            if (!gaussianFilter && params.sampling == ShadowParams::Sampling::Jittered) {
+            const bool unitWeights = !gaussianFilter && params.sampling == ShadowParams::Sampling::Jittered;
+            if (unitWeights) {
                 // The production path (Figure 3c, box filter): sampleAt() for
                 // jittered samples, four at a time. Sample k is (a, b) =
                 // (k / nt, k % nt); the quotient from a float reciprocal is
@@ -534,11 +526,9 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                         const F4 drawn = biasLo + toF4(I4(h >> 22)) * (1.0f / 1024.0f) * biasRange;
                         bias = drawn < F4{} + biasHi ? drawn : F4{} + biasHi;
                     }
-                    const int n = std::min(4, count - q);  // the padding keeps its zeros
-                    std::memcpy(&region.iu[size_t(q)], &iu, sizeof(int32_t) * size_t(n));
-                    std::memcpy(&region.iv[size_t(q)], &iv, sizeof(int32_t) * size_t(n));
-                    std::memcpy(&region.bias[size_t(q)], &bias, sizeof(float) * size_t(n));
-                    for (int l = 0; l < n; ++l) region.weight[size_t(q + l)] = 1.0f;
+                    region.store(region.iu, q, iu);
+                    region.store(region.iv, q, iv);
+                    region.store(region.bias, q, bias);
                 }
             } else {
                 for (int a = 0; a < ns; ++a)
@@ -550,43 +540,53 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                         region.weight[k] = weight(u, v);
                     }
             }
-            // The depths: +infinity outside the data window.
-            for (int k = 0; k < count; ++k) {
+            // Branch-free comparisons: which samples are shadowed is a coin
+            // toss in a penumbra. The depths (+infinity outside the data
+            // window) are kept for the virtual-sample pass.
+            auto depthLane = [&](int k) -> float {
+                if (k >= count) return kInfinity;
                 const int iu = region.iu[size_t(k)], iv = region.iv[size_t(k)];
                 const bool stored = regionInside || (iu >= dx0 && iu <= dx1 && iv >= dy0 && iv <= dy1);
-                region.depth[size_t(k)] = stored ? depthOf(iu, iv) : kInfinity;
-            }
-            // Branch-free comparisons: which samples are shadowed is a coin
-            // toss in a penumbra.
-            float inShadow = 0, weightSum = 0;
+                return stored ? depthOf(iu, iv) : kInfinity;
+            };
+            auto weightsAt = [&](int q) -> F4 {
+                if (!unitWeights) return region.load<F4>(region.weight, q);
+                return I4{q, q + 1, q + 2, q + 3} < I4{} + count ? F4{} + 1.0f : F4{};
+            };
+            F4 shadowedWeights{}, weights{};
             for (int q = 0; q < region.padded; q += 4) {
-                const F4 w = region.load(region.weight, q);
-                const I4 shadowed = F4{} + z > region.load(region.depth, q) + region.load(region.bias, q);
-                addInOrder(weightSum, w);
-                addInOrder(inShadow, shadowed ? w : F4{});
+                const F4 d = {depthLane(q), depthLane(q + 1), depthLane(q + 2), depthLane(q + 3)};
+                region.store(region.depth, q, d);
+                const F4 w = weightsAt(q);
+                const I4 shadowed = F4{} + z > d + region.load<F4>(region.bias, q);
+                weights += w;
+                shadowedWeights += shadowed ? w : F4{};
             }
+            float inShadow = sumLanes(shadowedWeights);
+            const float weightSum = sumLanes(weights);
 
             // Second-depth maps: Figure 10 (and, for points facing the light,
             // all-shadowed comparisons too: see lookup()).
             const bool mixed = inShadow > 0 && inShadow < weightSum;
+            const bool virtualSamples =
+                secondDepth && (mixed || (inShadow > 0 && facesLight(planes, P, batch.N[i])));
             TangentPlane plane;
-            if (secondDepth && (mixed || (inShadow > 0 && facesLight(planes, P, batch.N[i]))))
-                plane = tangentPlane(planes, P, batch.N[i]);
-            if (plane.valid) {
+            if (virtualSamples) plane = tangentPlane(planes, P, batch.N[i]);
+            if (virtualSamples && plane.valid) {
                 // Wang & Molnar Fig. 10, mixed comparisons (or shadowed ones
                 // on a light-facing surface): the tangent plane at P, in the
                 // light's screen space, gives the surface's own depth at each
                 // sample's texel centre (virtualDeeper(), four at a time).
                 ++st.virtualPoints;
-                float virtShadow = 0;
+                F4 deeperWeights{};
                 for (int q = 0; q < region.padded; q += 4) {
-                    const F4 d = region.load(region.depth, q);
+                    const F4 d = region.load<F4>(region.depth, q);
                     // Relative slack for the rounding of the plane transform:
                     // a planar surface stored in the map (two-sided, §3.3)
                     // then lights itself unbiased.
-                    const F4 limit = d + region.load(region.bias, q) + kVirtualSlack * (d < F4{} ? -d : d);
-                    const F4 Z = plane.a * (toF4(region.load(region.iu, q)) + 0.5f) +
-                                 plane.b * (toF4(region.load(region.iv, q)) + 0.5f) + plane.d;
+                    const F4 limit = d + region.load<F4>(region.bias, q) + kVirtualSlack * (d < F4{} ? -d : d);
+                    const F4 Z = plane.a * (toF4(region.load<I4>(region.iu, q)) + 0.5f) +
+                                 plane.b * (toF4(region.load<I4>(region.iv, q)) + 0.5f) + plane.d;
                     I4 deeper;
                     if (m_virtualMode == 1) {
                         const F4 inverseDepth = m_wScale * Z;
@@ -597,9 +597,9 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                     // Texels outside the data window (and the padding) are
                     // not compared; an empty texel is never deeper anyway.
                     deeper &= d != F4{} + kInfinity;
-                    addInOrder(virtShadow, deeper ? region.load(region.weight, q) : F4{});
+                    deeperWeights += deeper ? weightsAt(q) : F4{};
                 }
-                inShadow = virtShadow;
+                inShadow = sumLanes(deeperWeights);
             } else if (secondDepth && (inShadow == 0 || inShadow == weightSum)) {
                 if (inShadow == 0) ++st.secondLit;
                 else ++st.secondShadowed;
