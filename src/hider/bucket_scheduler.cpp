@@ -8,6 +8,7 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <mutex>
 
@@ -52,7 +53,11 @@ struct Node {
     int bx0 = 0, by0 = 0, bx1 = -1, by1 = -1;  // buckets covered, inclusive
 
     enum class State { Culled, Split, Grid };
-    std::once_flag resolveOnce;
+    /// Whether the node was planned (split, diced and shaded, or culled):
+    /// one bucket's thread does it; others wait, or first visit the rest
+    /// of their bucket (see Frame::visit).
+    enum Resolution : int { kUnresolved, kResolving, kResolved };
+    std::atomic<int> resolution{kUnresolved};
     State state = State::Culled;
     std::vector<std::unique_ptr<Node>> children;  // sorted near to far
     std::unique_ptr<ShadedGrid> grid;
@@ -161,19 +166,76 @@ struct Frame {
         node.children.shrink_to_fit();
     }
 
-    void visit(Node& node, int bx, int by, SampleBuffer& buffer, SchedulerStats& stats) {
+    /// True once the node is resolved, resolving it here if no thread has
+    /// started; false while another thread is resolving it.
+    bool resolved(Node& node, SchedulerStats& stats) {
+        int r = node.resolution.load(std::memory_order_acquire);
+        if (r == Node::kUnresolved &&
+            node.resolution.compare_exchange_strong(r, Node::kResolving, std::memory_order_acq_rel)) {
+            resolve(node, stats);
+            node.resolution.store(Node::kResolved, std::memory_order_release);
+            node.resolution.notify_all();
+            return true;
+        }
+        return node.resolution.load(std::memory_order_acquire) == Node::kResolved;
+    }
+
+    /// A visit postponed because another thread was resolving the node,
+    /// with the pieces' ancestors it keeps alive until then.
+    struct Deferred {
+        Node* node;
+        std::vector<Node*> ancestors;  // outermost first, each holding one extra visit
+    };
+
+    /// Samples a node (or its pieces) into the bucket. A node another
+    /// thread is resolving goes to `deferred`, when given, and the bucket
+    /// goes on with its other nodes instead of waiting: neighbouring
+    /// buckets share their large primitives, so both threads often reach
+    /// one at once. The order nodes are sampled in does not change a pixel
+    /// (ties are decided by the full sample key; only occlusion culling,
+    /// which is exact, sees the order). `ancestors` is the path from the
+    /// bucket's top-level node down to `node`'s parent.
+    void visit(Node& node, int bx, int by, SampleBuffer& buffer, SchedulerStats& stats,
+               std::vector<Deferred>* deferred, std::vector<Node*>& ancestors) {
         if (buffer.occluded(node.bound)) {
             ++stats.occlusionCulled;
         } else {
-            std::call_once(node.resolveOnce, [&] { resolve(node, stats); });
+            if (!resolved(node, stats)) {
+                if (deferred) {
+                    // Its ancestors must outlive the postponed visit: releasing
+                    // a parent frees its pieces.
+                    for (Node* a : ancestors) ++a->visitsLeft;
+                    deferred->push_back({&node, ancestors});
+                    return;  // visited (and counted) later
+                }
+                int r;
+                while ((r = node.resolution.load(std::memory_order_acquire)) != Node::kResolved)
+                    node.resolution.wait(r, std::memory_order_acquire);
+            }
             if (node.state == Node::State::Grid) {
                 buffer.sample(node.grid->view());
             } else if (node.state == Node::State::Split) {
+                ancestors.push_back(&node);
                 for (auto& child : node.children)
-                    if (child->covers(bx, by)) visit(*child, bx, by, buffer, stats);
+                    if (child->covers(bx, by)) visit(*child, bx, by, buffer, stats, deferred, ancestors);
+                ancestors.pop_back();
             }
         }
         if (--node.visitsLeft == 0) release(node);
+    }
+
+    /// Visits the postponed nodes (mostly resolved by now; waiting for the
+    /// rest) and lets go of their ancestors, innermost first.
+    void visitDeferred(std::vector<Deferred>& deferred, int bx, int by, SampleBuffer& buffer, SchedulerStats& stats) {
+        std::vector<Node*> path;
+        for (size_t k = 0; k < deferred.size(); ++k) {
+            Deferred& d = deferred[k];
+            path = d.ancestors;
+            visit(*d.node, bx, by, buffer, stats, nullptr, path);
+            for (auto a = d.ancestors.rbegin(); a != d.ancestors.rend(); ++a)
+                if (--(*a)->visitsLeft == 0) release(**a);
+        }
+        deferred.clear();
     }
 };
 
@@ -220,6 +282,8 @@ SchedulerStats BucketScheduler::render(const std::vector<geometry::PrimitivePtr>
         tbb::parallel_for(0, threads, [&](int) {
             SampleBuffer buffer;
             SchedulerStats stats;
+            std::vector<Frame::Deferred> deferred;
+            std::vector<Node*> ancestors;
             for (int b; (b = next++) < bucketCount;) {
                 int bx = b % frame.bucketsX, by = b / frame.bucketsX;
                 int x0 = film.x0() + bx * bw, y0 = film.y0() + by * bh;
@@ -237,7 +301,8 @@ SchedulerStats BucketScheduler::render(const std::vector<geometry::PrimitivePtr>
                 if (!nodes.empty() || config.mode != HiderMode::Depth) {
                     buffer.reset(config);
                     std::sort(nodes.begin(), nodes.end(), nearerFirst);
-                    for (Node* node : nodes) frame.visit(*node, bx, by, buffer, stats);
+                    for (Node* node : nodes) frame.visit(*node, bx, by, buffer, stats, &deferred, ancestors);
+                    frame.visitDeferred(deferred, bx, by, buffer, stats);
                     buffer.resolve(film);
                 }
                 ++stats.buckets;
