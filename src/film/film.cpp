@@ -36,6 +36,7 @@
 // levels of image_file.h (4 for integers, 6 for floats); "zip:N" picks one.
 
 #include "umbra/film/film.h"
+#include "umbra/util/file.h"
 
 #include "image_file.h"
 
@@ -591,8 +592,7 @@ bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Option
     // fclose flushes: a full disk shows up here.
     errno = 0;
     if (std::fclose(file.release()) != 0) return failWith(std::strerror(errno ? errno : EIO));
-    fs::rename(tmp, target, ec);
-    if (ec) return failWith(ec.message());
+    if (!moveIntoPlace(tmp.string(), target.string())) return failWith(std::strerror(errno));
     return true;
 }
 

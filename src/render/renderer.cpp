@@ -1,4 +1,5 @@
 #include "umbra/render/renderer.h"
+#include "umbra/util/file.h"
 
 #include "render/frame.h"
 #include "render/light_view.h"
@@ -631,7 +632,7 @@ int renderFiles(const std::vector<std::string>& files, const RenderSettings& set
         std::ofstream out(tmp);
         out << renderer.statistics().dump(2) << "\n";
         out.close();
-        if (!out || std::rename(tmp.c_str(), statsPath.c_str()) != 0) {
+        if (!out || !moveIntoPlace(tmp, statsPath)) {
             diag.error(FileLoc::inFile(statsPath), "--stats: cannot write the statistics file");
             std::remove(tmp.c_str());
             ok = false;

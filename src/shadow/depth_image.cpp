@@ -1,4 +1,5 @@
 #include "umbra/shadow/depth_image.h"
+#include "umbra/util/file.h"
 
 #include "map_header.h"
 
@@ -190,7 +191,7 @@ bool writeAtomically(const std::string& path, const char* what, Diagnostics& dia
         diag.error(loc, "cannot write {} \"{}\": {}", what, path, e.what());
         return false;
     }
-    if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    if (!moveIntoPlace(tmp, path)) {
         std::remove(tmp.c_str());
         diag.error(loc, "cannot write {} \"{}\": renaming the temporary file failed", what, path);
         return false;

@@ -1,4 +1,5 @@
 #include "umbra/shadow/depth_image.h"
+#include "umbra/util/file.h"
 
 #include <cmath>
 #include <cstdio>
@@ -80,7 +81,7 @@ bool writeZFileImpl(const std::string& path, const DepthImage& image, std::strin
             return false;
         }
     }
-    if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    if (!moveIntoPlace(tmp, path)) {
         std::remove(tmp.c_str());
         why = "renaming the temporary file failed";
         return false;
