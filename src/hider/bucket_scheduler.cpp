@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <ctime>
 #include <mutex>
 
 namespace umbra::hider {
@@ -39,9 +40,16 @@ void SchedulerStats::add(const SchedulerStats& o) {
     micropolygons += o.micropolygons;
     buckets += o.buckets;
     peakGridsAlive = std::max(peakGridsAlive, o.peakGridsAlive);
+    workerCpuSeconds += o.workerCpuSeconds;
 }
 
 namespace {
+
+double threadCpuSeconds() {
+    timespec ts{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return double(ts.tv_sec) + double(ts.tv_nsec) * 1e-9;
+}
 
 /// A primitive or a piece of one, shared by every bucket it covers.
 struct Node {
@@ -280,6 +288,7 @@ SchedulerStats BucketScheduler::render(const std::vector<geometry::PrimitivePtr>
     std::mutex statsMutex;
     arena.execute([&] {
         tbb::parallel_for(0, threads, [&](int) {
+            const double cpu0 = threadCpuSeconds();
             SampleBuffer buffer;
             SchedulerStats stats;
             std::vector<Frame::Deferred> deferred;
@@ -309,6 +318,7 @@ SchedulerStats BucketScheduler::render(const std::vector<geometry::PrimitivePtr>
                 int d = ++done;
                 if (m_settings.progress) m_settings.progress(d, bucketCount);
             }
+            stats.workerCpuSeconds = threadCpuSeconds() - cpu0;
             std::lock_guard<std::mutex> lock(statsMutex);
             total.add(stats);
         }, tbb::simple_partitioner());

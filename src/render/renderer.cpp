@@ -38,6 +38,13 @@ double cpuSeconds() {
     return double(ts.tv_sec) + double(ts.tv_nsec) * 1e-9;
 }
 
+/// CPU time of the calling thread.
+double threadCpuSeconds() {
+    timespec ts{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return double(ts.tv_sec) + double(ts.tv_nsec) * 1e-9;
+}
+
 double peakResidentMiB() {
     rusage ru{};
     getrusage(RUSAGE_SELF, &ru);
@@ -130,7 +137,17 @@ struct Renderer::Impl {
     // This frame's automatic maps: time spent making them usable (building
     // them from memory, preloading, writing those written at once), and
     // waiting at the end for the files written in the background.
+    /// Runs a map-file write, adding its thread's CPU time to the frame's.
+    template <typename Write> bool timedMapWrite(Write write) {
+        const double cpu0 = threadCpuSeconds();
+        const bool ok = write();
+        mapFileCpuNanoseconds += uint64_t((threadCpuSeconds() - cpu0) * 1e9);
+        return ok;
+    }
     double mapWriteSeconds = 0, mapWriteWaitSeconds = 0;
+    /// CPU time encoding and writing automatic maps' files, in the
+    /// background or not (nanoseconds; writers add to it from their threads).
+    std::atomic<uint64_t> mapFileCpuNanoseconds{0};
     int backgroundMapWrites = 0;
 
     Impl(const RenderSettings& s, Diagnostics& d) : settings(s), diag(d) {
@@ -297,6 +314,7 @@ PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const st
 void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     Stopwatch frameClock;
     mapWriteSeconds = mapWriteWaitSeconds = 0;
+    mapFileCpuNanoseconds = 0;
     backgroundMapWrites = 0;
     const scene::Options& options = world.options;
     const int errorsBefore = diag.errorCount();
@@ -396,6 +414,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     passes.push_back({{"name", pass.name},
                       {"wall_seconds", camera.wall},
                       {"cpu_seconds", camera.cpu},
+                      {"worker_cpu_seconds", camera.counters.workerCpuSeconds},
                       {"counts", schedulerJson(camera.counters)},
                       {"samples", camera.samples}});
 
@@ -454,6 +473,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
           {"lookup_seconds", services->lookupSeconds()},
           {"map_write_seconds", mapWriteSeconds},
           {"map_write_wait_seconds", mapWriteWaitSeconds},
+          {"map_file_cpu_seconds", double(mapFileCpuNanoseconds.load()) * 1e-9},
           {"background_map_writes", backgroundMapWrites},
           {"tile_cache", tileCacheJson(tileCache->stats())}}},
         {"errors", diag.errorCount() - errorsBefore},
@@ -516,6 +536,7 @@ std::string Renderer::Impl::renderLightMap(FrameState& frame, const scene::Light
         passes.push_back({{"name", pass.name},
                           {"wall_seconds", r.wall},
                           {"cpu_seconds", r.cpu},
+                          {"worker_cpu_seconds", r.counters.workerCpuSeconds},
                           {"counts", schedulerJson(r.counters)},
                           {"samples", r.samples}});
         return depthImageOf(film, pass, filter, offset);
@@ -541,8 +562,9 @@ std::string Renderer::Impl::renderLightMap(FrameState& frame, const scene::Light
         auto cube = std::make_shared<std::array<DepthImage, 6>>();
         for (size_t f = 0; f < 6; ++f) (*cube)[f] = render(faces[f]);
         writeClock = Stopwatch();
-        write = std::packaged_task<bool()>(
-            [&d = diag, path, loc, cube] { return writeCubeDepthMap(path, *cube, d, loc); });
+        write = std::packaged_task<bool()>([&d = diag, path, loc, cube, this] {
+            return timedMapWrite([&] { return writeCubeDepthMap(path, *cube, d, loc); });
+        });
         written = write.get_future().share();
         map = ShadowMap::fromCubeImages(*cube, path, written, diag, loc, tileCache, &everyTileCached);
     } else {
@@ -550,8 +572,9 @@ std::string Renderer::Impl::renderLightMap(FrameState& frame, const scene::Light
         if (!pass) return "";
         auto image = std::make_shared<DepthImage>(render(*pass));
         writeClock = Stopwatch();
-        write = std::packaged_task<bool()>(
-            [&d = diag, path, loc, image] { return writeDepthMap(path, *image, d, loc); });
+        write = std::packaged_task<bool()>([&d = diag, path, loc, image, this] {
+            return timedMapWrite([&] { return writeDepthMap(path, *image, d, loc); });
+        });
         written = write.get_future().share();
         map = ShadowMap::fromImage(*image, path, written, diag, loc, tileCache, &everyTileCached);
     }

@@ -59,6 +59,10 @@ struct SchedulerStats {
     uint64_t micropolygons = 0;
     uint64_t buckets = 0;
     uint64_t peakGridsAlive = 0;   // most shaded grids held at once
+    /// CPU time of the pass's bucket workers, summed over threads: the
+    /// pass's own work, without other threads of the process (such as map
+    /// files being written in the background).
+    double workerCpuSeconds = 0;
     void add(const SchedulerStats& o);
 };
 
