@@ -8,6 +8,9 @@ find_package(TBB REQUIRED)
 find_package(Imath REQUIRED)
 find_package(OpenEXR REQUIRED)
 find_package(OpenImageIO CONFIG REQUIRED)
+# libdeflate has no CMake package in Debian 12, only a pkg-config file.
+find_package(PkgConfig REQUIRED)
+pkg_check_modules(LIBDEFLATE REQUIRED IMPORTED_TARGET libdeflate)
 
 # Debian's OpenImageIO target names /usr/include/opencv4, which is not
 # installed; the generate step fails unless that path is removed.

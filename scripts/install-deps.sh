@@ -5,7 +5,7 @@ set -euo pipefail
 packages=(
   cmake ninja-build g++ pkg-config python3
   libopenimageio-dev openimageio-tools libopenexr-dev libtbb-dev
-  libcli11-dev nlohmann-json3-dev libfmt-dev zlib1g-dev libtiff-dev libpng-dev
+  libcli11-dev nlohmann-json3-dev libfmt-dev zlib1g-dev libdeflate-dev libtiff-dev libpng-dev
   libgtest-dev libbenchmark-dev libembree-dev
   clang libclang-rt-14-dev
 )
