@@ -13,7 +13,7 @@
 
 #include <tbb/parallel_for.h>
 #include <tiffio.h>
-#include <zlib.h>
+#include <libdeflate.h>
 
 #include <sys/stat.h>
 
@@ -100,6 +100,10 @@ std::optional<uint16_t> tiffCompression(const std::string& name) {
     if (name == "packbits") return uint16_t(COMPRESSION_PACKBITS);
     return std::nullopt;
 }
+
+struct DeflateFree {
+    void operator()(libdeflate_compressor* c) const { libdeflate_free_compressor(c); }
+};
 
 /// Closes the TIFF handle on every path.
 struct TiffCloser {
@@ -207,13 +211,21 @@ bool writeTiff(const ImageData& image, std::FILE* file, std::string* error) {
                 else
                     horizontalDifference(reinterpret_cast<uint16_t*>(raw.data()) + r * rowValues, rowValues, nch);
             }
-            uLongf size = compressBound(uLong(raw.size()));
-            packed[s].resize(size);
-            if (compress2(packed[s].data(), &size, raw.data(), uLong(raw.size()), image.zipLevel()) != Z_OK)
-                deflateFailed = true;
+            // libdeflate: the same zlib stream as compress2 at about twice
+            // the speed on dithered 8-bit pixels. A compressor per strip
+            // task (they are not shared between threads).
+            std::unique_ptr<libdeflate_compressor, DeflateFree> compressor(
+                libdeflate_alloc_compressor(image.zipLevel()));
+            size_t size = 0;
+            if (compressor) {
+                packed[s].resize(libdeflate_zlib_compress_bound(compressor.get(), raw.size()));
+                size = libdeflate_zlib_compress(compressor.get(), raw.data(), raw.size(), packed[s].data(),
+                                                packed[s].size());
+            }
+            if (size == 0) deflateFailed = true;
             packed[s].resize(size);
         });
-        if (deflateFailed) return fail("zlib could not compress a strip");
+        if (deflateFailed) return fail("libdeflate could not compress a strip");
         for (uint32_t s = 0; s < nStrips; ++s)
             if (TIFFWriteRawStrip(t, s, packed[s].data(), tmsize_t(packed[s].size())) < 0)
                 return fail("libtiff could not write a strip");
