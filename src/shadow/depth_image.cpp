@@ -180,7 +180,7 @@ namespace {
 /// because deflating the tiles was most of a map's writing time: zlib, as
 /// Imf::TiledOutputFile calls it, took 46-51 us per 4 KiB tile of depths
 /// (and set up a new stream for each); libdeflate at level 1 takes 18-20
-/// us for output within 0.5% of the same size. Empty tiles (all +infinity)
+/// us, for files 0.5-1.5% larger. Empty tiles (all +infinity)
 /// are coded once per size.
 class ZipChunks {
 public:
