@@ -102,15 +102,6 @@ typedef float F4 __attribute__((vector_size(16)));
 typedef int32_t I4 __attribute__((vector_size(16)));
 typedef uint32_t U4 __attribute__((vector_size(16)));
 
-/// hash32() of each lane.
-inline U4 hash32x4(U4 x) {
-    x ^= x >> 16;
-    x *= 0x7feb352dU;
-    x ^= x >> 15;
-    x *= 0x846ca68bU;
-    x ^= x >> 16;
-    return x;
-}
 inline F4 toF4(I4 v) { return __builtin_convertvector(v, F4); }
 /// floorInt() of each lane.
 inline I4 floorX4(F4 v) {
@@ -511,7 +502,7 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                 U4 seeds = U4{} + pointSeed + U4{0, 1, 2, 3} * 0x9e3779b9u;
                 I4 k = I4{0, 1, 2, 3};
                 for (int q = 0; q < region.padded; q += 4, seeds += 4u * 0x9e3779b9u, k += 4) {
-                    const U4 h = hash32x4(seeds);
+                    const U4 h = hash32Lanes(seeds);
                     I4 a = __builtin_convertvector((toF4(k) + 0.5f) * invNt, I4);
                     I4 b = k - a * nt;
                     const I4 over = b >= I4{} + nt, under = b < I4{};

@@ -8,8 +8,10 @@
 
 namespace umbra {
 
-/// A 32-bit integer hash with good avalanche (Wellons' "lowbias32").
-inline uint32_t hash32(uint32_t x) {
+/// hash32's mixing of every lane of `x`: a uint32_t, or a vector of them
+/// (GCC/Clang vector extensions), so vectorised code draws the same numbers.
+template <typename U>
+inline U hash32Lanes(U x) {
     x ^= x >> 16;
     x *= 0x7feb352dU;
     x ^= x >> 15;
@@ -17,6 +19,8 @@ inline uint32_t hash32(uint32_t x) {
     x ^= x >> 16;
     return x;
 }
+/// A 32-bit integer hash with good avalanche (Wellons' "lowbias32").
+inline uint32_t hash32(uint32_t x) { return hash32Lanes(x); }
 /// Combines several keys into one seed.
 inline uint32_t hashCombine(uint32_t seed, uint32_t v) { return hash32(seed ^ (v + 0x9e3779b9U + (seed << 6) + (seed >> 2))); }
 inline uint32_t hashKeys(uint32_t a, uint32_t b) { return hashCombine(hash32(a), b); }
