@@ -78,12 +78,6 @@ ShadowParams paramsOf(const shading::ShadowQuery& q, Diagnostics& diag) {
 }
 
 /// Per-thread gather buffers for one shadow() call.
-struct ShadowScratch {
-    std::vector<Vec3> P, du, dv, N;
-    std::vector<float> out;
-};
-thread_local ShadowScratch t_scratch;
-
 }  // namespace
 
 bool Services::getMatrix(const shading::ShadingGrid& grid, const std::string& space, Mat4* currentFromSpace) {
@@ -113,42 +107,28 @@ bool Services::getMatrix(const shading::ShadingGrid& grid, const std::string& sp
 bool Services::shadow(const shading::ShadingGrid& grid, const shading::ShadowQuery& q, float* result) {
     const GridState& st = stateOf(grid);
     if (st.frame->noShadows) {  // --no-shadows: every lookup lit, no map read
-        for (int k = 0; k < q.count; ++k) result[q.indices[k]] = 0;
+        std::fill_n(result, q.count, 0.0f);
         return true;
     }
     if (q.mapName == "raytrace") return raytrace(st, q, result);
     auto map = m_maps.get(q.mapName);
     if (!map) return false;
 
-    ShadowScratch& s = t_scratch;
-    s.P.resize(size_t(q.count));
-    s.du.resize(size_t(q.count));
-    s.dv.resize(size_t(q.count));
-    s.N.resize(size_t(q.count));
-    s.out.resize(size_t(q.count));
-    for (int k = 0; k < q.count; ++k) {
-        int i = q.indices[k];
-        s.P[k] = q.P[i];
-        s.du[k] = q.dPdu ? q.dPdu[i] : Vec3();
-        s.dv[k] = q.dPdv ? q.dPdv[i] : Vec3();
-        s.N[k] = q.N ? q.N[i] : Vec3();
-    }
     ShadowBatch batch;
     batch.count = q.count;
-    batch.P = s.P.data();
-    batch.dPdu_du = q.dPdu ? s.du.data() : nullptr;
-    batch.dPdv_dv = q.dPdv ? s.dv.data() : nullptr;
-    batch.N = q.N ? s.N.data() : nullptr;
+    batch.P = q.P;
+    batch.dPdu_du = q.dPdu;
+    batch.dPdv_dv = q.dPdv;
+    batch.N = q.N;
     batch.worldFromCurrent = st.pass->camera.cameraFromWorld.inverse();
     batch.seed = q.seed;
     ShadowParams params = paramsOf(q, m_diag);
     if (params.bias == 0 && params.bias0 == 0 && params.bias1 == 0) applyDefaultBias(*map, params);
     ShadowStats stats;
     auto t0 = std::chrono::steady_clock::now();
-    map->lookup(batch, params, s.out.data(), stats);
+    map->lookup(batch, params, result, stats);
     m_lookupNanoseconds += uint64_t(
         std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - t0).count());
-    for (int k = 0; k < q.count; ++k) result[q.indices[k]] = s.out[k];
     std::lock_guard<std::mutex> lock(m_statsMutex);
     m_stats += stats;
     return true;
@@ -183,17 +163,16 @@ bool Services::raytrace(const GridState& st, const shading::ShadowQuery& q, floa
     const Mat4& cameraFromWorld = st.pass->camera.cameraFromWorld;
     const Mat4 worldFromCamera = cameraFromWorld.inverse();
     for (int k = 0; k < q.count; ++k) {
-        int i = q.indices[k];
-        Vec3 P = worldFromCamera.point(q.P[i]);
-        Vec3 L = worldFromCamera.vector(q.L[i]);  // from the light towards P
+        Vec3 P = worldFromCamera.point(q.P[k]);
+        Vec3 L = worldFromCamera.vector(q.L[k]);  // from the light towards P
         const Vec3* N = nullptr;
         Vec3 Nw;
         if (q.N) {
-            Nw = normalize(Mat4::normal(cameraFromWorld, q.N[i]));
+            Nw = normalize(Mat4::normal(cameraFromWorld, q.N[k]));
             N = &Nw;
         }
         trace::LightTarget target = q.lightAtInfinity ? trace::LightTarget::distant(L) : trace::LightTarget::point(P - L);
-        result[i] = frame.occlusion->shadowFraction(P, target, N);
+        result[k] = frame.occlusion->shadowFraction(P, target, N);
     }
     return true;
 }

@@ -490,43 +490,41 @@ void shadow(Exec& x, const Instr& in, Args& A, bool four) {
     int nPoints = four ? 4 : 1;
     int nArg = first + nPoints;
     int pairsAt = nArg + 1;
-    // Per-thread scratch: a shadow() call runs once per grid and light, and
-    // must not allocate each time.
+    // Per-thread scratch, one entry per active point: a shadow() call runs
+    // once per grid and light, and must not allocate each time.
     thread_local std::vector<Vec3> P, dPdu, dPdv, N, corners[4], Lv;
-    P.resize(size_t(x.n));
-    dPdu.resize(size_t(x.n));
-    dPdv.resize(size_t(x.n));
-    N.resize(size_t(x.n));
+    thread_local std::vector<float> result;
+    const size_t count = x.active.size();
+    for (auto* v : {&P, &dPdu, &dPdv, &N}) v->resize(count);
+    result.resize(count);
     In<Vec3> Pin = A.v(first);
     In<Vec3> Nin = A.v(nArg);
-    float du = gridDu(x), dv = gridDv(x);
-    for (int i : x.active) {
-        P[size_t(i)] = Pin[i];
-        dPdu[size_t(i)] = deriv(x, Pin, i, 0, 1.f);
-        dPdv[size_t(i)] = deriv(x, Pin, i, 1, 1.f);
-        N[size_t(i)] = Nin[i];
+    for (size_t k = 0; k < count; ++k) {
+        const int i = x.active[k];
+        P[k] = Pin[i];
+        dPdu[k] = deriv(x, Pin, i, 0, 1.f);
+        dPdv[k] = deriv(x, Pin, i, 1, 1.f);
+        N[k] = Nin[i];
     }
-    (void)du;
-    (void)dv;
     if (four) {
-        for (int k = 0; k < 4; ++k) {
-            corners[k].resize(size_t(x.n));
-            In<Vec3> c = A.v(first + k);
-            for (int i : x.active) corners[k][size_t(i)] = c[i];
-            q.corners[k] = corners[k].data();
+        for (int c = 0; c < 4; ++c) {
+            corners[c].resize(count);
+            In<Vec3> cin = A.v(first + c);
+            for (size_t k = 0; k < count; ++k) corners[c][k] = cin[x.active[k]];
+            q.corners[c] = corners[c].data();
         }
-        for (int i : x.active) P[size_t(i)] = (corners[0][size_t(i)] + corners[1][size_t(i)] + corners[2][size_t(i)] + corners[3][size_t(i)]) * 0.25f;
+        for (size_t k = 0; k < count; ++k) P[k] = (corners[0][k] + corners[1][k] + corners[2][k] + corners[3][k]) * 0.25f;
     }
     if (x.cs->kind == ShaderKind::Light && x.lightConstruct != 0) {
         // Inside illuminate()/solar(): where the light is, for "raytrace".
         const int Lreg = x.cs->globalRegs[gL];
         In<Vec3> Lin{x.ptr[size_t(Lreg)], x.vary[size_t(Lreg)]};
-        Lv.resize(size_t(x.n));
-        for (int i : x.active) Lv[size_t(i)] = Lin[i];
+        Lv.resize(count);
+        for (size_t k = 0; k < count; ++k) Lv[k] = Lin[x.active[k]];
         q.L = Lv.data();
         q.lightAtInfinity = x.lightConstruct == 2;
     }
-    q.count = int(x.active.size());
+    q.count = int(count);
     q.indices = x.active.data();
     q.P = P.data();
     q.dPdu = dPdu.data();
@@ -548,9 +546,9 @@ void shadow(Exec& x, const Instr& in, Args& A, bool four) {
         q.params.push_back(std::move(v));
     }
     q.seed = hashKeys(x.ctx->grid->seed, uint32_t(&in - x.cs->code.data()), x.ctx->callCounter++);
-    if (!x.ctx->services->shadow(*x.ctx->grid, q, d))
-        for (int i : x.active) d[i] = 0;  // no map: unshadowed; the renderer reports it
-    for (int i : x.active) d[i] = fixNan(d[i]);
+    // No map: unshadowed (the renderer reports it).
+    if (!x.ctx->services->shadow(*x.ctx->grid, q, result.data())) return;
+    for (size_t k = 0; k < count; ++k) d[x.active[k]] = fixNan(result[k]);
 }
 
 // --- message passing ----------------------------------------------------

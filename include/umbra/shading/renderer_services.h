@@ -40,9 +40,10 @@ struct ShadowQuery {
     /// Number of points and their vertex indices in the grid.
     int count = 0;
     const int* indices = nullptr;
-    /// Per point (indexed by grid vertex, not by position in `indices`):
+    /// Per point k in [0, count) (the point at grid vertex indices[k]):
     /// the shadowed position, and the micropolygon footprint as Du(P)*du and
-    /// Dv(P)*dv of the shadow() call's point argument.
+    /// Dv(P)*dv of the shadow() call's point argument. Compact, so that a
+    /// renderer can hand them to its lookup without copying.
     const Vec3* P = nullptr;
     const Vec3* dPdu = nullptr;
     const Vec3* dPdv = nullptr;
@@ -82,7 +83,7 @@ public:
     virtual bool getMatrix(const ShadingGrid& grid, const std::string& space, Mat4* currentFromSpace) = 0;
 
     /// Fraction in shadow (0 = lit, 1 = fully shadowed) of each queried
-    /// point, written to `result[index]` for each index in `query.indices`.
+    /// point k, written to `result[k]` (k in [0, query.count)).
     /// Returning false means "no such map": shadow() then yields 0
     /// (unshadowed) and the renderer reports the failure (once).
     virtual bool shadow(const ShadingGrid& grid, const ShadowQuery& query, float* result) { return false; }

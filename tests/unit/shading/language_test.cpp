@@ -353,7 +353,7 @@ TEST(Language, ShadowCallsTheServiceWithFootprintAndParams) {
     Harness h;
     ShadingGrid g = makeGrid(3, 2, [](float u, float v) { return Vec3(u, 2 * v, 1); });
     h.svc.shadowFn = [](const ShadowQuery& q, float* r) {
-        for (int k = 0; k < q.count; ++k) r[q.indices[k]] = q.P[q.indices[k]].x;
+        for (int k = 0; k < q.count; ++k) r[k] = q.P[k].x;
         return true;
     };
     h.surface("surface t() { if (u > 0.2) Ci = shadow(\"map.shd\", P, \"samples\", 4, \"bias\", 0.5, \"filter\", \"box\"); }", g);
@@ -369,7 +369,7 @@ TEST(Language, ShadowCallsTheServiceWithFootprintAndParams) {
     h.svc.shadowQueries.clear();
     // The footprint is Du(P)*du and Dv(P)*dv: (0.5, 0, 0) and (0, 2, 0) here.
     h.svc.shadowFn = [](const ShadowQuery& q, float* r) {
-        for (int k = 0; k < q.count; ++k) r[q.indices[k]] = q.dPdu[q.indices[k]].x * 10 + q.dPdv[q.indices[k]].y;
+        for (int k = 0; k < q.count; ++k) r[k] = q.dPdu[k].x * 10 + q.dPdv[k].y;
         return true;
     };
     h.surface("surface t() { Ci = shadow(\"m\", P); }", g);
