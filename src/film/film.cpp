@@ -243,10 +243,10 @@ Film::Film(int xResolution, int yResolution, const float cropWindow[4], PixelFil
     size_t n = size_t(m_width) * size_t(m_height);
     // Depth passes never touch colour: not allocating it saves clearing
     // 16 bytes a pixel (6.5 MB for a 640^2 map) per pass.
-    if (!m_depthPair) m_rgba.assign(4 * n, 0.0f);
+    if (!m_depthPair) m_rgba.resize(4 * n);  // zeros (ZeroedAllocator)
     m_z.assign(n, kInfinity);
     if (m_depthPair) m_z2.assign(n, kInfinity);
-    m_aov.assign(n * size_t(m_aovFloats), 0.0f);
+    m_aov.resize(n * size_t(m_aovFloats));
 }
 
 Film Film::fromOptions(const scene::Options& o, std::vector<AovChannel> aovs, bool depthPair, Diagnostics& diag) {

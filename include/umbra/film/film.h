@@ -11,7 +11,9 @@
 #include "umbra/util/error.h"
 #include "umbra/util/math.h"
 
+#include <cstdlib>
 #include <functional>
+#include <new>
 #include <optional>
 #include <string>
 #include <vector>
@@ -142,7 +144,32 @@ private:
     int m_aovFloats = 0;
     bool m_depthPair = false;
     static constexpr float kNoColour[4] = {0, 0, 0, 0};  // a depth film's pixels
-    std::vector<float> m_rgba, m_z, m_z2, m_aov;
+    /// Memory that starts as zeros without being written: calloc's fresh
+    /// pages are zero already, so a frame's colour and AOV planes cost
+    /// nothing until the bucket workers first touch them, in parallel
+    /// (zeroing 4.9 MB of RGBA took 1.2 ms of every frame's serial start).
+    template <typename T>
+    struct ZeroedAllocator {
+        using value_type = T;
+        ZeroedAllocator() = default;
+        template <typename U>
+        ZeroedAllocator(const ZeroedAllocator<U>&) {}
+        T* allocate(size_t n) {
+            if (void* p = std::calloc(n, sizeof(T))) return static_cast<T*>(p);
+            throw std::bad_alloc();
+        }
+        void deallocate(T* p, size_t) { std::free(p); }
+        template <typename U>
+        void construct(U*) {}  // value-initialised elements: already zero
+        template <typename U, typename... Args>
+        void construct(U* p, Args&&... args) {
+            ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+        }
+        bool operator==(const ZeroedAllocator&) const { return true; }
+        bool operator!=(const ZeroedAllocator&) const { return false; }
+    };
+    std::vector<float, ZeroedAllocator<float>> m_rgba, m_aov;
+    std::vector<float> m_z, m_z2;
 };
 
 }  // namespace umbra::film
