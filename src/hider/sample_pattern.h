@@ -7,7 +7,7 @@
 // pixel*. So positions and filter weights are computed once per frame into
 // tables, and each bucket copies positions and looks weights up instead of
 // hashing and evaluating them for every sample. (Tiling one jittered
-// pattern of 64 x 64 pixels is the usual trade: its period is far longer
+// pattern of 32 x 32 pixels is the usual trade: its period is far longer
 // than any filter, so the repetition does not show as aliasing.)
 //
 // Tables are indexed by *pattern stratum*: sample s = j * xs + i of pattern
@@ -16,6 +16,7 @@
 // sample_buffer.h) maps to (sx mod P * xs, sy mod P * ys), so a row of a
 // bucket's strata is a row of the table that wraps at most once.
 
+#include "umbra/hider/sample_buffer.h"
 #include "umbra/util/math.h"
 
 #include <cstdint>
@@ -26,8 +27,6 @@ class PixelFilter;
 }
 
 namespace umbra::hider {
-
-constexpr int kPatternPeriod = 64;
 
 /// v mod n in [0, n), also for negative v.
 inline int positiveMod(int v, int n) {

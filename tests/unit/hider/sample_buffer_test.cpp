@@ -110,9 +110,9 @@ TEST(SampleBuffer, PositionsAreStratifiedAndJittered) {
         EXPECT_GE(p.y, -3.0f + float(j) / ys);
         EXPECT_LT(p.y, -3.0f + float(j + 1) / ys);
         offsets.push_back(p.x - (7.0f + (float(i) + 0.5f) / xs));
-        // The jitter is keyed by (frame seed, pixel mod 64, sample index)
-        // only: -3 mod 64 is 61.
-        uint32_t h = hashKeys(99u, 7u, 61u, uint32_t(s));
+        // The jitter is keyed by (frame seed, pixel mod the pattern's
+        // period, sample index) only: -3 mod P is P - 3.
+        uint32_t h = hashKeys(99u, 7u, uint32_t(hider::kPatternPeriod - 3), uint32_t(s));
         EXPECT_NEAR(p.x, 7.0f + (float(i) + hashToUnit(h)) / xs, 1e-5f);
         EXPECT_NEAR(p.y, -3.0f + (float(j) + hashToUnit(hash32(h ^ 0x68e31da4u))) / ys, 1e-5f);
         // Regular positions are the strata centres.
@@ -130,17 +130,17 @@ TEST(SampleBuffer, PositionsAreStratifiedAndJittered) {
     EXPECT_EQ(c.y, 20.5f);
 }
 
-TEST(SampleBuffer, JitterRepeatsEvery64Pixels) {
-    const int xs = 4, ys = 4;
+TEST(SampleBuffer, JitterRepeatsEveryPatternPeriod) {
+    const int xs = 4, ys = 4, P = hider::kPatternPeriod;
     for (int s = 0; s < xs * ys; ++s) {
         Vec2 p = SampleBuffer::samplePosition(5, 9, s, xs, ys, true, 7);
         for (int k : {-3, -1, 1, 2, 10}) {
-            Vec2 q = SampleBuffer::samplePosition(5 + 64 * k, 9 - 64 * k, s, xs, ys, true, 7);
-            EXPECT_NEAR(q.x - float(64 * k), p.x, 1e-4f);
-            EXPECT_NEAR(q.y + float(64 * k), p.y, 1e-4f);
+            Vec2 q = SampleBuffer::samplePosition(5 + P * k, 9 - P * k, s, xs, ys, true, 7);
+            EXPECT_NEAR(q.x - float(P * k), p.x, 1e-4f);
+            EXPECT_NEAR(q.y + float(P * k), p.y, 1e-4f);
         }
         // Half the period is not a period.
-        EXPECT_NE(SampleBuffer::samplePosition(5 + 32, 9, s, xs, ys, true, 7).x - 32.0f, p.x);
+        EXPECT_NE(SampleBuffer::samplePosition(5 + P / 2, 9, s, xs, ys, true, 7).x - float(P / 2), p.x);
     }
     // Far from the origin, rounding pixel + offset may cross a stratum's
     // edge; samples stay strictly inside their strata all the same.
