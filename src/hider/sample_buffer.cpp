@@ -545,6 +545,16 @@ void SampleBuffer::resolve(film::Film& film) {
         }
         return m;
     };
+    if (m_cfg.mode == HiderMode::Depth && xs == 1 && ys == 1) {
+        // One sample a pixel (automatic maps): every reduction of a single
+        // depth is that depth, so rows are copied.
+        for (int py = by0; py < by1; ++py) {
+            const size_t row = size_t(py - m_ry0) * size_t(m_sw) + size_t(bx0 - m_rx0);
+            std::copy_n(&m_z[row], bx1 - bx0, &film.z(bx0, py));
+            if (film.hasDepthPair()) std::copy_n(&m_z2[row], bx1 - bx0, &film.z2(bx0, py));
+        }
+        return;
+    }
     if (m_cfg.mode == HiderMode::Depth) {
         using Reduce = SampleBufferConfig::DepthReduce;
         // RenderMan's "max": the farthest sample (+infinity if any missed);
