@@ -142,31 +142,41 @@ DepthImage depthImageOf(const film::Film& film, const Pass& pass, DepthFilter fi
     image.projection = camera.perspective ? Projection::Perspective : Projection::Orthographic;
     image.filter = filter;
     image.dualOffset = dualOffset;
-    for (int y = film.y0(); y < film.y1(); ++y)
-        for (int x = film.x0(); x < film.x1(); ++x) {
-            float z1 = film.z(x, y);
-            float z2 = film.hasDepthPair() ? film.z2(x, y) : kInfinity;
-            float z = z1;
-            bool single = !std::isfinite(z2);
-            switch (filter) {
-            case DepthFilter::Min:
-            case DepthFilter::Max:
-            case DepthFilter::Average: z = z1; break;  // the hider already reduced the pixel's samples
-            case DepthFilter::Second: z = frontCulled ? z1 : z2; break;  // single layer: +infinity
-            case DepthFilter::Midpoint:
-                // Single layer: the dual rule keeps the midpoint finite.
-                z = single ? z1 + dualOffset : 0.5f * (z1 + z2);
-                break;
-            case DepthFilter::Dual: z = single ? z1 + dualOffset : z1 + std::min(0.5f * (z2 - z1), dualOffset); break;
+    // Row by row, with the filter's rule chosen once (a switch per pixel
+    // cost more than the copy).
+    auto convert = [&](auto layer) {
+        const bool pair = film.hasDepthPair();
+        for (int y = film.y0(); y < film.y1(); ++y) {
+            const float* z1row = film.zRow(y);
+            const float* z2row = pair ? film.z2Row(y) : nullptr;
+            float* out = &image.at(film.x0(), y);
+            const float v = 2.0f * (float(y) + 0.5f) / float(image.height) - 1.0f;
+            for (int x = film.x0(), i = 0; x < film.x1(); ++x, ++i) {
+                const float z1 = z1row[i];
+                float z = std::isfinite(z1) ? layer(z1, z2row ? z2row[i] : kInfinity) : kInfinity;
+                if (pass.discOnly) {
+                    const float u = 2.0f * (float(x) + 0.5f) / float(image.width) - 1.0f;
+                    if (u * u + v * v > 1.0f) z = kInfinity;
+                }
+                out[i] = z;
             }
-            if (!std::isfinite(z1)) z = kInfinity;
-            if (pass.discOnly) {
-                const float u = 2.0f * (float(x) + 0.5f) / float(image.width) - 1.0f;
-                const float v = 2.0f * (float(y) + 0.5f) / float(image.height) - 1.0f;
-                if (u * u + v * v > 1.0f) z = kInfinity;
-            }
-            image.at(x, y) = z;
         }
+    };
+    switch (filter) {
+    case DepthFilter::Min:
+    case DepthFilter::Max:
+    case DepthFilter::Average: convert([](float z1, float) { return z1; }); break;  // the hider already reduced the pixel's samples
+    case DepthFilter::Second: convert([&](float z1, float z2) { return frontCulled ? z1 : z2; }); break;  // single layer: +infinity
+    case DepthFilter::Midpoint:
+        // Single layer: the dual rule keeps the midpoint finite.
+        convert([&](float z1, float z2) { return std::isfinite(z2) ? 0.5f * (z1 + z2) : z1 + dualOffset; });
+        break;
+    case DepthFilter::Dual:
+        convert([&](float z1, float z2) {
+            return std::isfinite(z2) ? z1 + std::min(0.5f * (z2 - z1), dualOffset) : z1 + dualOffset;
+        });
+        break;
+    }
     return image;
 }
 

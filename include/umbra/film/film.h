@@ -117,6 +117,9 @@ public:
     const float* rgba(int x, int y) const { return m_rgba.empty() ? kNoColour : &m_rgba[4 * index(x, y)]; }
     float& z(int x, int y) { return m_z[index(x, y)]; }
     float z(int x, int y) const { return m_z[index(x, y)]; }
+    /// The depths of row y, from x0() to x1() (contiguous).
+    const float* zRow(int y) const { return &m_z[index(m_x0, y)]; }
+    const float* z2Row(int y) const { return &m_z2[index(m_x0, y)]; }
     float& z2(int x, int y) { return m_z2[index(x, y)]; }
     float z2(int x, int y) const { return m_z2[index(x, y)]; }
     float* aov(int x, int y) { return m_aov.data() + size_t(m_aovFloats) * index(x, y); }
