@@ -582,7 +582,10 @@ std::string Renderer::Impl::renderLightMap(FrameState& frame, const scene::Light
         ++failed;
         return "";
     }
-    if (everyTileCached) {
+    // In the background only when the frame may use more than one thread:
+    // --threads 1 means one core, writer included.
+    const int threads = settings.threads > 0 ? settings.threads : tbb::this_task_arena::max_concurrency();
+    if (everyTileCached && threads > 1) {
         writes.push_back({written, std::async(std::launch::async, std::move(write))});
         ++backgroundMapWrites;
     } else {

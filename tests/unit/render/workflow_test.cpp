@@ -197,8 +197,8 @@ Option "shadow" "bias" [0.02]
 WorldEnd)");
     };
     Diagnostics diag;
-    auto big = test::renderRib(frame(dir.file("big.exr"), 64), diag);
-    auto tiny = test::renderRib(frame(dir.file("tiny.exr"), 1), diag);
+    auto big = test::renderRib(frame(dir.file("big.exr"), 64), diag, 2);
+    auto tiny = test::renderRib(frame(dir.file("tiny.exr"), 1), diag, 2);
     ASSERT_EQ(diag.errorCount(), 0);
     EXPECT_EQ(big["frames"][0]["shadow"]["tile_cache"]["evictions"].get<uint64_t>(), 0u);
     EXPECT_GT(tiny["frames"][0]["shadow"]["tile_cache"]["evictions"].get<uint64_t>(), 0u);
@@ -293,11 +293,17 @@ TEST(Workflow, MapFilesWrittenInTheBackgroundAreCompleteWhenRenderReturns) {
     // the same files and the same image.
     ScratchDir bg("bgwrite"), now("nowwrite");
     Diagnostics diag;
-    auto background = test::renderRib(threeMapFrame(bg.file("frame.exr"), 512, 64), diag);
-    auto atOnce = test::renderRib(threeMapFrame(now.file("frame.exr"), 512, 1), diag);
+    auto background = test::renderRib(threeMapFrame(bg.file("frame.exr"), 512, 64), diag, 2);
+    auto atOnce = test::renderRib(threeMapFrame(now.file("frame.exr"), 512, 1), diag, 2);
     ASSERT_EQ(diag.errorCount(), 0);
     EXPECT_EQ(background["frames"][0]["shadow"]["background_map_writes"].get<int>(), 3);
     EXPECT_EQ(atOnce["frames"][0]["shadow"]["background_map_writes"].get<int>(), 0);
+    // --threads 1 is one core: the files are written at once, not beside
+    // the camera pass.
+    ScratchDir one("onethread");
+    auto oneThread = test::renderRib(threeMapFrame(one.file("frame.exr"), 512, 64), diag, 1);
+    ASSERT_EQ(diag.errorCount(), 0);
+    EXPECT_EQ(oneThread["frames"][0]["shadow"]["background_map_writes"].get<int>(), 0);
     EXPECT_GE(background["frames"][0]["shadow"]["map_write_wait_seconds"].get<double>(), 0.0);
     EXPECT_FALSE(anyTemporaryFile(bg.file("")));
     for (const char* light : {"1", "2", "3"}) {
@@ -318,6 +324,7 @@ TEST(Workflow, MapFilesWrittenInTheBackgroundAreCompleteWhenRenderReturns) {
         EXPECT_GT(finite, 512 * 512 / 4);  // the floor fills much of every map
         EXPECT_EQ(readDiag.errorCount(), 0);
         EXPECT_EQ(fileBytes(bg.file(name)), fileBytes(now.file(name)));
+        EXPECT_EQ(fileBytes(bg.file(name)), fileBytes(one.file(name)));
     }
     Image a, b;
     ASSERT_TRUE(test::readImage(bg.file("frame.exr"), &a));
