@@ -1,5 +1,6 @@
 #include "umbra/hider/bucket_scheduler.h"
 
+#include "umbra/util/cpu_time.h"
 #include "umbra/util/rng.h"
 
 #include <tbb/enumerable_thread_specific.h>
@@ -10,7 +11,6 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
-#include <ctime>
 #include <mutex>
 
 namespace umbra::hider {
@@ -44,12 +44,6 @@ void SchedulerStats::add(const SchedulerStats& o) {
 }
 
 namespace {
-
-double threadCpuSeconds() {
-    timespec ts{};
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    return double(ts.tv_sec) + double(ts.tv_nsec) * 1e-9;
-}
 
 /// A primitive or a piece of one, shared by every bucket it covers.
 struct Node {

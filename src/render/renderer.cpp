@@ -1,4 +1,5 @@
 #include "umbra/render/renderer.h"
+#include "umbra/util/cpu_time.h"
 #include "umbra/util/file.h"
 
 #include "render/frame.h"
@@ -32,19 +33,6 @@ namespace umbra::render {
 
 namespace {
 
-double cpuSeconds() {
-    timespec ts{};
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-    return double(ts.tv_sec) + double(ts.tv_nsec) * 1e-9;
-}
-
-/// CPU time of the calling thread.
-double threadCpuSeconds() {
-    timespec ts{};
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    return double(ts.tv_sec) + double(ts.tv_nsec) * 1e-9;
-}
-
 double peakResidentMiB() {
     rusage ru{};
     getrusage(RUSAGE_SELF, &ru);
@@ -54,9 +42,9 @@ double peakResidentMiB() {
 /// Wall and CPU time of a stretch of work.
 struct Stopwatch {
     std::chrono::steady_clock::time_point wall0 = std::chrono::steady_clock::now();
-    double cpu0 = cpuSeconds();
+    double cpu0 = processCpuSeconds();
     double wall() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count(); }
-    double cpu() const { return cpuSeconds() - cpu0; }
+    double cpu() const { return processCpuSeconds() - cpu0; }
 };
 
 /// Directories of a RIB search path: ':'-separated, '&' is the previous
@@ -134,9 +122,6 @@ struct Renderer::Impl {
     std::unique_ptr<MapCatalog> maps;
     std::unique_ptr<Services> services;
     nlohmann::json frames = nlohmann::json::array();
-    // This frame's automatic maps: time spent making them usable (building
-    // them from memory, preloading, writing those written at once), and
-    // waiting at the end for the files written in the background.
     /// Runs a map-file write, adding its thread's CPU time to the frame's.
     template <typename Write> bool timedMapWrite(Write write) {
         const double cpu0 = threadCpuSeconds();
@@ -144,6 +129,9 @@ struct Renderer::Impl {
         mapFileCpuNanoseconds += uint64_t((threadCpuSeconds() - cpu0) * 1e9);
         return ok;
     }
+    // This frame's automatic maps: time spent making them usable (building
+    // them from memory, preloading, writing those written at once), and
+    // waiting at the end for the files written in the background.
     double mapWriteSeconds = 0, mapWriteWaitSeconds = 0;
     /// CPU time encoding and writing automatic maps' files, in the
     /// background or not (nanoseconds; writers add to it from their threads).

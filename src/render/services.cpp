@@ -77,7 +77,6 @@ ShadowParams paramsOf(const shading::ShadowQuery& q, Diagnostics& diag) {
     return p;
 }
 
-/// Per-thread gather buffers for one shadow() call.
 }  // namespace
 
 bool Services::getMatrix(const shading::ShadingGrid& grid, const std::string& space, Mat4* currentFromSpace) {
