@@ -223,7 +223,7 @@ def depth_map_figure(r):
     darker; pixels with no surface, +inf or outside the stored bounding box,
     white). The scene must have been rendered by scene_figures."""
     tiles = []
-    for handle in ("lamp", "ceiling", "window"):
+    for handle in ("dad", "junior", "ceiling"):
         path = os.path.join(r.work, f"desk_lamp.{handle}.shd")
         info = r.info(path)
         lo, hi = info.get("minZ", 0), info.get("maxZ", 1)
