@@ -53,6 +53,8 @@ function(umbra_test module)
   endif()
   add_executable(test_${module} ${sources})
   target_link_libraries(test_${module} PRIVATE umbra::${module} ${ARGN} GTest::gtest_main)
+  # Shared test helpers: #include "support/..."
+  target_include_directories(test_${module} PRIVATE ${PROJECT_SOURCE_DIR}/tests)
   target_compile_definitions(test_${module} PRIVATE
     UMBRA_SOURCE_DIR="${PROJECT_SOURCE_DIR}" UMBRA_BINARY_DIR="${PROJECT_BINARY_DIR}")
   include(GoogleTest)

@@ -3,6 +3,7 @@
 // the VM within 1.5x of the native version.
 
 #include "umbra/shading/shading_system.h"
+#include "support/params.h"
 
 #include <benchmark/benchmark.h>
 
@@ -42,13 +43,7 @@ ShadingGrid makeGrid() {
     return g;
 }
 
-ri::Param param(const std::string& name, ri::ParamType t, std::vector<float> v) {
-    ri::Param p;
-    p.decl.name = name;
-    p.decl.type = t;
-    p.floats = std::move(v);
-    return p;
-}
+using umbra::testsupport::floatParam;
 
 struct Scene {
     Diagnostics diag;
@@ -61,17 +56,17 @@ struct Scene {
         plastic = sys.instantiate(rec, ShaderKind::Surface);
         scene::ShaderRecord k;
         k.name = "distantlight";
-        k.params.add(param("to", ri::ParamType::Point, {0.3f, -0.5f, 1}));
+        k.params.add(floatParam("to", ri::ParamType::Point, {0.3f, -0.5f, 1}));
         key = sys.instantiate(k, ShaderKind::Light);
         scene::ShaderRecord f;
         f.name = "distantlight";
-        f.params.add(param("intensity", ri::ParamType::Float, {0.4f}));
-        f.params.add(param("to", ri::ParamType::Point, {-0.6f, 0.2f, 1}));
+        f.params.add(floatParam("intensity", ri::ParamType::Float, {0.4f}));
+        f.params.add(floatParam("to", ri::ParamType::Point, {-0.6f, 0.2f, 1}));
         fill = sys.instantiate(f, ShaderKind::Light);
         scene::ShaderRecord b;
         b.name = "pointlight";
-        b.params.add(param("intensity", ri::ParamType::Float, {6}));
-        b.params.add(param("from", ri::ParamType::Point, {1, 2, 0}));
+        b.params.add(floatParam("intensity", ri::ParamType::Float, {6}));
+        b.params.add(floatParam("from", ri::ParamType::Point, {1, 2, 0}));
         bulb = sys.instantiate(b, ShaderKind::Light);
     }
 };

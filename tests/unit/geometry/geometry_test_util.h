@@ -2,6 +2,7 @@
 // Builders for primitive records in tests (the RIB parser is not involved),
 // and measurements of diced grids computed independently of the code under test.
 
+#include "support/params.h"
 #include "umbra/geometry/grid.h"
 #include "umbra/geometry/primitive.h"
 #include "umbra/scene/scene.h"
@@ -12,20 +13,8 @@
 
 namespace umbra::testutil {
 
-inline ri::Param param(const std::string& name, ri::StorageClass storage, ri::ParamType type,
-                       std::vector<float> values, int arraySize = 1) {
-    ri::Param p;
-    p.decl.name = name;
-    p.decl.storage = storage;
-    p.decl.type = type;
-    p.decl.arraySize = arraySize;
-    p.floats = std::move(values);
-    return p;
-}
-
-inline ri::Param pointParam(std::vector<float> values) {
-    return param("P", ri::StorageClass::Vertex, ri::ParamType::Point, std::move(values));
-}
+using testsupport::floatParam;
+using testsupport::pointParam;
 
 inline std::shared_ptr<scene::PrimitiveRecord> record(const std::string& type, std::vector<float> floatArgs = {},
                                                       std::vector<ri::Param> params = {}) {

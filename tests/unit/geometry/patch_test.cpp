@@ -148,7 +148,7 @@ TEST(Patch, EveryBasisMatchesTheSpecFormulaAndStaysInItsBound) {
 
 TEST(Patch, RationalBicubicDividesByW) {
     const std::vector<float> G = randomControlPoints(42, 4);
-    auto rec = record("Patch", {}, {param("Pw", ri::StorageClass::Vertex, ri::ParamType::HPoint, G)});
+    auto rec = record("Patch", {}, {floatParam("Pw", ri::ParamType::HPoint, G, ri::StorageClass::Vertex)});
     rec->stringArgs = {"bicubic"};
     auto p = makeOne(rec);
     Grid g = p->dice(6, 6);
@@ -161,7 +161,7 @@ TEST(Patch, RationalBicubicDividesByW) {
 }
 
 TEST(Patch, PzIsAHeightFieldOverTheUnitSquare) {
-    auto rec = record("Patch", {}, {param("Pz", ri::StorageClass::Vertex, ri::ParamType::Float, {0, 1, 2, 3})});
+    auto rec = record("Patch", {}, {floatParam("Pz", ri::ParamType::Float, {0, 1, 2, 3}, ri::StorageClass::Vertex)});
     rec->stringArgs = {"bilinear"};
     Grid g = makeOne(rec)->dice(2, 2);
     for (int k = 0; k < g.vertexCount(); ++k) {
@@ -254,10 +254,10 @@ TEST(PatchMesh, VariablesOfEveryClass) {
     for (int j = 0; j < nv; ++j)
         for (int i = 0; i < nu; ++i) h.push_back(float(i));
     auto rec = meshRecord("bicubic", nu, "nonperiodic", nv, "nonperiodic", scene::Basis::bezier(),
-                          {param("h", ri::StorageClass::Vertex, ri::ParamType::Float, h),
-                           param("w", ri::StorageClass::Varying, ri::ParamType::Float, {0, 1, 2, 10, 11, 12}),
-                           param("id", ri::StorageClass::Uniform, ri::ParamType::Float, {5, 6}),
-                           param("k", ri::StorageClass::Constant, ri::ParamType::Float, {3})});
+                          {floatParam("h", ri::ParamType::Float, h, ri::StorageClass::Vertex),
+                           floatParam("w", ri::ParamType::Float, {0, 1, 2, 10, 11, 12}, ri::StorageClass::Varying),
+                           floatParam("id", ri::ParamType::Float, {5, 6}, ri::StorageClass::Uniform),
+                           floatParam("k", ri::ParamType::Float, {3}, ri::StorageClass::Constant)});
     Diagnostics diag;
     auto prims = makePrimitives(rec, diag);
     ASSERT_EQ(diag.errorCount(), 0);

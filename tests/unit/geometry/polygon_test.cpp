@@ -132,9 +132,9 @@ TEST(PointsPolygons, SharedVerticesFaceVaryingAndUniform) {
     const std::vector<float> st = {0, 0, 0.5f, 0, 0.5f, 1, 0, 1,  // face 0 corners
                                    0.5f, 0, 1, 0, 1, 1, 0.5f, 1};  // face 1 corners
     auto rec = record("PointsPolygons", {},
-                      {pointParam(P), param("h", ri::StorageClass::Vertex, ri::ParamType::Float, h),
-                       param("id", ri::StorageClass::Uniform, ri::ParamType::Float, {7, 9}),
-                       param("st", ri::StorageClass::FaceVarying, ri::ParamType::Float, st, 2)});
+                      {pointParam(P), floatParam("h", ri::ParamType::Float, h, ri::StorageClass::Vertex),
+                       floatParam("id", ri::ParamType::Float, {7, 9}, ri::StorageClass::Uniform),
+                       floatParam("st", ri::ParamType::Float, st, ri::StorageClass::FaceVarying, 2)});
     rec->intArrays = {{4, 4}, {0, 1, 4, 3, 1, 2, 5, 4}};
     auto prims = makeAll(rec);
     ASSERT_EQ(prims.size(), 1u);

@@ -219,8 +219,8 @@ TEST(Quadric, SplitKeepsGlobalParameters) {
 TEST(Quadric, VaryingColourInterpolatesCornersBilinearly) {
     const std::vector<float> cs = {1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1};
     auto s = makeOne("Cylinder", {1, 0, 1, 360},
-                     {param("Cs", ri::StorageClass::Varying, ri::ParamType::Color, cs),
-                      param("Ka", ri::StorageClass::Uniform, ri::ParamType::Float, {0.25f})});
+                     {floatParam("Cs", ri::ParamType::Color, cs, ri::StorageClass::Varying),
+                      floatParam("Ka", ri::ParamType::Float, {0.25f}, ri::StorageClass::Uniform)});
     Grid g = s->dice(5, 3);
     const GridVar* c = g.find("Cs");
     ASSERT_NE(c, nullptr);
@@ -252,7 +252,7 @@ TEST(Quadric, MalformedArgumentsAreReportedWithLocation) {
     EXPECT_EQ(diag.recorded()[0].str(), "test.rib:3:1: error: Sphere: expected 4 arguments (radius zmin zmax thetamax), got 3");
 
     prims = makePrimitives(record("Torus", {1, 0.5f, 0, 360, 360},
-                                  {param("Cs", ri::StorageClass::Varying, ri::ParamType::Color, {1, 0, 0})}),
+                                  {floatParam("Cs", ri::ParamType::Color, {1, 0, 0}, ri::StorageClass::Varying)}),
                            diag);
     EXPECT_EQ(prims.size(), 1u);  // the bad variable is dropped, the torus kept
     ASSERT_EQ(diag.recorded().size(), 2u);

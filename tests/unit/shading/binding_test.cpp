@@ -1,20 +1,13 @@
 // Instance parameters from scene records and primitive variables.
 
 #include "shading_test_util.h"
+#include "support/params.h"
 
 using namespace umbra;
 using namespace umbra::shading;
 using namespace umbra::shading::testing;
 
-namespace {
-ri::Param param(const std::string& name, ri::ParamType t, std::vector<float> v) {
-    ri::Param p;
-    p.decl.name = name;
-    p.decl.type = t;
-    p.floats = std::move(v);
-    return p;
-}
-}  // namespace
+using umbra::testsupport::floatParam;
 
 TEST(Binding, RenderManTypeRulesAndWarningsOnce) {
     Harness h;
@@ -25,16 +18,16 @@ TEST(Binding, RenderManTypeRulesAndWarningsOnce) {
     scene::ShaderRecord rec;
     rec.name = "s";
     rec.loc = FileLoc::inFile("scene.rib", 12, 1);
-    rec.params.add(param("Kd", ri::ParamType::Float, {0.5f}));
-    rec.params.add(param("tint", ri::ParamType::Float, {0.25f}));  // float promotes to color
-    rec.params.add(param("arr", ri::ParamType::Float, {7, 8}));
+    rec.params.add(floatParam("Kd", ri::ParamType::Float, {0.5f}));
+    rec.params.add(floatParam("tint", ri::ParamType::Float, {0.25f}));  // float promotes to color
+    rec.params.add(floatParam("arr", ri::ParamType::Float, {7, 8}));
     ri::Param name;
     name.decl.name = "name";
     name.decl.type = ri::ParamType::String;
     name.strings = {"hi"};
     rec.params.add(name);
-    rec.params.add(param("Kx", ri::ParamType::Float, {1}));                  // unknown
-    rec.params.add(param("Ks", ri::ParamType::Color, {1, 1, 1}));            // mistyped
+    rec.params.add(floatParam("Kx", ri::ParamType::Float, {1}));                  // unknown
+    rec.params.add(floatParam("Ks", ri::ParamType::Color, {1, 1, 1}));            // mistyped
     auto inst = h.sys.instantiate(sh, rec);
     auto inst2 = h.sys.instantiate(sh, rec);
     ASSERT_TRUE(inst && inst2);
@@ -53,7 +46,7 @@ TEST(Binding, PointParametersAreInShaderSpace) {
     h.svc.spaces["world"] = Mat4::translate(Vec3(0, 0, 5));  // currentFromWorld
     scene::ShaderRecord rec;
     rec.worldFromShader = Mat4::translate(Vec3(0, 1, 0));
-    rec.params.add(param("from", ri::ParamType::Point, {1, 0, 0}));
+    rec.params.add(floatParam("from", ri::ParamType::Point, {1, 0, 0}));
     auto light = h.standard("pointlight", &rec);
     auto surf = h.instance("surface s() { illuminance(P) { Ci = color(L); } }");
     ShadingGrid g = makeGrid(2, 1, [](float u, float) { return Vec3(u, 0, 1); });
@@ -106,8 +99,8 @@ TEST(Binding, DisplacementThenSurfaceThenAtmosphere) {
     auto disp = h.instance("displacement d(float amount = 0.5) { P += amount * normalize(N); N = calculatenormal(P); }");
     auto surf = h.instance("surface s() { Ci = color(zcomp(P), 0, 0); Oi = 1; }");
     scene::ShaderRecord fogRec;
-    fogRec.params.add(param("distance", ri::ParamType::Float, {2}));
-    fogRec.params.add(param("background", ri::ParamType::Color, {0, 1, 0}));
+    fogRec.params.add(floatParam("distance", ri::ParamType::Float, {2}));
+    fogRec.params.add(floatParam("background", ri::ParamType::Color, {0, 1, 0}));
     auto fog = h.standard("fog", &fogRec);
     ShadingGrid g = makeGrid(3, 3, [](float u, float v) { return Vec3(u, v, 2); });
     ShadeRequest req;

@@ -2,6 +2,7 @@
 // Lambert / Blinn values at test points.
 
 #include "shading_test_util.h"
+#include "support/params.h"
 
 #include <cmath>
 #include <filesystem>
@@ -9,6 +10,7 @@
 using namespace umbra;
 using namespace umbra::shading;
 using namespace umbra::shading::testing;
+using umbra::testsupport::floatParam;
 
 TEST(StandardShaders, AllCompile) {
     Harness h;
@@ -27,14 +29,6 @@ TEST(StandardShaders, AllCompile) {
 }
 
 namespace {
-
-ri::Param floatParam(const std::string& name, std::vector<float> v, ri::ParamType t = ri::ParamType::Float) {
-    ri::Param p;
-    p.decl.name = name;
-    p.decl.type = t;
-    p.floats = std::move(v);
-    return p;
-}
 
 /// A grid on the plane z = 2 facing the camera, x, y in [-1, 1].
 ShadingGrid plane() {
@@ -71,11 +65,11 @@ TEST(StandardShaders, PlasticUnderDistantAndAmbientLight) {
     Vec3 dir = normalize(worldFromLight.vector(Vec3(0, 0, 1)));
     scene::ShaderRecord rec;
     rec.worldFromShader = worldFromLight;
-    rec.params.add(floatParam("intensity", {0.8f}));
-    rec.params.add(floatParam("lightcolor", {1, 0.5f, 0.25f}, ri::ParamType::Color));
+    rec.params.add(floatParam("intensity", ri::ParamType::Float, {0.8f}));
+    rec.params.add(floatParam("lightcolor", ri::ParamType::Color, {1, 0.5f, 0.25f}));
     auto distant = h.standard("distantlight", &rec);
     scene::ShaderRecord amb;
-    amb.params.add(floatParam("intensity", {0.1f}));
+    amb.params.add(floatParam("intensity", ri::ParamType::Float, {0.1f}));
     auto ambient = h.standard("ambientlight", &amb);
     auto plastic = h.standard("plastic");
     ASSERT_TRUE(distant && ambient && plastic);
@@ -99,11 +93,11 @@ TEST(StandardShaders, MatteUnderPointLightIsLambertOverDistanceSquared) {
     h.svc.spaces["world"] = Mat4::translate(Vec3(0, 0, 1));  // currentFromWorld
     scene::ShaderRecord rec;
     rec.worldFromShader = Mat4::translate(Vec3(0.5f, 1, -1));
-    rec.params.add(floatParam("intensity", {3}));
+    rec.params.add(floatParam("intensity", ri::ParamType::Float, {3}));
     auto point = h.standard("pointlight", &rec);
     scene::ShaderRecord m;
-    m.params.add(floatParam("Ka", {0}));
-    m.params.add(floatParam("Kd", {0.7f}));
+    m.params.add(floatParam("Ka", ri::ParamType::Float, {0}));
+    m.params.add(floatParam("Kd", ri::ParamType::Float, {0.7f}));
     auto matte = h.standard("matte", &m);
     ShadingGrid g = plane();
     for (auto& c : g.Cs) c = Vec3(0.2f, 0.4f, 0.6f);
@@ -124,10 +118,10 @@ TEST(StandardShaders, PlasticUnderSpotlightMatchesConeFalloff) {
     Harness h;
     h.svc.spaces["world"] = Mat4::identity();
     scene::ShaderRecord rec;
-    rec.params.add(floatParam("from", {0, 0, 0}, ri::ParamType::Point));
-    rec.params.add(floatParam("to", {0.2f, 0, 2}, ri::ParamType::Point));
-    rec.params.add(floatParam("coneangle", {0.5f}));
-    rec.params.add(floatParam("conedeltaangle", {0.2f}));
+    rec.params.add(floatParam("from", ri::ParamType::Point, {0, 0, 0}));
+    rec.params.add(floatParam("to", ri::ParamType::Point, {0.2f, 0, 2}));
+    rec.params.add(floatParam("coneangle", ri::ParamType::Float, {0.5f}));
+    rec.params.add(floatParam("conedeltaangle", ri::ParamType::Float, {0.2f}));
     auto spot = h.standard("spotlight", &rec);
     auto plastic = h.standard("plastic");
     ShadingGrid g = makeGrid(7, 7, [](float u, float v) { return Vec3(3 * u - 1.5f, 3 * v - 1.5f, 2); });

@@ -2,6 +2,7 @@
 // Scenes for the ray-traced shadow tests, built from hand-made primitive
 // records (no RIB parser), and an analytic reference for sphere shadows.
 
+#include "support/params.h"
 #include "umbra/geometry/primitive.h"
 #include "umbra/scene/scene.h"
 #include "umbra/util/math.h"
@@ -16,15 +17,7 @@
 
 namespace umbra::tracetest {
 
-inline ri::Param pointParam(std::vector<float> values) {
-    ri::Param p;
-    p.decl.name = "P";
-    p.decl.storage = ri::StorageClass::Vertex;
-    p.decl.type = ri::ParamType::Point;
-    p.decl.arraySize = 1;
-    p.floats = std::move(values);
-    return p;
-}
+using testsupport::pointParam;
 
 inline std::shared_ptr<scene::PrimitiveRecord> record(const std::string& type, std::vector<float> floatArgs,
                                                       std::vector<ri::Param> params, const Mat4& worldFromObject,
