@@ -458,6 +458,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
           {"second_depth_lit", shadowStats.secondLit},
           {"second_depth_shadowed", shadowStats.secondShadowed},
           {"virtual_sample_points", shadowStats.virtualPoints},
+          {"stored_plane_lit", shadowStats.storedPlaneLit},
           {"lookup_seconds", services->lookupSeconds()},
           {"map_write_seconds", mapWriteSeconds},
           {"map_write_wait_seconds", mapWriteWaitSeconds},

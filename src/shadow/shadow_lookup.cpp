@@ -13,8 +13,18 @@
 //     z nearer than every covered tile's min z (with the lowest bias) is
 //     lit; z beyond every covered tile's max z (with the highest bias), for
 //     a region wholly inside the bounding box, is shadowed. Both are exact:
-//     they give the result filtering would. A region inside one tile gets
-//     the same test again with the depth ranges of the tile's 8x8 blocks.
+//     they give the result filtering would. A region inside at most 2x2
+//     tiles gets the same test again with the depth ranges of their 8x8
+//     blocks. On second-depth maps a light-facing point would take virtual
+//     samples even when every comparison is shadowed (see lookup()), so it
+//     is culled as shadowed only when its tangent plane is deeper than the
+//     covered depths too.
+//  4b. Second-depth maps (umbra's addition): a light-facing point whose
+//     tangent plane is the plane every covered block stores -- an open
+//     surface stored as its own second layer (Wang & Molnar §3.3) -- gets
+//     every virtual sample lit, so it is lit without samples. Exact too:
+//     the match is bounded with the blocks' fit and the rounding of the
+//     sample loop. Whole grids are decided so when they lie on one plane.
 //  5. ns x nt samples, counted as Reeves does (fewer for regions smaller
 //     than NumSamples texels, at least MinSamples per axis); each compares
 //     z > map + bias. Samples outside the bounding box see +infinity (lit).
@@ -78,6 +88,13 @@ inline int floorInt(float v) {
 /// Relative tolerance of virtual-sample comparisons (float rounding of the
 /// plane's transform and evaluation, measured at a few 1e-6).
 constexpr float kVirtualSlack = 1e-4f;
+/// How closely (relative) a receiver's tangent plane must match the planes
+/// of the blocks its region covers to be lit without samples. With the
+/// blocks' own fit and the rounding of the sample loop it stays well inside
+/// kVirtualSlack, so every virtual sample there would compare lit.
+constexpr double kPlaneMatch = 2.5e-5;
+static_assert(kPlaneMatch + 2.0 * double(ShadowTile::kPlaneFit) < 0.5 * double(kVirtualSlack),
+              "a match of the stored planes must imply lit virtual samples");
 
 /// The random numbers of sample k of a lookup whose point hash is
 /// `pointSeed`: a hash of the two, not a sequential generator, so a
@@ -156,7 +173,8 @@ inline void gaussianPair(float u1, float u2, float* g1, float* g2) {
 }  // namespace
 
 bool ShadowMap::batchDecided(const ShadowBatch& batch, const ShadowParams& params, const Mat4& lightFromCurrent,
-                             const Mat4& rasterFromCurrent, float* out, ShadowStats& st) const {
+                             const Mat4& rasterFromCurrent, BatchPlanes& planes, bool planeLit, float* out,
+                             ShadowStats& st) const {
     // The tests of the point loop (bounding box, per-tile depth ranges)
     // applied once to a bound of the whole batch -- a shaded grid -- before
     // any point is projected: grids that miss the map's bounding box, or
@@ -241,12 +259,162 @@ bool ShadowMap::batchDecided(const ShadowBatch& batch, const ShadowParams& param
     }
     const bool inside = loS >= float(m_dx0) && hiS < float(m_dx1) + 1.0f && loT >= float(m_dy0) &&
                         hiT < float(m_dy1) + 1.0f;
+    bool allFacing = false, anyFacing = false;
     if (inside && zLo - zMargin >= 0 && zLo - zMargin > tileMax + params.biasHigh()) {
-        decide(1.0f);
-        st.culledShadowed += uint64_t(batch.count);
-        return true;
+        // Light-facing points of a second-depth map would take virtual
+        // samples (see the point loop): shadowed only if their planes are
+        // deeper too.
+        PlaneEnvelope env;
+        if (planes.frame)
+            env = envelopeOfFacing(planesOf(batch, planes), batch.count, loS, hiS, loT, hiT, &allFacing, &anyFacing);
+        const double limit = double(tileMax) + params.biasHigh() + double(kVirtualSlack) * std::abs(double(tileMax));
+        if (!anyFacing || planesDeeper(env, ci0, ci1, cj0, cj1, limit)) {
+            decide(1.0f);
+            st.culledShadowed += uint64_t(batch.count);
+            return true;
+        }
     }
-    return false;
+    // A flat grid of an open surface stored as its own second layer: the
+    // point loop's plane test for all points at once, with their planes'
+    // differences from one of them added to the gap. Every covered block
+    // must store a plane (most batches stop there) before the points'
+    // planes are made.
+    constexpr int kMaxTiles = 16;
+    if (!planeLit || m_blockShiftX < 0 || (tx1 - tx0 + 1) * (ty1 - ty0 + 1) > kMaxTiles) return false;
+    struct Covered {
+        ShadowTilePtr tile;
+        int x, y, bx0, bx1, by0, by1;
+    };
+    Covered covered[kMaxTiles];
+    int n = 0;
+    for (int ty = ty0; ty <= ty1; ++ty)
+        for (int tx = tx0; tx <= tx1; ++tx) {
+            Covered& c = covered[n++];
+            c.x = m_fileX0 + (tx << m_tileShiftX), c.y = m_fileY0 + (ty << m_tileShiftY);
+            c.bx0 = (std::max(ci0, c.x) - c.x) >> m_blockShiftX;
+            c.bx1 = (std::min(ci1, c.x + m_tileW - 1) - c.x) >> m_blockShiftX;
+            c.by0 = (std::max(cj0, c.y) - c.y) >> m_blockShiftY;
+            c.by1 = (std::min(cj1, c.y + m_tileH - 1) - c.y) >> m_blockShiftY;
+            c.tile = fetchTile(tx, ty);
+            ++st.tileFetches;
+            for (int by = c.by0; by <= c.by1; ++by)
+                for (int bx = c.bx0; bx <= c.bx1; ++bx)
+                    if (std::isnan(c.tile->planeQ0[by * ShadowTile::kBlocks + bx])) return false;
+        }
+    const PlaneEnvelope env =
+        envelopeOfFacing(planesOf(batch, planes), batch.count, loS, hiS, loT, hiT, &allFacing, &anyFacing);
+    if (!allFacing) return false;
+    for (int k = 0; k < n; ++k) {
+        const Covered& c = covered[k];
+        if (!onStoredPlanes(env, *c.tile, c.x, c.y, c.bx0, c.bx1, c.by0, c.by1)) return false;
+    }
+    decide(0.0f);
+    st.storedPlaneLit += uint64_t(batch.count);
+    return true;
+}
+
+ShadowMap::PlaneFrame ShadowMap::planeFrame(const Mat4& spaceFromLight) const {
+    // A plane covector c of the space becomes (spaceFromLight)^T c in the
+    // light's camera space and m_planeFromLight times that in its raster
+    // space (plane covectors go by the inverse transpose of point maps).
+    PlaneFrame f;
+    f.rasterPlaneFromSpace = m_planeFromLight * spaceFromLight.transposed();
+    f.light = m_projection == Projection::Perspective ? spaceFromLight.point(Vec3(0, 0, 0))
+                                                      : spaceFromLight.vector(Vec3(0, 0, 1));
+    return f;
+}
+
+ShadowTile::DepthCoordinate ShadowMap::blockPlanes() const {
+    if (m_filter != DepthFilter::Second) return ShadowTile::DepthCoordinate::None;
+    if (m_virtualMode == 1) return ShadowTile::DepthCoordinate::InverseDepth;
+    if (m_virtualMode == 2) return ShadowTile::DepthCoordinate::Depth;
+    return ShadowTile::DepthCoordinate::None;
+}
+
+ShadowMap::PlaneEnvelope ShadowMap::envelope(const TangentPlane& plane) const {
+    PlaneEnvelope e;
+    const double k = m_wScale;
+    e.A = k * plane.a, e.B = k * plane.b, e.D = k * plane.d;
+    e.absA = std::abs(double(plane.a)), e.absB = std::abs(double(plane.b)), e.absD = std::abs(double(plane.d));
+    return e;
+}
+
+ShadowMap::PlaneEnvelope ShadowMap::envelopeOfFacing(const TangentPlane* planes, int count, double x0, double x1,
+                                                     double y0, double y1, bool* all, bool* any) const {
+    PlaneEnvelope env;
+    *all = true;
+    *any = false;
+    const double xMax = std::max(std::abs(x0), std::abs(x1)) + 1.0, yMax = std::max(std::abs(y0), std::abs(y1)) + 1.0;
+    for (int i = 0; i < count; ++i) {
+        if (!planes[i].valid || !planes[i].facesLight) {
+            *all = false;
+            continue;
+        }
+        const PlaneEnvelope e = envelope(planes[i]);
+        if (!*any) {
+            env = e;
+            *any = true;
+            continue;
+        }
+        env.spread = std::max(env.spread,
+                              std::abs(e.A - env.A) * xMax + std::abs(e.B - env.B) * yMax + std::abs(e.D - env.D));
+        env.absA = std::max(env.absA, e.absA);
+        env.absB = std::max(env.absB, e.absB);
+        env.absD = std::max(env.absD, e.absD);
+    }
+    // A non-finite spread fails every test that reads it.
+    if (!std::isfinite(env.spread)) env.spread = kInfinity;
+    return env;
+}
+
+bool ShadowMap::planesDeeper(const PlaneEnvelope& env, int i0, int i1, int j0, int j1, double limit) const {
+    // The planes are linear in (x, y): their extremes over the texel
+    // centres are at the corners, widened by the spread and the sample
+    // loop's rounding (as in onStoredPlanes()). The loop finds a sample
+    // deeper when q * limit < 1 (q = 1/z, perspective) or q > limit
+    // (orthographic), with its limit rounded in float: a relative 1e-6.
+    if (!std::isfinite(limit) || !std::isfinite(env.spread)) return false;
+    const double rounding = 4.0 * 0x1p-24 * std::abs(double(m_wScale));
+    double qMin = kInfinity, qMax = -kInfinity;
+    for (int c = 0; c < 4; ++c) {
+        const double x = double(c & 1 ? i1 : i0) + 0.5, y = double(c & 2 ? j1 : j0) + 0.5;
+        const double q = env.A * x + env.B * y + env.D;
+        const double err = env.spread + rounding * (env.absA * std::abs(x) + env.absB * std::abs(y) + env.absD);
+        qMin = std::min(qMin, q - err);
+        qMax = std::max(qMax, q + err);
+    }
+    if (m_virtualMode == 1) return limit > 0 && qMax < (1.0 - 1e-6) / limit;
+    return qMin > limit + 1e-6 * std::abs(limit);
+}
+
+bool ShadowMap::onStoredPlanes(const PlaneEnvelope& env, const ShadowTile& tile, int tileX, int tileY, int bx0,
+                               int bx1, int by0, int by1) const {
+    // Per block, with (x, y) from the centre of its texel centres, half
+    // extents (hx, hy): a receiver's q = A x + B y + D and the stored
+    // plane's differ linearly, by at most |gap at the centre| + |slope
+    // gaps| (hx, hy) (plus the envelope's spread), and the stored q, linear
+    // too, is at least |q at the centre| - |slopes| (hx, hy) in magnitude
+    // (of one sign when that is positive). The sample loop evaluates the
+    // raster plane in float: at most 4 roundings of |a x| + |b y| + |d|,
+    // counted against the match as well.
+    const int bw = tile.width / ShadowTile::kBlocks, bh = tile.height / ShadowTile::kBlocks;
+    const double hx = 0.5 * (bw - 1), hy = 0.5 * (bh - 1);
+    const double rounding = 4.0 * 0x1p-24 * std::abs(double(m_wScale));
+    for (int by = by0; by <= by1; ++by)
+        for (int bx = bx0; bx <= bx1; ++bx) {
+            const int b = by * ShadowTile::kBlocks + bx;
+            const double q0 = tile.planeQ0[b], gx = tile.planeGx[b], gy = tile.planeGy[b];
+            if (!(q0 == q0)) return false;  // not planar
+            const double xc = double(tileX + bx * bw) + 0.5 + hx, yc = double(tileY + by * bh) + 0.5 + hy;
+            const double stored = q0 + gx * hx + gy * hy;
+            const double gap = std::abs(env.A * xc + env.B * yc + env.D - stored) + std::abs(env.A - gx) * hx +
+                               std::abs(env.B - gy) * hy + env.spread;
+            const double least = std::abs(stored) - std::abs(gx) * hx - std::abs(gy) * hy;
+            const double evaluation =
+                rounding * (env.absA * (std::abs(xc) + hx) + env.absB * (std::abs(yc) + hy) + env.absD);
+            if (!(least > 0 && gap + evaluation <= kPlaneMatch * least)) return false;
+        }
+    return true;
 }
 
 template <bool kPointSample>
@@ -300,8 +468,22 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
     // Once per batch, not per point: what tangent planes need.
     const PlaneFrame planes = secondDepth ? planeFrame(lightFromCurrent.inverse()) : PlaneFrame();
 
+    // Second-depth maps: the points' tangent planes, all at once when a
+    // test of the whole batch needs them, else one point's when it does.
+    thread_local std::vector<TangentPlane> t_planes;
+    BatchPlanes batchPlanes;
+    if (secondDepth) {
+        batchPlanes.frame = &planes;
+        batchPlanes.planes = &t_planes;
+    }
+    // Points on a stored plane are lit without samples when no negative
+    // bias can shadow a sample on the plane itself and the region takes
+    // more than one sample (a single one is a plain comparison).
+    const bool planeLit = secondDepth && params.tileCulling && biasLo >= 0 && samples > 1;
+
     if constexpr (!kPointSample) {
-        if (hasData && batchDecided(batch, params, lightFromCurrent, rasterFromCurrent, out, st)) {
+        if (hasData && batchDecided(batch, params, lightFromCurrent, rasterFromCurrent, batchPlanes,
+                                    planeLit && minSamples >= 2, out, st)) {
             stats += st;
             return;
         }
@@ -311,6 +493,16 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
         out[i] = 0;
         ++st.points;
         const Vec3 P = batch.P[i];
+        // This point's tangent plane (second-depth maps), made on first use.
+        TangentPlane pointPlane;
+        bool pointPlaneKnown = false;
+        auto planeOfPoint = [&]() -> const TangentPlane& {
+            if (!pointPlaneKnown) {
+                pointPlane = batchPlanes.ready ? t_planes[size_t(i)] : tangentPlane(planes, P, batch.N[i]);
+                pointPlaneKnown = true;
+            }
+            return pointPlane;
+        };
         const float z = L[2][0] * P.x + L[2][1] * P.y + L[2][2] * P.z + L[2][3];
         float s, t;
         // Behind the light, unprojectable, or nothing stored: lit.
@@ -369,12 +561,21 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
             // map + bias lies in [zMin + biasLo, zMax + biasHi] of the texels
             // the region covers; outside the data window texels are
             // +infinity, so "shadowed" needs the region wholly inside it.
+            // A light-facing point on a second-depth map would take virtual
+            // samples: shadowed only if its plane is deeper too. (Out of
+            // line: inlined, it kept the common path below from being.)
+            auto secondDepthShadowed = [&](float zMax) __attribute__((noinline)) {
+                const TangentPlane& pl = planeOfPoint();
+                return samples == 1 || !pl.valid || !pl.facesLight ||
+                       planesDeeper(envelope(pl), iLo, iHi, jLo, jHi,
+                                    double(zMax) + biasHi + double(kVirtualSlack) * std::abs(double(zMax)));
+            };
             auto culled = [&](float zMin, float zMax) {
                 if (z <= zMin + biasLo) {
                     ++st.culledLit;
                     return true;
                 }
-                if (regionInside && z > zMax + biasHi) {
+                if (regionInside && z > zMax + biasHi && (!secondDepth || secondDepthShadowed(zMax))) {
                     ++st.culledShadowed;
                     out[i] = 1.0f;
                     return true;
@@ -395,28 +596,48 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                 if (culled(zMin, zMax)) continue;
             }
             // When the region lies in one tile (the common case: regions are
-            // a few texels, tiles 32) its pointer is fetched once, and the
-            // tile's finer block ranges get a second chance to cull.
+            // a few texels, tiles 32) its pointer is fetched once.
             const float* single = nullptr;
             int singleX = 0, singleY = 0;
             if (tx0 == tx1 && ty0 == ty1) {
                 (void)depthAt(ci0, cj0);  // pins the tile in the memo
-                const int slot = (tx0 & 3) | ((ty0 & 3) << 2);
-                single = memo.data[slot];
+                single = memo.data[(tx0 & 3) | ((ty0 & 3) << 2)];
                 singleX = m_fileX0 + (tx0 << shiftX);
                 singleY = m_fileY0 + (ty0 << shiftY);
-                if (params.tileCulling && m_blockShiftX >= 0) {
-                    const ShadowTile& tile = *memo.tile[slot];
-                    const int bx0 = (ci0 - singleX) >> m_blockShiftX, bx1 = (ci1 - singleX) >> m_blockShiftX;
-                    const int by0 = (cj0 - singleY) >> m_blockShiftY, by1 = (cj1 - singleY) >> m_blockShiftY;
-                    float zMin = kInfinity, zMax = -kInfinity;
+            }
+            // The 8x8-texel blocks the region covers, in the (at most 2x2)
+            // tiles it covers, pinned in the memo: fn(tile, its first texel,
+            // block range) for each tile, stopping at the first false.
+            auto everyTileOfBlocks = [&](auto&& fn) -> bool {
+                for (int ty = ty0; ty <= ty1; ++ty)
+                    for (int tx = tx0; tx <= tx1; ++tx) {
+                        const int tileX = m_fileX0 + (tx << shiftX), tileY = m_fileY0 + (ty << shiftY);
+                        const int cx0 = std::max(ci0, tileX), cy0 = std::max(cj0, tileY);
+                        (void)depthAt(cx0, cy0);  // pins the tile in the memo
+                        const ShadowTile& tile = *memo.tile[(tx & 3) | ((ty & 3) << 2)];
+                        const int cx1 = std::min(ci1, tileX + m_tileW - 1), cy1 = std::min(cj1, tileY + m_tileH - 1);
+                        if (!fn(tile, tileX, tileY, (cx0 - tileX) >> m_blockShiftX, (cx1 - tileX) >> m_blockShiftX,
+                                (cy0 - tileY) >> m_blockShiftY, (cy1 - tileY) >> m_blockShiftY))
+                            return false;
+                    }
+                return true;
+            };
+            // The blocks' finer depth ranges get a second chance to cull.
+            const bool blockTests = params.tileCulling && m_blockShiftX >= 0 && tx1 - tx0 <= 1 && ty1 - ty0 <= 1;
+            bool blocksPlanar = true;  // every covered block stores a plane (second-depth maps)
+            if (blockTests) {
+                float zMin = kInfinity, zMax = -kInfinity;
+                everyTileOfBlocks([&](const ShadowTile& tile, int, int, int bx0, int bx1, int by0, int by1) {
                     for (int by = by0; by <= by1; ++by)
                         for (int bx = bx0; bx <= bx1; ++bx) {
-                            zMin = std::min(zMin, tile.blockMin[by * ShadowTile::kBlocks + bx]);
-                            zMax = std::max(zMax, tile.blockMax[by * ShadowTile::kBlocks + bx]);
+                            const int b = by * ShadowTile::kBlocks + bx;
+                            zMin = std::min(zMin, tile.blockMin[b]);
+                            zMax = std::max(zMax, tile.blockMax[b]);
+                            blocksPlanar = blocksPlanar && !std::isnan(tile.planeQ0[b]);
                         }
-                    if (culled(zMin, zMax)) continue;
-                }
+                    return true;
+                });
+                if (culled(zMin, zMax)) continue;
             }
 
             // Reeves' sample counts: a region smaller than NumSamples texels
@@ -431,6 +652,21 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
             } else {
                 nt = clamp(int(std::sqrt(ht * float(samples) / hs) + 0.5f), minSamples, samples);
                 ns = clamp(int(float(samples) / float(nt) + 0.5f), minSamples, samples);
+            }
+            // An open surface stored as its own second layer (§3.3): a
+            // receiver whose tangent plane is the plane the covered blocks
+            // store, facing the light, gets every virtual sample lit, and
+            // Figure 10 gives it 0 whatever its plain comparisons say --
+            // unless a single sample makes the plain comparison final.
+            // (A negative bias could shadow a sample on the plane itself.)
+            if (planeLit && blockTests && blocksPlanar && ns * nt > 1 && planeOfPoint().valid &&
+                planeOfPoint().facesLight) {
+                const PlaneEnvelope env = envelope(planeOfPoint());
+                if (everyTileOfBlocks([&](const ShadowTile& tile, int tileX, int tileY, int bx0, int bx1, int by0,
+                                          int by1) { return onStoredPlanes(env, tile, tileX, tileY, bx0, bx1, by0, by1); })) {
+                    ++st.storedPlaneLit;
+                    continue;
+                }
             }
             ++st.filtered;
             st.samples += uint64_t(ns) * uint64_t(nt);
@@ -562,7 +798,7 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
             const bool virtualSamples =
                 secondDepth && (mixed || (inShadow > 0 && facesLight(planes, P, batch.N[i])));
             TangentPlane plane;
-            if (virtualSamples) plane = tangentPlane(planes, P, batch.N[i]);
+            if (virtualSamples) plane = planeOfPoint();
             if (virtualSamples && plane.valid) {
                 // Wang & Molnar Fig. 10, mixed comparisons (or shadowed ones
                 // on a light-facing surface): the tangent plane at P, in the
@@ -599,37 +835,6 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
         }
     }
     stats += st;
-}
-
-ShadowMap::PlaneFrame ShadowMap::planeFrame(const Mat4& spaceFromLight) const {
-    // A plane covector c of the space becomes (spaceFromLight)^T c in the
-    // light's camera space and m_planeFromLight times that in its raster
-    // space (plane covectors go by the inverse transpose of point maps).
-    PlaneFrame f;
-    f.rasterPlaneFromSpace = m_planeFromLight * spaceFromLight.transposed();
-    f.light = m_projection == Projection::Perspective ? spaceFromLight.point(Vec3(0, 0, 0))
-                                                      : spaceFromLight.vector(Vec3(0, 0, 1));
-    return f;
-}
-
-ShadowMap::TangentPlane ShadowMap::tangentPlane(const PlaneFrame& frame, const Vec3& P, const Vec3& N) const {
-    TangentPlane plane;
-    if (m_virtualMode == 0) return plane;
-    // The plane n.x - n.P = 0 through P, carried to the light's raster
-    // space (x, y, 1/z or z), where it is linear.
-    const float c[4] = {N.x, N.y, N.z, -dot(N, P)};
-    const auto& M = frame.rasterPlaneFromSpace.m;
-    float pl[4];
-    for (int r = 0; r < 4; ++r) pl[r] = M[r][0] * c[0] + M[r][1] * c[1] + M[r][2] * c[2] + M[r][3] * c[3];
-    // An edge-on plane (c = 0) says nothing about depth.
-    if (!(std::abs(pl[2]) > 1e-30f) || !std::isfinite(pl[0] + pl[1] + pl[2] + pl[3])) return plane;
-    const float inv = -1.0f / pl[2];
-    plane.a = pl[0] * inv;
-    plane.b = pl[1] * inv;
-    plane.d = pl[3] * inv;
-    plane.valid = true;
-    plane.facesLight = facesLight(frame, P, N);
-    return plane;
 }
 
 void ShadowMap::lookupCube(const ShadowBatch& batch, const ShadowParams& params, float* out, ShadowStats& stats,

@@ -32,6 +32,7 @@ ShadowStats& ShadowStats::operator+=(const ShadowStats& o) {
     secondLit += o.secondLit;
     secondShadowed += o.secondShadowed;
     virtualPoints += o.virtualPoints;
+    storedPlaneLit += o.storedPlaneLit;
     return *this;
 }
 
@@ -415,7 +416,7 @@ ShadowTilePtr ShadowMap::readTile(int tx, int ty) const {
                                                "its texels are treated as empty",
                       m_path, tx, ty, why);
     }
-    tile->computeBlockRanges();
+    tile->computeBlocks(blockPlanes());
     return tile;
 }
 
@@ -444,7 +445,7 @@ int ShadowMap::preload(const DepthImage& image) const {
                 float* out = tile->z.data() + size_t(y - tileY0) * size_t(m_tileW);
                 for (int x = xa; x <= xb; ++x) out[x - tileX0] = std::isfinite(in[x]) ? in[x] : kInfinity;
             }
-            tile->computeBlockRanges();
+            tile->computeBlocks(blockPlanes());
             const uint32_t index = uint32_t(ty) * uint32_t(m_tilesX) + uint32_t(tx);
             if (!m_cache->preload(m_mapId, index, std::move(tile))) return added;
             ++added;

@@ -3,28 +3,72 @@
 #include "umbra/util/math.h"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 
 namespace umbra {
 
-void ShadowTile::computeBlockRanges() {
+namespace {
+
+/// The plane q = q0 + gx i + gy j through the depths of one block (bw x bh
+/// texels from `first`, rows `stride` apart) in the coordinate q (1/z or z),
+/// fitted through three corners and accepted when every texel lies within
+/// a relative ShadowTile::kPlaneFit of it; false otherwise.
+bool fitBlockPlane(const float* first, int stride, int bw, int bh, ShadowTile::DepthCoordinate planes, float* q0,
+                   float* gx, float* gy) {
+    const bool inverse = planes == ShadowTile::DepthCoordinate::InverseDepth;
+    auto q = [&](int i, int j) -> double {
+        const double d = first[size_t(j) * size_t(stride) + size_t(i)];
+        return inverse ? 1.0 / d : d;
+    };
+    const double c00 = q(0, 0);
+    *q0 = float(c00);
+    *gx = float((q(bw - 1, 0) - c00) / (bw - 1));
+    *gy = float((q(0, bh - 1) - c00) / (bh - 1));
+    // Checked against the plane as stored (floats), without a divide per
+    // texel: under 1/z, |1/d - p| <= k/d is |1 - p d| <= k for d > 0.
+    for (int j = 0; j < bh; ++j)
+        for (int i = 0; i < bw; ++i) {
+            const double d = first[size_t(j) * size_t(stride) + size_t(i)];
+            if (!std::isfinite(d) || (inverse && !(d > 0))) return false;
+            const double p = double(*q0) + double(*gx) * i + double(*gy) * j;
+            const double off = inverse ? std::abs(1.0 - p * d) : std::abs(d - p);
+            if (!(off <= ShadowTile::kPlaneFit * (inverse ? 1.0 : std::abs(d)))) return false;
+        }
+    return true;
+}
+
+}  // namespace
+
+void ShadowTile::computeBlocks(DepthCoordinate planes) {
     const int bw = width / kBlocks, bh = height / kBlocks;
     for (int b = 0; b < kBlocks * kBlocks; ++b) {
         blockMin[b] = -kInfinity;
         blockMax[b] = kInfinity;
+        planeQ0[b] = planeGx[b] = planeGy[b] = std::numeric_limits<float>::quiet_NaN();
     }
     if (bw * kBlocks != width || bh * kBlocks != height || z.size() != size_t(width) * size_t(height)) return;
     for (int by = 0; by < kBlocks; ++by)
         for (int bx = 0; bx < kBlocks; ++bx) {
+            const int b = by * kBlocks + bx;
+            const float* first = z.data() + size_t(by * bh) * size_t(width) + size_t(bx * bw);
             float lo = kInfinity, hi = -kInfinity;
-            for (int y = by * bh; y < (by + 1) * bh; ++y) {
-                const float* row = z.data() + size_t(y) * size_t(width) + size_t(bx * bw);
+            for (int y = 0; y < bh; ++y) {
+                const float* row = first + size_t(y) * size_t(width);
                 for (int x = 0; x < bw; ++x) {
                     lo = std::min(lo, row[x]);
                     hi = std::max(hi, row[x]);
                 }
             }
-            blockMin[by * kBlocks + bx] = lo;
-            blockMax[by * kBlocks + bx] = hi;
+            blockMin[b] = lo;
+            blockMax[b] = hi;
+            float q0, gx, gy;
+            if (planes != DepthCoordinate::None && bw > 1 && bh > 1 && std::isfinite(hi) &&
+                fitBlockPlane(first, width, bw, bh, planes, &q0, &gx, &gy)) {
+                planeQ0[b] = q0;
+                planeGx[b] = gx;
+                planeGy[b] = gy;
+            }
         }
 }
 

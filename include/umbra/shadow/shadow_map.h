@@ -87,6 +87,10 @@ struct ShadowStats {
     uint64_t secondLit = 0;       ///< every comparison lit: lit without virtual samples
     uint64_t secondShadowed = 0;  ///< no comparison lit: shadowed without virtual samples
     uint64_t virtualPoints = 0;   ///< mixed: resolved with virtual samples on the tangent plane
+    /// Second-depth maps, not among `filtered`: light-facing points whose
+    /// tangent plane is the plane every covered 8x8 block stores (an open
+    /// surface stored as its own second layer), lit without samples.
+    uint64_t storedPlaneLit = 0;
     ShadowStats& operator+=(const ShadowStats& o);
 };
 
@@ -180,10 +184,13 @@ public:
     /// the plane is seen edge-on.
     struct TangentPlane {
         float a = 0, b = 0, d = 0;
-        bool valid = false;
+        /// The flags are whole words: bytes packed after the floats made
+        /// GCC copy the struct through a misaligned reload that stalled on
+        /// the store buffer (by perf, a tenth of the lookup loop's time).
+        int32_t valid = false;
         /// The normal points towards the light: a surface the light reaches
         /// from its front (its lit side), never the far side of a solid.
-        bool facesLight = false;
+        int32_t facesLight = false;
     };
     /// The plane through P with normal N (both in the space `lightFromSpace`
     /// maps to the light's camera space; `spaceFromLight` is its inverse,
@@ -293,16 +300,84 @@ private:
         Vec3 light;                 // perspective: the light's position; orthographic: its view axis
     };
     PlaneFrame planeFrame(const Mat4& spaceFromLight) const;
-    TangentPlane tangentPlane(const PlaneFrame& frame, const Vec3& P, const Vec3& N) const;
+    /// Defined here so the lookup loop inlines it.
+    TangentPlane tangentPlane(const PlaneFrame& frame, const Vec3& P, const Vec3& N) const {
+        TangentPlane plane;
+        if (m_virtualMode == 0) return plane;
+        // The plane n.x - n.P = 0 through P, carried to the light's raster
+        // space (x, y, 1/z or z), where it is linear.
+        const float c[4] = {N.x, N.y, N.z, -dot(N, P)};
+        const auto& M = frame.rasterPlaneFromSpace.m;
+        float pl[4];
+        for (int r = 0; r < 4; ++r) pl[r] = M[r][0] * c[0] + M[r][1] * c[1] + M[r][2] * c[2] + M[r][3] * c[3];
+        // An edge-on plane (c = 0) says nothing about depth.
+        if (!(std::abs(pl[2]) > 1e-30f) || !std::isfinite(pl[0] + pl[1] + pl[2] + pl[3])) return plane;
+        const float inv = -1.0f / pl[2];
+        plane.a = pl[0] * inv;
+        plane.b = pl[1] * inv;
+        plane.d = pl[3] * inv;
+        plane.valid = true;
+        plane.facesLight = facesLight(frame, P, N);
+        return plane;
+    }
     bool facesLight(const PlaneFrame& frame, const Vec3& P, const Vec3& N) const {
         return m_projection == Projection::Perspective ? dot(N, frame.light - P) > 0 : dot(N, frame.light) < 0;
     }
+    /// The coordinate tiles fit their blocks' planes in: second-depth maps
+    /// that take virtual samples only.
+    ShadowTile::DepthCoordinate blockPlanes() const;
+    /// Receivers' tangent planes in the map's depth coordinate q (m_wScale
+    /// times the raster plane): q = A x + B y + D for one of them, every
+    /// other within `spread` of it over the texels tested; the largest |a|,
+    /// |b|, |d| of the raster planes bound the rounding of the sample loop.
+    struct PlaneEnvelope {
+        double A = 0, B = 0, D = 0, spread = 0;
+        double absA = 0, absB = 0, absD = 0;
+    };
+    PlaneEnvelope envelope(const TangentPlane& plane) const;
+    /// True when every plane of `env` matches the planes stored in blocks
+    /// [bx0, bx1] x [by0, by1] of `tile` (whose first texel is raster
+    /// (tileX, tileY)) closely enough that every virtual sample there
+    /// compares lit, rounding included.
+    bool onStoredPlanes(const PlaneEnvelope& env, const ShadowTile& tile, int tileX, int tileY, int bx0, int bx1,
+                        int by0, int by1) const;
+
+    /// The tangent planes of a batch's points, made on first use (all at
+    /// once, for tests of the whole batch). `frame` is null when the lookup
+    /// takes no virtual samples.
+    struct BatchPlanes {
+        const PlaneFrame* frame = nullptr;
+        std::vector<TangentPlane>* planes = nullptr;
+        bool ready = false;
+    };
+    const TangentPlane* planesOf(const ShadowBatch& batch, BatchPlanes& bp) const {
+        if (!bp.ready) {
+            bp.planes->resize(size_t(batch.count));
+            for (int i = 0; i < batch.count; ++i) (*bp.planes)[size_t(i)] = tangentPlane(*bp.frame, batch.P[i], batch.N[i]);
+            bp.ready = true;
+        }
+        return bp.planes->data();
+    }
+    /// True when at every texel centre of [i0, i1] x [j0, j1] every plane
+    /// of `env` lies deeper than `limit` as the sample loop's virtual
+    /// comparison finds it (rounding included): a light-facing point whose
+    /// plain comparisons are all shadowed is then shadowed by its virtual
+    /// samples too, and may be culled as shadowed.
+    bool planesDeeper(const PlaneEnvelope& env, int i0, int i1, int j0, int j1, double limit) const;
+    /// The envelope of the valid, light-facing planes among `planes` over
+    /// raster [x0, x1] x [y0, y1]; `all` tells whether every plane was one.
+    PlaneEnvelope envelopeOfFacing(const TangentPlane* planes, int count, double x0, double x1, double y0, double y1,
+                                   bool* all, bool* any) const;
 
     /// Decides a whole batch at once from a bound of its points when it
-    /// misses the bounding box or clears the covered tiles' depth range
-    /// (writing `out` and counting it in `st`); false when undecided.
+    /// misses the bounding box or clears the covered tiles' depth range,
+    /// or (given the points' tangent planes and `planeLit`) when every
+    /// block its regions cover stores the plane its points lie on; writes
+    /// `out` and counts it in `st`; false when undecided. The shadowed
+    /// case of second-depth lookups needs the planes of light-facing points.
     bool batchDecided(const ShadowBatch& batch, const ShadowParams& params, const Mat4& lightFromCurrent,
-                      const Mat4& rasterFromCurrent, float* out, ShadowStats& st) const;
+                      const Mat4& rasterFromCurrent, BatchPlanes& planes, bool planeLit, float* out,
+                      ShadowStats& st) const;
 
     std::string m_path;
     Diagnostics* m_diag = nullptr;

@@ -28,9 +28,21 @@ struct ShadowTile {
     int width = 0, height = 0;
     std::vector<float> z;
     float blockMin[kBlocks * kBlocks], blockMax[kBlocks * kBlocks];
-    /// Fills blockMin/blockMax from z (call once z is final). Tiles whose
-    /// sides are not multiples of kBlocks get blocks that never cull.
-    void computeBlockRanges();
+    /// Second-depth maps: the plane each block's depths lie on, in the
+    /// map's linear depth coordinate q (1/z under a perspective light, z
+    /// under an orthographic one, as DepthCoordinate says): texel (i, j) of
+    /// block b (i, j from its first texel) holds q = planeQ0[b] +
+    /// planeGx[b] i + planeGy[b] j within a relative kPlaneFit. planeQ0 is
+    /// NaN for blocks that are not planar, hold an empty texel, or were not
+    /// fitted. An open surface stored as its own second layer is planar
+    /// here wherever it is flat, and a receiver on that plane is lit.
+    float planeQ0[kBlocks * kBlocks], planeGx[kBlocks * kBlocks], planeGy[kBlocks * kBlocks];
+    static constexpr float kPlaneFit = 1e-5f;
+    enum class DepthCoordinate { None, InverseDepth, Depth };
+    /// Fills blockMin/blockMax, and the block planes in `planes` (None
+    /// leaves every block unfitted), from z (call once z is final). Tiles
+    /// whose sides are not multiples of kBlocks get blocks that never cull.
+    void computeBlocks(DepthCoordinate planes = DepthCoordinate::None);
     size_t bytes() const { return z.size() * sizeof(float) + sizeof(ShadowTile); }
 };
 using ShadowTilePtr = std::shared_ptr<const ShadowTile>;

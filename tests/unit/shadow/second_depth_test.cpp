@@ -67,8 +67,22 @@ TEST(SecondDepth, VirtualSamplesRemoveSelfShadowingWithoutBias) {
     // Plain PCF on the same slope shadows itself: about half of the samples
     // lie on texels nearer the light than the point.
     EXPECT_GT(acne / double(pts.P.size()), 0.3);
-    EXPECT_EQ(stSecond.virtualPoints, pts.P.size());
+    // The slope is stored as itself (an open surface, §3.3): points on it
+    // are lit from the stored planes of the blocks, or by virtual samples
+    // where a region reaches past them (the map's edge).
+    EXPECT_GT(stSecond.storedPlaneLit, pts.P.size() / 2);
+    EXPECT_EQ(stSecond.storedPlaneLit + stSecond.virtualPoints, pts.P.size());
     EXPECT_EQ(stFirst.virtualPoints, 0u);
+    EXPECT_EQ(stFirst.storedPlaneLit, 0u);
+    // Without the culling tests every point takes virtual samples, with
+    // the same results.
+    params.tileCulling = false;
+    std::vector<float> unculled(pts.P.size());
+    ShadowStats stUnculled;
+    second->lookup(pts.batch(1), params, unculled.data(), stUnculled);
+    EXPECT_EQ(unculled, outSecond);
+    EXPECT_EQ(stUnculled.virtualPoints, pts.P.size());
+    params.tileCulling = true;
     // Without normals there is no tangent plane: plain comparisons.
     std::vector<float> noNormals(pts.P.size());
     ShadowStats st;
@@ -150,7 +164,17 @@ TEST(SecondDepth, PerspectivePlaneIsLinearInScreenSpace) {
     ShadowStats st;
     map->lookup(pts.batch(3), params, out.data(), st);
     for (size_t i = 0; i < out.size(); ++i) EXPECT_EQ(out[i], 0.0f) << i;
-    EXPECT_EQ(st.virtualPoints, pts.P.size());
+    // Stored as 1/z-linear blocks, the plane is recognised without samples
+    // (the two tests agree: culling off takes virtual samples everywhere).
+    EXPECT_EQ(st.virtualPoints + st.storedPlaneLit, pts.P.size());
+    EXPECT_GT(st.storedPlaneLit, 0u);
+    ShadowParams unculled;
+    unculled.tileCulling = false;
+    std::vector<float> outUnculled(pts.P.size());
+    ShadowStats stUnculled;
+    map->lookup(pts.batch(3), unculled, outUnculled.data(), stUnculled);
+    EXPECT_EQ(outUnculled, out);
+    EXPECT_EQ(stUnculled.virtualPoints, pts.P.size());
 
     // An occluder's back face at depth 10 over texel columns < 40: receiver
     // points whose region is centred on that edge are half in shadow, and
@@ -177,6 +201,117 @@ TEST(SecondDepth, PerspectivePlaneIsLinearInScreenSpace) {
     mean /= double(half.size());
     EXPECT_NEAR(mean, 0.5, 0.1);
     EXPECT_EQ(est.virtualPoints, edge.P.size());
+}
+
+TEST(SecondDepth, BlocksStoreThePlaneTheirDepthsLieOn) {
+    // Orthographic (q = z) and perspective (q = 1/z) planes fit; an empty
+    // texel, a bump larger than kPlaneFit and a step do not.
+    for (auto coord : {ShadowTile::DepthCoordinate::Depth, ShadowTile::DepthCoordinate::InverseDepth}) {
+        const bool inverse = coord == ShadowTile::DepthCoordinate::InverseDepth;
+        ShadowTile t;
+        t.width = t.height = 32;
+        t.z.resize(1024);
+        auto q = [](int x, int y) { return 0.05 + 0.0007 * x - 0.0003 * y; };
+        for (int y = 0; y < 32; ++y)
+            for (int x = 0; x < 32; ++x) t.z[size_t(y * 32 + x)] = float(inverse ? 1.0 / q(x, y) : q(x, y));
+        t.z[size_t(1 * 32 + 9)] = kInfinity;                           // block 1: an empty texel
+        t.z[size_t(9 * 32 + 3)] *= 1.0f + 10 * ShadowTile::kPlaneFit;  // block 4: a bump
+        for (int y = 16; y < 24; ++y) t.z[size_t(y * 32 + 20)] *= 2;   // block 10: a step
+        t.computeBlocks(coord);
+        for (int b = 0; b < 16; ++b) {
+            const int bx = (b % 4) * 8, by = (b / 4) * 8;
+            if (b == 1 || b == 4 || b == 10) {
+                EXPECT_TRUE(std::isnan(t.planeQ0[b])) << b;
+                continue;
+            }
+            ASSERT_FALSE(std::isnan(t.planeQ0[b])) << b;
+            for (int j = 0; j < 8; ++j)
+                for (int i = 0; i < 8; ++i)
+                    EXPECT_NEAR(t.planeQ0[b] + t.planeGx[b] * float(i) + t.planeGy[b] * float(j), q(bx + i, by + j),
+                                1e-6 * q(0, 0))
+                        << b << " " << i << " " << j;
+        }
+        // Without a coordinate no block is fitted.
+        t.computeBlocks();
+        for (int b = 0; b < 16; ++b) EXPECT_TRUE(std::isnan(t.planeQ0[b])) << b;
+    }
+}
+
+ShadowBatch subBatch(const Surface& s, size_t first, size_t n, uint32_t seed) {
+    ShadowBatch b;
+    b.count = int(n);
+    b.P = s.P.data() + first;
+    b.dPdu_du = s.du.data() + first;
+    b.dPdv_dv = s.dv.data() + first;
+    b.N = s.N.data() + first;
+    b.seed = seed;
+    return b;
+}
+
+TEST(SecondDepth, CullingNeverChangesAResult) {
+    // The open floor z = 50 + 0.3 x stored as itself, an occluder's back
+    // face at z = 12 over x < 64 (slopeImage). Receivers, in grids of 16
+    // points as a renderer passes them:
+    //  - the floor itself, lit from the planes its blocks store, whole
+    //    grids at once where every block they reach stores the floor;
+    //  - steep light-facing planes whose points lie beyond every stored
+    //    depth of their regions (and, in the second group, of their whole
+    //    tile) but whose planes rise in front of the floor within the
+    //    region. A depth-range cull alone would call them shadowed; their
+    //    virtual samples light a part of each.
+    auto map = test::writeAndOpen(slopeImage(DepthFilter::Second, true), "cull_exact.exr");
+    ASSERT_TRUE(map);
+    Surface pts;
+    Rng rng(21);
+    const Vec3 du(1, 0, 0.3f), dv(0, 1, 0);
+    const Vec3 floorN = normalize(cross(du, dv)) * -1.0f;
+    for (int g = 0; g < 40; ++g) {
+        const float x0 = 4 + 116 * rng.uniform(), y0 = 4 + 52 * rng.uniform();
+        for (int k = 0; k < 16; ++k) {
+            const float x = x0 + float(k % 4), y = y0 + float(k / 4);
+            pts.P.push_back(Vec3(x, y, 50 + 0.3f * x));
+            pts.du.push_back(du);
+            pts.dv.push_back(dv);
+            pts.N.push_back(floorN);
+        }
+    }
+    const size_t steepFrom = pts.P.size();
+    // (offset above the floor, slope, first x): within +-2 texels the
+    // stored floor rises at most 0.75 above its depth at x, and every 8x8
+    // block it reaches at most 2.85; the tiles over x < 128 hold at most
+    // 88.25, which x >= 100 and an offset of 12 clear.
+    const float groups[2][3] = {{3.5f, -3.0f, 70.0f}, {12.0f, -10.0f, 100.0f}};
+    for (const auto& grp : groups)
+        for (int k = 0; k < 32; ++k) {
+            // The second group's grids are small enough for their bound
+            // (regions of up to 22 texels, from 3-D footprint lengths) to
+            // stay inside the map: a whole grid reaches the tile test.
+            const bool whole = grp[2] >= 100;
+            const float x = grp[2] + (whole ? 3.0f : 50.0f) * rng.uniform();
+            const float y = whole ? 28 + 6 * rng.uniform() : 8 + 48 * rng.uniform();
+            pts.P.push_back(Vec3(x, y, 50 + 0.3f * x + grp[0]));
+            pts.du.push_back(Vec3(4, 0, 4 * grp[1]));
+            pts.dv.push_back(Vec3(0, 4, 0));
+            pts.N.push_back(normalize(Vec3(grp[1], 0, -1)));  // the plane's, towards the light (-z)
+        }
+    ShadowParams on, off;
+    off.tileCulling = false;
+    std::vector<float> outOn(pts.P.size()), outOff(pts.P.size());
+    ShadowStats stOn, stOff;
+    for (size_t first = 0; first < pts.P.size(); first += 16) {
+        map->lookup(subBatch(pts, first, 16, uint32_t(first)), on, outOn.data() + first, stOn);
+        map->lookup(subBatch(pts, first, 16, uint32_t(first)), off, outOff.data() + first, stOff);
+    }
+    EXPECT_EQ(outOn, outOff);
+    size_t openFloor = 0;  // floor points well clear of the occluder
+    for (size_t i = 0; i < steepFrom; ++i) openFloor += pts.P[i].x > 70;
+    EXPECT_GT(stOn.storedPlaneLit, openFloor * 3 / 4);
+    EXPECT_EQ(stOff.storedPlaneLit, 0u);
+    int partial = 0;
+    for (size_t i = steepFrom; i < pts.P.size(); ++i) partial += outOff[i] > 0 && outOff[i] < 1;
+    EXPECT_GT(partial, 48);  // of 64: the test must reach the case it is about
+    for (size_t i = 0; i < steepFrom; ++i)
+        if (pts.P[i].x > 70) EXPECT_EQ(outOn[i], 0.0f) << pts.P[i].x;
 }
 
 }  // namespace

@@ -390,7 +390,7 @@ TEST(ShadowTile, BlockRangesAreTheMinAndMaxOfEachBlock) {
     t.z.resize(1024);
     Rng rng(5);
     for (float& z : t.z) z = rng.uniform() < 0.1f ? kInfinity : 100 * rng.uniform();
-    t.computeBlockRanges();
+    t.computeBlocks();
     for (int b = 0; b < 16; ++b) {
         float lo = kInfinity, hi = -kInfinity;
         for (int y = (b / 4) * 8; y < (b / 4) * 8 + 8; ++y)
@@ -405,7 +405,7 @@ TEST(ShadowTile, BlockRangesAreTheMinAndMaxOfEachBlock) {
     ShadowTile odd;
     odd.width = odd.height = 6;
     odd.z.assign(36, 1.0f);
-    odd.computeBlockRanges();
+    odd.computeBlocks();
     EXPECT_EQ(odd.blockMin[0], -kInfinity);
     EXPECT_EQ(odd.blockMax[15], kInfinity);
 }
