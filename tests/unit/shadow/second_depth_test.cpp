@@ -48,6 +48,18 @@ Surface pointsOnSlope(int n, float x0, float x1, uint32_t seed) {
     return s;
 }
 
+/// Looked up again without the culling tests, every point of `batch`
+/// takes virtual samples and gets what `culled` (the lookup with them) got.
+void expectUnculledVirtualSamplesAgree(const ShadowMap& map, const ShadowBatch& batch, ShadowParams params,
+                                       const std::vector<float>& culled) {
+    params.tileCulling = false;
+    std::vector<float> out(size_t(batch.count));
+    ShadowStats st;
+    map.lookup(batch, params, out.data(), st);
+    EXPECT_EQ(out, culled);
+    EXPECT_EQ(st.virtualPoints, uint64_t(batch.count));
+}
+
 TEST(SecondDepth, VirtualSamplesRemoveSelfShadowingWithoutBias) {
     auto second = test::writeAndOpen(slopeImage(DepthFilter::Second, false), "slope_second.exr");
     auto first = test::writeAndOpen(slopeImage(DepthFilter::Min, false), "slope_min.exr");
@@ -76,13 +88,7 @@ TEST(SecondDepth, VirtualSamplesRemoveSelfShadowingWithoutBias) {
     EXPECT_EQ(stFirst.storedPlaneLit, 0u);
     // Without the culling tests every point takes virtual samples, with
     // the same results.
-    params.tileCulling = false;
-    std::vector<float> unculled(pts.P.size());
-    ShadowStats stUnculled;
-    second->lookup(pts.batch(1), params, unculled.data(), stUnculled);
-    EXPECT_EQ(unculled, outSecond);
-    EXPECT_EQ(stUnculled.virtualPoints, pts.P.size());
-    params.tileCulling = true;
+    expectUnculledVirtualSamplesAgree(*second, pts.batch(1), params, outSecond);
     // Without normals there is no tangent plane: plain comparisons.
     std::vector<float> noNormals(pts.P.size());
     ShadowStats st;
@@ -168,13 +174,7 @@ TEST(SecondDepth, PerspectivePlaneIsLinearInScreenSpace) {
     // (the two tests agree: culling off takes virtual samples everywhere).
     EXPECT_EQ(st.virtualPoints + st.storedPlaneLit, pts.P.size());
     EXPECT_GT(st.storedPlaneLit, 0u);
-    ShadowParams unculled;
-    unculled.tileCulling = false;
-    std::vector<float> outUnculled(pts.P.size());
-    ShadowStats stUnculled;
-    map->lookup(pts.batch(3), unculled, outUnculled.data(), stUnculled);
-    EXPECT_EQ(outUnculled, out);
-    EXPECT_EQ(stUnculled.virtualPoints, pts.P.size());
+    expectUnculledVirtualSamplesAgree(*map, pts.batch(3), params, out);
 
     // An occluder's back face at depth 10 over texel columns < 40: receiver
     // points whose region is centred on that edge are half in shadow, and
@@ -310,8 +310,11 @@ TEST(SecondDepth, CullingNeverChangesAResult) {
     int partial = 0;
     for (size_t i = steepFrom; i < pts.P.size(); ++i) partial += outOff[i] > 0 && outOff[i] < 1;
     EXPECT_GT(partial, 48);  // of 64: the test must reach the case it is about
-    for (size_t i = 0; i < steepFrom; ++i)
-        if (pts.P[i].x > 70) EXPECT_EQ(outOn[i], 0.0f) << pts.P[i].x;
+    for (size_t i = 0; i < steepFrom; ++i) {
+        if (pts.P[i].x > 70) {
+            EXPECT_EQ(outOn[i], 0.0f) << pts.P[i].x;
+        }
+    }
 }
 
 }  // namespace
