@@ -149,7 +149,12 @@ Vec3 xform(const Mat4& m, const Mat4& inv, XKind k, const Vec3& v) {
 template <class T> T deriv(const Exec& x, In<T> a, int i, int dir, float step) {
     if (a.s == 0 || step == 0) return T(0);
     int nu = x.nu, nv = x.nv;
-    int iu = i % nu, iv = i / nu;
+    // i = iv nu + iu without an integer divide (the costliest step here):
+    // i is exact in float, and one step fixes the reciprocal's rounding.
+    int iv = int(float(i) * x.invNu);
+    if (iv * nu > i) --iv;
+    else if ((iv + 1) * nu <= i) ++iv;
+    const int iu = i - iv * nu;
     int count = dir == 0 ? nu : nv;
     int pos = dir == 0 ? iu : iv;
     int stride = dir == 0 ? 1 : nu;

@@ -91,6 +91,7 @@ void Exec::setup(const CompiledShader& code, const ShaderInstance* instance, Sha
     ShadingGrid& g = *context.grid;
     n = g.size();
     nu = g.uVertices();
+    invNu = nu > 0 ? 1.0f / float(nu) : 0.0f;
     nv = g.vVertices();
     size_t nregs = code.regs.size();
     ptr.assign(nregs, nullptr);
@@ -556,6 +557,30 @@ bool categoryMatches(const std::string& want, const std::string& have) {
     return negate ? !found : found;
 }
 
+/// The cone test of illuminate() and illuminance(): L lies within `angle`
+/// of `axis` (angles of pi or more accept everything). Uniform angles and
+/// axes are worked out once.
+struct ConeOf {
+    In<Vec3> axis;
+    In<float> angle;
+    bool uniformAngle = false, uniformAxis = false;
+    float cosAngle = 0, axisLength = 0;
+    ConeOf(bool cone, In<Vec3> ax, In<float> an) : axis(ax), angle(an) {
+        if (!cone) return;
+        uniformAngle = angle.s == 0;
+        uniformAxis = axis.s == 0;
+        if (uniformAngle) cosAngle = std::cos(angle[0]);
+        if (uniformAxis) axisLength = length(axis[0]);
+    }
+    bool contains(const Vec3& L, int i) const {
+        const float a = angle[i];
+        if (!(a < kPi)) return true;
+        const Vec3 ax = axis[i];
+        const float ll = length(L), la = uniformAxis ? axisLength : length(ax);
+        return ll > 0 && la > 0 && !(dot(L, ax) < (uniformAngle ? cosAngle : std::cos(a)) * ll * la);
+    }
+};
+
 void illumNext(Exec& x, const Instr& in, int* pc) {
     Exec::Illum& il = x.illum.back();
     auto& lights = x.ctx->lights;
@@ -576,17 +601,11 @@ void illumNext(Exec& x, const Instr& in, int* pc) {
         bool any = false;
         float* Ld = x.ptr[size_t(Lreg)];
         float* Cd = x.ptr[size_t(Clreg)];
+        const ConeOf coneOf(cone, axis, angle);
         for (int i = 0; i < x.n; ++i) {
             if (!loop[size_t(i)] || !lr.lit(i)) continue;
             Vec3 L = -lr.L(i);
-            if (cone) {
-                float a = angle[i];
-                if (a < kPi) {
-                    Vec3 ax = axis[i];
-                    float ll = length(L), la = length(ax);
-                    if (ll <= 0 || la <= 0 || dot(L, ax) < std::cos(a) * ll * la) continue;
-                }
-            }
+            if (cone && !coneOf.contains(L, i)) continue;
             m[size_t(i)] = 1;
             any = true;
             put(Ld, i, L);
@@ -621,6 +640,9 @@ void illuminate(Exec& x, const Instr& in, bool solar, int* pc) {
     In<Vec3> axis = cone ? rd<Vec3>(x, in.b) : A;
     In<float> angle = cone ? rd<float>(x, in.c) : In<float>{nullptr, 0};
     bool any = false;
+    // A uniform cone (the usual case) has its cosine and axis length worked
+    // out once, not per point: the same values, without a cos per point.
+    const ConeOf coneOf(cone, axis, angle);
     for (int i = 0; i < x.n; ++i) {
         if (!parent[size_t(i)]) continue;
         Vec3 L;
@@ -628,12 +650,7 @@ void illuminate(Exec& x, const Instr& in, bool solar, int* pc) {
             L = in.a >= 0 ? A[i] : -N[i];
         } else {
             L = Ps[i] - A[i];
-            if (cone) {
-                float a = angle[i];
-                Vec3 ax = axis[i];
-                float ll = length(L), la = length(ax);
-                if (a < kPi && (ll <= 0 || la <= 0 || dot(L, ax) < std::cos(a) * ll * la)) continue;
-            }
+            if (cone && !coneOf.contains(L, i)) continue;
         }
         put(Ld, i, L);
         m[size_t(i)] = 1;
