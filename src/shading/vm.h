@@ -61,7 +61,7 @@ struct Exec {
     const ShaderInstance* inst = nullptr;
     ShadeContext* ctx = nullptr;
     int n = 0, nu = 0, nv = 0;
-    float invNu = 0;  // 1/nu, for gridRow()
+    float invNu = 0;  // 1/nu: deriv() splits point indices without a divide
     std::vector<float> store;
     std::vector<float*> ptr;
     std::vector<uint8_t> vary;

@@ -374,12 +374,11 @@ bool ShadowMap::planesDeeper(const PlaneEnvelope& env, int i0, int i1, int j0, i
     // deeper when q * limit < 1 (q = 1/z, perspective) or q > limit
     // (orthographic), with its limit rounded in float: a relative 1e-6.
     if (!std::isfinite(limit) || !std::isfinite(env.spread)) return false;
-    const double rounding = 4.0 * 0x1p-24 * std::abs(double(m_wScale));
     double qMin = kInfinity, qMax = -kInfinity;
     for (int c = 0; c < 4; ++c) {
         const double x = double(c & 1 ? i1 : i0) + 0.5, y = double(c & 2 ? j1 : j0) + 0.5;
         const double q = env.A * x + env.B * y + env.D;
-        const double err = env.spread + rounding * (env.absA * std::abs(x) + env.absB * std::abs(y) + env.absD);
+        const double err = env.spread + evaluationError(env, std::abs(x), std::abs(y));
         qMin = std::min(qMin, q - err);
         qMax = std::max(qMax, q + err);
     }
@@ -394,12 +393,10 @@ bool ShadowMap::onStoredPlanes(const PlaneEnvelope& env, const ShadowTile& tile,
     // plane's differ linearly, by at most |gap at the centre| + |slope
     // gaps| (hx, hy) (plus the envelope's spread), and the stored q, linear
     // too, is at least |q at the centre| - |slopes| (hx, hy) in magnitude
-    // (of one sign when that is positive). The sample loop evaluates the
-    // raster plane in float: at most 4 roundings of |a x| + |b y| + |d|,
-    // counted against the match as well.
+    // (of one sign when that is positive). The sample loop's rounding of
+    // the receiver's plane counts against the match as well.
     const int bw = tile.width / ShadowTile::kBlocks, bh = tile.height / ShadowTile::kBlocks;
     const double hx = 0.5 * (bw - 1), hy = 0.5 * (bh - 1);
-    const double rounding = 4.0 * 0x1p-24 * std::abs(double(m_wScale));
     for (int by = by0; by <= by1; ++by)
         for (int bx = bx0; bx <= bx1; ++bx) {
             const int b = by * ShadowTile::kBlocks + bx;
@@ -410,8 +407,7 @@ bool ShadowMap::onStoredPlanes(const PlaneEnvelope& env, const ShadowTile& tile,
             const double gap = std::abs(env.A * xc + env.B * yc + env.D - stored) + std::abs(env.A - gx) * hx +
                                std::abs(env.B - gy) * hy + env.spread;
             const double least = std::abs(stored) - std::abs(gx) * hx - std::abs(gy) * hy;
-            const double evaluation =
-                rounding * (env.absA * (std::abs(xc) + hx) + env.absB * (std::abs(yc) + hy) + env.absD);
+            const double evaluation = evaluationError(env, std::abs(xc) + hx, std::abs(yc) + hy);
             if (!(least > 0 && gap + evaluation <= kPlaneMatch * least)) return false;
         }
     return true;

@@ -335,6 +335,12 @@ private:
         double absA = 0, absB = 0, absD = 0;
     };
     PlaneEnvelope envelope(const TangentPlane& plane) const;
+    /// The most the sample loop's float evaluation of a plane of `env` can
+    /// be off, in q, at raster |x| <= xAbs, |y| <= yAbs: four roundings of
+    /// |a x| + |b y| + |d|.
+    double evaluationError(const PlaneEnvelope& env, double xAbs, double yAbs) const {
+        return 4.0 * 0x1p-24 * std::abs(double(m_wScale)) * (env.absA * xAbs + env.absB * yAbs + env.absD);
+    }
     /// True when every plane of `env` matches the planes stored in blocks
     /// [bx0, bx1] x [by0, by1] of `tile` (whose first texel is raster
     /// (tileX, tileY)) closely enough that every virtual sample there
@@ -365,7 +371,8 @@ private:
     /// samples too, and may be culled as shadowed.
     bool planesDeeper(const PlaneEnvelope& env, int i0, int i1, int j0, int j1, double limit) const;
     /// The envelope of the valid, light-facing planes among `planes` over
-    /// raster [x0, x1] x [y0, y1]; `all` tells whether every plane was one.
+    /// raster [x0, x1] x [y0, y1]; `all` tells whether every plane was one,
+    /// `any` whether at least one was.
     PlaneEnvelope envelopeOfFacing(const TangentPlane* planes, int count, double x0, double x1, double y0, double y1,
                                    bool* all, bool* any) const;
 
