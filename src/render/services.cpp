@@ -121,6 +121,7 @@ bool Services::shadow(const shading::ShadingGrid& grid, const shading::ShadowQue
     batch.N = q.N;
     batch.worldFromCurrent = st.pass->camera.cameraFromWorld.inverse();
     batch.seed = q.seed;
+    batch.pointId = q.indices;
     ShadowParams params = paramsOf(q, m_diag);
     if (params.bias == 0 && params.bias0 == 0 && params.bias1 == 0) applyDefaultBias(*map, params);
     ShadowStats stats;

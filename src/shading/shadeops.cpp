@@ -291,10 +291,11 @@ std::string formatString(Exec& x, Args& A, int first, int i) {
 
 // --- lighting -----------------------------------------------------------
 
-void ensureLights(Exec& x) {
-    if (x.ctx->lightsRun) return;
+/// The lights of diffuse(), specular() and phong(): those reaching the front
+/// hemisphere of `N` (a cone of pi/2), at P.
+void needLightsAbout(Exec& x, In<Vec3> N) {
     int Pr = x.cs->globalRegs[gP];
-    runLights(*x.ctx, x.ptr[size_t(Pr)], x.vary[size_t(Pr)]);
+    needLights(x, x.ptr[size_t(Pr)], x.vary[size_t(Pr)], N.p, N.s, float(kPi / 2));
 }
 
 [[gnu::always_inline]] inline Vec3 unit(const Vec3& v) {
@@ -308,7 +309,7 @@ void ensureLights(Exec& x) {
 /// that the normalised N and V are computed once for all lights.
 enum class LightModel { Diffuse, Specular, Phong };
 template <LightModel model> void lightSum(Exec& x, const Instr& in, const Args& A) {
-    ensureLights(x);
+    needLightsAbout(x, A.v(0));
     float* d = x.ptr[size_t(in.dst)];
     // The non-ambient lights, flattened for the inner loop.
     constexpr int kMax = 64;
@@ -550,7 +551,7 @@ void shadow(Exec& x, const Instr& in, Args& A, bool four) {
         }
         q.params.push_back(std::move(v));
     }
-    q.seed = hashKeys(x.ctx->grid->seed, uint32_t(&in - x.cs->code.data()), x.ctx->callCounter++);
+    q.seed = x.randomSeed(in);
     // No map: unshadowed (the renderer reports it).
     if (!x.ctx->services->shadow(*x.ctx->grid, q, result.data())) return;
     for (size_t k = 0; k < count; ++k) d[x.active[k]] = fixNan(result[k]);
@@ -979,7 +980,7 @@ void execCall(Exec& x, const Instr& in) {
     case Bi::CellT4: noise(x, in, A, 4, true, false, true); break;
     case Bi::RandomF:
     case Bi::RandomT: {
-        uint32_t call = hashKeys(x.ctx->grid->seed, uint32_t(&in - x.cs->code.data()), x.ctx->callCounter++);
+        uint32_t call = x.randomSeed(in);
         float* d = x.ptr[size_t(dst)];
         bool t = Bi(in.sub) == Bi::RandomT;
         forActive(x, x.vary[size_t(dst)], [&](int i) {
@@ -990,7 +991,8 @@ void execCall(Exec& x, const Instr& in) {
         break;
     }
     case Bi::Ambient: {
-        ensureLights(x);
+        const int Pr = x.cs->globalRegs[gP];
+        needAmbientLights(x, x.ptr[size_t(Pr)], x.vary[size_t(Pr)]);
         float* d = x.ptr[size_t(dst)];
         forActive(x, true, [&](int i) { put(d, i, Vec3(0.f)); });
         for (const LightRun& lr : x.ctx->lights)

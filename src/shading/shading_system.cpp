@@ -416,17 +416,18 @@ void ShadingSystem::shade(ShadingGrid& grid, const ShadeRequest& request, Render
         if (l && l->shader().kind() == ShaderKind::Light) {
             LightRun lr;
             lr.instance = l;
+            lr.ambient = l->shader().code().isAmbientLight;
             ctx.lights.push_back(std::move(lr));
         }
-    auto runOne = [&](const CompiledShader& code, const ShaderInstance* inst) {
+    auto runOne = [&](const CompiledShader& code, const ShaderInstance* inst, uint32_t stream) {
         Exec* e = acquireExec();
-        e->setup(code, inst, ctx, nullptr);
+        e->setup(code, inst, ctx, stream);
         e->run();
         return e;
     };
-    if (request.displacement) ctx.displacement = runOne(request.displacement->shader().code(), request.displacement);
-    if (request.surface) ctx.surface = runOne(request.surface->shader().code(), request.surface);
-    else if (!request.displacementOnly) ctx.surface = runOne(m_default->code(), nullptr);
+    if (request.displacement) ctx.displacement = runOne(request.displacement->shader().code(), request.displacement, kDisplacementStream);
+    if (request.surface) ctx.surface = runOne(request.surface->shader().code(), request.surface, kSurfaceStream);
+    else if (!request.displacementOnly) ctx.surface = runOne(m_default->code(), nullptr, kSurfaceStream);
     for (const std::string& name : request.outputs) {
         for (Exec* e : {ctx.surface, ctx.displacement}) {
             if (!e) continue;
@@ -448,7 +449,7 @@ void ShadingSystem::shade(ShadingGrid& grid, const ShadeRequest& request, Render
             if (done) break;
         }
     }
-    if (request.atmosphere) ctx.atmosphere = runOne(request.atmosphere->shader().code(), request.atmosphere);
+    if (request.atmosphere) ctx.atmosphere = runOne(request.atmosphere->shader().code(), request.atmosphere, kAtmosphereStream);
     releaseExecs(mark);
 }
 

@@ -3,6 +3,8 @@
 
 #include "vm.h"
 
+#include "umbra/util/rng.h"
+
 #include <cstring>
 
 namespace umbra::shading {
@@ -83,9 +85,15 @@ void Exec::refreshActive() {
     allOn = false;
 }
 
-void Exec::setup(const CompiledShader& code, const ShaderInstance* instance, ShadeContext& context,
+uint32_t Exec::randomSeed(const Instr& in) {
+    return hashKeys(ctx->grid->seed, randomStream, uint32_t(&in - cs->code.data()), randomCalls++);
+}
+
+void Exec::setup(const CompiledShader& code, const ShaderInstance* instance, ShadeContext& context, uint32_t stream,
                  const float* Ps, int PsStride) {
     cs = &code;
+    randomStream = stream;
+    randomCalls = 0;
     inst = instance;
     ctx = &context;
     ShadingGrid& g = *context.grid;
@@ -520,7 +528,9 @@ void Exec::run() {
             int cat = cs->args[size_t(in.argBase)];
             if (cat >= 0) il.category = strs[size_t(cat)][0];
             illum.push_back(il);
-            if (!ctx->lightsRun) runLights(*ctx, ptr[size_t(in.a)], vary[size_t(in.a)]);
+            const bool uniformAngle = in.c >= 0 && !vary[size_t(in.c)];
+            needLights(*this, ptr[size_t(in.a)], vary[size_t(in.a)], uniformAngle && in.b >= 0 ? ptr[size_t(in.b)] : nullptr,
+                       in.b >= 0 ? vary[size_t(in.b)] : 0, uniformAngle ? ptr[size_t(in.c)][0] : kPi);
             break;
         }
         case Op::IllumNext: illumNext(x, in, &pc); continue;
@@ -643,6 +653,7 @@ void illuminate(Exec& x, const Instr& in, bool solar, int* pc) {
     // A uniform cone (the usual case) has its cosine and axis length worked
     // out once, not per point: the same values, without a cos per point.
     const ConeOf coneOf(cone, axis, angle);
+    const ReceiverCone& receiver = x.ctx->receiver;
     for (int i = 0; i < x.n; ++i) {
         if (!parent[size_t(i)]) continue;
         Vec3 L;
@@ -652,6 +663,7 @@ void illuminate(Exec& x, const Instr& in, bool solar, int* pc) {
             L = Ps[i] - A[i];
             if (cone && !coneOf.contains(L, i)) continue;
         }
+        if (receiver.restricts && !receiver.admits(-L, i)) continue;
         put(Ld, i, L);
         m[size_t(i)] = 1;
         x.lit[size_t(i)] = 1;
@@ -664,21 +676,25 @@ void illuminate(Exec& x, const Instr& in, bool solar, int* pc) {
 
 }  // namespace
 
-void runLights(ShadeContext& ctx, const float* Ps, int stride) {
-    ctx.lightsRun = true;
-    for (LightRun& lr : ctx.lights) {
+namespace {
+
+/// Runs the ambient lights, or the others, over the grid.
+void runLights(ShadeContext& ctx, const float* Ps, int stride, bool ambient) {
+    for (size_t l = 0; l < ctx.lights.size(); ++l) {
+        LightRun& lr = ctx.lights[l];
+        if (lr.ambient != ambient) continue;
         const CompiledShader& code = lr.instance->shader().code();
         Exec* e = acquireExec();
         lr.exec = e;
-        e->setup(code, lr.instance, ctx, Ps, stride);
+        e->setup(code, lr.instance, ctx, kFirstLightStream + uint32_t(l), Ps, stride);
         e->run();
-        lr.ambient = code.isAmbientLight;
         int Lr = code.globalRegs[gL], Clr = code.globalRegs[gCl];
         lr.Lp = e->ptr[size_t(Lr)];
         lr.Ls = e->vary[size_t(Lr)];
         lr.Clp = e->ptr[size_t(Clr)];
         lr.Cls = e->vary[size_t(Clr)];
         lr.litp = lr.ambient ? nullptr : e->lit.data();
+        if (lr.ambient) continue;
         int n = e->n;
         e->lightDir.resize(size_t(n));
         for (int i = 0; i < n; ++i) {
@@ -688,6 +704,50 @@ void runLights(ShadeContext& ctx, const float* Ps, int stride) {
         }
         lr.dir = e->lightDir.data();
     }
+}
+
+}  // namespace
+
+void needLights(Exec& x, const float* Ps, int stride, const float* axis, int axisStride, float angle) {
+    ShadeContext& ctx = *x.ctx;
+    ReceiverCone& rc = ctx.receiver;
+    const bool restricts = axis && angle < kPi;
+    const float cosLimit = restricts ? std::cos(angle) - ReceiverCone::kReceiverSlack : -2.0f;
+    In<Vec3> ax{axis, axisStride};
+    if (ctx.lightsRun) {
+        if (!rc.restricts) return;
+        // Covered when this cone is no wider and has the same axis wherever
+        // this loop looks: every light it accepts was then admitted.
+        bool covered = restricts && cosLimit >= rc.cosLimit;
+        if (covered && !(rc.uniformAxis && axisStride == 0)) {
+            auto same = [&](int i) { return ax[i] == rc.axis[rc.uniformAxis ? 0 : size_t(i)]; };
+            if (x.allOn) {
+                for (int i = 0; i < x.n && covered; ++i) covered = same(i);
+            } else {
+                for (int i : x.active)
+                    if (!(covered = same(i))) break;
+            }
+        } else if (covered) {
+            covered = ax[0] == rc.axis[0];
+        }
+        if (covered) return;
+        rc.restricts = false;  // run them again, at every point
+    } else if (restricts) {
+        rc.restricts = true;
+        rc.uniformAxis = axisStride == 0;
+        rc.cosLimit = cosLimit;
+        const int count = rc.uniformAxis ? 1 : x.n;
+        rc.axis.resize(size_t(count));
+        for (int i = 0; i < count; ++i) rc.axis[size_t(i)] = ax[i];
+    }
+    runLights(ctx, Ps, stride, false);
+    ctx.lightsRun = true;
+}
+
+void needAmbientLights(Exec& x, const float* Ps, int stride) {
+    if (x.ctx->ambientLightsRun) return;
+    x.ctx->ambientLightsRun = true;
+    runLights(*x.ctx, Ps, stride, true);
 }
 
 }  // namespace umbra::shading

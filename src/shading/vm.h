@@ -32,11 +32,32 @@ struct LightRun {
     int Ls = 0, Cls = 0;              // strides: 0 when uniform
     const uint8_t* litp = nullptr;    // null: every point (ambient lights)
     const Vec3* dir = nullptr;        // unit vector from the surface towards the light
-    bool ambient = false;
+    bool ambient = false;  // no illuminate() or solar(): only ambient() reads it
 
     Vec3 L(int i) const { return {Lp[3 * i * Ls], Lp[3 * i * Ls + 1], Lp[3 * i * Ls + 2]}; }
     Vec3 Cl(int i) const { return {Clp[3 * i * Cls], Clp[3 * i * Cls + 1], Clp[3 * i * Cls + 2]}; }
     bool lit(int i) const { return !litp || litp[i]; }
+};
+
+/// The directions towards a light that the surface's lighting reads: a cone
+/// about `axis` (per point, or one uniform axis) whose cosine is at least
+/// `cosLimit`. The non-ambient lights run under the cone of the surface's
+/// first diffuse(), specular(), phong() or illuminance loop, and their
+/// illuminate() and solar() skip the points whose light falls outside it:
+/// on a closed object, the half that faces away from each light, shadow
+/// lookups and all. The limit is a little wider than the loop's own test
+/// (kReceiverSlack), so that every point the loop accepts was lit.
+struct ReceiverCone {
+    static constexpr float kReceiverSlack = 1e-5f;
+    bool restricts = false;
+    std::vector<Vec3> axis;
+    bool uniformAxis = false;
+    float cosLimit = -2;
+
+    bool admits(const Vec3& towardLight, int i) const {
+        const Vec3& ax = axis[uniformAxis ? 0 : size_t(i)];
+        return !(dot(towardLight, ax) < cosLimit * length(towardLight) * length(ax));
+    }
 };
 
 /// State shared by the shaders run on one grid.
@@ -44,16 +65,21 @@ struct ShadeContext {
     const ShadingSystem* system = nullptr;
     ShadingGrid* grid = nullptr;
     RendererServices* services = nullptr;
-    std::vector<LightRun> lights;
-    bool lightsRun = false;
+    std::vector<LightRun> lights;  // run lazily: see needLights()
+    bool lightsRun = false;        // the non-ambient lights
+    bool ambientLightsRun = false;
+    ReceiverCone receiver;         // what the non-ambient lights ran under
     Exec* surface = nullptr;
     Exec* displacement = nullptr;
     Exec* atmosphere = nullptr;
     std::map<std::string, Mat4> spaces;  // currentFromSpace cache (not "shader")
     Mat4 currentFromWorld;
     bool haveWorld = false;
-    uint32_t callCounter = 0;
 };
+
+/// The random streams of a grid's shaders (Exec::randomStream); light l of
+/// the grid's light list has stream kFirstLightStream + l.
+enum : uint32_t { kDisplacementStream = 1, kSurfaceStream = 2, kAtmosphereStream = 3, kFirstLightStream = 16 };
 
 /// One running shader instance.
 struct Exec {
@@ -85,10 +111,18 @@ struct Exec {
     std::vector<Vec3> ownPs;         // light shaders: Ps
     std::vector<Vec3> lightDir;      // light shaders: unit -L, for diffuse()/specular()
     Mat4 currentFromShader;
+    /// Random numbers (random(), shadow()'s samples) come from the grid's
+    /// seed, this shader's stream, the instruction and the count of random
+    /// calls this Exec made: a light's numbers do not depend on what other
+    /// shaders, or other lights, did or skipped on the grid.
+    uint32_t randomStream = 0;
+    uint32_t randomCalls = 0;
+    uint32_t randomSeed(const Instr& in);
 
     /// Sets up registers for a grid; `Ps` (lights only) is the surface position.
     /// `Ps`/`PsStride` (lights only): the surface positions lights run for.
-    void setup(const CompiledShader& code, const ShaderInstance* instance, ShadeContext& context,
+    /// `stream`: which shader of the grid this is (see randomStream).
+    void setup(const CompiledShader& code, const ShaderInstance* instance, ShadeContext& context, uint32_t stream,
                const float* Ps = nullptr, int PsStride = 1);
     void run();
 
@@ -101,9 +135,15 @@ Exec* acquireExec();
 void releaseExecs(size_t mark);
 size_t execMark();
 
-/// Runs every light of the context over the grid at positions `Ps` (xyz per
-/// point, stride 0 for a single position), once per grid.
-void runLights(ShadeContext& ctx, const float* Ps, int stride);
+/// Makes the non-ambient lights' L and Cl ready for a lighting loop of the
+/// surface `x` at positions `Ps` (xyz per point, stride 0 for one position)
+/// that accepts lights within `angle` of `axis` at each of its active points
+/// (`axis` null, or an angle of pi or more: every direction). The lights
+/// run once per grid, under that cone; a later loop the cone does not cover
+/// runs them again at every point.
+void needLights(Exec& x, const float* Ps, int stride, const float* axis, int axisStride, float angle);
+/// The same for the ambient lights (ambient()), which have no direction.
+void needAmbientLights(Exec& x, const float* Ps, int stride);
 
 /// Gradient noise in [0,1] of 1-4 dimensions, optionally periodic
 /// (`period` entries <= 0 are not periodic), and cell noise in [0,1).

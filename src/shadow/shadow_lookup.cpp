@@ -679,7 +679,7 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
             // Sample (a, b) of the region: its position (u, v) in raster
             // space and its bias, a function of the point and the sample
             // alone, so the virtual-sample pass below repeats them.
-            const uint32_t pointSeed = hashKeys(batch.seed, uint32_t(i));
+            const uint32_t pointSeed = hashKeys(batch.seed, uint32_t(batch.pointId ? batch.pointId[i] : i));
             const float ds = 2.0f * hs / float(ns), dt = 2.0f * ht / float(nt);
             auto sampleAt = [&](int a, int b, float* u, float* v, float* bias) {
                 const SampleRandoms r(pointSeed, a * nt + b);
@@ -841,7 +841,7 @@ void ShadowMap::lookupCube(const ShadowBatch& batch, const ShadowParams& params,
     struct Scratch {
         std::vector<Vec3> P, du, dv, N;
         std::vector<float> out;
-        std::vector<int> index;
+        std::vector<int> index, id;
     };
     thread_local Scratch scratch[6];
     float rows[6][4];
@@ -850,7 +850,7 @@ void ShadowMap::lookupCube(const ShadowBatch& batch, const ShadowParams& params,
         for (int c = 0; c < 4; ++c) rows[f][c] = m.m[2][c];
     }
     for (Scratch& sc : scratch) {
-        sc.P.clear(); sc.du.clear(); sc.dv.clear(); sc.N.clear(); sc.index.clear();
+        sc.P.clear(); sc.du.clear(); sc.dv.clear(); sc.N.clear(); sc.index.clear(); sc.id.clear();
     }
     const bool footprint = batch.dPdu_du && batch.dPdv_dv;
     for (int i = 0; i < batch.count; ++i) {
@@ -872,6 +872,7 @@ void ShadowMap::lookupCube(const ShadowBatch& batch, const ShadowParams& params,
         }
         if (batch.N) sc.N.push_back(batch.N[i]);
         sc.index.push_back(i);
+        sc.id.push_back(batch.pointId ? batch.pointId[i] : i);
     }
     for (int f = 0; f < 6; ++f) {
         Scratch& sc = scratch[f];
@@ -883,6 +884,7 @@ void ShadowMap::lookupCube(const ShadowBatch& batch, const ShadowParams& params,
         sub.dPdv_dv = footprint ? sc.dv.data() : nullptr;
         sub.N = batch.N ? sc.N.data() : nullptr;
         sub.seed = hashKeys(batch.seed, uint32_t(f));
+        sub.pointId = sc.id.data();
         sc.out.resize(sc.index.size());
         if (pointSample)
             m_faces[size_t(f)]->lookupImpl<true>(sub, params, sc.out.data(), stats);

@@ -72,6 +72,10 @@ struct ShadowBatch {
     const Vec3* N = nullptr;        ///< normals (second-depth maps); may be null
     Mat4 worldFromCurrent;
     uint32_t seed = 0;              ///< identity of the call (frame, grid, light): seeds the samples
+    /// Each point's identity within the call (its vertex in the grid), which
+    /// seeds its samples with `seed`: a point's samples do not depend on
+    /// which other points were looked up with it. Null: its place in the batch.
+    const int* pointId = nullptr;
 };
 
 /// Counters of lookups; add them up per thread and merge.

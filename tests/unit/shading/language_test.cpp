@@ -403,6 +403,64 @@ TEST(Language, IlluminanceWithTestLightCategoriesAndMessagePassing) {
     }
 }
 
+namespace {
+/// Six points at z = 1 around the origin, where the test lights stand;
+/// even points face the origin (N = (0,0,-1)), odd points face away.
+ShadingGrid facingAndAway() {
+    ShadingGrid g = makeGrid(6, 1, [](float u, float) { return Vec3(u - 0.5f, 0, 1); });
+    for (size_t i = 1; i < 6; i += 2) g.N[i] = g.Ng[i] = Vec3(0, 0, 1);
+    return g;
+}
+/// A light at the origin whose every point calls shadow(): the points it
+/// was run at are the points the service was asked about.
+const char* kShadowedLight = "light probe() { illuminate(point(0, 0, 0)) Cl = 1 - shadow(\"m\", Ps); }";
+}  // namespace
+
+TEST(Language, LightsRunOnlyWhereTheSurfacesConeCanUseThem) {
+    Harness h;
+    h.svc.spaces["world"] = Mat4::identity();
+    auto light = h.instance(kShadowedLight);
+    std::vector<int> asked;
+    h.svc.shadowFn = [&](const ShadowQuery& q, float* r) {
+        for (int k = 0; k < q.count; ++k) {
+            asked.push_back(q.indices[k]);
+            r[k] = 0.25f;
+        }
+        return true;
+    };
+    // diffuse(), specular() and an illuminance loop about N share one cone:
+    // the light runs once, at the three points facing it.
+    ShadingGrid g = facingAndAway();
+    h.surface("surface t() { color c = 0; illuminance(P, N, PI / 2) c += Cl;\n"
+              "  Ci = diffuse(N) + specular(N, -I, 0.1) * 0 + c * 100; }",
+              g, {light.get()});
+    EXPECT_EQ(asked, (std::vector<int>{0, 2, 4}));
+    for (size_t i = 0; i < 6; ++i) {
+        const Vec3 P = g.P[i], toLight = normalize(-P);
+        const float expect = i % 2 ? 0.0f : 0.75f * dot(toLight, Vec3(0, 0, -1)) + 75.0f;
+        EXPECT_NEAR(g.Ci[i].x, expect, 1e-4f) << i;
+    }
+    // A later loop that takes every direction runs the light again at every
+    // point, and sees it where the first loop did not.
+    asked.clear();
+    g = facingAndAway();
+    h.surface("surface t() { Ci = diffuse(N); float n = 0; illuminance(P) n += 1; Oi = n; }", g, {light.get()});
+    EXPECT_EQ(asked, (std::vector<int>{0, 2, 4, 0, 1, 2, 3, 4, 5}));
+    for (size_t i = 0; i < 6; ++i) EXPECT_EQ(g.Oi[i].x, 1.0f) << i;
+    // So does a loop about another axis: -N accepts the odd points.
+    asked.clear();
+    g = facingAndAway();
+    h.surface("surface t() { Ci = diffuse(N); color c = 0; illuminance(P, -N, PI / 2) c += Cl; Oi = c; }", g,
+              {light.get()});
+    EXPECT_EQ(asked.size(), 3u + 6u);
+    for (size_t i = 0; i < 6; ++i) EXPECT_NEAR(g.Oi[i].x, i % 2 ? 0.75f : 0.0f, 1e-6f) << i;
+    // An ambient() first runs no directional light at all.
+    asked.clear();
+    g = facingAndAway();
+    h.surface("surface t() { Ci = ambient(); }", g, {light.get()});
+    EXPECT_TRUE(asked.empty());
+}
+
 TEST(Language, OutputParametersAreReadableAsAovs) {
     Harness h;
     auto inst = h.instance("surface t(output varying float mask = 0; output color tint = color(1, 2, 3)) { mask = u; Ci = 0; }");

@@ -232,6 +232,44 @@ TEST(ShadowLookup, TileCullingNeverChangesAResult) {
     }
 }
 
+TEST(ShadowLookup, APointsSamplesDependOnItsIdentityNotItsCompany) {
+    // The shading grid looks up only the points a light reached, so the
+    // same point may come with different neighbours: its result must not
+    // change. Every other point of a batch, looked up alone with its id,
+    // gets the bits it got in the full batch; without ids it would not.
+    const auto& map = stepMap();
+    ASSERT_TRUE(map);
+    ShadowParams params;
+    Points all, odd;
+    std::vector<int> allIds, oddIds;
+    Rng rng(41);
+    for (int i = 0; i < 400; ++i) {
+        all.add(Vec3(kEdge - 4 + 8 * rng.uniform(), 20 + 200 * rng.uniform(), 50), 8);
+        allIds.push_back(i);
+        if (i % 2) {
+            odd.add(all.P.back(), 8);
+            oddIds.push_back(i);
+        }
+    }
+    ShadowBatch full = all.batch(5), part = odd.batch(5);
+    full.pointId = allIds.data();
+    part.pointId = oddIds.data();
+    std::vector<float> a(all.P.size()), b(odd.P.size()), c(odd.P.size());
+    ShadowStats st;
+    map->lookup(full, params, a.data(), st);
+    map->lookup(part, params, b.data(), st);
+    int fractional = 0, moved = 0;
+    part.pointId = nullptr;  // seeded by place in the batch instead
+    map->lookup(part, params, c.data(), st);
+    for (size_t k = 0; k < b.size(); ++k) {
+        ASSERT_EQ(b[k], a[size_t(oddIds[k])]) << "point " << oddIds[k];
+        fractional += b[k] > 0 && b[k] < 1;
+        moved += c[k] != b[k];
+    }
+    EXPECT_GT(fractional, 100);  // straddling the edge: the samples matter
+    EXPECT_GT(moved, 50);        // and the check above could fail
+}
+
 TEST(ShadowLookup, BatchCullingMatchesThePointLoop) {
     // Shaded grids as batches: 8x8 points on a small patch each, at random
     // places and depths. Batches decided as a whole must get exactly what
