@@ -11,6 +11,7 @@
 
 #include "apps/commands.h"
 
+#include <new>
 #include <CLI/CLI.hpp>
 
 #include <cstring>
@@ -65,8 +66,16 @@ int main(int argc, char** argv) {
 
     umbra::Diagnostics diag;
     diag.setQuiet(settings.quiet);
-    if (*render) return umbra::render::renderFiles(ribFiles, settings, statsPath, diag);
-    if (*slc) return umbra::apps::compileShaders(slcFiles, listing, diag);
-    if (*info) return umbra::apps::describeMap(mapPath, json, diag);
+    // A frame larger than the machine's memory (Format, PixelSamples,
+    // shadowmapsize) ends here: the outputs are written to temporary names
+    // and renamed, so none is left half-written.
+    try {
+        if (*render) return umbra::render::renderFiles(ribFiles, settings, statsPath, diag);
+        if (*slc) return umbra::apps::compileShaders(slcFiles, listing, diag);
+        if (*info) return umbra::apps::describeMap(mapPath, json, diag);
+    } catch (const std::bad_alloc&) {
+        fmt::print(stderr, "umbra: out of memory: the frame needs more memory than this machine has "
+                           "(check Format, PixelSamples and shadowmapsize)\n");
+    }
     return 1;
 }

@@ -499,11 +499,14 @@ std::string Renderer::Impl::renderLightMap(FrameState& frame, const scene::Light
     std::string handle = light.handle.empty() ? "light" : light.handle;
     auto shader = shading->find(light.shader.name, light.shader.loc);
     LightGeometry geometry = lightGeometry(light, shader.get());
+    // The map's resolution: the light's own Attribute "umbra" "shadowmapsize",
+    // else the frame's Option, else the image's larger side (Reeves' advice).
+    // The builder has checked the values' range.
     int size = std::max(options.xResolution, options.yResolution);
-    if (auto it = options.user.find("umbra:shadowmapsize"); it != options.user.end()) {
-        if (!it->second.ints.empty()) size = it->second.ints[0];
-        else if (!it->second.floats.empty()) size = int(it->second.floats[0]);
-    }
+    for (const auto* settings : {&options.user, light.attributes ? &light.attributes->user : nullptr})
+        if (settings)
+            if (auto it = settings->find("umbra:shadowmapsize"); it != settings->end())
+                size = !it->second.ints.empty() ? it->second.ints[0] : int(it->second.floatAt(0, float(size)));
     const DepthFilter filter = depthFilterOf(options, light.shader.loc);
     const float offset = dualOffsetOf(options);
     const Pass::Cull cull = depthCullOf(options, light.shader.loc);

@@ -35,6 +35,37 @@ std::vector<std::string> splitPath(const std::string& s) {
     return out;
 }
 
+/// The numeric settings of Option (and Attribute) "umbra": the range each
+/// must lie in. Out of range, they would make a depth pass of no pixels, or
+/// one no machine has the memory for (docs/shadows.md lists them).
+struct UmbraNumber {
+    const char* name;
+    double lo, hi;
+    const char* what;
+};
+constexpr UmbraNumber kUmbraNumbers[] = {
+    {"shadowmapsize", 1, 16384, "an integer from 1 to 16384"},
+    {"tilecachemb", 1, 1 << 20, "an integer from 1 to 1048576"},
+    {"depthlayers", 1, 2, "1 or 2"},
+    {"depthshadingrate", 0, 1e6, "a rate of 0 (the surfaces' own) or more"},
+    {"dualoffset", 0, 1e6, "an offset of 0 or more"},
+};
+
+/// Whether `p`, a parameter of Option or Attribute "umbra", holds a value
+/// in its range (parameters not in the table are not checked here);
+/// reports the error at the parameter when not.
+bool umbraValueValid(const char* request, const ri::Param& p, Diagnostics& diag) {
+    for (const UmbraNumber& n : kUmbraNumbers) {
+        if (p.decl.name != n.name) continue;
+        double v = !p.ints.empty() ? double(p.ints[0]) : !p.floats.empty() ? double(p.floats[0]) : std::nan("");
+        if (v >= n.lo && v <= n.hi) return true;
+        diag.error(p.loc, "{}: umbra \"{}\" expects {}, got {}", request, n.name, n.what,
+                   std::isnan(v) ? std::string("no number") : fmt::format("{}", v));
+        return false;
+    }
+    return true;
+}
+
 }  // namespace
 
 Builder::Builder(SceneSink& sink, Diagnostics& diag) : m_sink(sink), m_diag(diag) {
@@ -484,6 +515,8 @@ void Builder::option(const std::string& name, ri::ParamList params, const FileLo
             (pn == "gridsize" ? m_options.gridSize : m_options.eyeSplits) = v;
         } else if (name == "statistics" && pn == "endofframe") {
             m_options.statisticsEndOfFrame = params.getInt(pn, 0) != 0;
+        } else if (name == "umbra" && !umbraValueValid("Option", p, m_diag)) {
+            continue;
         } else {
             m_options.user[name + ":" + pn] = p;
         }
@@ -733,6 +766,8 @@ void Builder::attribute(const std::string& name, ri::ParamList params, const Fil
             bool casts = p.decl.type == ri::ParamType::String ? p.stringAt(0) != "transparent"
                                                               : params.getInt(pn, 1) != 0;
             mutableAttributes().castsShadows = casts;
+        } else if (name == "umbra" && !umbraValueValid("Attribute", p, m_diag)) {
+            continue;
         } else {
             mutableAttributes().user[name + ":" + pn] = p;
         }

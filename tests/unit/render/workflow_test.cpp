@@ -253,6 +253,34 @@ WorldEnd)", dir.file("spot.exr"), kDownCamera),
     EXPECT_NEAR(double(finite) / (128.0 * 128.0), kPi / 4, 0.01);
 }
 
+TEST(Workflow, ALightsOwnAttributeSetsItsMapSize) {
+    // Attribute "umbra" "shadowmapsize" where a light is declared overrides
+    // the frame's option for that light alone.
+    ScratchDir dir("mapsize");
+    Diagnostics diag;
+    test::renderRib(fmt::format(R"(Display "{}" "openexr" "rgba" "string type" "float"
+Option "umbra" "shadowmapsize" [128]
+{}
+WorldBegin
+  AttributeBegin
+    Attribute "umbra" "shadowmapsize" [96]
+    LightSource "shadowspot" "own" "from" [0 4 0] "to" [0 0 0] "coneangle" [0.6] "shadowname" ["auto"]
+  AttributeEnd
+  Illuminate "own" 1
+  LightSource "shadowspot" "frame" "from" [1 4 0] "to" [0 0 0] "coneangle" [0.6] "shadowname" ["auto"]
+  Surface "matte"
+  Polygon "P" [-50 0 -50  -50 0 50  50 0 50  50 0 -50]
+WorldEnd)", dir.file("spot.exr"), kDownCamera),
+                    diag);
+    ASSERT_EQ(diag.errorCount(), 0);
+    auto own = ShadowMap::open(dir.file("spot.own.shd"), diag), frame = ShadowMap::open(dir.file("spot.frame.shd"), diag);
+    ASSERT_TRUE(own && frame);
+    EXPECT_EQ(own->width(), 96);
+    EXPECT_EQ(own->height(), 96);
+    EXPECT_EQ(frame->width(), 128);
+    EXPECT_NEAR(own->texel(48, 48), 4.0f, 1e-3f);  // the floor, 4 below the light on its axis
+}
+
 namespace {
 
 /// A frame with three automatic maps: a spot light's, a distant light's and
