@@ -281,31 +281,50 @@ def mb(n):
     return n / 1e6
 
 
+def reeves_resolution_mix(text):
+    """The desk lamp with Luxo Jr.'s mix of map sizes (one at 2048², two at
+    1024² for a 1024-wide image): its ceiling light, which sees the whole
+    desk from afar, gets a map twice the others' size."""
+    light = re.search(r'  LightSource "shadowspot" "ceiling"[^\n]*\n(?:      [^\n]*\n)*', text)
+    body = "".join("  " + line + "\n" for line in light.group(0).splitlines())
+    return (text[:light.start()] + '  AttributeBegin\n    Attribute "umbra" "shadowmapsize" [1280]\n' + body +
+            '  AttributeEnd\n  Illuminate "ceiling" 1\n' + text[light.end():])
+
+
+# Rows measured beside SCENE_ROWS, for information: (scene, label, how the
+# scene's text is changed, the SCENE_ROWS entry whose paper figures apply).
+VARIANT_ROWS = [("desk_lamp", "Luxo Jr., the paper's map sizes (ceiling 1280², 2 at 640²)", reeves_resolution_mix)]
+
+
 def tables(r, runs, threads):
+    """Table 1 and 2 rows: (key, label, figures..., paper figures, has a target)."""
     rows1, rows2, lamp = [], [], None
-    for name, paper_name, paper1, paper2 in SCENE_ROWS:
-        text = read_scene(name)
-        ns, sh = best_pair(r, name, text, runs)
+    paper = {name: (label, p1, p2) for name, label, p1, p2 in SCENE_ROWS}
+    jobs = [(name, name, label, read_scene(name), p1, p2, True) for name, label, p1, p2 in SCENE_ROWS]
+    jobs += [(name, name + "_mix", label, change(read_scene(name)), paper[name][1], paper[name][2], False)
+             for name, label, change in VARIANT_ROWS]
+    for key, run_name, label, text, paper1, paper2, targeted in jobs:
+        ns, sh = best_pair(r, run_name, text, runs)
         depth = [p for p in sh["passes"] if p["name"].startswith("depth:")]
         first = sum(p["wall_seconds"] for p in depth)
         total = sh["wall_seconds"]
         second = total - first
         without = ns["wall_seconds"]
         increase = 100 * (total - without) / without
-        rows1.append((paper_name, without, len(depth), first, second, total, increase, paper1))
+        rows1.append((label, without, len(depth), first, second, total, increase, paper1, targeted))
         raw = bbox = tiles = disk = 0
         resolutions = []
         for p in depth:
             handle = p["name"].split(":", 1)[1]
-            info = r.info(os.path.join(r.work, f"time_{name}_sh.{handle}.shd"))
+            info = r.info(os.path.join(r.work, f"time_{run_name}_sh.{handle}.shd"))
             s = info["storage"]
             raw += s["rawBytes"]
             bbox += s["bboxBytes"]
             tiles += s["tileBytes"]
             disk += s["fileBytes"]
             resolutions.append(f"{info['width']}²")
-        rows2.append((name, paper_name, resolutions, raw, bbox, tiles, disk, paper2))
-        if name == "desk_lamp":
+        rows2.append((key if targeted else None, label, resolutions, raw, bbox, tiles, disk, paper2))
+        if run_name == "desk_lamp":
             lamp = (ns, sh)
     return rows1, rows2, lamp
 
@@ -329,14 +348,20 @@ def write_tables(rows1, rows2, lamp, runs, threads, umbra):
       "| paper: without / first / second / total (min) | paper % increase | target | met |")
     w("|---|---:|---:|---:|---:|---:|---:|---|---:|---:|---|")
     all_met = True
-    for name, without, lights, first, second, total, inc, p in rows1:
+    for name, without, lights, first, second, total, inc, p, targeted in rows1:
         target = p[5] / 2
         met = inc <= target
-        all_met &= met
+        if targeted:
+            all_met &= met
+        verdict = ("yes" if met else "**no**") if targeted else ("(yes)" if met else "(no)")
         w(f"| {name} | {without:.3f} | {lights} | {first:.3f} | {second:.3f} | {total:.3f} | {inc:.1f} "
-          f"| {p[0]} / {p[2]} / {p[3]} / {p[4]} | {p[5]} | ≤ {target:.1f} | {'yes' if met else '**no**'} |")
+          f"| {p[0]} / {p[2]} / {p[3]} / {p[4]} | {p[5]} | ≤ {target:.1f} | {verdict} |")
     w("")
     w(f"**Time target {'met' if all_met else 'NOT met'}** on {'every row' if all_met else 'the rows marked no'}.\n")
+    w("The last row is for information (its verdict in brackets): the desk lamp with the paper's mix of map "
+      "sizes, its ceiling light's map at twice the others' size (`Attribute \"umbra\" \"shadowmapsize\"` "
+      "on that light), as Luxo Jr. had one map at 2048² and two at 1024². The scene itself keeps three "
+      "maps of one size, so that its rows in both tables measure the same frame.\n")
 
     w("## Table 2: depth map storage\n")
     w("Megabytes (10⁶ bytes), summed over the scene's maps, from `umbra info --json`: *raw* is width x "
@@ -349,16 +374,19 @@ def write_tables(rows1, rows2, lamp, runs, threads, umbra):
     storage_met = True
     for key, name, res, raw, bbox, tiles, disk, p in rows2:
         pct = 100 * tiles / raw if raw else 0
-        target = STORAGE_TARGET.get(key)
+        target = STORAGE_TARGET.get(key) if key else None
         met = "" if target is None else ("yes" if pct <= target else "**no**")
         if target is not None and pct > target:
             storage_met = False
-        w(f"| {name} | {len(res)} at {', '.join(sorted(set(res)))} | {mb(raw):.2f} | {mb(bbox):.2f} "
+        sizes = ", ".join(f"{res.count(size)} at {size}" for size in sorted(set(res), key=lambda t: -int(t[:-1])))
+        w(f"| {name} | {sizes} | {mb(raw):.2f} | {mb(bbox):.2f} "
           f"({100 * bbox / raw:.1f}%) | {mb(tiles):.2f} | {pct:.1f} | {mb(disk):.3f} | {p[0]} | "
           f"{p[1]} / {p[2]} / {p[3]} | {100 * p[3] / p[1]:.1f} | {'≤ %g' % target if target else '—'} | {met} |")
     w("")
     w(f"**Storage target {'met' if storage_met else 'NOT met'}** (tile scheme ≤ 10% of raw for the sphere "
       "and plane, ≤ 16% for the desk lamp).\n")
+    w("With the paper's mix of map sizes (the last row), the desk lamp's tile scheme is a smaller share of "
+      "raw: the larger map is the ceiling light's, which holds the few texels the distant lamps cover.\n")
 
     ns, sh = lamp
     w("## Where the desk lamp's extra time goes\n")
