@@ -11,10 +11,10 @@
 
 #include "apps/commands.h"
 
-#include <new>
 #include <CLI/CLI.hpp>
 
 #include <cstring>
+#include <new>
 #include <string>
 #include <vector>
 

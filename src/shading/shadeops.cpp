@@ -991,8 +991,7 @@ void execCall(Exec& x, const Instr& in) {
         break;
     }
     case Bi::Ambient: {
-        const int Pr = x.cs->globalRegs[gP];
-        needAmbientLights(x, x.ptr[size_t(Pr)], x.vary[size_t(Pr)]);
+        needAmbientLights(x);
         float* d = x.ptr[size_t(dst)];
         forActive(x, true, [&](int i) { put(d, i, Vec3(0.f)); });
         for (const LightRun& lr : x.ctx->lights)

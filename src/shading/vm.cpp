@@ -5,6 +5,7 @@
 
 #include "umbra/util/rng.h"
 
+#include <algorithm>
 #include <cstring>
 
 namespace umbra::shading {
@@ -718,18 +719,10 @@ void needLights(Exec& x, const float* Ps, int stride, const float* axis, int axi
         if (!rc.restricts) return;
         // Covered when this cone is no wider and has the same axis wherever
         // this loop looks: every light it accepts was then admitted.
+        auto same = [&](int i) { return ax[i] == rc.axis[rc.uniformAxis ? 0 : size_t(i)]; };
         bool covered = restricts && cosLimit >= rc.cosLimit;
-        if (covered && !(rc.uniformAxis && axisStride == 0)) {
-            auto same = [&](int i) { return ax[i] == rc.axis[rc.uniformAxis ? 0 : size_t(i)]; };
-            if (x.allOn) {
-                for (int i = 0; i < x.n && covered; ++i) covered = same(i);
-            } else {
-                for (int i : x.active)
-                    if (!(covered = same(i))) break;
-            }
-        } else if (covered) {
-            covered = ax[0] == rc.axis[0];
-        }
+        if (covered && rc.uniformAxis && axisStride == 0) covered = same(0);
+        else if (covered) covered = std::all_of(x.active.begin(), x.active.end(), same);
         if (covered) return;
         rc.restricts = false;  // run them again, at every point
     } else if (restricts) {
@@ -744,10 +737,11 @@ void needLights(Exec& x, const float* Ps, int stride, const float* axis, int axi
     ctx.lightsRun = true;
 }
 
-void needAmbientLights(Exec& x, const float* Ps, int stride) {
+void needAmbientLights(Exec& x) {
     if (x.ctx->ambientLightsRun) return;
     x.ctx->ambientLightsRun = true;
-    runLights(*x.ctx, Ps, stride, true);
+    const int Pr = x.cs->globalRegs[gP];
+    runLights(*x.ctx, x.ptr[size_t(Pr)], x.vary[size_t(Pr)], true);
 }
 
 }  // namespace umbra::shading

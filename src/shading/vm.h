@@ -142,8 +142,8 @@ size_t execMark();
 /// run once per grid, under that cone; a later loop the cone does not cover
 /// runs them again at every point.
 void needLights(Exec& x, const float* Ps, int stride, const float* axis, int axisStride, float angle);
-/// The same for the ambient lights (ambient()), which have no direction.
-void needAmbientLights(Exec& x, const float* Ps, int stride);
+/// The same for the ambient lights (ambient(), at P), which have no direction.
+void needAmbientLights(Exec& x);
 
 /// Gradient noise in [0,1] of 1-4 dimensions, optionally periodic
 /// (`period` entries <= 0 are not periodic), and cell noise in [0,1).
