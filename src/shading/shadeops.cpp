@@ -163,6 +163,27 @@ template <class T> T deriv(const Exec& x, In<T> a, int i, int dir, float step) {
     if (pos == count - 1) return (a[i] - a[i - stride]) * (1.0f / step);
     return (a[i + stride] - a[i - stride]) * (0.5f / step);
 }
+/// deriv(x, a, i, 0, 1) and deriv(x, a, i, 1, 1) of every active point,
+/// in order: the active indices ascend, so each point's grid row follows
+/// from the last one's without a division.
+template <class T> void derivsOfActive(const Exec& x, In<T> a, T* du, T* dv) {
+    const int nu = x.nu, nv = x.nv;
+    const bool alongU = a.s != 0 && nu >= 2, alongV = a.s != 0 && nv >= 2;
+    int iv = 0, rowStart = 0;
+    for (size_t k = 0; k < x.active.size(); ++k) {
+        const int i = x.active[k];
+        while (i >= rowStart + nu) rowStart += nu, ++iv;
+        const int iu = i - rowStart;
+        du[k] = !alongU        ? T(0)
+                : iu == 0      ? (a[i + 1] - a[i]) * 1.0f
+                : iu == nu - 1 ? (a[i] - a[i - 1]) * 1.0f
+                               : (a[i + 1] - a[i - 1]) * 0.5f;
+        dv[k] = !alongV        ? T(0)
+                : iv == 0      ? (a[i + nu] - a[i]) * 1.0f
+                : iv == nv - 1 ? (a[i] - a[i - nu]) * 1.0f
+                               : (a[i + nu] - a[i - nu]) * 0.5f;
+    }
+}
 float gridDu(const Exec& x) { return x.ctx->grid->du; }
 float gridDv(const Exec& x) { return x.ctx->grid->dv; }
 
@@ -508,10 +529,9 @@ void shadow(Exec& x, const Instr& in, Args& A, bool four) {
     for (size_t k = 0; k < count; ++k) {
         const int i = x.active[k];
         P[k] = Pin[i];
-        dPdu[k] = deriv(x, Pin, i, 0, 1.f);
-        dPdv[k] = deriv(x, Pin, i, 1, 1.f);
         N[k] = Nin[i];
     }
+    derivsOfActive(x, Pin, dPdu.data(), dPdv.data());
     if (four) {
         for (int c = 0; c < 4; ++c) {
             corners[c].resize(count);

@@ -125,11 +125,6 @@ inline I4 floorX4(F4 v) {
     const I4 i = __builtin_convertvector(v, I4);
     return i + (toF4(i) > v);  // a true comparison is -1
 }
-/// clamp() of each lane.
-inline I4 clampX4(I4 v, int lo, int hi) {
-    const I4 l = I4{} + lo, h = I4{} + hi;
-    return v < l ? l : (v > h ? h : v);
-}
 
 /// A region's samples, structure of arrays padded to a multiple of four:
 /// texel, bias, filter weight and the depth the map holds there. Lanes
@@ -140,6 +135,11 @@ struct RegionSamples {
     std::vector<int32_t> iu, iv;
     std::vector<float> bias, weight, depth;
     int padded = 0;
+    /// The cell (a, b) = (k / nt, k % nt) of each jittered sample k, as
+    /// floats, for the (ns, nt) of the last region: consecutive points of a
+    /// grid mostly share their sample counts.
+    std::vector<float> cellA, cellB;
+    int cellsNs = 0, cellsNt = 0;
     void resize(int count) {
         padded = (count + 3) & ~3;
         if (iu.size() < size_t(padded)) {
@@ -147,6 +147,17 @@ struct RegionSamples {
             for (auto* v : {&bias, &weight, &depth}) v->resize(size_t(padded));
         }
         for (int k = count; k < padded; ++k) weight[size_t(k)] = 0;
+    }
+    void cells(int ns, int nt) {
+        if (ns == cellsNs && nt == cellsNt) return;
+        const int n = ns * nt, p = (n + 3) & ~3;
+        cellA.assign(size_t(p), 0.0f);  // padding lanes: cell (0, 0)
+        cellB.assign(size_t(p), 0.0f);
+        for (int k = 0; k < n; ++k) {
+            cellA[size_t(k)] = float(k / nt);
+            cellB[size_t(k)] = float(k % nt);
+        }
+        cellsNs = ns, cellsNt = nt;
     }
     template <typename V, typename T> static V load(const std::vector<T>& v, int k) {
         V r;
@@ -730,20 +741,21 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                 // jittered samples, four at a time. Sample k is (a, b) =
                 // (k / nt, k % nt); the quotient from a float reciprocal is
                 // corrected by one step either way, so it is exact.
-                const float biasRange = biasHi - biasLo, invNt = 1.0f / float(nt);
+                const float biasRange = biasHi - biasLo;
+                region.cells(ns, nt);
+                // floor() is monotonic: clamping the position into
+                // [iLo, iHi + 1) before it equals clamping the texel after.
+                const F4 uLo = F4{} + float(iLo), uHi = F4{} + std::nextafter(float(iHi) + 1.0f, -kInfinity);
+                const F4 vLo = F4{} + float(jLo), vHi = F4{} + std::nextafter(float(jHi) + 1.0f, -kInfinity);
                 U4 seeds = U4{} + pointSeed + U4{0, 1, 2, 3} * 0x9e3779b9u;
-                I4 k = I4{0, 1, 2, 3};
-                for (int q = 0; q < region.padded; q += 4, seeds += 4u * 0x9e3779b9u, k += 4) {
+                for (int q = 0; q < region.padded; q += 4, seeds += 4u * 0x9e3779b9u) {
                     const U4 h = hash32Lanes(seeds);
-                    I4 a = __builtin_convertvector((toF4(k) + 0.5f) * invNt, I4);
-                    I4 b = k - a * nt;
-                    const I4 over = b >= I4{} + nt, under = b < I4{};
-                    a -= over, b -= over & nt;
-                    a += under, b += under & nt;
+                    const F4 a = region.load<F4>(region.cellA, q), b = region.load<F4>(region.cellB, q);
                     const F4 ju = toF4(I4(h & 0x7ffu)) * (1.0f / 2048.0f);
                     const F4 jv = toF4(I4((h >> 11) & 0x7ffu)) * (1.0f / 2048.0f);
-                    const I4 iu = clampX4(floorX4(loS + (toF4(a) + ju) * ds), iLo, iHi);
-                    const I4 iv = clampX4(floorX4(loT + (toF4(b) + jv) * dt), jLo, jHi);
+                    const F4 u = loS + (a + ju) * ds, v = loT + (b + jv) * dt;
+                    const I4 iu = floorX4(u < uLo ? uLo : (u > uHi ? uHi : u));
+                    const I4 iv = floorX4(v < vLo ? vLo : (v > vHi ? vHi : v));
                     F4 bias = F4{} + biasMid;
                     if (randomBias) {
                         const F4 drawn = biasLo + toF4(I4(h >> 22)) * (1.0f / 1024.0f) * biasRange;
