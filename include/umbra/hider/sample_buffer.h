@@ -183,8 +183,10 @@ private:
     struct HitContext;
 
     int sampleIndex(int px, int py, int s) const;
+    /// Samples micropolygon (i, j), whose raster bound is given (z: its
+    /// vertices' nearest and farthest depths).
     void rasterizeQuad(const MicroGrid& g, const HitContext& ctx, int i, int j, float minx, float miny, float maxx,
-                       float maxy);
+                       float maxy, float minz, float maxz);
     /// Records a hit of triangle t at sample s: depth z (within the clipping
     /// planes), barycentric weights b1, b2 of t's second and third vertices.
     /// True if it changed a depth the occlusion bound is made of.

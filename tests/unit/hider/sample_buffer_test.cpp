@@ -425,6 +425,60 @@ TEST(SampleBuffer, EqualDepthTiesDoNotDependOnOrder) {
     }
 }
 
+TEST(SampleBuffer, HiddenMicropolygonsSkippedChangeNoDepth) {
+    // Curved, tilted grids that pierce one another, sampled together
+    // nearest first (so later micropolygons are often hidden at every
+    // sample, or at whole groups of samples, and skipped), must leave at
+    // each sample the nearest of the depths each grid gives when sampled
+    // alone -- also along the lines where two grids cross, where a
+    // micropolygon's visible part lies just behind its nearest vertex.
+    Rng rng(77);
+    std::vector<TestGrid> grids;
+    for (int k = 0; k < 12; ++k) {
+        const float x0 = rng.uniform() * 8, y0 = rng.uniform() * 8, base = 10.0f + rng.uniform() * 0.05f;
+        const float bend = 0.001f * rng.uniform(), tilt = 0.02f * (rng.uniform() - 0.5f);
+        grids.push_back(rectGrid(x0, y0, x0 + 6 + rng.uniform() * 4, y0 + 6 + rng.uniform() * 4, 7, 5,
+                                 [=](float x, float y) { return base + tilt * y + bend * (x - 8) * (y - 8); },
+                                 Color(1.0f), Color(1.0f), uint64_t(k + 1)));
+    }
+    std::sort(grids.begin(), grids.end(), [](const TestGrid& a, const TestGrid& b) {
+        auto nearest = [](const TestGrid& g) {
+            float z = kInfinity;
+            for (const Vec3& p : g.P) z = std::min(z, p.z);
+            return z;
+        };
+        return nearest(a) < nearest(b);
+    });
+    for (HiderMode mode : {HiderMode::Colour, HiderMode::Depth})
+        for (bool perspective : {false, true}) {
+            SampleBufferConfig c = config(0, 0, 16, 16, 0, mode == HiderMode::Depth ? 1 : 2,
+                                          mode == HiderMode::Depth ? 1 : 2, mode == HiderMode::Colour, mode);
+            c.perspective = perspective;
+            SampleBuffer all, alone;
+            all.reset(c);
+            for (const TestGrid& g : grids) all.sample(g.view());
+            std::vector<float> nearest;
+            for (size_t k = 0; k < grids.size(); ++k) {
+                alone.reset(c);
+                alone.sample(grids[k].view());
+                size_t n = 0;
+                forEachSample(alone, [&](int px, int py, int s) {
+                    const float z = alone.depth(px, py, s);
+                    if (k == 0) nearest.push_back(z);
+                    else nearest[n] = std::min(nearest[n], z);
+                    ++n;
+                });
+            }
+            size_t n = 0, covered = 0;
+            forEachSample(all, [&](int px, int py, int s) {
+                ASSERT_EQ(all.depth(px, py, s), nearest[n]) << "sample " << px << "," << py << "," << s;
+                covered += nearest[n] != kInfinity;
+                ++n;
+            });
+            EXPECT_GT(covered, n / 2);
+        }
+}
+
 TEST(SampleBuffer, MatteHoldsOut) {
     SampleBuffer b;
     b.reset(config(0, 0, 8, 4, 1, 2, 2, true));
