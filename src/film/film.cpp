@@ -227,9 +227,9 @@ void Film::cropPixels(int xres, int yres, const float crop[4], int* x0, int* x1,
 }
 
 Film::Film(int xResolution, int yResolution, const float cropWindow[4], PixelFilter filter,
-           std::vector<AovChannel> aovs, bool depthPair)
+           std::vector<AovChannel> aovs, FilmContent content)
     : m_xres(xResolution), m_yres(yResolution), m_filter(std::move(filter)), m_aovs(std::move(aovs)),
-      m_depthPair(depthPair) {
+      m_content(content) {
     UMBRA_CHECK(xResolution > 0 && yResolution > 0, "bad film resolution {}x{}", xResolution, yResolution);
     int x1, y1;
     cropPixels(m_xres, m_yres, cropWindow, &m_x0, &x1, &m_y0, &y1);
@@ -243,13 +243,14 @@ Film::Film(int xResolution, int yResolution, const float cropWindow[4], PixelFil
     size_t n = size_t(m_width) * size_t(m_height);
     // Depth passes never touch colour: not allocating it saves clearing
     // 16 bytes a pixel (6.5 MB for a 640^2 map) per pass.
-    if (!m_depthPair) m_rgba.resize(4 * n);  // zeros (ZeroedAllocator)
+    if (content == FilmContent::Colour) m_rgba.resize(4 * n);  // zeros (ZeroedAllocator)
     m_z.assign(n, kInfinity);
-    if (m_depthPair) m_z2.assign(n, kInfinity);
+    if (content == FilmContent::DepthPair) m_z2.assign(n, kInfinity);
     m_aov.resize(n * size_t(m_aovFloats));
 }
 
-Film Film::fromOptions(const scene::Options& o, std::vector<AovChannel> aovs, bool depthPair, Diagnostics& diag) {
+Film Film::fromOptions(const scene::Options& o, std::vector<AovChannel> aovs, FilmContent content,
+                       Diagnostics& diag) {
     std::optional<PixelFilter> f = PixelFilter::create(o.pixelFilter, o.filterWidth[0], o.filterWidth[1]);
     if (!f) {
         diag.error(o.loc, "unknown pixel filter \"{}\" with widths {} {} (expected box, triangle, gaussian, "
@@ -257,7 +258,7 @@ Film Film::fromOptions(const scene::Options& o, std::vector<AovChannel> aovs, bo
                    o.pixelFilter, o.filterWidth[0], o.filterWidth[1]);
         f = PixelFilter(FilterKind::Gaussian, 2, 2);
     }
-    return Film(o.xResolution, o.yResolution, o.cropWindow, *f, std::move(aovs), depthPair);
+    return Film(o.xResolution, o.yResolution, o.cropWindow, *f, std::move(aovs), content);
 }
 
 int Film::findAov(const std::string& name) const {

@@ -221,9 +221,10 @@ void SampleBuffer::reset(const SampleBufferConfig& c) {
         m_id2.clear();
         m_sub2.clear();
     } else {
-        m_z2.assign(n + 3, kInfinity);
-        m_id2.resize(n);
-        m_sub2.resize(n);
+        // The second layer only when it is kept.
+        m_z2.assign(c.depthLayers > 1 ? n + 3 : 0, kInfinity);
+        m_id2.resize(c.depthLayers > 1 ? n : 0);
+        m_sub2.resize(c.depthLayers > 1 ? n : 0);
         m_ci.clear();
         m_alpha.clear();
         m_aov.clear();
@@ -248,7 +249,7 @@ Vec2 SampleBuffer::position(int px, int py, int s) const {
 }
 float SampleBuffer::depth(int px, int py, int s) const { return m_z[size_t(sampleIndex(px, py, s))]; }
 float SampleBuffer::secondDepth(int px, int py, int s) const {
-    return m_cfg.mode == HiderMode::Depth ? m_z2[size_t(sampleIndex(px, py, s))] : kInfinity;
+    return m_cfg.mode == HiderMode::Depth && m_cfg.depthLayers > 1 ? m_z2[size_t(sampleIndex(px, py, s))] : kInfinity;
 }
 int SampleBuffer::fragmentCount(int px, int py, int s) const {
     if (m_cfg.mode != HiderMode::Colour) return 0;
@@ -565,7 +566,7 @@ void SampleBuffer::resolve(film::Film& film) {
         for (int py = by0; py < by1; ++py) {
             const size_t row = size_t(py - m_ry0) * size_t(m_sw) + size_t(bx0 - m_rx0);
             std::copy_n(&m_z[row], bx1 - bx0, &film.z(bx0, py));
-            if (film.hasDepthPair()) std::copy_n(&m_z2[row], bx1 - bx0, &film.z2(bx0, py));
+            if (film.hasDepthPair() && m_cfg.depthLayers > 1) std::copy_n(&m_z2[row], bx1 - bx0, &film.z2(bx0, py));
         }
         return;
     }
@@ -594,7 +595,7 @@ void SampleBuffer::resolve(film::Film& film) {
         for (int py = by0; py < by1; ++py)
             for (int px = bx0; px < bx1; ++px) {
                 film.z(px, py) = reduce(px, py);
-                if (film.hasDepthPair()) film.z2(px, py) = minOver(m_z2, px, py);
+                if (film.hasDepthPair() && m_cfg.depthLayers > 1) film.z2(px, py) = minOver(m_z2, px, py);
             }
         return;
     }

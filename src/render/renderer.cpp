@@ -187,6 +187,14 @@ struct Renderer::Impl {
                                const std::vector<geometry::PrimitivePtr>& prims, nlohmann::json& passes,
                                std::vector<MapWrite>& writes, int& failed);
     DepthFilter depthFilterOf(const scene::Options& options, const FileLoc& loc);
+    /// How many depth layers a depth pass keeps: the two-layer filters read
+    /// the second, the others need one, which also lets occlusion culling
+    /// skip hidden geometry (with two layers a sample is closed only once
+    /// two surfaces cover it). Option "umbra" "depthlayers" overrides.
+    static int depthLayersOf(const scene::Options& options, DepthFilter filter);
+    static film::FilmContent depthFilmOf(const scene::Options& options, DepthFilter filter) {
+        return depthLayersOf(options, filter) > 1 ? film::FilmContent::DepthPair : film::FilmContent::Depth;
+    }
     float dualOffsetOf(const scene::Options& options);
     Pass::Cull depthCullOf(const scene::Options& options, const FileLoc& loc);
 };
@@ -275,13 +283,7 @@ PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const st
         ss.sampling.depthReduce = filter == DepthFilter::Max       ? Reduce::Max
                                   : filter == DepthFilter::Average ? Reduce::Average
                                                                    : Reduce::Min;
-        // Only the two-layer filters read the second layer; the others keep
-        // one, which also lets occlusion culling skip hidden geometry (with
-        // two layers a sample is closed only once two surfaces cover it).
-        const bool oneLayer = filter == DepthFilter::Min || filter == DepthFilter::Max || filter == DepthFilter::Average;
-        ss.sampling.depthLayers = oneLayer ? 1 : 2;
-        if (auto it = options.user.find("umbra:depthlayers"); it != options.user.end() && !it->second.ints.empty())
-            ss.sampling.depthLayers = std::clamp(it->second.ints[0], 1, 2);
+        ss.sampling.depthLayers = depthLayersOf(options, filter);
     }
     ss.maxEyeSplits = options.eyeSplits;
     Progress progress(settings.progress, label);
@@ -397,7 +399,9 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
         frame.aovNames.push_back(a.name);
         frame.aovComponents.push_back(a.components);
     }
-    film::Film film = film::Film::fromOptions(options, aovs, depthFrame, diag);
+    film::Film film = film::Film::fromOptions(
+        options, aovs, depthFrame ? depthFilmOf(options, depthFilterOf(options, options.loc)) : film::FilmContent::Colour,
+        diag);
     PassResult camera = runPass(frame, pass, prims, film, fmt::format("frame {}", world.frameNumber));
     passes.push_back({{"name", pass.name},
                       {"wall_seconds", camera.wall},
@@ -523,7 +527,7 @@ std::string Renderer::Impl::renderLightMap(FrameState& frame, const scene::Light
         pass.openSurfacesAreOwnSecondLayer = filter == DepthFilter::Second;
         pass.minShadingRate = depthRate;
         float crop[4] = {0, 1, 0, 1};
-        film::Film film(size, size, crop, *film::PixelFilter::create("box", 1, 1), {}, true);
+        film::Film film(size, size, crop, *film::PixelFilter::create("box", 1, 1), {}, depthFilmOf(options, filter));
         PassResult r = runPass(frame, pass, prims, film, fmt::format("depth map {}", pass.name));
         passes.push_back({{"name", pass.name},
                           {"wall_seconds", r.wall},
@@ -590,6 +594,13 @@ std::string Renderer::Impl::renderLightMap(FrameState& frame, const scene::Light
     maps->put(path, std::move(map));
     mapWriteSeconds += writeClock.wall();
     return path;
+}
+
+int Renderer::Impl::depthLayersOf(const scene::Options& options, DepthFilter filter) {
+    if (auto it = options.user.find("umbra:depthlayers"); it != options.user.end() && !it->second.ints.empty())
+        return std::clamp(it->second.ints[0], 1, 2);
+    const bool oneLayer = filter == DepthFilter::Min || filter == DepthFilter::Max || filter == DepthFilter::Average;
+    return oneLayer ? 1 : 2;
 }
 
 DepthFilter Renderer::Impl::depthFilterOf(const scene::Options& options, const FileLoc& loc) {

@@ -71,17 +71,23 @@ using DepthWriter = std::function<bool(const scene::DisplayRecord&, const Film&)
 /// The filtered image of one render: r g b a, z (nearest opaque depth, camera
 /// space, +infinity where nothing was hit), optionally z2 (the depth pass's
 /// second-nearest depth), and the AOV channels, for the crop window's pixels.
-/// A depth film (depthPair) holds only z and z2: its colour reads as black.
-/// Buckets resolve into disjoint pixel ranges, so concurrent writers need no
-/// lock.
+/// A depth film holds only z (and z2 for a two-layer depth pass): its colour
+/// reads as black. Buckets resolve into disjoint pixel ranges, so concurrent
+/// writers need no lock.
+enum class FilmContent {
+    Colour,     ///< r g b a, z and the AOVs
+    Depth,      ///< z only (depth passes of one layer)
+    DepthPair,  ///< z and z2 (depth passes of two layers)
+};
+
 class Film {
 public:
     Film(int xResolution, int yResolution, const float cropWindow[4], PixelFilter filter,
-         std::vector<AovChannel> aovs = {}, bool depthPair = false);
+         std::vector<AovChannel> aovs = {}, FilmContent content = FilmContent::Colour);
     /// From the frame options (resolution, crop window, pixel filter). An
     /// unknown filter is reported at the options' location and replaced by
     /// RenderMan's default (gaussian 2 x 2).
-    static Film fromOptions(const scene::Options& options, std::vector<AovChannel> aovs, bool depthPair,
+    static Film fromOptions(const scene::Options& options, std::vector<AovChannel> aovs, FilmContent content,
                             Diagnostics& diag);
 
     /// The pixels a crop window selects: those whose centres lie in the
@@ -110,7 +116,7 @@ public:
     int findAov(const std::string& name) const;
     /// First float of AOV `index` within a pixel's AOV floats.
     int aovOffset(int index) const { return m_aovOffsets[size_t(index)]; }
-    bool hasDepthPair() const { return m_depthPair; }
+    bool hasDepthPair() const { return m_content == FilmContent::DepthPair; }
 
     /// Pixel access by raster coordinates (must be inside the crop region).
     float* rgba(int x, int y) { return &m_rgba[4 * index(x, y)]; }
@@ -145,7 +151,7 @@ private:
     std::vector<AovChannel> m_aovs;
     std::vector<int> m_aovOffsets;
     int m_aovFloats = 0;
-    bool m_depthPair = false;
+    FilmContent m_content = FilmContent::Colour;
     static constexpr float kNoColour[4] = {0, 0, 0, 0};  // a depth film's pixels
     /// Memory that starts as zeros without being written: calloc's fresh
     /// pages are zero already, so a frame's colour and AOV planes cost

@@ -49,7 +49,7 @@ float reducedDepth(SampleBufferConfig::DepthReduce reduce, int layers, float* z2
     buffer.sample(nearLeft.grid(1));
     buffer.sample(farAll.grid(2));
     float crop[4] = {0, 1, 0, 1};
-    film::Film film(1, 1, crop, *film::PixelFilter::create("box", 1, 1), {}, true);
+    film::Film film(1, 1, crop, *film::PixelFilter::create("box", 1, 1), {}, film::FilmContent::DepthPair);
     buffer.resolve(film);
     *z2 = film.z2(0, 0);
     return film.z(0, 0);

@@ -83,9 +83,9 @@ SampleBufferConfig config(int x0, int y0, int x1, int y1, int margin, int xs, in
 }
 
 film::Film makeFilm(int xres, int yres, const char* filter, float width, std::vector<film::AovChannel> aovs = {},
-                    bool depthPair = false) {
+                    film::FilmContent content = film::FilmContent::Colour) {
     const float crop[4] = {0, 1, 0, 1};
-    return film::Film(xres, yres, crop, *film::PixelFilter::create(filter, width, width), std::move(aovs), depthPair);
+    return film::Film(xres, yres, crop, *film::PixelFilter::create(filter, width, width), std::move(aovs), content);
 }
 
 /// Calls f(px, py, s) for every sample of the buffer's sampled region.
@@ -550,7 +550,7 @@ TEST(SampleBuffer, DepthModeKeepsNearestAndSecondSurface) {
         SampleBuffer b;
         b.reset(config(0, 0, 4, 4, 1, 1, 1, false, HiderMode::Depth));
         for (const TestGrid* g : order) b.sample(g->view());
-        film::Film film = makeFilm(4, 4, "box", 1.0f, {}, true);
+        film::Film film = makeFilm(4, 4, "box", 1.0f, {}, film::FilmContent::DepthPair);
         b.resolve(film);
         for (int y = 0; y < 4; ++y)
             for (int x = 0; x < 4; ++x) {
