@@ -324,8 +324,8 @@ void SampleBuffer::rasterizeQuad(const MicroGrid& g, const HitContext& ctx, int 
     // nearest vertex's, less the interpolation's rounding (a few 1e-6 of
     // the largest depth; the margin is far wider). Samples holding a useful
     // depth nearer than that cannot take a hit: groups of four such samples
-    // are skipped, and a micropolygon hidden at every sample (a third of a
-    // cluttered depth map's) is never set up. Depths that are not numbers
+    // are skipped, and a micropolygon hidden at every sample (two fifths of
+    // the shop's depth-map micropolygons) is never set up. Depths that are not numbers
     // skip nothing.
     float nearest = minz - 1e-4f * std::max(std::abs(minz), std::abs(maxz));
     if (!(nearest >= -kInfinity)) nearest = -kInfinity;

@@ -8,6 +8,7 @@
 #include "umbra/util/rng.h"
 
 
+#include <algorithm>
 #include <cstring>
 #include <regex>
 
@@ -168,6 +169,11 @@ template <class T> T deriv(const Exec& x, In<T> a, int i, int dir, float step) {
 /// from the last one's without a division.
 template <class T> void derivsOfActive(const Exec& x, In<T> a, T* du, T* dv) {
     const int nu = x.nu, nv = x.nv;
+    if (nu < 1) {  // no rows to walk: deriv() gives 0 here too
+        std::fill_n(du, x.active.size(), T(0));
+        std::fill_n(dv, x.active.size(), T(0));
+        return;
+    }
     const bool alongU = a.s != 0 && nu >= 2, alongV = a.s != 0 && nv >= 2;
     int iv = 0, rowStart = 0;
     for (size_t k = 0; k < x.active.size(); ++k) {

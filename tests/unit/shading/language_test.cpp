@@ -380,6 +380,45 @@ TEST(Language, ShadowCallsTheServiceWithFootprintAndParams) {
     for (auto& c : g.Ci) expectNear(c, Vec3(1, 1, 1));
 }
 
+TEST(Language, ShadowFootprintsOfSomePointsAreTheirGridDifferences) {
+    // Only some points call shadow(), scattered over rows and edges: each
+    // one's footprint is its own central difference along u and v (one-sided
+    // at the grid's edges), computed here from the grid.
+    Harness h;
+    const int nu = 5, nv = 4;
+    ShadingGrid g = makeGrid(nu, nv, [](float u, float v) { return Vec3(u * u, v * v * v + u, 1 + u * v); });
+    // The query's arrays live only during the call.
+    std::vector<int> indices;
+    std::vector<Vec3> dPdu, dPdv;
+    h.svc.shadowFn = [&](const ShadowQuery& q, float* r) {
+        indices.assign(q.indices, q.indices + q.count);
+        dPdu.assign(q.dPdu, q.dPdu + q.count);
+        dPdv.assign(q.dPdv, q.dPdv + q.count);
+        std::fill_n(r, q.count, 0.0f);
+        return true;
+    };
+    h.surface("surface t() { if (u > 0.3 || v > 0.9) Ci = shadow(\"m\", P); }", g);
+    ASSERT_EQ(h.svc.shadowQueries.size(), 1u);
+    auto diff = [&](int i, int step, int pos, int count) {
+        if (pos == 0) return g.P[size_t(i + step)] - g.P[size_t(i)];
+        if (pos == count - 1) return g.P[size_t(i)] - g.P[size_t(i - step)];
+        return (g.P[size_t(i + step)] - g.P[size_t(i - step)]) * 0.5f;
+    };
+    int expected = 0;
+    for (int i = 0; i < g.size(); ++i) expected += g.u[size_t(i)] > 0.3f || g.v[size_t(i)] > 0.9f;
+    ASSERT_EQ(int(indices.size()), expected);
+    for (size_t k = 0; k < indices.size(); ++k) {
+        const int i = indices[k], iu = i % nu, iv = i / nu;
+        const Vec3 du = diff(i, 1, iu, nu), dv = diff(i, nu, iv, nv);
+        EXPECT_EQ(dPdu[k].x, du.x) << i;
+        EXPECT_EQ(dPdu[k].y, du.y) << i;
+        EXPECT_EQ(dPdu[k].z, du.z) << i;
+        EXPECT_EQ(dPdv[k].x, dv.x) << i;
+        EXPECT_EQ(dPdv[k].y, dv.y) << i;
+        EXPECT_EQ(dPdv[k].z, dv.z) << i;
+    }
+}
+
 TEST(Language, IlluminanceWithTestLightCategoriesAndMessagePassing) {
     Harness h;
     h.svc.spaces["world"] = Mat4::identity();
