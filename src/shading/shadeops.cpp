@@ -147,6 +147,15 @@ Vec3 xform(const Mat4& m, const Mat4& inv, XKind k, const Vec3& v) {
 
 /// Derivative along u (dir 0) or v (dir 1) of register r at point i, per
 /// unit of u/v: central differences inside, one-sided at the edges.
+/// The difference of `a` at point i along one grid direction (neighbours
+/// `stride` apart; i is at `pos` of `count` points along it), per unit of
+/// `step`: central inside, one-sided at the edges.
+template <class T> T gridDifference(In<T> a, int i, int stride, int pos, int count, float step) {
+    if (count < 2) return T(0);
+    if (pos == 0) return (a[i + stride] - a[i]) * (1.0f / step);
+    if (pos == count - 1) return (a[i] - a[i - stride]) * (1.0f / step);
+    return (a[i + stride] - a[i - stride]) * (0.5f / step);
+}
 template <class T> T deriv(const Exec& x, In<T> a, int i, int dir, float step) {
     if (a.s == 0 || step == 0) return T(0);
     int nu = x.nu, nv = x.nv;
@@ -156,13 +165,7 @@ template <class T> T deriv(const Exec& x, In<T> a, int i, int dir, float step) {
     if (iv * nu > i) --iv;
     else if ((iv + 1) * nu <= i) ++iv;
     const int iu = i - iv * nu;
-    int count = dir == 0 ? nu : nv;
-    int pos = dir == 0 ? iu : iv;
-    int stride = dir == 0 ? 1 : nu;
-    if (count < 2) return T(0);
-    if (pos == 0) return (a[i + stride] - a[i]) * (1.0f / step);
-    if (pos == count - 1) return (a[i] - a[i - stride]) * (1.0f / step);
-    return (a[i + stride] - a[i - stride]) * (0.5f / step);
+    return dir == 0 ? gridDifference(a, i, 1, iu, nu, step) : gridDifference(a, i, nu, iv, nv, step);
 }
 /// deriv(x, a, i, 0, 1) and deriv(x, a, i, 1, 1) of every active point,
 /// in order: the active indices ascend, so each point's grid row follows
@@ -174,20 +177,12 @@ template <class T> void derivsOfActive(const Exec& x, In<T> a, T* du, T* dv) {
         std::fill_n(dv, x.active.size(), T(0));
         return;
     }
-    const bool alongU = a.s != 0 && nu >= 2, alongV = a.s != 0 && nv >= 2;
     int iv = 0, rowStart = 0;
     for (size_t k = 0; k < x.active.size(); ++k) {
         const int i = x.active[k];
         while (i >= rowStart + nu) rowStart += nu, ++iv;
-        const int iu = i - rowStart;
-        du[k] = !alongU        ? T(0)
-                : iu == 0      ? (a[i + 1] - a[i]) * 1.0f
-                : iu == nu - 1 ? (a[i] - a[i - 1]) * 1.0f
-                               : (a[i + 1] - a[i - 1]) * 0.5f;
-        dv[k] = !alongV        ? T(0)
-                : iv == 0      ? (a[i + nu] - a[i]) * 1.0f
-                : iv == nv - 1 ? (a[i] - a[i - nu]) * 1.0f
-                               : (a[i + nu] - a[i - nu]) * 0.5f;
+        du[k] = a.s == 0 ? T(0) : gridDifference(a, i, 1, i - rowStart, nu, 1.0f);
+        dv[k] = a.s == 0 ? T(0) : gridDifference(a, i, nu, iv, nv, 1.0f);
     }
 }
 float gridDu(const Exec& x) { return x.ctx->grid->du; }

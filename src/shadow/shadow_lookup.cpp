@@ -40,8 +40,10 @@
 #include "umbra/shadow/shadow_map.h"
 #include "umbra/util/rng.h"
 
+#include <bit>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <vector>
 
 namespace umbra {
@@ -83,6 +85,15 @@ inline bool project(const Mat4& m, const Vec3& p, float* x, float* y) {
 inline int floorInt(float v) {
     int i = int(v);
     return i - (float(i) > v ? 1 : 0);
+}
+
+/// The largest float below the integer n (|n| < 2^24, where float(n) is
+/// exact): one step of the float's bits towards minus infinity, without
+/// the libm call std::nextafter is on baseline x86-64.
+inline float floatBelow(int n) {
+    if (n == 0) return -std::numeric_limits<float>::denorm_min();
+    const uint32_t bits = std::bit_cast<uint32_t>(float(n));
+    return std::bit_cast<float>(n > 0 ? bits - 1 : bits + 1);
 }
 
 /// Relative tolerance of virtual-sample comparisons (float rounding of the
@@ -738,15 +749,14 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
             const bool unitWeights = !gaussianFilter && params.sampling == ShadowParams::Sampling::Jittered;
             if (unitWeights) {
                 // The production path (Figure 3c, box filter): sampleAt() for
-                // jittered samples, four at a time. Sample k is (a, b) =
-                // (k / nt, k % nt); the quotient from a float reciprocal is
-                // corrected by one step either way, so it is exact.
+                // jittered samples, four at a time. Sample k is in cell
+                // (a, b) = (k / nt, k % nt), from the region's cell table.
                 const float biasRange = biasHi - biasLo;
                 region.cells(ns, nt);
                 // floor() is monotonic: clamping the position into
                 // [iLo, iHi + 1) before it equals clamping the texel after.
-                const F4 uLo = F4{} + float(iLo), uHi = F4{} + std::nextafter(float(iHi) + 1.0f, -kInfinity);
-                const F4 vLo = F4{} + float(jLo), vHi = F4{} + std::nextafter(float(jHi) + 1.0f, -kInfinity);
+                const F4 uLo = F4{} + float(iLo), uHi = F4{} + floatBelow(iHi + 1);
+                const F4 vLo = F4{} + float(jLo), vHi = F4{} + floatBelow(jHi + 1);
                 U4 seeds = U4{} + pointSeed + U4{0, 1, 2, 3} * 0x9e3779b9u;
                 for (int q = 0; q < region.padded; q += 4, seeds += 4u * 0x9e3779b9u) {
                     const U4 h = hash32Lanes(seeds);
