@@ -48,7 +48,15 @@ dice::DiceParams SurfacePipeline::diceParams(const geometry::Primitive& prim) co
     return p;
 }
 
+bool SurfacePipeline::takesPart(const scene::Attributes& attrs) const {
+    return m_pass.depthOnly ? attrs.castsShadows : attrs.visibleToCamera;
+}
+
 Bound3 SurfacePipeline::rasterBound(const geometry::Primitive& prim) {
+    // A primitive this pass never draws (Attribute "visibility") has no
+    // bound, so it is culled whole instead of being split to grid size
+    // first: a ground plane left out of a depth map costs nothing there.
+    if (!takesPart(prim.attributes())) return {};
     dice::DiceParams p = diceParams(prim);
     Bound3 ob = prim.bound();
     if (dice::outsideView(dice::cameraBound(ob, p), p)) return {};
@@ -72,8 +80,7 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
     const hider::Camera& cam = m_pass.camera;
     const scene::PrimitiveRecord& rec = prim.record();
     const scene::Attributes& attrs = *rec.attributes;
-    if (!m_pass.depthOnly && !attrs.visibleToCamera) return false;
-    if (m_pass.depthOnly && !attrs.castsShadows) return false;
+    if (!takesPart(attrs)) return false;
 
     geometry::Grid g = prim.dice(nu, nv);
     Mat4 c = cameraFromObject(prim);

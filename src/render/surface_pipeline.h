@@ -24,6 +24,9 @@ public:
     bool shade(const geometry::Primitive& prim, int nu, int nv, uint64_t id, hider::ShadedGrid& out) override;
 
 private:
+    /// Whether this pass draws primitives of these attributes: a depth
+    /// pass its shadow casters, the camera what the camera sees.
+    bool takesPart(const scene::Attributes& attrs) const;
     /// cameraFromObject of a primitive in this pass.
     Mat4 cameraFromObject(const geometry::Primitive& prim) const;
     /// The dicing parameters of a primitive in this pass.

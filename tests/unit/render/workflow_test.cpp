@@ -387,3 +387,46 @@ TEST(Workflow, AMapThatCannotBeWrittenFailsTheFrame) {
         EXPECT_TRUE(std::filesystem::is_regular_file(dir.file("frame.exr")));
     }
 }
+
+TEST(Workflow, PrimitivesAPassNeverDrawsAreNotSplitThere) {
+    // The ground plane is in no depth map (transmission 0) and the sphere
+    // is in no camera image (camera 0): each must cost its pass nothing,
+    // not be split to grid size and thrown away piece by piece. A pass's
+    // work is compared with the same frame without the primitive it leaves
+    // out (one thread: occlusion culling then does the same work each run).
+    const std::string ground = R"(AttributeBegin
+    Attribute "visibility" "transmission" [0]
+    Polygon "P" [-5 0 -5  -5 0 5  5 0 5  5 0 -5]
+  AttributeEnd)";
+    const std::string sphere = R"(AttributeBegin
+    Attribute "visibility" "camera" [0]
+    Translate 0 1.5 0
+    Sphere 0.5 -0.5 0.5 360
+  AttributeEnd)";
+    auto passCounts = [&](bool withGround, bool withSphere, const std::string& passName) {
+        Diagnostics diag;
+        nlohmann::json stats = test::renderRib(fmt::format(R"(PixelSamples 2 2
+Option "umbra" "shadowmapsize" [1024]
+{}
+WorldBegin
+  LightSource "shadowspot" 1 "from" [0 4 0] "to" [0 0 0] "coneangle" [0.7] "shadowname" ["auto"]
+  Surface "matte"
+  {}
+  {}
+WorldEnd)", kDownCamera, withGround ? ground : "", withSphere ? sphere : ""),
+                                               diag, 1);
+        EXPECT_EQ(diag.errorCount(), 0);
+        for (const auto& pass : stats["frames"][0]["passes"])
+            if (pass["name"] == passName) return pass["counts"];
+        ADD_FAILURE() << "no pass " << passName;
+        return nlohmann::json();
+    };
+    const nlohmann::json depthBoth = passCounts(true, true, "depth:1"), depthSphere = passCounts(false, true, "depth:1");
+    const nlohmann::json cameraBoth = passCounts(true, true, "camera"), cameraGround = passCounts(true, false, "camera");
+    for (const char* count : {"splits", "grids", "micropolygons"}) {
+        EXPECT_EQ(depthBoth[count], depthSphere[count]) << count;
+        EXPECT_EQ(cameraBoth[count], cameraGround[count]) << count;
+    }
+    EXPECT_GT(depthBoth["grids"].get<int>(), 0);  // the sphere is in the map
+    EXPECT_GT(cameraBoth["grids"].get<int>(), 0);  // the ground is in the image
+}
