@@ -1,5 +1,8 @@
 #include "umbra/geometry/patch.h"
 
+#include <algorithm>
+#include <cmath>
+
 namespace umbra::geometry {
 
 namespace {
@@ -22,11 +25,50 @@ void divideW(const float* h, int dim, Vec3* out) {
 
 }  // namespace
 
+namespace {
+
+/// Whether the bilinear patch of these homogeneous corners (u fastest:
+/// (0,0) (1,0) (0,1) (1,1)) is a flat convex quadrilateral. Its edges are
+/// straight, so it is then exactly the quadrilateral, whatever its
+/// parameterisation, and so is every piece split from it. Corners off the
+/// plane by 1e-5 of the quad's size or less count as on it: one
+/// micropolygon then stands off the true surface by no more than that.
+/// Rational corners (unequal w) are left out.
+bool isFlatConvexQuad(const float corner[4][4]) {
+    for (int c = 1; c < 4; ++c)
+        if (corner[c][3] != corner[0][3]) return false;
+    if (!(corner[0][3] != 0)) return false;
+    Vec3 q[4];  // around the outline: (0,0) (1,0) (1,1) (0,1)
+    const int order[4] = {0, 1, 3, 2};
+    for (int k = 0; k < 4; ++k) {
+        const float* c = corner[order[k]];
+        q[k] = Vec3(c[0], c[1], c[2]) / c[3];
+    }
+    const Vec3 n = cross(q[2] - q[0], q[3] - q[1]);  // the diagonals span the plane
+    const float size = std::max(length(q[2] - q[0]), length(q[3] - q[1]));
+    const float nLength = length(n);
+    if (!(nLength > 0) || !std::isfinite(nLength) || !(size > 0)) return false;
+    const Vec3 unit = n / nLength;
+    const Vec3 centre = (q[0] + q[1] + q[2] + q[3]) * 0.25f;
+    for (const Vec3& p : q)
+        if (!(std::abs(dot(p - centre, unit)) <= 1e-5f * size)) return false;
+    // Convex: every turn of the outline is to the same side (collapsed
+    // edges, as a triangle's, turn by zero).
+    for (int k = 0; k < 4; ++k) {
+        const Vec3 in = q[k] - q[(k + 3) % 4], out = q[(k + 1) % 4] - q[k];
+        if (dot(cross(in, out), unit) < -1e-6f * size * size) return false;
+    }
+    return true;
+}
+
+}  // namespace
+
 BilinearPatch::BilinearPatch(std::shared_ptr<const scene::PrimitiveRecord> record,
                              std::shared_ptr<const SurfaceData> data, const CornerRefs& refs, const ParamRange& range,
                              const ParamMap& map)
     : Primitive(std::move(record)), m_data(std::move(data)), m_refs(refs), m_range(range), m_map(map) {
     for (int c = 0; c < 4; ++c) m_data->position(size_t(refs.vertex[c]), m_corner[c]);
+    m_flatQuad = isFlatConvexQuad(m_corner);
 }
 
 void BilinearPatch::evalPositions(const std::vector<float>& a, const std::vector<float>& b, Vec3* P) const {

@@ -27,6 +27,7 @@ public:
     void split(bool splitU, std::vector<PrimitivePtr>& out) const override;
     Grid dice(int nu, int nv) const override;
     void dicePositions(int nu, int nv, std::vector<Vec3>& P) const override;
+    bool flatQuad() const override { return m_flatQuad; }
 
     const CornerRefs& corners() const { return m_refs; }
     const ParamRange& range() const { return m_range; }
@@ -39,6 +40,7 @@ private:
     ParamRange m_range;
     ParamMap m_map;
     float m_corner[4][4];  // homogeneous corner positions
+    bool m_flatQuad = false;
 };
 
 /// A bicubic patch converted once to the power basis: each value is

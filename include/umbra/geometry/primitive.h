@@ -42,6 +42,11 @@ public:
     /// dicing decision needs to measure a primitive's size on screen.
     /// Families override it to skip primitive variables.
     virtual void dicePositions(int nu, int nv, std::vector<Vec3>& P) const { P = dice(nu, nv).P; }
+    /// True when the surface is one flat, convex quadrilateral (or
+    /// triangle) with straight edges: a single micropolygon of it then has
+    /// the same outline and, under perspective too, the same depths as any
+    /// finer grid, so a depth pass need not dice it finely.
+    virtual bool flatQuad() const { return false; }
 
     const scene::PrimitiveRecord& record() const { return *m_record; }
     const std::shared_ptr<const scene::PrimitiveRecord>& recordPtr() const { return m_record; }

@@ -280,3 +280,35 @@ TEST(PatchMesh, VariablesOfEveryClass) {
         }
     }
 }
+
+TEST(Patch, FlatQuadOnlyForFlatConvexStraightEdgedPatches) {
+    // A depth pass dices flat quads as one micropolygon, which is exact
+    // only for a flat, convex outline with straight edges.
+    auto flat = [](std::vector<float> P, int dim = 3) {
+        auto rec = dim == 3 ? patchRecord("bilinear", std::move(P))
+                            : record("Patch", {}, {floatParam("Pw", ri::ParamType::HPoint, std::move(P),
+                                                              ri::StorageClass::Vertex)});
+        rec->stringArgs = {"bilinear"};
+        auto p = makeOne(rec);
+        return p && p->flatQuad();
+    };
+    // Corners in patch order (0,0) (1,0) (0,1) (1,1).
+    EXPECT_TRUE(flat({0, 0, 0, 2, 0, 0, 0, 1, 0, 2, 1, 0}));          // a rectangle
+    EXPECT_TRUE(flat({0, 0, 5, 2, 0.5f, 7.5f, -1, 1, 5, 3, 2, 10}));  // a tilted convex quad: z = 5 + x + y
+    EXPECT_TRUE(flat({0, 0, 0, 2, 0, 0, 1, 1, 0, 1, 1, 0}));          // a triangle (collapsed edge)
+    EXPECT_FALSE(flat({0, 0, 0, 2, 0, 0, 0, 1, 0, 2, 1, 0.01f}));     // twisted: a saddle
+    EXPECT_FALSE(flat({0, 0, 0, 2, 0, 0, 0, 2, 0, 0.5f, 0.5f, 0}));   // flat but a dart (reflex corner)
+    EXPECT_FALSE(flat({0, 0, 0, 1, 0, 0, 2, 0, 0, 3, 0, 0}));         // collinear: no plane
+    EXPECT_FALSE(flat({0, 0, 0, 1, 1, 0, 0, 1, 0, 1, 0, 1, 2, 2, 0, 2}, 4));  // rational: a flat square, unequal w
+    EXPECT_TRUE(flat({0, 0, 0, 2, 2, 0, 0, 2, 0, 2, 0, 2, 2, 2, 0, 2}, 4));   // homogeneous, equal w
+
+    // Split pieces of a flat quad are flat quads; bicubic patches never are.
+    std::vector<PrimitivePtr> pieces;
+    makeOne(patchRecord("bilinear", {0, 0, 5, 2, 0.5f, 7.5f, -1, 1, 5, 3, 2, 10}))->split(true, pieces);
+    ASSERT_EQ(pieces.size(), 2u);
+    for (const auto& piece : pieces) EXPECT_TRUE(piece->flatQuad());
+    std::vector<float> G;
+    for (int j = 0; j < 4; ++j)
+        for (int i = 0; i < 4; ++i) G.insert(G.end(), {i / 3.0f, j / 3.0f, 0});
+    EXPECT_FALSE(makeOne(patchRecord("bicubic", G))->flatQuad());
+}

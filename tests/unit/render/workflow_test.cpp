@@ -430,3 +430,56 @@ WorldEnd)", kDownCamera, withGround ? ground : "", withSphere ? sphere : ""),
     EXPECT_GT(depthBoth["grids"].get<int>(), 0);  // the sphere is in the map
     EXPECT_GT(cameraBoth["grids"].get<int>(), 0);  // the ground is in the image
 }
+
+TEST(Workflow, FlatQuadsAreOneMicropolygonInADepthPassWithTheSameDepths) {
+    // A tilted square seen by a perspective spot light, once as a Polygon
+    // (a flat quad: one micropolygon in the depth pass) and once as the
+    // same square as a bicubic patch (diced at the depth pass's rate). 1/z
+    // is linear across a flat micropolygon, so both maps hold the plane's
+    // depths: they must agree to float rounding, texel for texel.
+    ScratchDir dir("flatquad");
+    const char* corners[4] = {"-1 0.3 -1", "1 -0.2 -1", "-1 0.8 1", "1 0.3 1"};  // on the plane y = 0.3 - x/4 + z/4
+    auto at = [&](float u, float v) {  // the bilinear (and bicubic) square at (u, v)
+        return fmt::format("{} {} {}", 2 * u - 1, 0.3f - 0.25f * (2 * u - 1) + 0.25f * (2 * v - 1), 2 * v - 1);
+    };
+    std::string bezier;
+    for (int j = 0; j < 4; ++j)
+        for (int i = 0; i < 4; ++i) bezier += at(i / 3.0f, j / 3.0f) + " ";
+    auto render = [&](const std::string& name, const std::string& surface) {
+        Diagnostics diag;
+        nlohmann::json stats = test::renderRib(fmt::format(R"(Display "{}" "openexr" "rgba" "string type" "float"
+Option "umbra" "shadowmapsize" [256]
+{}
+WorldBegin
+  LightSource "shadowspot" "key" "from" [0.5 4 -2] "to" [0 0 0] "coneangle" [0.6] "shadowname" ["auto"]
+  Surface "matte"
+  {}
+WorldEnd)", dir.file(name + ".exr"), kDownCamera, surface),
+                                               diag);
+        EXPECT_EQ(diag.errorCount(), 0);
+        return stats["frames"][0]["passes"][0]["counts"];
+    };
+    const nlohmann::json polygon = render("polygon", fmt::format(R"(Polygon "P" [{} {} {} {}])", corners[0],
+                                                                 corners[1], corners[3], corners[2]));
+    render("patch", "Patch \"bicubic\" \"P\" [" + bezier + "]");
+    EXPECT_EQ(polygon["micropolygons"], 1);
+    Diagnostics diag;
+    auto a = ShadowMap::open(dir.file("polygon.key.shd"), diag), b = ShadowMap::open(dir.file("patch.key.shd"), diag);
+    ASSERT_TRUE(a && b);
+    int stored = 0, outlineDiffers = 0;
+    float worst = 0;
+    for (int y = 0; y < 256; ++y)
+        for (int x = 0; x < 256; ++x) {
+            const float za = a->texel(x, y), zb = b->texel(x, y);
+            if (std::isinf(za) != std::isinf(zb)) {
+                ++outlineDiffers;  // a texel centre on the edge, within rounding
+                continue;
+            }
+            if (std::isinf(za)) continue;
+            ++stored;
+            worst = std::max(worst, std::abs(za - zb) / zb);
+        }
+    EXPECT_GT(stored, 5000);
+    EXPECT_LT(worst, 2e-6f);
+    EXPECT_LE(outlineDiffers, 4);
+}
