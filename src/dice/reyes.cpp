@@ -74,6 +74,49 @@ void rasterLengths(const Vec3* R, int nu, int nv, float* lenU, float* lenV) {
     *lenV = lv;
 }
 
+void flatnessCounts(const Vec3* Q, int n, float flatness, float* countU, float* countV) {
+    // Second differences of the lattice (step 1/n) times n^2 are the
+    // surface's second derivatives: A = P_uu, B = P_vv and, per cell, the
+    // twist C = P_uv. Cut into Nu x Nv cells, a u edge's chord is off the
+    // surface by |A| / (8 Nu^2) at its middle, a v edge's by |B| / (8 Nv^2),
+    // and a cell's centre, which its triangles reach along the diagonal, by
+    // |A / Nu^2 + 2 C / (Nu Nv) + B / Nv^2| / 8. Each is held to 3/4 of the
+    // flatness: the margin covers what a coarse lattice misses.
+    auto at = [&](int i, int j) { return Q[j * (n + 1) + i]; };
+    const float nn = float(n) * float(n);
+    const float limit = 0.75f * flatness;
+    auto bendU = [&](int i, int j) { return (at(i - 1, j) - at(i, j) * 2.0f + at(i + 1, j)) * nn; };
+    auto bendV = [&](int i, int j) { return (at(i, j - 1) - at(i, j) * 2.0f + at(i, j + 1)) * nn; };
+    auto twist = [&](int i, int j) { return (at(i + 1, j + 1) - at(i + 1, j) - at(i, j + 1) + at(i, j)) * nn; };
+    float maxA = 0, maxB = 0;
+    for (int j = 0; j <= n; ++j)
+        for (int i = 1; i < n; ++i) maxA = std::max(maxA, length(bendU(i, j)));
+    for (int j = 1; j < n; ++j)
+        for (int i = 0; i <= n; ++i) maxB = std::max(maxB, length(bendV(i, j)));
+    // NaN (unprojectable points) gives no bound: the rate alone decides.
+    auto count = [&](float bend) {
+        const float c = std::ceil(std::sqrt(bend / (8.0f * limit)));
+        return c >= 1 ? c : (bend >= 0 ? 1.0f : kInfinity);
+    };
+    float cu = count(maxA), cv = count(maxB);
+    float centre = 0;  // the worst centre stand-off at cu x cv
+    for (int j = 1; j < n; ++j)
+        for (int i = 1; i < n; ++i) {
+            const Vec3 d = bendU(i, j) / (cu * cu) + twist(i, j) * (2.0f / (cu * cv)) + bendV(i, j) / (cv * cv);
+            centre = std::max(centre, length(d) / 8.0f);
+        }
+    if (!(centre >= 0)) {
+        cu = cv = kInfinity;
+    } else if (centre > limit) {
+        // Every term falls with the square of a common scale.
+        const float grow = std::sqrt(centre / limit);
+        cu = std::ceil(cu * grow);
+        cv = std::ceil(cv * grow);
+    }
+    *countU = cu;
+    *countV = cv;
+}
+
 DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, const DiceParams& p, int eyeSplits,
                   Diagnostics* diag) {
     DiceResult res;
@@ -120,22 +163,43 @@ DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, co
     prim.dicePositions(n, n, P);
     const Mat4 rasterFromObject = p.rasterFromCamera * p.cameraFromObject;
     const float zEye = eyePlaneZ(p);
-    for (Vec3& q : P) {
+    // Flatness is measured in pixel space: raster x and y, and camera depth
+    // in pixel widths.
+    thread_local std::vector<Vec3> pixelSpace;
+    const bool flat = p.flatness > 0;
+    if (flat) pixelSpace.resize(P.size());
+    float nearest = kInfinity;
+    for (size_t k = 0; k < P.size(); ++k) {
+        Vec3& q = P[k];
+        Vec3 c = p.cameraFromObject.point(q);
         if (p.orthographic) {
             q = rasterFromObject.point(q);
-            continue;
+        } else {
+            // The bound says z >= zEye; clamp anyway so rounding cannot divide by ~0.
+            if (c.z < zEye) c.z = zEye;
+            q = p.rasterFromCamera.point(c);
         }
-        // The bound says z >= zEye; clamp anyway so rounding cannot divide by ~0.
-        Vec3 c = p.cameraFromObject.point(q);
-        if (c.z < zEye) c.z = zEye;
-        q = p.rasterFromCamera.point(c);
+        if (flat) {
+            pixelSpace[k] = Vec3(q.x, q.y, c.z);
+            nearest = std::min(nearest, c.z);
+        }
+    }
+    float flatU = kInfinity, flatV = kInfinity;
+    if (flat) {
+        // A camera unit spans S / w pixels, w = z under perspective (the
+        // lattice's nearest point has the widest scale), 1 when orthographic.
+        const auto& m = p.rasterFromCamera.m;
+        const float S = std::max(std::abs(m[0][0]), std::abs(m[1][1]));
+        const float scale = S / std::abs(m[3][2] * nearest + m[3][3]);
+        for (Vec3& v : pixelSpace) v.z *= scale;
+        flatnessCounts(pixelSpace.data(), n, p.flatness, &flatU, &flatV);
     }
     float lenU = 0, lenV = 0;
     rasterLengths(P.data(), n, n, &lenU, &lenV);
     const float side = std::sqrt(std::max(p.shadingRate, 1e-6f));
     // Work in float first: a primitive near the eye can be millions of pixels long.
-    const float fu = std::max(1.0f, std::ceil(lenU / side));
-    const float fv = std::max(1.0f, std::ceil(lenV / side));
+    const float fu = std::max(1.0f, std::min(std::ceil(lenU / side), flatU));
+    const float fv = std::max(1.0f, std::min(std::ceil(lenV / side), flatV));
     if (!(fu * fv <= float(std::max(p.gridSize, 1)))) {
         res.decision = Decision::Split;
         res.splitU = !(fv > fu);

@@ -44,6 +44,11 @@ struct Pass {
     /// linearly across a micropolygon, so coarser dicing costs a biased map
     /// no accuracy on flat surfaces and little on curved ones.
     float minShadingRate = 0;
+    /// Automatic nearest-depth maps: how far, in map pixels, a micropolygon
+    /// may stand off its surface (dice::DiceParams::flatness): smooth
+    /// surfaces dice coarser than minShadingRate where that keeps them
+    /// within it. 0: the rate alone decides.
+    float flatness = 0;
     /// A spotlight's automatic map keeps only the disc inscribed in it (the
     /// cone plus its margin): the light never illuminates, so never looks
     /// up, the corners, and storing them would only cost tiles.

@@ -33,6 +33,12 @@ namespace umbra::render {
 
 namespace {
 
+/// How far (map pixels) a micropolygon of an automatic nearest-depth map
+/// may stand off its surface: a quarter of a texel moves a shadow's edge
+/// by less than percentage-closer filtering blurs it, and its depth by a
+/// quarter of a texel's width, far less than the bias such maps need.
+constexpr float kDepthFlatness = 0.25f;
+
 double peakResidentMiB() {
     rusage ru{};
     getrusage(RUSAGE_SELF, &ru);
@@ -526,6 +532,7 @@ std::string Renderer::Impl::renderLightMap(FrameState& frame, const scene::Light
         pass.cull = cull;
         pass.openSurfacesAreOwnSecondLayer = filter == DepthFilter::Second;
         pass.minShadingRate = depthRate;
+        pass.flatness = depthRate > 0 ? kDepthFlatness : 0;
         float crop[4] = {0, 1, 0, 1};
         film::Film film(size, size, crop, *film::PixelFilter::create("box", 1, 1), {}, depthFilmOf(options, filter));
         PassResult r = runPass(frame, pass, prims, film, fmt::format("depth map {}", pass.name));

@@ -41,6 +41,14 @@ struct DiceParams {
     bool orthographic = false;
     float displacementBound = 0;        // camera-space padding of every bound
     int testGrid = 8;                   // lattice used to measure a primitive on screen
+    /// When > 0 (depth passes): the most, in pixels, a micropolygon may
+    /// stand off the surface it stands for, across the image or in depth
+    /// (measured in pixel widths at that depth). The grid is then no finer
+    /// than that needs, as well as no finer than `shadingRate` gives: large
+    /// smooth surfaces get large micropolygons. Measured from the test
+    /// lattice's second differences; leave 0 when displacement may add
+    /// detail the lattice cannot see.
+    float flatness = 0;
 };
 
 /// The three outcomes of the REYES loop for one primitive.
@@ -84,5 +92,14 @@ DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, co
 /// of raster positions (row after row, u fastest): the largest polyline
 /// length over rows, and over columns, in pixels (x and y only).
 void rasterLengths(const Vec3* raster, int nu, int nv, float* lenU, float* lenV);
+
+/// The fewest micropolygons along u and v (at least 1) whose triangles
+/// stand off a surface by at most `flatness` pixels, from an (n+1) x (n+1)
+/// lattice of it (row after row, u fastest) in "pixel space": raster x and
+/// y, and depth in pixel widths at that depth. A chord's bend grows with
+/// the square of its length, so the lattice's largest second differences
+/// along u and v, and its largest twist (a cell off its diagonal), give
+/// the counts; see reyes.cpp for the budget.
+void flatnessCounts(const Vec3* pixelSpace, int n, float flatness, float* countU, float* countV);
 
 }  // namespace umbra::dice

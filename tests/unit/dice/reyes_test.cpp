@@ -230,3 +230,86 @@ TEST(Dice, RasterBoundContainsTheProjectedSurface) {
     EXPECT_EQ(sb.min.x, -kInfinity);
     EXPECT_EQ(sb.max.y, kInfinity);
 }
+
+namespace {
+
+// The largest distance, in pixel space (raster x, y; camera depth in pixel
+// widths at that depth), between a surface diced nu x nv and the surface
+// itself, at the middle of every micropolygon edge and at every cell's
+// centre, which the hider's triangles reach along the cell's diagonal.
+float worstStandOff(const Primitive& prim, const DiceParams& p, int nu, int nv) {
+    const float S = p.rasterFromCamera.m[0][0];
+    auto pixel = [&](const Vec3& object) {
+        const Vec3 c = p.cameraFromObject.point(object);
+        const Vec3 r = p.rasterFromCamera.point(c);
+        return Vec3(r.x, r.y, c.z * S / c.z);  // depth: only differences matter, scaled per point below
+    };
+    const Grid coarse = prim.dice(nu, nv), fine = prim.dice(2 * nu, 2 * nv);
+    auto at = [](const Grid& g, int i, int j) { return g.P[size_t(g.index(i, j))]; };
+    float worst = 0;
+    auto check = [&](const Vec3& a, const Vec3& b, const Vec3& truth) {
+        // Depth in pixel widths at the true point's depth.
+        const Vec3 ca = p.cameraFromObject.point(a), cb = p.cameraFromObject.point(b), ct = p.cameraFromObject.point(truth);
+        const float zScale = S / ct.z;
+        const Vec3 ra = pixel(a), rb = pixel(b), rt = pixel(truth);
+        const Vec3 off((ra.x + rb.x) / 2 - rt.x, (ra.y + rb.y) / 2 - rt.y, ((ca.z + cb.z) / 2 - ct.z) * zScale);
+        worst = std::max(worst, length(off));
+    };
+    for (int j = 0; j <= nv; ++j)
+        for (int i = 0; i < nu; ++i) check(at(coarse, i, j), at(coarse, i + 1, j), at(fine, 2 * i + 1, 2 * j));
+    for (int j = 0; j < nv; ++j)
+        for (int i = 0; i <= nu; ++i) check(at(coarse, i, j), at(coarse, i, j + 1), at(fine, 2 * i, 2 * j + 1));
+    for (int j = 0; j < nv; ++j)
+        for (int i = 0; i < nu; ++i) check(at(coarse, i, j), at(coarse, i + 1, j + 1), at(fine, 2 * i + 1, 2 * j + 1));
+    return worst;
+}
+
+}  // namespace
+
+TEST(Dice, FlatnessDicesSmoothSurfacesCoarselyWithinTheirStandOff) {
+    // Depth passes bound how far a micropolygon may stand off its surface
+    // instead of dicing at the shading rate: a sphere 64 pixels in radius
+    // needs about pi sqrt(64 / (2 * 0.25)) = 36 edges around for chords
+    // within a quarter pixel, where rate 4 gives 200. Each grid is checked
+    // against the surface itself, diced twice as finely.
+    struct Case {
+        const char* name;
+        PrimitivePtr prim;
+    };
+    Case cases[] = {
+        {"sphere", make("Sphere", {1, -1, 1, 360})},
+        {"torus", make("Torus", {1, 0.3f, 0, 360, 360})},
+        {"cylinder", make("Cylinder", {0.5f, -1, 1, 360})},
+        {"saddle", nullptr},
+    };
+    {
+        Diagnostics diag;
+        auto rec = record("Patch", {}, {pointParam({-1, -1, 0, 1, -1, 0.6f, -1, 1, 0.6f, 1, 1, 0})});
+        rec->stringArgs = {"bilinear"};
+        auto prims = makePrimitives(rec, diag);
+        ASSERT_EQ(prims.size(), 1u);
+        cases[3].prim = std::move(prims[0]);
+    }
+    for (auto& c : cases) {
+        DiceParams p = perspective(Mat4::translate({0.1f, 0.2f, 5}) * Mat4::rotate(40, {1, 0.3f, 0}));
+        p.shadingRate = 4;
+        p.gridSize = 1 << 20;
+        const DiceResult byRate = decide(*c.prim, c.prim->bound(), p);
+        for (float flatness : {0.25f, 0.05f}) {
+            p.flatness = flatness;
+            const DiceResult r = decide(*c.prim, c.prim->bound(), p);
+            ASSERT_EQ(r.decision, Decision::Dice) << c.name;
+            EXPECT_LE(r.nu, byRate.nu) << c.name;  // never finer than the rate
+            EXPECT_LE(r.nv, byRate.nv) << c.name;
+            // Where the rate caps a direction the grid is the rate's, which
+            // may stand off further; at a quarter pixel none is capped.
+            const bool capped = r.nu == byRate.nu || r.nv == byRate.nv;
+            if (flatness == 0.25f) {
+                EXPECT_FALSE(capped) << c.name;
+                EXPECT_LT(r.nu * r.nv, byRate.nu * byRate.nv / 3) << c.name;
+            }
+            if (!capped)
+                EXPECT_LE(worstStandOff(*c.prim, p, r.nu, r.nv), flatness) << c.name << " " << r.nu << "x" << r.nv;
+        }
+    }
+}
