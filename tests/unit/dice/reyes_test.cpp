@@ -239,11 +239,7 @@ namespace {
 // centre, which the hider's triangles reach along the cell's diagonal.
 float worstStandOff(const Primitive& prim, const DiceParams& p, int nu, int nv) {
     const float S = p.rasterFromCamera.m[0][0];
-    auto pixel = [&](const Vec3& object) {
-        const Vec3 c = p.cameraFromObject.point(object);
-        const Vec3 r = p.rasterFromCamera.point(c);
-        return Vec3(r.x, r.y, c.z * S / c.z);  // depth: only differences matter, scaled per point below
-    };
+    auto raster = [&](const Vec3& object) { return p.rasterFromCamera.point(p.cameraFromObject.point(object)); };
     const Grid coarse = prim.dice(nu, nv), fine = prim.dice(2 * nu, 2 * nv);
     auto at = [](const Grid& g, int i, int j) { return g.P[size_t(g.index(i, j))]; };
     float worst = 0;
@@ -251,7 +247,7 @@ float worstStandOff(const Primitive& prim, const DiceParams& p, int nu, int nv) 
         // Depth in pixel widths at the true point's depth.
         const Vec3 ca = p.cameraFromObject.point(a), cb = p.cameraFromObject.point(b), ct = p.cameraFromObject.point(truth);
         const float zScale = S / ct.z;
-        const Vec3 ra = pixel(a), rb = pixel(b), rt = pixel(truth);
+        const Vec3 ra = raster(a), rb = raster(b), rt = raster(truth);
         const Vec3 off((ra.x + rb.x) / 2 - rt.x, (ra.y + rb.y) / 2 - rt.y, ((ca.z + cb.z) / 2 - ct.z) * zScale);
         worst = std::max(worst, length(off));
     };
