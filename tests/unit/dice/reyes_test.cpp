@@ -304,8 +304,9 @@ TEST(Dice, FlatnessDicesSmoothSurfacesCoarselyWithinTheirStandOff) {
                 EXPECT_FALSE(capped) << c.name;
                 EXPECT_LT(r.nu * r.nv, byRate.nu * byRate.nv / 3) << c.name;
             }
-            if (!capped)
+            if (!capped) {
                 EXPECT_LE(worstStandOff(*c.prim, p, r.nu, r.nv), flatness) << c.name << " " << r.nu << "x" << r.nv;
+            }
         }
     }
 }
