@@ -23,10 +23,6 @@ void divideW(const float* h, int dim, Vec3* out) {
     else *out = Vec3(h[0], h[1], h[2]);
 }
 
-}  // namespace
-
-namespace {
-
 /// Whether the bilinear patch of these homogeneous corners (u fastest:
 /// (0,0) (1,0) (0,1) (1,1)) is a flat convex quadrilateral. Its edges are
 /// straight, so it is then exactly the quadrilateral, whatever its

@@ -44,7 +44,7 @@ struct Pass {
     /// linearly across a micropolygon, so coarser dicing costs a biased map
     /// no accuracy on flat surfaces and little on curved ones.
     float minShadingRate = 0;
-    /// Automatic nearest-depth maps: how far, in map pixels, a micropolygon
+    /// Automatic maps with a minShadingRate: how far, in map pixels, a micropolygon
     /// may stand off its surface (dice::DiceParams::flatness): smooth
     /// surfaces dice coarser than minShadingRate where that keeps them
     /// within it. 0: the rate alone decides.

@@ -35,12 +35,14 @@ dice::DiceParams SurfacePipeline::diceParams(const geometry::Primitive& prim) co
     for (int i = 0; i < 4; ++i) p.rasterWindow[i] = m_rasterWindow[i];
     p.shadingRate = std::max(attrs.shadingRate, m_pass.minShadingRate);
     // A depth pass stores only depths, and a flat quad's are exact at any
-    // size (1/z is linear across it): one micropolygon per piece. Curved
+    // size (1/z is linear across it): one micropolygon per piece. Other
     // surfaces dice no finer than the pass's flatness needs. Both unless a
     // displacement shader may bend the surface.
     if (m_pass.depthOnly && !m_frame.attributes.at(&attrs).displacement) {
-        if (prim.flatQuad()) p.shadingRate = kInfinity;
-        p.flatness = m_pass.flatness;
+        if (prim.flatQuad())
+            p.shadingRate = kInfinity;
+        else
+            p.flatness = m_pass.flatness;
     }
     p.gridSize = m_frame.world->options.gridSize;
     p.nearClip = cam.nearClip;
