@@ -68,18 +68,6 @@ struct TileMemo {
     }
 };
 
-/// Projects `p` by `m` into raster space; false when behind the projection
-/// centre (w <= 0) or not finite.
-inline bool project(const Mat4& m, const Vec3& p, float* x, float* y) {
-    const auto& a = m.m;
-    float w = a[3][0] * p.x + a[3][1] * p.y + a[3][2] * p.z + a[3][3];
-    if (!(w > 0)) return false;
-    float inv = 1.0f / w;
-    *x = (a[0][0] * p.x + a[0][1] * p.y + a[0][2] * p.z + a[0][3]) * inv;
-    *y = (a[1][0] * p.x + a[1][1] * p.y + a[1][2] * p.z + a[1][3]) * inv;
-    return std::isfinite(*x) && std::isfinite(*y);
-}
-
 /// floor() as an int, for |v| < 2^31 (callers bound their values first).
 /// std::floor is a libm call on baseline x86-64, which has no SSE4.1 round.
 inline int floorInt(float v) {
@@ -184,6 +172,106 @@ struct RegionSamples {
 /// exact in any order; Gaussian weights sum in this fixed order.
 inline float sumLanes(F4 v) { return (v[0] + v[1]) + (v[2] + v[3]); }
 
+/// Steps 1 and 2 for a batch's points, four at a time: the light-space
+/// depth z, the raster position (s, t) and the region's half-widths
+/// (hs, ht). `usable` is false (0) for points behind the light or not
+/// projectable, which are lit. Lane by lane, the arithmetic is the scalar
+/// formulas' in the same order, so every value is the one a point-by-point
+/// evaluation gives.
+struct PointRegions {
+    std::vector<float> z, s, t, hs, ht;
+    std::vector<int32_t> usable;  // -1 or 0, as vector comparisons give
+    // Of them all: is every point usable; the range of z; the union of the
+    // regions, [loS, hiS] x [loT, hiT].
+    bool allUsable = false;
+    float zLo = 0, zHi = 0, loS = 0, hiS = 0, loT = 0, hiT = 0;
+
+    struct Widths {
+        float sWidth, tWidth, blurS, blurT, minHalf, maxHalf;
+    };
+
+    void compute(const ShadowBatch& batch, const Mat4& lightFromCurrent, const Mat4& rasterFromCurrent,
+                 const Widths& wd) {
+        const int n = batch.count, padded = (n + 3) & ~3;
+        if (usable.size() < size_t(padded)) {
+            for (auto* v : {&z, &s, &t, &hs, &ht}) v->resize(size_t(padded));
+            usable.resize(size_t(padded));
+        }
+        const auto& L = lightFromCurrent.m;
+        const auto& R = rasterFromCurrent.m;
+        auto abs4 = [](F4 v) { return F4(U4(v) & 0x7fffffffu); };
+        auto finite4 = [&](F4 v) { return abs4(v) <= std::numeric_limits<float>::max(); };
+        // The bounds, lane by lane (lanes past the end change none).
+        F4 zLo4 = F4{} + kInfinity, zHi4 = -zLo4, loS4 = zLo4, hiS4 = zHi4, loT4 = zLo4, hiT4 = zHi4;
+        I4 allUsable4 = I4{} - 1;
+        for (int i0 = 0; i0 < n; i0 += 4) {
+            // Lanes past the end repeat the last point.
+            const int i[4] = {i0, std::min(i0 + 1, n - 1), std::min(i0 + 2, n - 1), std::min(i0 + 3, n - 1)};
+            auto lanes = [&](const Vec3* v, F4* x, F4* y, F4* zz) {
+                *x = F4{v[i[0]].x, v[i[1]].x, v[i[2]].x, v[i[3]].x};
+                *y = F4{v[i[0]].y, v[i[1]].y, v[i[2]].y, v[i[3]].y};
+                *zz = F4{v[i[0]].z, v[i[1]].z, v[i[2]].z, v[i[3]].z};
+            };
+            F4 px, py, pz;
+            lanes(batch.P, &px, &py, &pz);
+            const F4 depth = L[2][0] * px + L[2][1] * py + L[2][2] * pz + L[2][3];
+            const F4 w = R[3][0] * px + R[3][1] * py + R[3][2] * pz + R[3][3];
+            const F4 inv = 1.0f / w;
+            const F4 ss = (R[0][0] * px + R[0][1] * py + R[0][2] * pz + R[0][3]) * inv;
+            const F4 tt = (R[1][0] * px + R[1][1] * py + R[1][2] * pz + R[1][3]) * inv;
+            const I4 ok = (depth >= 0) & (w > 0) & finite4(ss) & finite4(tt);
+            // The region: the footprint's corners P +- du/2 +- dv/2 projected
+            // to first order (the projection's derivative at P), so one
+            // divide serves the whole footprint; |+-a +- b| <= |a| + |b|.
+            F4 hS{}, hT{};
+            if (batch.dPdu_du && batch.dPdv_dv) {
+                auto extent = [&](const Vec3* d, F4* ex, F4* ey) {
+                    F4 dx, dy, dz;
+                    lanes(d, &dx, &dy, &dz);
+                    dx *= 0.5f, dy *= 0.5f, dz *= 0.5f;
+                    const F4 dw = R[3][0] * dx + R[3][1] * dy + R[3][2] * dz;
+                    *ex = abs4((R[0][0] * dx + R[0][1] * dy + R[0][2] * dz - ss * dw) * inv);
+                    *ey = abs4((R[1][0] * dx + R[1][1] * dy + R[1][2] * dz - tt * dw) * inv);
+                };
+                F4 ux, uy, vx, vy;
+                extent(batch.dPdu_du, &ux, &uy);
+                extent(batch.dPdv_dv, &vx, &vy);
+                hS = ux + vx;
+                hT = uy + vy;
+            }
+            // clamp(max(h * width + blur, minHalf), 0, maxHalf), keeping a
+            // NaN for the test after it.
+            auto widen = [&](F4 h, float width, float blur) {
+                const F4 v = h * width + blur;
+                const F4 m = v < wd.minHalf ? F4{} + wd.minHalf : v;
+                return m < 0 ? F4{} : (m > wd.maxHalf ? F4{} + wd.maxHalf : m);
+            };
+            hS = widen(hS, wd.sWidth, wd.blurS);
+            hT = widen(hT, wd.tWidth, wd.blurT);
+            const I4 nan = ~(hS >= 0) | ~(hT >= 0);  // NaN widths
+            hS = nan ? F4{} + wd.minHalf : hS;
+            hT = nan ? F4{} + wd.minHalf : hT;
+            std::memcpy(&z[size_t(i0)], &depth, sizeof depth);
+            std::memcpy(&s[size_t(i0)], &ss, sizeof ss);
+            std::memcpy(&t[size_t(i0)], &tt, sizeof tt);
+            std::memcpy(&hs[size_t(i0)], &hS, sizeof hS);
+            std::memcpy(&ht[size_t(i0)], &hT, sizeof hT);
+            std::memcpy(&usable[size_t(i0)], &ok, sizeof ok);
+            allUsable4 &= ok;
+            auto lower = [](F4 a, F4 b) { return a < b ? a : b; };
+            auto upper = [](F4 a, F4 b) { return a > b ? a : b; };
+            zLo4 = lower(zLo4, depth), zHi4 = upper(zHi4, depth);
+            loS4 = lower(loS4, ss - hS), hiS4 = upper(hiS4, ss + hS);
+            loT4 = lower(loT4, tt - hT), hiT4 = upper(hiT4, tt + hT);
+        }
+        auto least = [](F4 v) { return std::min(std::min(v[0], v[1]), std::min(v[2], v[3])); };
+        auto most = [](F4 v) { return std::max(std::max(v[0], v[1]), std::max(v[2], v[3])); };
+        allUsable = (allUsable4[0] & allUsable4[1] & allUsable4[2] & allUsable4[3]) != 0;
+        zLo = least(zLo4), zHi = most(zHi4);
+        loS = least(loS4), hiS = most(hiS4), loT = least(loT4), hiT = most(hiT4);
+    }
+};
+
 /// A standard normal deviate from two uniforms (Box-Muller).
 inline void gaussianPair(float u1, float u2, float* g1, float* g2) {
     float r = std::sqrt(-2.0f * std::log(1.0f - u1));  // 1-u1 in (0,1]
@@ -194,61 +282,18 @@ inline void gaussianPair(float u1, float u2, float* g1, float* g2) {
 
 }  // namespace
 
-bool ShadowMap::batchDecided(const ShadowBatch& batch, const ShadowParams& params, const Mat4& lightFromCurrent,
-                             const Mat4& rasterFromCurrent, BatchPlanes& planes, bool planeLit, float* out,
-                             ShadowStats& st) const {
+bool ShadowMap::batchDecided(const ShadowBatch& batch, const ShadowParams& params, const BatchBounds& bounds,
+                             BatchPlanes& planes, bool planeLit, float* out, ShadowStats& st) const {
     // The tests of the point loop (bounding box, per-tile depth ranges)
-    // applied once to a bound of the whole batch -- a shaded grid -- before
-    // any point is projected: grids that miss the map's bounding box, or
-    // lie wholly nearer or farther than the tiles their regions cover, are
-    // decided at once. Every bound is conservative (with a margin for the
-    // rounding of the per-point arithmetic), so a batch decided here gets
-    // exactly what the point loop would give it.
-    if (batch.count < 4) return false;
-    Bound3 box;
-    float foot = 0;  // the largest distance from a point to its footprint's corners
-    for (int i = 0; i < batch.count; ++i) {
-        box.extend(batch.P[i]);
-        if (batch.dPdu_du && batch.dPdv_dv)
-            foot = std::max(foot, 0.5f * (length(batch.dPdu_du[i]) + length(batch.dPdv_dv[i])));
-    }
-    if (!std::isfinite(foot)) return false;
-    const auto& R = rasterFromCurrent.m;
-    const auto& L = lightFromCurrent.m;
-    float sLo = kInfinity, sHi = -kInfinity, tLo = kInfinity, tHi = -kInfinity;
-    float wMin = kInfinity, zLo = kInfinity, zHi = -kInfinity;
-    for (int c = 0; c < 8; ++c) {
-        const Vec3 p(c & 1 ? box.max.x : box.min.x, c & 2 ? box.max.y : box.min.y, c & 4 ? box.max.z : box.min.z);
-        const float w = R[3][0] * p.x + R[3][1] * p.y + R[3][2] * p.z + R[3][3];
-        // Points behind the projection centre have no convex image: no bound.
-        if (!(w > 0)) return false;
-        const float s = (R[0][0] * p.x + R[0][1] * p.y + R[0][2] * p.z + R[0][3]) / w;
-        const float t = (R[1][0] * p.x + R[1][1] * p.y + R[1][2] * p.z + R[1][3]) / w;
-        const float z = L[2][0] * p.x + L[2][1] * p.y + L[2][2] * p.z + L[2][3];
-        sLo = std::min(sLo, s), sHi = std::max(sHi, s);
-        tLo = std::min(tLo, t), tHi = std::max(tHi, t);
-        wMin = std::min(wMin, w);
-        zLo = std::min(zLo, z), zHi = std::max(zHi, z);
-    }
-    if (!std::isfinite(sLo + sHi + tLo + tHi + zLo + zHi)) return false;
-    // A footprint vector d moves the projection by (R0.d - s R3.d) / w in s:
-    // at most (|R0| + |s| |R3|) |d| / w.
-    auto norm3 = [](const float* row) { return std::sqrt(row[0] * row[0] + row[1] * row[1] + row[2] * row[2]); };
-    const float sAbs = std::max(std::abs(sLo), std::abs(sHi)), tAbs = std::max(std::abs(tLo), std::abs(tHi));
-    const float minHalf = std::max(0.0f, params.minSize) * 0.5f;
-    const float maxHalf = 4.0f * float(std::max(m_width, m_height)) + 4.0f;
-    float hs = (norm3(R[0]) + sAbs * norm3(R[3])) * foot / wMin * params.sWidth +
-               std::max(0.0f, params.blur) * float(m_width) * 0.5f;
-    float ht = (norm3(R[1]) + tAbs * norm3(R[3])) * foot / wMin * params.tWidth +
-               std::max(0.0f, params.blur) * float(m_height) * 0.5f;
-    if (!(hs >= 0) || !(ht >= 0)) return false;
-    hs = std::min(std::max(hs, minHalf), maxHalf);
-    ht = std::min(std::max(ht, minHalf), maxHalf);
-    // The margin covers the points' own rounding (relative 1e-6 of the
-    // coordinates) many times over.
-    const float marginS = 1e-3f + 1e-4f * (sAbs + hs), marginT = 1e-3f + 1e-4f * (tAbs + ht);
-    const float loS = sLo - hs - marginS, hiS = sHi + hs + marginS;
-    const float loT = tLo - ht - marginT, hiT = tHi + ht + marginT;
+    // applied once to the union of the regions of the whole batch -- a
+    // shaded grid -- and its range of depths: grids that miss the map's
+    // bounding box, or lie wholly nearer or farther than the tiles their
+    // regions cover, are decided at once. Each point's region lies in the
+    // union and its z in the range, and float addition is monotonic, so a
+    // batch decided here gets exactly what the point loop would give it.
+    if (batch.count < 4 || !bounds.allUsable) return false;
+    const float loS = bounds.loS, hiS = bounds.hiS, loT = bounds.loT, hiT = bounds.hiT;
+    const float zLo = bounds.zLo, zHi = bounds.zHi;
     auto decide = [&](float value) {
         for (int i = 0; i < batch.count; ++i) out[i] = value;
         st.points += uint64_t(batch.count);
@@ -260,10 +305,8 @@ bool ShadowMap::batchDecided(const ShadowBatch& batch, const ShadowParams& param
     }
     if (!params.tileCulling) return false;
     // Tiles the regions can reach, clipped to the data window.
-    const int ci0 = std::max(int(std::floor(std::max(loS, float(m_dx0)))), m_dx0);
-    const int ci1 = std::min(int(std::floor(std::min(hiS, float(m_dx1)))), m_dx1);
-    const int cj0 = std::max(int(std::floor(std::max(loT, float(m_dy0)))), m_dy0);
-    const int cj1 = std::min(int(std::floor(std::min(hiT, float(m_dy1)))), m_dy1);
+    const int ci0 = int(std::floor(std::max(loS, float(m_dx0)))), ci1 = int(std::floor(std::min(hiS, float(m_dx1))));
+    const int cj0 = int(std::floor(std::max(loT, float(m_dy0)))), cj1 = int(std::floor(std::min(hiT, float(m_dy1))));
     const int tx0 = (ci0 - m_fileX0) >> m_tileShiftX, tx1 = (ci1 - m_fileX0) >> m_tileShiftX;
     const int ty0 = (cj0 - m_fileY0) >> m_tileShiftY, ty1 = (cj1 - m_fileY0) >> m_tileShiftY;
     if ((tx1 - tx0 + 1) * (ty1 - ty0 + 1) > 256) return false;
@@ -273,8 +316,7 @@ bool ShadowMap::batchDecided(const ShadowBatch& batch, const ShadowParams& param
             tileMin = std::min(tileMin, m_tileMin[size_t(ty) * m_tilesX + tx]);
             tileMax = std::max(tileMax, m_tileMax[size_t(ty) * m_tilesX + tx]);
         }
-    const float zMargin = 1e-5f * std::max(std::abs(zLo), std::abs(zHi)) + 1e-6f;
-    if (zHi + zMargin <= tileMin + params.biasLow()) {
+    if (zHi <= tileMin + params.biasLow()) {
         decide(0.0f);
         st.culledLit += uint64_t(batch.count);
         return true;
@@ -282,7 +324,7 @@ bool ShadowMap::batchDecided(const ShadowBatch& batch, const ShadowParams& param
     const bool inside = loS >= float(m_dx0) && hiS < float(m_dx1) + 1.0f && loT >= float(m_dy0) &&
                         hiT < float(m_dy1) + 1.0f;
     bool allFacing = false, anyFacing = false;
-    if (inside && zLo - zMargin >= 0 && zLo - zMargin > tileMax + params.biasHigh()) {
+    if (inside && zLo > tileMax + params.biasHigh()) {
         // Light-facing points of a second-depth map would take virtual
         // samples (see the point loop): shadowed only if their planes are
         // deeper too.
@@ -442,7 +484,6 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
     const Mat4 lightFromCurrent = m_lightFromWorld * batch.worldFromCurrent;
     const Mat4 rasterFromCurrent =
         Mat4::scale(Vec3(float(m_width), float(m_height), 1.0f)) * m_ndcFromWorld * batch.worldFromCurrent;
-    const auto& L = lightFromCurrent.m;
 
     const float biasLo = params.biasLow(), biasHi = params.biasHigh();
     const float biasMid = 0.5f * (biasLo + biasHi);
@@ -499,13 +540,77 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
     // more than one sample (a single one is a plain comparison).
     const bool planeLit = secondDepth && params.tileCulling && biasLo >= 0 && samples > 1;
 
+    thread_local PointRegions t_points;
+    PointRegions& pts = t_points;
+    pts.compute(batch, lightFromCurrent, rasterFromCurrent,
+                {params.sWidth, params.tWidth, blurS, blurT, minHalf, maxHalf});
+
     if constexpr (!kPointSample) {
-        if (hasData && batchDecided(batch, params, lightFromCurrent, rasterFromCurrent, batchPlanes,
-                                    planeLit && minSamples >= 2, out, st)) {
+        const BatchBounds bounds{pts.allUsable, pts.zLo, pts.zHi, pts.loS, pts.hiS, pts.loT, pts.hiT};
+        if (hasData && batchDecided(batch, params, bounds, batchPlanes, planeLit && minSamples >= 2, out, st)) {
             stats += st;
             return;
         }
     }
+
+    // The texels a region covers in the data window, and their tiles.
+    struct Covered {
+        int ci0, ci1, cj0, cj1;  // inclusive texel bounds
+        int tx0, tx1, ty0, ty1;  // inclusive tile bounds
+    };
+    auto covered = [&](int ci0, int ci1, int cj0, int cj1) {
+        return Covered{ci0, ci1, cj0, cj1, (ci0 - m_fileX0) >> shiftX, (ci1 - m_fileX0) >> shiftX,
+                       (cj0 - m_fileY0) >> shiftY, (cj1 - m_fileY0) >> shiftY};
+    };
+    // The depth range of the covered tiles, from the header without reading
+    // a texel; false for regions over more than 64 tiles (not worth it).
+    auto tileRange = [&](const Covered& c, float* zMin, float* zMax) {
+        if ((c.tx1 - c.tx0 + 1) * (c.ty1 - c.ty0 + 1) > 64) return false;
+        float lo = kInfinity, hi = -kInfinity;
+        for (int ty = c.ty0; ty <= c.ty1; ++ty)
+            for (int tx = c.tx0; tx <= c.tx1; ++tx) {
+                lo = std::min(lo, m_tileMin[size_t(ty) * m_tilesX + tx]);
+                hi = std::max(hi, m_tileMax[size_t(ty) * m_tilesX + tx]);
+            }
+        *zMin = lo, *zMax = hi;
+        return true;
+    };
+    // The 8x8-texel blocks the region covers, in the (at most 2x2) tiles it
+    // covers, pinned in the memo: fn(tile, its first texel, block range)
+    // for each tile, stopping at the first false.
+    auto everyTileOfBlocks = [&](const Covered& c, auto&& fn) -> bool {
+        for (int ty = c.ty0; ty <= c.ty1; ++ty)
+            for (int tx = c.tx0; tx <= c.tx1; ++tx) {
+                const int tileX = m_fileX0 + (tx << shiftX), tileY = m_fileY0 + (ty << shiftY);
+                const int cx0 = std::max(c.ci0, tileX), cy0 = std::max(c.cj0, tileY);
+                (void)depthAt(cx0, cy0);  // pins the tile in the memo
+                const ShadowTile& tile = *memo.tile[(tx & 3) | ((ty & 3) << 2)];
+                const int cx1 = std::min(c.ci1, tileX + m_tileW - 1), cy1 = std::min(c.cj1, tileY + m_tileH - 1);
+                if (!fn(tile, tileX, tileY, (cx0 - tileX) >> m_blockShiftX, (cx1 - tileX) >> m_blockShiftX,
+                        (cy0 - tileY) >> m_blockShiftY, (cy1 - tileY) >> m_blockShiftY))
+                    return false;
+            }
+        return true;
+    };
+    // The blocks' finer depth range, for regions within 2x2 tiles of a map
+    // that has blocks; `planar`: every covered block stores a plane.
+    auto blockRange = [&](const Covered& c, float* zMin, float* zMax, bool* planar) {
+        if (m_blockShiftX < 0 || c.tx1 - c.tx0 > 1 || c.ty1 - c.ty0 > 1) return false;
+        float lo = kInfinity, hi = -kInfinity;
+        bool flat = true;
+        everyTileOfBlocks(c, [&](const ShadowTile& tile, int, int, int bx0, int bx1, int by0, int by1) {
+            for (int by = by0; by <= by1; ++by)
+                for (int bx = bx0; bx <= bx1; ++bx) {
+                    const int b = by * ShadowTile::kBlocks + bx;
+                    lo = std::min(lo, tile.blockMin[b]);
+                    hi = std::max(hi, tile.blockMax[b]);
+                    flat = flat && !std::isnan(tile.planeQ0[b]);
+                }
+            return true;
+        });
+        *zMin = lo, *zMax = hi, *planar = flat;
+        return true;
+    };
 
     for (int i = 0; i < batch.count; ++i) {
         out[i] = 0;
@@ -521,13 +626,12 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
             }
             return pointPlane;
         };
-        const float z = L[2][0] * P.x + L[2][1] * P.y + L[2][2] * P.z + L[2][3];
-        float s, t;
         // Behind the light, unprojectable, or nothing stored: lit.
-        if (!(z >= 0) || !hasData || !project(rasterFromCurrent, P, &s, &t)) {
+        if (!pts.usable[size_t(i)] || !hasData) {
             ++st.outside;
             continue;
         }
+        const float z = pts.z[size_t(i)], s = pts.s[size_t(i)], t = pts.t[size_t(i)];
 
         if constexpr (kPointSample) {
             if (!(s >= float(dx0) && s < float(dx1) + 1.0f && t >= float(dy0) && t < float(dy1) + 1.0f)) {
@@ -539,28 +643,7 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
             out[i] = z > depthAt(floorInt(s), floorInt(t)) + biasMid ? 1.0f : 0.0f;
             continue;
         } else {
-            // The region: the footprint's corners P +- du +- dv projected to
-            // first order (the projection's derivative at P), so one divide
-            // serves the whole footprint; |+-a +- b| is at most |a| + |b|.
-            float hs = 0, ht = 0;
-            if (batch.dPdu_du && batch.dPdv_dv) {
-                const auto& R = rasterFromCurrent.m;
-                const float invW = 1.0f / (R[3][0] * P.x + R[3][1] * P.y + R[3][2] * P.z + R[3][3]);
-                auto extent = [&](const Vec3& d, float* ex, float* ey) {
-                    const float dw = R[3][0] * d.x + R[3][1] * d.y + R[3][2] * d.z;
-                    *ex = std::abs((R[0][0] * d.x + R[0][1] * d.y + R[0][2] * d.z - s * dw) * invW);
-                    *ey = std::abs((R[1][0] * d.x + R[1][1] * d.y + R[1][2] * d.z - t * dw) * invW);
-                };
-                float ux, uy, vx, vy;
-                extent(batch.dPdu_du[i] * 0.5f, &ux, &uy);
-                extent(batch.dPdv_dv[i] * 0.5f, &vx, &vy);
-                hs = ux + vx;
-                ht = uy + vy;
-            }
-            hs = clamp(std::max(hs * params.sWidth + blurS, minHalf), 0.0f, maxHalf);
-            ht = clamp(std::max(ht * params.tWidth + blurT, minHalf), 0.0f, maxHalf);
-            if (!(hs >= 0) || !(ht >= 0)) hs = ht = minHalf;  // NaN widths
-
+            const float hs = pts.hs[size_t(i)], ht = pts.ht[size_t(i)];
             const float loS = s - hs, hiS = s + hs, loT = t - ht, hiT = t + ht;
             if (hiS < float(dx0) || loS >= float(dx1) + 1.0f || hiT < float(dy0) || loT >= float(dy1) + 1.0f) {
                 ++st.outside;
@@ -600,19 +683,11 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                 }
                 return false;
             };
-            // First by the per-tile ranges of the header, without reading a
-            // texel (regions over more than 64 tiles are not worth it).
-            const int tx0 = (ci0 - m_fileX0) >> shiftX, tx1 = (ci1 - m_fileX0) >> shiftX;
-            const int ty0 = (cj0 - m_fileY0) >> shiftY, ty1 = (cj1 - m_fileY0) >> shiftY;
-            if (params.tileCulling && (tx1 - tx0 + 1) * (ty1 - ty0 + 1) <= 64) {
-                float zMin = kInfinity, zMax = -kInfinity;
-                for (int ty = ty0; ty <= ty1; ++ty)
-                    for (int tx = tx0; tx <= tx1; ++tx) {
-                        zMin = std::min(zMin, m_tileMin[size_t(ty) * m_tilesX + tx]);
-                        zMax = std::max(zMax, m_tileMax[size_t(ty) * m_tilesX + tx]);
-                    }
-                if (culled(zMin, zMax)) continue;
-            }
+            // First by the tiles' depth ranges, then by their blocks'.
+            const Covered c = covered(ci0, ci1, cj0, cj1);
+            const int tx0 = c.tx0, tx1 = c.tx1, ty0 = c.ty0, ty1 = c.ty1;
+            float zMin, zMax;
+            if (params.tileCulling && tileRange(c, &zMin, &zMax) && culled(zMin, zMax)) continue;
             // When the region lies in one tile (the common case: regions are
             // a few texels, tiles 32) its pointer is fetched once.
             const float* single = nullptr;
@@ -623,40 +698,9 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                 singleX = m_fileX0 + (tx0 << shiftX);
                 singleY = m_fileY0 + (ty0 << shiftY);
             }
-            // The 8x8-texel blocks the region covers, in the (at most 2x2)
-            // tiles it covers, pinned in the memo: fn(tile, its first texel,
-            // block range) for each tile, stopping at the first false.
-            auto everyTileOfBlocks = [&](auto&& fn) -> bool {
-                for (int ty = ty0; ty <= ty1; ++ty)
-                    for (int tx = tx0; tx <= tx1; ++tx) {
-                        const int tileX = m_fileX0 + (tx << shiftX), tileY = m_fileY0 + (ty << shiftY);
-                        const int cx0 = std::max(ci0, tileX), cy0 = std::max(cj0, tileY);
-                        (void)depthAt(cx0, cy0);  // pins the tile in the memo
-                        const ShadowTile& tile = *memo.tile[(tx & 3) | ((ty & 3) << 2)];
-                        const int cx1 = std::min(ci1, tileX + m_tileW - 1), cy1 = std::min(cj1, tileY + m_tileH - 1);
-                        if (!fn(tile, tileX, tileY, (cx0 - tileX) >> m_blockShiftX, (cx1 - tileX) >> m_blockShiftX,
-                                (cy0 - tileY) >> m_blockShiftY, (cy1 - tileY) >> m_blockShiftY))
-                            return false;
-                    }
-                return true;
-            };
-            // The blocks' finer depth ranges get a second chance to cull.
-            const bool blockTests = params.tileCulling && m_blockShiftX >= 0 && tx1 - tx0 <= 1 && ty1 - ty0 <= 1;
-            bool blocksPlanar = true;  // every covered block stores a plane (second-depth maps)
-            if (blockTests) {
-                float zMin = kInfinity, zMax = -kInfinity;
-                everyTileOfBlocks([&](const ShadowTile& tile, int, int, int bx0, int bx1, int by0, int by1) {
-                    for (int by = by0; by <= by1; ++by)
-                        for (int bx = bx0; bx <= bx1; ++bx) {
-                            const int b = by * ShadowTile::kBlocks + bx;
-                            zMin = std::min(zMin, tile.blockMin[b]);
-                            zMax = std::max(zMax, tile.blockMax[b]);
-                            blocksPlanar = blocksPlanar && !std::isnan(tile.planeQ0[b]);
-                        }
-                    return true;
-                });
-                if (culled(zMin, zMax)) continue;
-            }
+            bool blocksPlanar = false;  // every covered block stores a plane (second-depth maps)
+            const bool blockTests = params.tileCulling && blockRange(c, &zMin, &zMax, &blocksPlanar);
+            if (blockTests && culled(zMin, zMax)) continue;
 
             // Reeves' sample counts: a region smaller than NumSamples texels
             // gets about one sample per texel, else NumSamples split by the
@@ -680,7 +724,7 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
             if (planeLit && blockTests && blocksPlanar && ns * nt > 1 && planeOfPoint().valid &&
                 planeOfPoint().facesLight) {
                 const PlaneEnvelope env = envelope(planeOfPoint());
-                if (everyTileOfBlocks([&](const ShadowTile& tile, int tileX, int tileY, int bx0, int bx1, int by0,
+                if (everyTileOfBlocks(c, [&](const ShadowTile& tile, int tileX, int tileY, int bx0, int bx1, int by0,
                                           int by1) { return onStoredPlanes(env, tile, tileX, tileY, bx0, bx1, by0, by1); })) {
                     ++st.storedPlaneLit;
                     continue;
@@ -741,15 +785,24 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                 const float ru = (clamp(u, loS, hiS) - s) * invHs, rv = (clamp(v, loT, hiT) - t) * invHt;
                 return std::exp(-2.0f * (ru * ru + rv * rv));
             };
-            // The region's samples, drawn once: texel, bias, weight and the
-            // depth stored there. The virtual-sample pass below compares
-            // the same ones again.
+            // The depth stored at a sample's texel: +infinity outside the
+            // data window.
+            auto texelDepth = [&](int iu, int iv) -> float {
+                const bool stored = regionInside || (iu >= dx0 && iu <= dx1 && iv >= dy0 && iv <= dy1);
+                return stored ? depthOf(iu, iv) : kInfinity;
+            };
+            // The region's samples: texel, bias, weight and the depth stored
+            // there. The virtual-sample pass below compares the same ones
+            // again. Branch-free comparisons: which samples are shadowed is a
+            // coin toss in a penumbra.
             const int count = ns * nt;
             region.resize(count);
             const bool unitWeights = !gaussianFilter && params.sampling == ShadowParams::Sampling::Jittered;
+            float inShadow = 0, weightSum = 0;
             if (unitWeights) {
                 // The production path (Figure 3c, box filter): sampleAt() for
-                // jittered samples, four at a time. Sample k is in cell
+                // jittered samples, drawn and compared four at a time, kept
+                // only for a virtual-sample pass. Sample k is in cell
                 // (a, b) = (k / nt, k % nt), from the region's cell table.
                 const float biasRange = biasHi - biasLo;
                 region.cells(ns, nt);
@@ -757,6 +810,11 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                 // [iLo, iHi + 1) before it equals clamping the texel after.
                 const F4 uLo = F4{} + float(iLo), uHi = F4{} + floatBelow(iHi + 1);
                 const F4 vLo = F4{} + float(jLo), vHi = F4{} + floatBelow(jHi + 1);
+                // A region inside the data window and one tile (the common
+                // case: regions are a few texels, tiles 32) reads the tile
+                // directly.
+                const bool direct = single && regionInside;
+                I4 shadowed{};  // counts down: a true comparison is -1
                 U4 seeds = U4{} + pointSeed + U4{0, 1, 2, 3} * 0x9e3779b9u;
                 for (int q = 0; q < region.padded; q += 4, seeds += 4u * 0x9e3779b9u) {
                     const U4 h = hash32Lanes(seeds);
@@ -771,10 +829,27 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                         const F4 drawn = biasLo + toF4(I4(h >> 22)) * (1.0f / 1024.0f) * biasRange;
                         bias = drawn < F4{} + biasHi ? drawn : F4{} + biasHi;
                     }
-                    region.store(region.iu, q, iu);
-                    region.store(region.iv, q, iv);
-                    region.store(region.bias, q, bias);
+                    // Padding lanes (cell (0, 0), inside the region) see
+                    // +infinity, never shadowed.
+                    const I4 real = I4{q, q + 1, q + 2, q + 3} < count;
+                    F4 d;
+                    if (direct) {
+                        const I4 at = ((iv - singleY) << shiftX) + (iu - singleX);
+                        d = real ? F4{single[at[0]], single[at[1]], single[at[2]], single[at[3]]} : F4{} + kInfinity;
+                    } else {
+                        for (int l = 0; l < 4; ++l) d[l] = real[l] ? texelDepth(iu[l], iv[l]) : kInfinity;
+                    }
+                    shadowed -= z > d + bias;
+                    if (secondDepth) {
+                        region.store(region.iu, q, iu);
+                        region.store(region.iv, q, iv);
+                        region.store(region.bias, q, bias);
+                        region.store(region.depth, q, d);
+                    }
                 }
+                // Sums of ones: exact, as the weighted sums below.
+                inShadow = float((shadowed[0] + shadowed[1]) + (shadowed[2] + shadowed[3]));
+                weightSum = float(count);
             } else {
                 for (int a = 0; a < ns; ++a)
                     for (int b = 0; b < nt; ++b) {
@@ -783,32 +858,23 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                         sampleAt(a, b, &u, &v, &region.bias[k]);
                         texelOf(u, v, &region.iu[k], &region.iv[k]);
                         region.weight[k] = weight(u, v);
+                        region.depth[k] = texelDepth(region.iu[k], region.iv[k]);
                     }
+                F4 shadowedWeights{}, weights{};
+                for (int q = 0; q < region.padded; q += 4) {
+                    // Padding lanes weigh 0.
+                    const F4 d = region.load<F4>(region.depth, q), w = region.load<F4>(region.weight, q);
+                    const I4 shadowed = z > d + region.load<F4>(region.bias, q);
+                    weights += w;
+                    shadowedWeights += shadowed ? w : F4{};
+                }
+                inShadow = sumLanes(shadowedWeights);
+                weightSum = sumLanes(weights);
             }
-            // Branch-free comparisons: which samples are shadowed is a coin
-            // toss in a penumbra. The depths (+infinity outside the data
-            // window) are kept for the virtual-sample pass.
-            auto depthLane = [&](int k) -> float {
-                if (k >= count) return kInfinity;
-                const int iu = region.iu[size_t(k)], iv = region.iv[size_t(k)];
-                const bool stored = regionInside || (iu >= dx0 && iu <= dx1 && iv >= dy0 && iv <= dy1);
-                return stored ? depthOf(iu, iv) : kInfinity;
-            };
             auto weightsAt = [&](int q) -> F4 {
                 if (!unitWeights) return region.load<F4>(region.weight, q);
-                return I4{q, q + 1, q + 2, q + 3} < I4{} + count ? F4{} + 1.0f : F4{};
+                return I4{q, q + 1, q + 2, q + 3} < count ? F4{} + 1.0f : F4{};
             };
-            F4 shadowedWeights{}, weights{};
-            for (int q = 0; q < region.padded; q += 4) {
-                const F4 d = {depthLane(q), depthLane(q + 1), depthLane(q + 2), depthLane(q + 3)};
-                region.store(region.depth, q, d);
-                const F4 w = weightsAt(q);
-                const I4 shadowed = F4{} + z > d + region.load<F4>(region.bias, q);
-                weights += w;
-                shadowedWeights += shadowed ? w : F4{};
-            }
-            float inShadow = sumLanes(shadowedWeights);
-            const float weightSum = sumLanes(weights);
 
             // Second-depth maps: Figure 10 (and, for points facing the light,
             // all-shadowed comparisons too: see lookup()).

@@ -380,15 +380,20 @@ private:
     PlaneEnvelope envelopeOfFacing(const TangentPlane* planes, int count, double x0, double x1, double y0, double y1,
                                    bool* all, bool* any) const;
 
-    /// Decides a whole batch at once from a bound of its points when it
-    /// misses the bounding box or clears the covered tiles' depth range,
-    /// or (given the points' tangent planes and `planeLit`) when every
-    /// block its regions cover stores the plane its points lie on; writes
-    /// `out` and counts it in `st`; false when undecided. The shadowed
-    /// case of second-depth lookups needs the planes of light-facing points.
-    bool batchDecided(const ShadowBatch& batch, const ShadowParams& params, const Mat4& lightFromCurrent,
-                      const Mat4& rasterFromCurrent, BatchPlanes& planes, bool planeLit, float* out,
-                      ShadowStats& st) const;
+    /// A batch's points at once: the range of their light-space depths and
+    /// the union of their regions in the map's raster.
+    struct BatchBounds {
+        bool allUsable;  ///< every point is in front of the light and projectable
+        float zLo, zHi, loS, hiS, loT, hiT;
+    };
+    /// Decides a whole batch at once from its bounds when it misses the
+    /// bounding box or clears the covered tiles' depth range, or (given
+    /// the points' tangent planes and `planeLit`) when every block its
+    /// regions cover stores the plane its points lie on; writes `out` and
+    /// counts it in `st`; false when undecided. The shadowed case of
+    /// second-depth lookups needs the planes of light-facing points.
+    bool batchDecided(const ShadowBatch& batch, const ShadowParams& params, const BatchBounds& bounds,
+                      BatchPlanes& planes, bool planeLit, float* out, ShadowStats& st) const;
 
     std::string m_path;
     Diagnostics* m_diag = nullptr;
