@@ -50,22 +50,29 @@ namespace umbra {
 
 namespace {
 
-/// A few tiles pinned for one lookup call, indexed by the low bits of the
-/// tile coordinates so a 4x4 neighbourhood of tiles never collides:
-/// consecutive points of a grid reuse them without touching the cache.
+/// The tiles a thread's lookups used last, pinned, indexed by the low bits
+/// of the map id and the tile coordinates: a 4x4 neighbourhood of one
+/// map's tiles never collides, and the next grid's lookups, mostly in the
+/// same tiles, find them without touching the shared cache (whose lock and
+/// reference counts the two threads would contend for). Map ids are never
+/// reused, so a slot never answers for a closed map; a slot holds its tile
+/// until replaced, a few tiles beyond the cache's bound at most.
 struct TileMemo {
-    static constexpr int kSlots = 16;
+    static constexpr int kSlots = 64;
+    uint32_t map[kSlots];
     int tx[kSlots], ty[kSlots];
     const float* data[kSlots];
     const ShadowTile* tile[kSlots];
     ShadowTilePtr hold[kSlots];
     TileMemo() {
         for (int i = 0; i < kSlots; ++i) {
+            map[i] = 0;  // no map has id 0
             tx[i] = ty[i] = -1;
             data[i] = nullptr;
             tile[i] = nullptr;
         }
     }
+    static int slot(uint32_t mapId, int x, int y) { return (x & 3) | ((y & 3) << 2) | int((mapId & 3) << 4); }
 };
 
 /// floor() as an int, for |v| < 2^31 (callers bound their values first).
@@ -503,16 +510,18 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
     const int dx0 = m_dx0, dx1 = m_dx1, dy0 = m_dy0, dy1 = m_dy1;
 
     const int shiftX = m_tileShiftX, shiftY = m_tileShiftY;
-    TileMemo memo;
+    thread_local TileMemo t_memo;
+    TileMemo& memo = t_memo;
     // A region's samples: per-thread scratch, looked up once per batch.
     thread_local RegionSamples t_region;
     RegionSamples& region = t_region;
     auto depthAt = [&](int iu, int iv) -> float {
         const int fx = iu - m_fileX0, fy = iv - m_fileY0;
         const int tx = fx >> m_tileShiftX, ty = fy >> m_tileShiftY;
-        const int slot = (tx & 3) | ((ty & 3) << 2);
-        if (memo.tx[slot] != tx || memo.ty[slot] != ty) {
+        const int slot = TileMemo::slot(m_mapId, tx, ty);
+        if (memo.map[slot] != m_mapId || memo.tx[slot] != tx || memo.ty[slot] != ty) {
             memo.hold[slot] = fetchTile(tx, ty);
+            memo.map[slot] = m_mapId;
             memo.tile[slot] = memo.hold[slot].get();
             memo.data[slot] = memo.hold[slot]->z.data();
             memo.tx[slot] = tx;
@@ -584,7 +593,7 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                 const int tileX = m_fileX0 + (tx << shiftX), tileY = m_fileY0 + (ty << shiftY);
                 const int cx0 = std::max(c.ci0, tileX), cy0 = std::max(c.cj0, tileY);
                 (void)depthAt(cx0, cy0);  // pins the tile in the memo
-                const ShadowTile& tile = *memo.tile[(tx & 3) | ((ty & 3) << 2)];
+                const ShadowTile& tile = *memo.tile[TileMemo::slot(m_mapId, tx, ty)];
                 const int cx1 = std::min(c.ci1, tileX + m_tileW - 1), cy1 = std::min(c.cj1, tileY + m_tileH - 1);
                 if (!fn(tile, tileX, tileY, (cx0 - tileX) >> m_blockShiftX, (cx1 - tileX) >> m_blockShiftX,
                         (cy0 - tileY) >> m_blockShiftY, (cy1 - tileY) >> m_blockShiftY))
@@ -694,7 +703,7 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
             int singleX = 0, singleY = 0;
             if (tx0 == tx1 && ty0 == ty1) {
                 (void)depthAt(ci0, cj0);  // pins the tile in the memo
-                single = memo.data[(tx0 & 3) | ((ty0 & 3) << 2)];
+                single = memo.data[TileMemo::slot(m_mapId, tx0, ty0)];
                 singleX = m_fileX0 + (tx0 << shiftX);
                 singleY = m_fileY0 + (ty0 << shiftY);
             }
