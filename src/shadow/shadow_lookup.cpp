@@ -549,6 +549,8 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
     // more than one sample (a single one is a plain comparison).
     const bool planeLit = secondDepth && params.tileCulling && biasLo >= 0 && samples > 1;
 
+    // Each point's samples are seeded by hashKeys(batch.seed, its id).
+    const uint32_t batchSeed = hash32(batch.seed);
     thread_local PointRegions t_points;
     PointRegions& pts = t_points;
     pts.compute(batch, lightFromCurrent, rasterFromCurrent,
@@ -692,11 +694,17 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                 }
                 return false;
             };
-            // First by the tiles' depth ranges, then by their blocks'.
+            // By the depth range of the covered blocks, where the map has
+            // blocks and the region lies within 2x2 tiles (the common case:
+            // regions are a few texels, tiles 32), else of the covered
+            // tiles. A block's range lies within its tile's, so the tiles'
+            // test would cull nothing more.
             const Covered c = covered(ci0, ci1, cj0, cj1);
             const int tx0 = c.tx0, tx1 = c.tx1, ty0 = c.ty0, ty1 = c.ty1;
             float zMin, zMax;
-            if (params.tileCulling && tileRange(c, &zMin, &zMax) && culled(zMin, zMax)) continue;
+            bool blocksPlanar = false;  // every covered block stores a plane (second-depth maps)
+            const bool blockTests = params.tileCulling && blockRange(c, &zMin, &zMax, &blocksPlanar);
+            if ((blockTests || (params.tileCulling && tileRange(c, &zMin, &zMax))) && culled(zMin, zMax)) continue;
             // When the region lies in one tile (the common case: regions are
             // a few texels, tiles 32) its pointer is fetched once.
             const float* single = nullptr;
@@ -707,9 +715,6 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                 singleX = m_fileX0 + (tx0 << shiftX);
                 singleY = m_fileY0 + (ty0 << shiftY);
             }
-            bool blocksPlanar = false;  // every covered block stores a plane (second-depth maps)
-            const bool blockTests = params.tileCulling && blockRange(c, &zMin, &zMax, &blocksPlanar);
-            if (blockTests && culled(zMin, zMax)) continue;
 
             // Reeves' sample counts: a region smaller than NumSamples texels
             // gets about one sample per texel, else NumSamples split by the
@@ -754,7 +759,7 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
             // Sample (a, b) of the region: its position (u, v) in raster
             // space and its bias, a function of the point and the sample
             // alone, so the virtual-sample pass below repeats them.
-            const uint32_t pointSeed = hashKeys(batch.seed, uint32_t(batch.pointId ? batch.pointId[i] : i));
+            const uint32_t pointSeed = hashCombine(batchSeed, uint32_t(batch.pointId ? batch.pointId[i] : i));
             const float ds = 2.0f * hs / float(ns), dt = 2.0f * ht / float(nt);
             auto sampleAt = [&](int a, int b, float* u, float* v, float* bias) {
                 const SampleRandoms r(pointSeed, a * nt + b);
