@@ -180,13 +180,19 @@ struct RegionSamples {
 inline float sumLanes(F4 v) { return (v[0] + v[1]) + (v[2] + v[3]); }
 
 /// Steps 1 and 2 for a batch's points, four at a time: the light-space
-/// depth z, the raster position (s, t) and the region's half-widths
-/// (hs, ht). `usable` is false (0) for points behind the light or not
-/// projectable, which are lit. Lane by lane, the arithmetic is the scalar
-/// formulas' in the same order, so every value is the one a point-by-point
-/// evaluation gives.
+/// depth z, the raster position (s, t), the region's half-widths (hs, ht)
+/// and the texels it reaches, [iLo, iHi] x [jLo, jHi]. `usable` is false
+/// (0) for points behind the light or not projectable, which are lit. Lane
+/// by lane, the arithmetic is the scalar formulas' in the same order, so
+/// every value is the one a point-by-point evaluation gives.
+///
+/// The texel bounds are the floors of the region's sides clamped to one
+/// texel beyond the data window: what a texel outside the window holds
+/// (+infinity) does not depend on how far out it is, and the clamp keeps
+/// the conversion in range for points far off the map.
 struct PointRegions {
     std::vector<float> z, s, t, hs, ht;
+    std::vector<int32_t> iLo, iHi, jLo, jHi;
     std::vector<int32_t> usable;  // -1 or 0, as vector comparisons give
     // Of them all: is every point usable; the range of z; the union of the
     // regions, [loS, hiS] x [loT, hiT].
@@ -195,6 +201,7 @@ struct PointRegions {
 
     struct Widths {
         float sWidth, tWidth, blurS, blurT, minHalf, maxHalf;
+        int dx0, dx1, dy0, dy1;  // the data window, inclusive texel bounds
     };
 
     void compute(const ShadowBatch& batch, const Mat4& lightFromCurrent, const Mat4& rasterFromCurrent,
@@ -202,7 +209,7 @@ struct PointRegions {
         const int n = batch.count, padded = (n + 3) & ~3;
         if (usable.size() < size_t(padded)) {
             for (auto* v : {&z, &s, &t, &hs, &ht}) v->resize(size_t(padded));
-            usable.resize(size_t(padded));
+            for (auto* v : {&iLo, &iHi, &jLo, &jHi, &usable}) v->resize(size_t(padded));
         }
         const auto& L = lightFromCurrent.m;
         const auto& R = rasterFromCurrent.m;
@@ -264,6 +271,15 @@ struct PointRegions {
             std::memcpy(&hs[size_t(i0)], &hS, sizeof hS);
             std::memcpy(&ht[size_t(i0)], &hT, sizeof hT);
             std::memcpy(&usable[size_t(i0)], &ok, sizeof ok);
+            // (Lanes of unusable points, perhaps not numbers, convert 0.)
+            auto below = [&](F4 v, int bound) { return floorX4(ok ? (v < float(bound) ? F4{} + float(bound) : v) : F4{}); };
+            auto above = [&](F4 v, int bound) { return floorX4(ok ? (v > float(bound) ? F4{} + float(bound) : v) : F4{}); };
+            const I4 il = below(ss - hS, wd.dx0 - 1), ih = above(ss + hS, wd.dx1 + 1);
+            const I4 jl = below(tt - hT, wd.dy0 - 1), jh = above(tt + hT, wd.dy1 + 1);
+            std::memcpy(&iLo[size_t(i0)], &il, sizeof il);
+            std::memcpy(&iHi[size_t(i0)], &ih, sizeof ih);
+            std::memcpy(&jLo[size_t(i0)], &jl, sizeof jl);
+            std::memcpy(&jHi[size_t(i0)], &jh, sizeof jh);
             allUsable4 &= ok;
             auto lower = [](F4 a, F4 b) { return a < b ? a : b; };
             auto upper = [](F4 a, F4 b) { return a > b ? a : b; };
@@ -554,7 +570,7 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
     thread_local PointRegions t_points;
     PointRegions& pts = t_points;
     pts.compute(batch, lightFromCurrent, rasterFromCurrent,
-                {params.sWidth, params.tWidth, blurS, blurT, minHalf, maxHalf});
+                {params.sWidth, params.tWidth, blurS, blurT, minHalf, maxHalf, m_dx0, m_dx1, m_dy0, m_dy1});
 
     if constexpr (!kPointSample) {
         const BatchBounds bounds{pts.allUsable, pts.zLo, pts.zHi, pts.loS, pts.hiS, pts.loT, pts.hiT};
@@ -656,14 +672,13 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
         } else {
             const float hs = pts.hs[size_t(i)], ht = pts.ht[size_t(i)];
             const float loS = s - hs, hiS = s + hs, loT = t - ht, hiT = t + ht;
-            if (hiS < float(dx0) || loS >= float(dx1) + 1.0f || hiT < float(dy0) || loT >= float(dy1) + 1.0f) {
+            // The texels the samples can reach (see PointRegions)...
+            const int iLo = pts.iLo[size_t(i)], iHi = pts.iHi[size_t(i)];
+            const int jLo = pts.jLo[size_t(i)], jHi = pts.jHi[size_t(i)];
+            if (iHi < dx0 || iLo > dx1 || jHi < dy0 || jLo > dy1) {
                 ++st.outside;
                 continue;
             }
-            // Texel range the samples can reach; s and t lie within a few
-            // map widths of the map here, so the conversions are safe.
-            const int iLo = floorInt(loS), iHi = floorInt(hiS);
-            const int jLo = floorInt(loT), jHi = floorInt(hiT);
             // ... clipped to the data window.
             const int ci0 = std::max(iLo, dx0), ci1 = std::min(iHi, dx1);
             const int cj0 = std::max(jLo, dy0), cj1 = std::min(jHi, dy1);

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <thread>
 
 namespace umbra {
@@ -268,6 +269,62 @@ TEST(ShadowLookup, APointsSamplesDependOnItsIdentityNotItsCompany) {
     }
     EXPECT_GT(fractional, 100);  // straddling the edge: the samples matter
     EXPECT_GT(moved, 50);        // and the check above could fail
+}
+
+TEST(ShadowLookup, PointsOffTheMapOrNotNumbersAreLitAndLeaveTheirNeighboursAlone) {
+    // Points are projected four at a time: points far beyond an int texel
+    // index, behind the light or not numbers share lanes with ordinary
+    // points straddling the edge. They are lit, and every point gets the
+    // bits it gets looked up alone.
+    const auto& map = stepMap();
+    ASSERT_TRUE(map);
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    struct Case {
+        Vec3 P;
+        float width;
+        bool lit;
+    };
+    const std::vector<Case> odd = {
+        {Vec3(1e20f, 100, 50), 8, true},     {Vec3(-1e20f, 100, 50), 8, true},
+        {Vec3(100, 3e38f, 50), 8, true},     {Vec3(kEdge, 100, -5), 8, true},  // behind the light
+        {Vec3(nan, 100, 50), 8, true},       {Vec3(kEdge, 100, nan), 8, true},
+        {Vec3(kEdge, 100, 50), 3e38f, false},  // the region is clamped, the point filtered
+        {Vec3(kEdge, 100, 50), nan, false},    // a footprint that is not a number: MinSize
+    };
+    Points pts;
+    std::vector<bool> lit;
+    Rng rng(43);
+    for (const Case& c : odd)
+        for (int k = 0; k < 3; ++k) {  // each odd point between ordinary ones, in every lane
+            for (int j = 0; j <= k; ++j) {
+                pts.add(Vec3(kEdge - 4 + 8 * rng.uniform(), 20 + 200 * rng.uniform(), 50), 8);
+                lit.push_back(false);
+            }
+            pts.add(c.P, c.width);
+            lit.push_back(c.lit);
+        }
+    std::vector<int> ids(pts.P.size());
+    for (size_t i = 0; i < ids.size(); ++i) ids[i] = int(i);
+    ShadowBatch all = pts.batch(9);
+    all.pointId = ids.data();
+    std::vector<float> together(pts.P.size());
+    ShadowStats st;
+    map->lookup(all, ShadowParams(), together.data(), st);
+    int fractional = 0;
+    for (size_t i = 0; i < pts.P.size(); ++i) {
+        ShadowBatch one = all;
+        one.count = 1;
+        one.P += i, one.dPdu_du += i, one.dPdv_dv += i, one.pointId += i;
+        float alone = -1;
+        map->lookup(one, ShadowParams(), &alone, st);
+        ASSERT_EQ(std::memcmp(&alone, &together[i], sizeof alone), 0) << "point " << i;
+        ASSERT_TRUE(together[i] >= 0 && together[i] <= 1) << "point " << i;
+        if (lit[i]) {
+            EXPECT_EQ(together[i], 0.0f) << "point " << i;
+        }
+        fractional += together[i] > 0 && together[i] < 1;
+    }
+    EXPECT_GT(fractional, 20);  // the ordinary points straddle the edge
 }
 
 TEST(ShadowLookup, BatchCullingMatchesThePointLoop) {
