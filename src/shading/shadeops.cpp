@@ -520,11 +520,16 @@ void shadow(Exec& x, const Instr& in, Args& A, bool four) {
     int pairsAt = nArg + 1;
     // Per-thread scratch, one entry per active point: a shadow() call runs
     // once per grid and light, and must not allocate each time.
+    // They only grow: resizing down and up again would zero the regrown
+    // entries on every call.
     thread_local std::vector<Vec3> P, dPdu, dPdv, N, corners[4], Lv;
     thread_local std::vector<float> result;
     const size_t count = x.active.size();
-    for (auto* v : {&P, &dPdu, &dPdv, &N}) v->resize(count);
-    result.resize(count);
+    auto atLeast = [count](auto& v) {
+        if (v.size() < count) v.resize(count);
+    };
+    for (auto* v : {&P, &dPdu, &dPdv, &N}) atLeast(*v);
+    atLeast(result);
     In<Vec3> Pin = A.v(first);
     In<Vec3> Nin = A.v(nArg);
     for (size_t k = 0; k < count; ++k) {
@@ -535,7 +540,7 @@ void shadow(Exec& x, const Instr& in, Args& A, bool four) {
     derivsOfActive(x, Pin, dPdu.data(), dPdv.data());
     if (four) {
         for (int c = 0; c < 4; ++c) {
-            corners[c].resize(count);
+            atLeast(corners[c]);
             In<Vec3> cin = A.v(first + c);
             for (size_t k = 0; k < count; ++k) corners[c][k] = cin[x.active[k]];
             q.corners[c] = corners[c].data();
@@ -546,7 +551,7 @@ void shadow(Exec& x, const Instr& in, Args& A, bool four) {
         // Inside illuminate()/solar(): where the light is, for "raytrace".
         const int Lreg = x.cs->globalRegs[gL];
         In<Vec3> Lin{x.ptr[size_t(Lreg)], x.vary[size_t(Lreg)]};
-        Lv.resize(count);
+        atLeast(Lv);
         for (size_t k = 0; k < count; ++k) Lv[k] = Lin[x.active[k]];
         q.L = Lv.data();
         q.lightAtInfinity = x.lightConstruct == 2;
