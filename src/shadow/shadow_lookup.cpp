@@ -621,8 +621,21 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
     };
     // The blocks' finer depth range, for regions within 2x2 tiles of a map
     // that has blocks; `planar`: every covered block stores a plane.
+    // Consecutive points of a grid mostly cover the same blocks: the last
+    // range is kept with its blocks (map-wide block indices).
+    struct LastBlocks {
+        int bx0 = -1, bx1 = -2, by0 = -1, by1 = -2;
+        float lo = 0, hi = 0;
+        bool flat = false;
+    } last;
     auto blockRange = [&](const Covered& c, float* zMin, float* zMax, bool* planar) {
         if (m_blockShiftX < 0 || c.tx1 - c.tx0 > 1 || c.ty1 - c.ty0 > 1) return false;
+        const int bx0 = (c.ci0 - m_fileX0) >> m_blockShiftX, bx1 = (c.ci1 - m_fileX0) >> m_blockShiftX;
+        const int by0 = (c.cj0 - m_fileY0) >> m_blockShiftY, by1 = (c.cj1 - m_fileY0) >> m_blockShiftY;
+        if (bx0 == last.bx0 && bx1 == last.bx1 && by0 == last.by0 && by1 == last.by1) {
+            *zMin = last.lo, *zMax = last.hi, *planar = last.flat;
+            return true;
+        }
         float lo = kInfinity, hi = -kInfinity;
         bool flat = true;
         everyTileOfBlocks(c, [&](const ShadowTile& tile, int, int, int bx0, int bx1, int by0, int by1) {
@@ -636,6 +649,7 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
             return true;
         });
         *zMin = lo, *zMax = hi, *planar = flat;
+        last = {bx0, bx1, by0, by1, lo, hi, flat};
         return true;
     };
 
