@@ -512,8 +512,13 @@ void shadow(Exec& x, const Instr& in, Args& A, bool four) {
     float* d = x.ptr[size_t(in.dst)];
     // The result is varying (marked by codegen).
     for (int i : x.active) d[i] = 0;
-    ShadowQuery q;
+    // The query is per-thread scratch too: its parameters' names and values
+    // keep their storage from call to call.
+    thread_local ShadowQuery q;
     q.mapName = A.s(0);
+    for (const Vec3*& c : q.corners) c = nullptr;
+    q.L = nullptr;
+    q.lightAtInfinity = false;
     int first = 2;
     int nPoints = four ? 4 : 1;
     int nArg = first + nPoints;
@@ -563,19 +568,21 @@ void shadow(Exec& x, const Instr& in, Args& A, bool four) {
     q.dPdv = dPdv.data();
     q.N = N.data();
     int pairs = toInt(A.f(pairsAt)[0]);
+    q.params.resize(size_t(std::max(pairs, 0)));
     for (int k = 0; k < pairs; ++k) {
-        ShadeValue v;
+        ShadeValue& v = q.params[size_t(k)];
         v.name = A.s(pairsAt + 1 + 2 * k);
+        v.strings.clear();
         int vr = A.reg(pairsAt + 2 + 2 * k);
         const RegInfo& ri = x.cs->regs[size_t(vr)];
         if (ri.ty == Ty::String) {
             v.type = ValueType::String;
+            v.floats.clear();
             v.strings.push_back(x.strs[size_t(vr)][0]);
         } else {
             v.type = valueTypeOf(ri.ty);
             v.floats.assign(x.ptr[size_t(vr)], x.ptr[size_t(vr)] + tyFloats(ri.ty));
         }
-        q.params.push_back(std::move(v));
     }
     q.seed = x.randomSeed(in);
     // No map: unshadowed (the renderer reports it).

@@ -51,14 +51,15 @@ namespace umbra {
 namespace {
 
 /// The tiles a thread's lookups used last, pinned, indexed by the low bits
-/// of the map id and the tile coordinates: a 4x4 neighbourhood of one
+/// of the map id and the tile coordinates: an 8x8 neighbourhood of one
 /// map's tiles never collides, and the next grid's lookups, mostly in the
 /// same tiles, find them without touching the shared cache (whose lock and
 /// reference counts the two threads would contend for). Map ids are never
-/// reused, so a slot never answers for a closed map; a slot holds its tile
-/// until replaced, a few tiles beyond the cache's bound at most.
+/// reused, so a slot never answers for a closed map. A slot holds its tile
+/// until replaced: a thread holds at most 256 tiles (1 MB of 32x32 tiles)
+/// beyond the cache's bound.
 struct TileMemo {
-    static constexpr int kSlots = 64;
+    static constexpr int kSlots = 256;
     uint32_t map[kSlots];
     int tx[kSlots], ty[kSlots];
     const float* data[kSlots];
@@ -72,7 +73,7 @@ struct TileMemo {
             tile[i] = nullptr;
         }
     }
-    static int slot(uint32_t mapId, int x, int y) { return (x & 3) | ((y & 3) << 2) | int((mapId & 3) << 4); }
+    static int slot(uint32_t mapId, int x, int y) { return (x & 7) | ((y & 7) << 3) | int((mapId & 3) << 6); }
 };
 
 /// floor() as an int, for |v| < 2^31 (callers bound their values first).
