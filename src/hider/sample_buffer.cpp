@@ -318,6 +318,14 @@ void SampleBuffer::sample(const MicroGrid& g) {
     }
 }
 
+inline bool SampleBuffer::takeNearest(size_t s, float z, uint64_t gid, uint32_t sub) {
+    if (!keyLess(z, gid, sub, m_z[s], m_id[s], m_sub[s])) return false;
+    m_z[s] = z;
+    m_id[s] = gid;
+    m_sub[s] = sub;
+    return true;
+}
+
 void SampleBuffer::rasterizeQuad(const MicroGrid& g, const HitContext& ctx, int i, int j, float minx, float miny,
                                  float maxx, float maxy, float minz, float maxz) {
     // Every depth interpolated across the micropolygon is at least its
@@ -350,6 +358,7 @@ void SampleBuffer::rasterizeQuad(const MicroGrid& g, const HitContext& ctx, int 
     // Four samples of a row at a time (positions are padded so the last
     // group may read past the end); lanes past sx1 are masked off.
     bool wrote = false;
+    const bool nearestOnly = ctx.depthMode && m_cfg.depthLayers == 1;
     for (int sy = sy0; sy <= sy1; ++sy) {
         const size_t row = size_t(sy) * size_t(m_sw);
         for (int sx = sx0; sx <= sx1; sx += 4) {
@@ -385,7 +394,12 @@ void SampleBuffer::rasterizeQuad(const MicroGrid& g, const HitContext& ctx, int 
                 hits &= laneMask((z <= useful) & (z >= m_cfg.nearClip) & (z <= m_cfg.farClip));
                 while (hits) {
                     const int k = __builtin_ctz(unsigned(hits));
-                    wrote |= record(g, ctx, *t, s + size_t(k), z[k], b1[k], b2[k]);
+                    // A depth pass of one layer keeps the nearest hit: inline,
+                    // the common case of a depth map.
+                    if (nearestOnly)
+                        wrote |= takeNearest(s + size_t(k), z[k], g.id, t->sub);
+                    else
+                        wrote |= record(g, ctx, *t, s + size_t(k), z[k], b1[k], b2[k]);
                     hits &= hits - 1;
                 }
             }
@@ -400,6 +414,7 @@ bool SampleBuffer::record(const MicroGrid& g, const HitContext& ctx, const Tri& 
     const uint32_t sub = t.sub;
 
     if (ctx.depthMode) {
+        if (m_cfg.depthLayers == 1) return takeNearest(s, z, gid, sub);
         if (keyLess(z, gid, sub, m_z[s], m_id[s], m_sub[s])) {
             // The nearest hit from another grid than the new nearest is the
             // old nearest (it was nearer than everything else); a surface

@@ -191,6 +191,9 @@ private:
     /// planes), barycentric weights b1, b2 of t's second and third vertices.
     /// True if it changed a depth the occlusion bound is made of.
     bool record(const MicroGrid& g, const HitContext& ctx, const Tri& t, size_t s, float z, float b1, float b2);
+    /// A depth pass's nearest hit: keeps depth z of grid gid, triangle sub
+    /// at sample s when nearer by the full key; true if kept.
+    bool takeNearest(size_t s, float z, uint64_t gid, uint32_t sub);
     void markDirty(int sx0, int sy0, int sx1, int sy1);
     /// Pixel (px, py) of the region: the max opaque (depth mode: second)
     /// depth of its samples, recomputed if marked dirty.
