@@ -4,6 +4,7 @@
 
 #include "umbra/film/film.h"
 #include "umbra/util/error.h"
+#include "umbra/util/lanes.h"
 
 #include <algorithm>
 #include <cmath>
@@ -16,12 +17,8 @@ namespace umbra::hider {
 
 namespace {
 
-/// Four floats (or ints) in one SSE register (GCC vector extensions).
-typedef float Vec4f __attribute__((vector_size(16)));
-typedef int32_t Vec4i __attribute__((vector_size(16)));
-
 /// Bit k set when lane k of a comparison's result is true.
-inline int laneMask(Vec4i m) { return _mm_movemask_ps(__m128(m)); }
+inline int laneMask(I4 m) { return _mm_movemask_ps(__m128(m)); }
 
 /// The total order on hits: nearer first, then grid id, then triangle.
 inline bool keyLess(float z, uint64_t id, uint32_t sub, float z2, uint64_t id2, uint32_t sub2) {
@@ -41,23 +38,23 @@ struct Edge {
     // The edge function's constants, with the sign of the direction folded
     // into dx, dy (negation is exact, so the values are unchanged) and
     // spread over four lanes.
-    Vec4f bx, by, dx, dy;
-    Vec4i inclusive;  // all ones when samples exactly on the edge are inside
+    F4 bx, by, dx, dy;
+    I4 inclusive;  // all ones when samples exactly on the edge are inside
 
     void setup(const Vec3& u, const Vec3& v) {
         bool canonical = u.y < v.y || (u.y == v.y && u.x < v.x);
         const Vec3& a = canonical ? u : v;
         const Vec3& b = canonical ? v : u;
         const float sign = canonical ? 1.0f : -1.0f;
-        bx = Vec4f{} + a.x;
-        by = Vec4f{} + a.y;
-        dx = Vec4f{} + sign * (b.x - a.x);
-        dy = Vec4f{} + sign * (b.y - a.y);
-        inclusive = Vec4i{} - int32_t(canonical);
+        bx = F4{} + a.x;
+        by = F4{} + a.y;
+        dx = F4{} + sign * (b.x - a.x);
+        dy = F4{} + sign * (b.y - a.y);
+        inclusive = I4{} - int32_t(canonical);
     }
     /// Positive inside (for a triangle of positive orientation).
-    Vec4f eval(Vec4f x, Vec4f y) const { return dx * (y - by) - dy * (x - bx); }
-    Vec4i inside(Vec4f e) const { return (e > 0.0f) | ((e == 0.0f) & inclusive); }
+    F4 eval(F4 x, F4 y) const { return dx * (y - by) - dy * (x - bx); }
+    I4 inside(F4 e) const { return (e > 0.0f) | ((e == 0.0f) & inclusive); }
 };
 
 inline float mean3(const Color& c) { return (c.x + c.y + c.z) * (1.0f / 3.0f); }
@@ -104,8 +101,8 @@ struct SampleBuffer::Tri {
     }
     /// Which of four samples the triangle covers (bit k for lane k), and
     /// their barycentric weights of p1 and p2.
-    int cover(Vec4f x, Vec4f y, Vec4f* b1, Vec4f* b2) const {
-        const Vec4f w0 = e0.eval(x, y), w1 = e1.eval(x, y), w2 = e2.eval(x, y);
+    int cover(F4 x, F4 y, F4* b1, F4* b2) const {
+        const F4 w0 = e0.eval(x, y), w1 = e1.eval(x, y), w2 = e2.eval(x, y);
         const int covered = laneMask(e0.inside(w0) & e1.inside(w1) & e2.inside(w2));
         *b1 = w1 * invArea;
         *b2 = w2 * invArea;
@@ -363,11 +360,11 @@ void SampleBuffer::rasterizeQuad(const MicroGrid& g, const HitContext& ctx, int 
         const size_t row = size_t(sy) * size_t(m_sw);
         for (int sx = sx0; sx <= sx1; sx += 4) {
             const size_t s = row + size_t(sx);
-            Vec4f x, y;
+            F4 x, y;
             std::memcpy(&x, &m_px[s], sizeof x);
             std::memcpy(&y, &m_py[s], sizeof y);
             const int lanes = sx1 - sx >= 3 ? 0xf : (1 << (sx1 - sx + 1)) - 1;
-            Vec4f useful;
+            F4 useful;
             std::memcpy(&useful, &ctx.farthestUseful[s], sizeof useful);
             if (!(laneMask(useful >= nearest) & lanes)) continue;
             if (!setUp) {
@@ -379,7 +376,7 @@ void SampleBuffer::rasterizeQuad(const MicroGrid& g, const HitContext& ctx, int 
             // Both halves are tested: a bow-tie's triangles may overlap.
             for (const Tri* t : {&ta, &tb}) {
                 if (!t->valid) continue;
-                Vec4f b1, b2;
+                F4 b1, b2;
                 int hits = t->cover(x, y, &b1, &b2) & lanes;
                 if (!hits) continue;
                 // Interpolated as v0 + b1 (v1 - v0) + b2 (v2 - v0): exact
@@ -387,8 +384,8 @@ void SampleBuffer::rasterizeQuad(const MicroGrid& g, const HitContext& ctx, int 
                 // Under perspective 1/z is what is linear in raster space, so
                 // a planar micropolygon gets its plane's exact depth (the
                 // depth maps' virtual samples rely on it).
-                const Vec4f d = t->d0 + b1 * (t->d1 - t->d0) + b2 * (t->d2 - t->d0);
-                const Vec4f z = ctx.inverseDepth ? 1.0f / d : d;
+                const F4 d = t->d0 + b1 * (t->d1 - t->d0) + b2 * (t->d2 - t->d0);
+                const F4 z = ctx.inverseDepth ? 1.0f / d : d;
                 // Hits behind what the sample holds, or clipped, change
                 // nothing; record() decides ties by the full key.
                 hits &= laneMask((z <= useful) & (z >= m_cfg.nearClip) & (z <= m_cfg.farClip));
@@ -793,15 +790,15 @@ void SampleBuffer::resolveColour(film::Film& film, int bx0, int by0, int bx1, in
     const int bw = bx1 - bx0, bh = by1 - by0;
     m_acc.assign(size_t(bw) * size_t(bh) * 4, 0.0f);
     splatSeparable(bx0, by0, bx1, by1, 4, [&](size_t s) {
-        Vec4f value;
+        F4 value;
         if (m_fragHead[s] >= 0) {
             const float* r = &m_res[s * 4];
-            value = Vec4f{r[0], r[1], r[2], r[3]};
+            value = F4{r[0], r[1], r[2], r[3]};
         } else {
-            value = Vec4f{m_ci[s].x, m_ci[s].y, m_ci[s].z, m_alpha[s]};
+            value = F4{m_ci[s].x, m_ci[s].y, m_ci[s].z, m_alpha[s]};
         }
         return [value](float* acc, float w) {
-            Vec4f sum;
+            F4 sum;
             std::memcpy(&sum, acc, sizeof sum);
             sum += w * value;
             std::memcpy(acc, &sum, sizeof sum);

@@ -1,5 +1,6 @@
 #include "umbra/shadow/depth_image.h"
 #include "umbra/util/file.h"
+#include "umbra/util/lanes.h"
 
 #include "map_header.h"
 
@@ -85,24 +86,31 @@ bool prepareMap(const DepthImage& image, PreparedMap& out, std::string& why) {
                           size_t(std::max(w, 0)) * size_t(std::max(h, 0)));
         return false;
     }
-    // Reeves §3.3: only the bounding box of finite depths is stored. Each
-    // row is trimmed from both ends; what is left is scanned without
-    // branches (the map is built while the frame waits for it).
+    // Reeves §3.3: only the bounding box of finite depths is stored. Most
+    // rows of a sparse map are empty: each row is first checked for a
+    // finite depth four at a time; a row with one is trimmed from both
+    // ends and what is left scanned without branches (the map is built
+    // while the frame waits for it).
     int x0 = w, y0 = h, x1 = -1, y1 = -1;
     int64_t finite = 0;
     float minZ = kInfinity, maxZ = -kInfinity;
     for (int y = 0; y < h; ++y) {
         const float* row = image.z.data() + size_t(y) * size_t(w);
+        I4 any{};
+        int x = 0;
+        for (; x + 4 <= w; x += 4) any |= finite4(loadF4(row + x));
+        bool hasDepth = (any[0] | any[1] | any[2] | any[3]) != 0;
+        for (; x < w; ++x) hasDepth = hasDepth || isFiniteDepth(row[x]);
+        if (!hasDepth) continue;
         int first = 0, last = w - 1;
-        while (first < w && !isFiniteDepth(row[first])) ++first;
-        if (first == w) continue;
+        while (!isFiniteDepth(row[first])) ++first;
         while (!isFiniteDepth(row[last])) --last;
         x0 = std::min(x0, first);
         x1 = std::max(x1, last);
         y0 = std::min(y0, y);
         y1 = y;
         int rowFinite = 0;
-        for (int x = first; x <= last; ++x) {
+        for (x = first; x <= last; ++x) {
             const float z = row[x];
             const bool f = isFiniteDepth(z);
             rowFinite += f;

@@ -38,6 +38,7 @@
 //    Figure 6a simulates it.
 
 #include "umbra/shadow/shadow_map.h"
+#include "umbra/util/lanes.h"
 #include "umbra/util/rng.h"
 
 #include <bit>
@@ -120,19 +121,6 @@ struct SampleRandoms {
     float extra(uint32_t which) const { return hashToUnit(hash32(h ^ (0x5bd1e995u * (which + 1)))); }
 };
 
-/// Four lanes (GCC/Clang vector extensions; SSE2 on x86-64): a region's
-/// samples are drawn and compared four at a time.
-typedef float F4 __attribute__((vector_size(16)));
-typedef int32_t I4 __attribute__((vector_size(16)));
-typedef uint32_t U4 __attribute__((vector_size(16)));
-
-inline F4 toF4(I4 v) { return __builtin_convertvector(v, F4); }
-/// floorInt() of each lane.
-inline I4 floorX4(F4 v) {
-    const I4 i = __builtin_convertvector(v, I4);
-    return i + (toF4(i) > v);  // a true comparison is -1
-}
-
 /// A region's samples, structure of arrays padded to a multiple of four:
 /// texel, bias, filter weight and the depth the map holds there. Lanes
 /// past the sample count hold anything but weigh 0 and read +infinity.
@@ -214,8 +202,6 @@ struct PointRegions {
         }
         const auto& L = lightFromCurrent.m;
         const auto& R = rasterFromCurrent.m;
-        auto abs4 = [](F4 v) { return F4(U4(v) & 0x7fffffffu); };
-        auto finite4 = [&](F4 v) { return abs4(v) <= std::numeric_limits<float>::max(); };
         // The bounds, lane by lane (lanes past the end change none).
         F4 zLo4 = F4{} + kInfinity, zHi4 = -zLo4, loS4 = zLo4, hiS4 = zHi4, loT4 = zLo4, hiT4 = zHi4;
         I4 allUsable4 = I4{} - 1;
