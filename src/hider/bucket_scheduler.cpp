@@ -256,15 +256,14 @@ SchedulerStats BucketScheduler::render(const std::vector<geometry::PrimitivePtr>
 
     // Top-level nodes and, per bucket, the nodes that cover it.
     std::vector<std::unique_ptr<Node>> roots(prims.size());
+    // In the caller's arena: the renderer's, which bounds the threads and
+    // may run other passes beside this one.
     int threads = m_settings.threads > 0 ? m_settings.threads : tbb::this_task_arena::max_concurrency();
-    tbb::task_arena arena(threads);
-    arena.execute([&] {
-        tbb::parallel_for(size_t(0), prims.size(), [&](size_t i) {
-            auto node = std::make_unique<Node>();
-            node->prim = prims[i].get();
-            node->id = uint64_t(i) + 1;
-            if (frame.place(*node, nullptr)) roots[i] = std::move(node);
-        });
+    tbb::parallel_for(size_t(0), prims.size(), [&](size_t i) {
+        auto node = std::make_unique<Node>();
+        node->prim = prims[i].get();
+        node->id = uint64_t(i) + 1;
+        if (frame.place(*node, nullptr)) roots[i] = std::move(node);
     });
     std::vector<std::vector<Node*>> perBucket(size_t(std::max(bucketCount, 0)));
     for (auto& node : roots) {
@@ -280,43 +279,41 @@ SchedulerStats BucketScheduler::render(const std::vector<geometry::PrimitivePtr>
     // are those of a band of buckets, not of the whole frame.
     std::atomic<int> next{0}, done{0};
     std::mutex statsMutex;
-    arena.execute([&] {
-        tbb::parallel_for(0, threads, [&](int) {
-            const double cpu0 = threadCpuSeconds();
-            SampleBuffer buffer;
-            SchedulerStats stats;
-            std::vector<Frame::Deferred> deferred;
-            std::vector<Node*> ancestors;
-            for (int b; (b = next++) < bucketCount;) {
-                int bx = b % frame.bucketsX, by = b / frame.bucketsX;
-                int x0 = film.x0() + bx * bw, y0 = film.y0() + by * bh;
-                int x1 = std::min(x0 + bw, film.x1()), y1 = std::min(y0 + bh, film.y1());
-                SampleBufferConfig config = m_settings.sampling;
-                config.x0 = x0;
-                config.y0 = y0;
-                config.x1 = x1;
-                config.y1 = y1;
-                config.margin = m_settings.filterMargin;
-                auto& nodes = perBucket[size_t(b)];
-                // A depth film starts at +infinity, which is what a bucket
-                // no primitive reaches resolves to: such buckets (most of a
-                // sparse shadow map) need no samples at all.
-                if (!nodes.empty() || config.mode != HiderMode::Depth) {
-                    buffer.reset(config);
-                    std::sort(nodes.begin(), nodes.end(), nearerFirst);
-                    for (Node* node : nodes) frame.visit(*node, bx, by, buffer, stats, &deferred, ancestors);
-                    frame.visitDeferred(deferred, bx, by, buffer, stats);
-                    buffer.resolve(film);
-                }
-                ++stats.buckets;
-                int d = ++done;
-                if (m_settings.progress) m_settings.progress(d, bucketCount);
+    tbb::parallel_for(0, threads, [&](int) {
+        const double cpu0 = threadCpuSeconds();
+        SampleBuffer buffer;
+        SchedulerStats stats;
+        std::vector<Frame::Deferred> deferred;
+        std::vector<Node*> ancestors;
+        for (int b; (b = next++) < bucketCount;) {
+            int bx = b % frame.bucketsX, by = b / frame.bucketsX;
+            int x0 = film.x0() + bx * bw, y0 = film.y0() + by * bh;
+            int x1 = std::min(x0 + bw, film.x1()), y1 = std::min(y0 + bh, film.y1());
+            SampleBufferConfig config = m_settings.sampling;
+            config.x0 = x0;
+            config.y0 = y0;
+            config.x1 = x1;
+            config.y1 = y1;
+            config.margin = m_settings.filterMargin;
+            auto& nodes = perBucket[size_t(b)];
+            // A depth film starts at +infinity, which is what a bucket
+            // no primitive reaches resolves to: such buckets (most of a
+            // sparse shadow map) need no samples at all.
+            if (!nodes.empty() || config.mode != HiderMode::Depth) {
+                buffer.reset(config);
+                std::sort(nodes.begin(), nodes.end(), nearerFirst);
+                for (Node* node : nodes) frame.visit(*node, bx, by, buffer, stats, &deferred, ancestors);
+                frame.visitDeferred(deferred, bx, by, buffer, stats);
+                buffer.resolve(film);
             }
-            stats.workerCpuSeconds = threadCpuSeconds() - cpu0;
-            std::lock_guard<std::mutex> lock(statsMutex);
-            total.add(stats);
-        }, tbb::simple_partitioner());
-    });
+            ++stats.buckets;
+            int d = ++done;
+            if (m_settings.progress) m_settings.progress(d, bucketCount);
+        }
+        stats.workerCpuSeconds = threadCpuSeconds() - cpu0;
+        std::lock_guard<std::mutex> lock(statsMutex);
+        total.add(stats);
+    }, tbb::simple_partitioner());
     total.peakGridsAlive = frame.peakGrids.load();
     return total;
 }

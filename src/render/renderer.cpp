@@ -18,6 +18,9 @@
 #include <fmt/chrono.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
+#include <tbb/task_group.h>
+
+#include <optional>
 
 #include <sys/resource.h>
 #include <unistd.h>
@@ -117,6 +120,28 @@ struct MapWrite {
     std::future<void> thread;          // joins the writer when waited for or destroyed
 };
 
+/// An automatic map to make: its light's depth passes (one, or a point
+/// light's six cube faces) and where its file goes.
+struct LightMapJob {
+    std::vector<Pass> passes;
+    bool cube = false;
+    int size = 0;
+    std::string path;
+    FileLoc loc;
+};
+
+/// An automatic map made: its path ("" when none could be made; the light
+/// is then unshadowed), its passes' statistics, the map for the catalogue,
+/// and its file's writer when that runs in the background.
+struct LightMap {
+    std::string path;
+    nlohmann::json passes = nlohmann::json::array();
+    std::shared_ptr<ShadowMap> map;
+    std::optional<MapWrite> write;
+    bool failed = false;
+    double buildSeconds = 0;  // making it usable: building from memory, writes done at once
+};
+
 }  // namespace
 
 struct Renderer::Impl {
@@ -144,7 +169,14 @@ struct Renderer::Impl {
     std::atomic<uint64_t> mapFileCpuNanoseconds{0};
     int backgroundMapWrites = 0;
 
+    /// Every pass and the output run in this arena: no more threads than
+    /// --threads. One arena for the renderer's life, so its workers stay
+    /// with it from pass to pass.
+    std::unique_ptr<tbb::task_arena> arena;
+    int threadCount() const { return settings.threads > 0 ? settings.threads : tbb::this_task_arena::max_concurrency(); }
+
     Impl(const RenderSettings& s, Diagnostics& d) : settings(s), diag(d) {
+        arena = std::make_unique<tbb::task_arena>(threadCount());
         shading = std::make_unique<shading::ShadingSystem>(diag, settings.shaderPath);
         tileCache = std::make_shared<TileCache>();
         maps = std::make_unique<MapCatalog>(diag, tileCache);
@@ -186,12 +218,14 @@ struct Renderer::Impl {
     void renderWorld(const scene::WorldRecord& world, int& failed);
     PassResult runPass(FrameState& frame, const Pass& pass, const std::vector<geometry::PrimitivePtr>& prims,
                        film::Film& film, const std::string& label);
-    /// Renders the automatic depth map of `light`; returns its path, or ""
-    /// when none could be made (the light is then unshadowed).
-    /// Its file may still be being written: then it is added to `writes`.
-    std::string renderLightMap(FrameState& frame, const scene::LightRecord& light,
-                               const std::vector<geometry::PrimitivePtr>& prims, nlohmann::json& passes,
-                               std::vector<MapWrite>& writes, int& failed);
+    /// The automatic depth map of `light` to make, or nothing (with a
+    /// warning) when umbra cannot derive its view. Serial: it looks up the
+    /// light's shader and reports what it finds in a fixed order.
+    std::optional<LightMapJob> planLightMap(FrameState& frame, const scene::LightRecord& light,
+                                            const std::vector<geometry::PrimitivePtr>& prims);
+    /// Renders a planned map and makes it usable; safe to run for several
+    /// lights at once. Its file may still be being written by `made.write`.
+    LightMap makeLightMap(FrameState& frame, LightMapJob& job, const std::vector<geometry::PrimitivePtr>& prims);
     DepthFilter depthFilterOf(const scene::Options& options, const FileLoc& loc);
     /// How many depth layers a depth pass keeps: the two-layer filters read
     /// the second, the others need one, which also lets occlusion culling
@@ -361,25 +395,51 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     frame.primitives = &prims;
 
     // First pass: a depth map for every light whose shadowname is "auto".
+    // The maps are planned in the lights' order, then rendered side by side:
+    // a thread a short pass leaves idle (waiting on a primitive the other
+    // thread splits, or while a map is built) takes another light's buckets.
     // Destroying `mapWrites` joins writers still running (when unwinding).
     std::vector<MapWrite> mapWrites;
     nlohmann::json passes = nlohmann::json::array();
+    auto automatic = [&](const scene::LightRecord& light) {
+        const ri::Param* shadowName = light.shader.params.find("shadowname");
+        return shadowName && !shadowName->strings.empty() && shadowName->strings[0] == "auto";
+    };
+    std::vector<std::optional<LightMapJob>> jobs(world.lights.size());
+    std::vector<LightMap> made(world.lights.size());
+    Stopwatch firstPassClock;
+    if (!settings.noShadows) {
+        for (size_t i = 0; i < world.lights.size(); ++i)
+            if (automatic(world.lights[i])) jobs[i] = planLightMap(frame, world.lights[i], prims);
+        arena->execute([&] {
+            tbb::task_group group;
+            for (size_t i = 0; i < jobs.size(); ++i)
+                if (jobs[i]) group.run([&, i] { made[i] = makeLightMap(frame, *jobs[i], prims); });
+            group.wait();
+        });
+    }
+    const double firstPassWall = firstPassClock.wall(), firstPassCpu = firstPassClock.cpu();
     std::vector<std::shared_ptr<const shading::ShaderInstance>> lights(world.lights.size());
     for (size_t i = 0; i < world.lights.size(); ++i) {
         const scene::LightRecord& light = world.lights[i];
-        const ri::Param* shadowName = light.shader.params.find("shadowname");
-        bool automatic = shadowName && !shadowName->strings.empty() && shadowName->strings[0] == "auto";
-        if (!automatic) {
+        if (!automatic(light)) {
             lights[i] = shading->instantiate(light.shader, shading::ShaderKind::Light);
             continue;
         }
+        LightMap& m = made[i];
+        for (auto& p : m.passes) passes.push_back(std::move(p));
+        if (m.failed) ++failed;
+        if (m.map) maps->put(m.path, std::move(m.map));
+        if (m.write) {
+            mapWrites.push_back(std::move(*m.write));
+            ++backgroundMapWrites;
+        }
+        mapWriteSeconds += m.buildSeconds;
         scene::ShaderRecord withMap = light.shader;
-        std::string mapName;
-        if (!settings.noShadows) mapName = renderLightMap(frame, light, prims, passes, mapWrites, failed);
         ri::ParamList params;
         for (const ri::Param& p : light.shader.params.params()) {
             ri::Param q = p;
-            if (q.decl.name == "shadowname") q.strings = {mapName};
+            if (q.decl.name == "shadowname") q.strings = {m.path};
             params.add(std::move(q));
         }
         withMap.params = std::move(params);
@@ -408,7 +468,8 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     film::Film film = film::Film::fromOptions(
         options, aovs, depthFrame ? depthFilmOf(options, depthFilterOf(options, options.loc)) : film::FilmContent::Colour,
         diag);
-    PassResult camera = runPass(frame, pass, prims, film, fmt::format("frame {}", world.frameNumber));
+    PassResult camera;
+    arena->execute([&] { camera = runPass(frame, pass, prims, film, fmt::format("frame {}", world.frameNumber)); });
     passes.push_back({{"name", pass.name},
                       {"wall_seconds", camera.wall},
                       {"cpu_seconds", camera.cpu},
@@ -429,9 +490,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     };
     // Output converts rows in parallel: on no more threads than --threads.
     bool wrote = false;
-    tbb::task_arena(settings.threads > 0 ? settings.threads : tbb::this_task_arena::max_concurrency()).execute([&] {
-        wrote = film.write(displays, options, meta, diag, depthWriter);
-    });
+    arena->execute([&] { wrote = film.write(displays, options, meta, diag, depthWriter); });
     // The frame is done when its maps' files are; a failed write (reported
     // by the writer, naming the file) fails the frame.
     Stopwatch waitClock;
@@ -452,7 +511,8 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
         {"resolution", {options.xResolution, options.yResolution}},
         {"wall_seconds", wall},
         {"cpu_seconds", cpu},
-        {"threads", settings.threads > 0 ? settings.threads : tbb::this_task_arena::max_concurrency()},
+        {"threads", threadCount()},
+        {"first_pass", {{"wall_seconds", firstPassWall}, {"cpu_seconds", firstPassCpu}}},
         {"peak_memory_mib", peakResidentMiB()},
         {"passes", passes},
         {"micropolygons_per_second", camera.wall > 0 ? double(camera.counters.micropolygons) / camera.wall : 0.0},
@@ -479,9 +539,6 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     };
     frames.push_back(f);
     if (options.statisticsEndOfFrame && !settings.quiet) {
-        double firstPass = 0;
-        for (const auto& p : passes)
-            if (p["name"] != "camera") firstPass += p["wall_seconds"].get<double>();
         fmt::print(stderr,
                    "umbra: frame {} statistics\n"
                    "  time        {:.3f} s wall ({:.3f} s depth maps, {:.3f} s camera), {:.3f} s cpu, {} threads\n"
@@ -490,7 +547,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
                    "  hiding      {} buckets, {} culled, {} occlusion-culled, {} peak grids\n"
                    "  shadows     {} lookups ({} culled lit, {} culled shadowed, {} filtered)\n"
                    "  memory      {:.1f} MiB peak\n",
-                   world.frameNumber, wall, firstPass, camera.wall, cpu, f["threads"].get<int>(), shadingSeconds,
+                   world.frameNumber, wall, firstPassWall, camera.wall, cpu, f["threads"].get<int>(), shadingSeconds,
                    cpu > 0 ? 100 * shadingSeconds / cpu : 0.0, camera.counters.primitives, camera.counters.splits,
                    camera.counters.grids, micropolygons,
                    camera.wall > 0 ? double(camera.counters.micropolygons) / camera.wall * 1e-6 : 0.0,
@@ -502,25 +559,24 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     if (!wrote || diag.aborted()) ++failed;
 }
 
-std::string Renderer::Impl::renderLightMap(FrameState& frame, const scene::LightRecord& light,
-                                           const std::vector<geometry::PrimitivePtr>& prims, nlohmann::json& passes,
-                                           std::vector<MapWrite>& writes, int& failed) {
+std::optional<LightMapJob> Renderer::Impl::planLightMap(FrameState& frame, const scene::LightRecord& light,
+                                                       const std::vector<geometry::PrimitivePtr>& prims) {
     const scene::Options& options = frame.world->options;
     std::string handle = light.handle.empty() ? "light" : light.handle;
     auto shader = shading->find(light.shader.name, light.shader.loc);
     LightGeometry geometry = lightGeometry(light, shader.get());
+    LightMapJob job;
+    job.loc = light.shader.loc;
     // The map's resolution: the light's own Attribute "umbra" "shadowmapsize",
     // else the frame's Option, else the image's larger side (Reeves' advice).
     // The builder has checked the values' range.
-    int size = std::max(options.xResolution, options.yResolution);
+    job.size = std::max(options.xResolution, options.yResolution);
     for (const auto* settings : {&options.user, light.attributes ? &light.attributes->user : nullptr})
         if (settings)
             if (auto it = settings->find("umbra:shadowmapsize"); it != settings->end())
-                size = !it->second.ints.empty() ? it->second.ints[0] : int(it->second.floatAt(0, float(size)));
+                job.size = !it->second.ints.empty() ? it->second.ints[0] : int(it->second.floatAt(0, float(job.size)));
     const DepthFilter filter = depthFilterOf(options, light.shader.loc);
-    const float offset = dualOffsetOf(options);
     const Pass::Cull cull = depthCullOf(options, light.shader.loc);
-    // One depth pass: rendered, recorded in the statistics, reduced to a map image.
     // Nearest-depth maps are compared with a bias anyway: dice them at 4
     // pixels a micropolygon. The two-layer filters store the far sides of
     // curved solids, where coarser chords leak light (measured in
@@ -528,79 +584,96 @@ std::string Renderer::Impl::renderLightMap(FrameState& frame, const scene::Light
     float depthRate = (filter == DepthFilter::Min || filter == DepthFilter::Max || filter == DepthFilter::Average) ? 4 : 0;
     if (auto it = options.user.find("umbra:depthshadingrate"); it != options.user.end() && !it->second.floats.empty())
         depthRate = it->second.floats[0];
-    auto render = [&](Pass& pass) {
+    if (geometry.shape == LightShape::Point) {
+        std::array<Pass, 6> faces = cubeFacePasses(geometry, job.size, "depth:" + handle);
+        job.passes.assign(faces.begin(), faces.end());
+        job.cube = true;
+    } else {
+        auto pass = lightPass(geometry, prims, job.size, "depth:" + handle, diag, job.loc);
+        if (!pass) return std::nullopt;
+        job.passes.push_back(std::move(*pass));
+    }
+    for (Pass& pass : job.passes) {
         pass.cull = cull;
         pass.openSurfacesAreOwnSecondLayer = filter == DepthFilter::Second;
         pass.minShadingRate = depthRate;
         pass.flatness = depthRate > 0 ? kDepthFlatness : 0;
-        float crop[4] = {0, 1, 0, 1};
-        film::Film film(size, size, crop, *film::PixelFilter::create("box", 1, 1), {}, depthFilmOf(options, filter));
-        PassResult r = runPass(frame, pass, prims, film, fmt::format("depth map {}", pass.name));
-        passes.push_back({{"name", pass.name},
-                          {"wall_seconds", r.wall},
-                          {"cpu_seconds", r.cpu},
-                          {"worker_cpu_seconds", r.counters.workerCpuSeconds},
-                          {"counts", schedulerJson(r.counters)},
-                          {"samples", r.samples}});
-        return depthImageOf(film, pass, filter, offset);
-    };
-
+    }
     // The map is written beside the first image, named after it and the light.
     std::filesystem::path base(options.displays.empty() ? std::string("umbra") : options.displays[0].name);
     std::string frameTag = frame.world->frameNumber >= 0 ? fmt::format(".{:04d}", frame.world->frameNumber) : "";
-    std::string path = (base.parent_path() / fmt::format("{}{}.{}.shd", base.stem().string(), frameTag, handle)).string();
+    job.path = (base.parent_path() / fmt::format("{}{}.{}.shd", base.stem().string(), frameTag, handle)).string();
+    return job;
+}
+
+LightMap Renderer::Impl::makeLightMap(FrameState& frame, LightMapJob& job,
+                                      const std::vector<geometry::PrimitivePtr>& prims) {
+    const scene::Options& options = frame.world->options;
+    const DepthFilter filter = depthFilterOf(options, job.loc);
+    const float offset = dualOffsetOf(options);
+    LightMap made;
+    // One depth pass: rendered, recorded in the statistics, reduced to a map image.
+    auto render = [&](Pass& pass) {
+        float crop[4] = {0, 1, 0, 1};
+        film::Film film(job.size, job.size, crop, *film::PixelFilter::create("box", 1, 1), {}, depthFilmOf(options, filter));
+        PassResult r = runPass(frame, pass, prims, film, fmt::format("depth map {}", pass.name));
+        made.passes.push_back({{"name", pass.name},
+                               {"wall_seconds", r.wall},
+                               {"cpu_seconds", r.cpu},
+                               {"worker_cpu_seconds", r.counters.workerCpuSeconds},
+                               {"counts", schedulerJson(r.counters)},
+                               {"samples", r.samples}});
+        return depthImageOf(film, pass, filter, offset);
+    };
+
     // The map goes to this frame's lookups from memory: its header from the
     // image, its tiles handed to the cache. Its file, for later frames and
     // tools, is then written on a thread of its own, overlapping the next
     // passes, when every tile is cached; otherwise now, so the tiles that
     // did not fit are read from a complete file.
-    const FileLoc& loc = light.shader.loc;
+    const std::string path = job.path;
+    const FileLoc loc = job.loc;
     std::packaged_task<bool()> write;
     std::shared_future<bool> written;
-    std::shared_ptr<ShadowMap> map;
     bool everyTileCached = false;
-    Stopwatch writeClock;  // restarted once the depth passes are done
-    if (geometry.shape == LightShape::Point) {
-        std::array<Pass, 6> faces = cubeFacePasses(geometry, size, "depth:" + handle);
+    Stopwatch buildClock;  // restarted once the depth passes are done
+    if (job.cube) {
         auto cube = std::make_shared<std::array<DepthImage, 6>>();
-        for (size_t f = 0; f < 6; ++f) (*cube)[f] = render(faces[f]);
-        writeClock = Stopwatch();
+        for (size_t f = 0; f < 6; ++f) (*cube)[f] = render(job.passes[f]);
+        buildClock = Stopwatch();
         write = std::packaged_task<bool()>([&d = diag, path, loc, cube, this] {
             return timedMapWrite([&] { return writeCubeDepthMap(path, *cube, d, loc); });
         });
         written = write.get_future().share();
-        map = ShadowMap::fromCubeImages(*cube, path, written, diag, loc, tileCache, &everyTileCached);
+        made.map = ShadowMap::fromCubeImages(*cube, path, written, diag, loc, tileCache, &everyTileCached);
     } else {
-        auto pass = lightPass(geometry, prims, size, "depth:" + handle, diag, loc);
-        if (!pass) return "";
-        auto image = std::make_shared<DepthImage>(render(*pass));
-        writeClock = Stopwatch();
+        auto image = std::make_shared<DepthImage>(render(job.passes[0]));
+        buildClock = Stopwatch();
         write = std::packaged_task<bool()>([&d = diag, path, loc, image, this] {
             return timedMapWrite([&] { return writeDepthMap(path, *image, d, loc); });
         });
         written = write.get_future().share();
-        map = ShadowMap::fromImage(*image, path, written, diag, loc, tileCache, &everyTileCached);
+        made.map = ShadowMap::fromImage(*image, path, written, diag, loc, tileCache, &everyTileCached);
     }
-    if (!map) {
-        ++failed;
-        return "";
+    if (!made.map) {
+        made.failed = true;
+        return made;
     }
     // In the background only when the frame may use more than one thread:
     // --threads 1 means one core, writer included.
-    const int threads = settings.threads > 0 ? settings.threads : tbb::this_task_arena::max_concurrency();
-    if (everyTileCached && threads > 1) {
-        writes.push_back({written, std::async(std::launch::async, std::move(write))});
-        ++backgroundMapWrites;
+    if (everyTileCached && threadCount() > 1) {
+        made.write = MapWrite{written, std::async(std::launch::async, std::move(write))};
     } else {
         write();
         if (!written.get()) {
-            ++failed;
-            return "";
+            made.failed = true;
+            made.map.reset();
+            return made;
         }
     }
-    maps->put(path, std::move(map));
-    mapWriteSeconds += writeClock.wall();
-    return path;
+    made.path = path;
+    made.buildSeconds = buildClock.wall();
+    return made;
 }
 
 int Renderer::Impl::depthLayersOf(const scene::Options& options, DepthFilter filter) {

@@ -93,7 +93,7 @@ public:
 /// Settings of one pass.
 struct SchedulerSettings {
     int bucketSize[2] = {16, 16};
-    int threads = 0;              // 0: all cores
+    int threads = 0;              // bucket workers; 0: the calling arena's concurrency (run in it)
     /// Pixel samples, jitter, mode, seed, AOVs, clipping; the scheduler
     /// fills in each bucket's rectangle and the margin.
     SampleBufferConfig sampling;
