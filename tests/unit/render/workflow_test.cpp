@@ -361,6 +361,43 @@ TEST(Workflow, MapFilesWrittenInTheBackgroundAreCompleteWhenRenderReturns) {
     for (size_t i = 0; i < a.pixels.size(); ++i) ASSERT_EQ(a.pixels[i], b.pixels[i]) << "at float " << i;
 }
 
+TEST(Workflow, LightsMapsMadeSideBySideGiveTheSerialFrame) {
+    // The three lights' maps are made side by side on two threads, one
+    // after another on one: the same maps, the same image, the passes
+    // reported in the lights' order, and a first pass that covers them.
+    ScratchDir two("sidebyside"), one("oneatatime");
+    Diagnostics diag;
+    auto parallel = test::renderRib(threeMapFrame(two.file("frame.exr"), 256, 64), diag, 2);
+    auto serial = test::renderRib(threeMapFrame(one.file("frame.exr"), 256, 64), diag, 1);
+    ASSERT_EQ(diag.errorCount(), 0);
+    for (const char* light : {"1", "2", "3"}) {
+        const std::string name = fmt::format("frame.{}.shd", light);
+        EXPECT_EQ(fileBytes(two.file(name)), fileBytes(one.file(name))) << name;
+    }
+    Image a, b;
+    ASSERT_TRUE(test::readImage(two.file("frame.exr"), &a));
+    ASSERT_TRUE(test::readImage(one.file("frame.exr"), &b));
+    ASSERT_EQ(a.pixels.size(), b.pixels.size());
+    for (size_t i = 0; i < a.pixels.size(); ++i) ASSERT_EQ(a.pixels[i], b.pixels[i]) << "at float " << i;
+    for (const auto* stats : {&parallel, &serial}) {
+        const auto& frame = (*stats)["frames"][0];
+        std::vector<std::string> names;
+        double slowest = 0;
+        for (const auto& p : frame["passes"]) {
+            names.push_back(p["name"].get<std::string>());
+            if (names.back() != "camera") slowest = std::max(slowest, p["wall_seconds"].get<double>());
+        }
+        std::vector<std::string> expected = {"depth:1", "depth:2"};
+        for (const char* face : {"+x", "-x", "+y", "-y", "+z", "-z"}) expected.push_back(fmt::format("depth:3{}", face));
+        expected.push_back("camera");
+        EXPECT_EQ(names, expected);
+        const double first = frame["first_pass"]["wall_seconds"].get<double>();
+        EXPECT_GE(first, slowest);
+        EXPECT_LT(first, frame["wall_seconds"].get<double>());
+        EXPECT_GT(frame["first_pass"]["cpu_seconds"].get<double>(), 0.0);
+    }
+}
+
 TEST(Workflow, AMapThatCannotBeWrittenFailsTheFrame) {
     // The spot light's map would replace a directory: the rename fails, in
     // the background (tiles cached) or at once (cache too small).
