@@ -440,9 +440,11 @@ TEST(Workflow, PrimitivesAPassNeverDrawsAreNotSplitThere) {
     Translate 0 1.5 0
     Sphere 0.5 -0.5 0.5 360
   AttributeEnd)";
+    ScratchDir dir("nevercast");  // the image and its map go here
     auto passCounts = [&](bool withGround, bool withSphere, const std::string& passName) {
         Diagnostics diag;
-        nlohmann::json stats = test::renderRib(fmt::format(R"(PixelSamples 2 2
+        nlohmann::json stats = test::renderRib(fmt::format(R"(Display "{}" "openexr" "rgba"
+PixelSamples 2 2
 Option "umbra" "shadowmapsize" [1024]
 {}
 WorldBegin
@@ -450,7 +452,7 @@ WorldBegin
   Surface "matte"
   {}
   {}
-WorldEnd)", kDownCamera, withGround ? ground : "", withSphere ? sphere : ""),
+WorldEnd)", dir.file("frame.exr"), kDownCamera, withGround ? ground : "", withSphere ? sphere : ""),
                                                diag, 1);
         EXPECT_EQ(diag.errorCount(), 0);
         for (const auto& pass : stats["frames"][0]["passes"])
