@@ -307,6 +307,15 @@ std::string fileBytes(const std::string& path) {
     return std::string(std::istreambuf_iterator<char>(in), {});
 }
 
+/// The two image files hold the same pixels, bit for bit.
+void expectSameImage(const std::string& first, const std::string& second) {
+    Image a, b;
+    ASSERT_TRUE(test::readImage(first, &a));
+    ASSERT_TRUE(test::readImage(second, &b));
+    ASSERT_EQ(a.pixels.size(), b.pixels.size());
+    for (size_t i = 0; i < a.pixels.size(); ++i) ASSERT_EQ(a.pixels[i], b.pixels[i]) << "at float " << i;
+}
+
 bool anyTemporaryFile(const std::string& dir) {
     for (const auto& e : std::filesystem::directory_iterator(dir))
         if (e.path().extension() == ".tmp") return true;
@@ -354,11 +363,7 @@ TEST(Workflow, MapFilesWrittenInTheBackgroundAreCompleteWhenRenderReturns) {
         EXPECT_EQ(fileBytes(bg.file(name)), fileBytes(now.file(name)));
         EXPECT_EQ(fileBytes(bg.file(name)), fileBytes(one.file(name)));
     }
-    Image a, b;
-    ASSERT_TRUE(test::readImage(bg.file("frame.exr"), &a));
-    ASSERT_TRUE(test::readImage(now.file("frame.exr"), &b));
-    ASSERT_EQ(a.pixels.size(), b.pixels.size());
-    for (size_t i = 0; i < a.pixels.size(); ++i) ASSERT_EQ(a.pixels[i], b.pixels[i]) << "at float " << i;
+    expectSameImage(bg.file("frame.exr"), now.file("frame.exr"));
 }
 
 TEST(Workflow, LightsMapsMadeSideBySideGiveTheSerialFrame) {
@@ -374,11 +379,7 @@ TEST(Workflow, LightsMapsMadeSideBySideGiveTheSerialFrame) {
         const std::string name = fmt::format("frame.{}.shd", light);
         EXPECT_EQ(fileBytes(two.file(name)), fileBytes(one.file(name))) << name;
     }
-    Image a, b;
-    ASSERT_TRUE(test::readImage(two.file("frame.exr"), &a));
-    ASSERT_TRUE(test::readImage(one.file("frame.exr"), &b));
-    ASSERT_EQ(a.pixels.size(), b.pixels.size());
-    for (size_t i = 0; i < a.pixels.size(); ++i) ASSERT_EQ(a.pixels[i], b.pixels[i]) << "at float " << i;
+    expectSameImage(two.file("frame.exr"), one.file("frame.exr"));
     for (const auto* stats : {&parallel, &serial}) {
         const auto& frame = (*stats)["frames"][0];
         std::vector<std::string> names;
