@@ -259,10 +259,12 @@ struct PointRegions {
             std::memcpy(&ht[size_t(i0)], &hT, sizeof hT);
             std::memcpy(&usable[size_t(i0)], &ok, sizeof ok);
             // (Lanes of unusable points, perhaps not numbers, convert 0.)
-            auto below = [&](F4 v, int bound) { return floorX4(ok ? (v < float(bound) ? F4{} + float(bound) : v) : F4{}); };
-            auto above = [&](F4 v, int bound) { return floorX4(ok ? (v > float(bound) ? F4{} + float(bound) : v) : F4{}); };
-            const I4 il = below(ss - hS, wd.dx0 - 1), ih = above(ss + hS, wd.dx1 + 1);
-            const I4 jl = below(tt - hT, wd.dy0 - 1), jh = above(tt + hT, wd.dy1 + 1);
+            auto texel = [&](F4 v, int lo, int hi) {
+                const F4 inside = v < float(lo) ? F4{} + float(lo) : (v > float(hi) ? F4{} + float(hi) : v);
+                return floorX4(ok ? inside : F4{});
+            };
+            const I4 il = texel(ss - hS, wd.dx0 - 1, wd.dx1 + 1), ih = texel(ss + hS, wd.dx0 - 1, wd.dx1 + 1);
+            const I4 jl = texel(tt - hT, wd.dy0 - 1, wd.dy1 + 1), jh = texel(tt + hT, wd.dy0 - 1, wd.dy1 + 1);
             std::memcpy(&iLo[size_t(i0)], &il, sizeof il);
             std::memcpy(&iHi[size_t(i0)], &ih, sizeof ih);
             std::memcpy(&jLo[size_t(i0)], &jl, sizeof jl);
