@@ -126,6 +126,8 @@ struct LightMapJob {
     std::vector<Pass> passes;
     bool cube = false;
     int size = 0;
+    DepthFilter filter = DepthFilter::Min;
+    float dualOffset = 0;
     std::string path;
     FileLoc loc;
 };
@@ -224,7 +226,8 @@ struct Renderer::Impl {
     std::optional<LightMapJob> planLightMap(FrameState& frame, const scene::LightRecord& light,
                                             const std::vector<geometry::PrimitivePtr>& prims);
     /// Renders a planned map and makes it usable; safe to run for several
-    /// lights at once. Its file may still be being written by `made.write`.
+    /// lights at once. Its file may still be being written (the result's
+    /// `write`).
     LightMap makeLightMap(FrameState& frame, LightMapJob& job, const std::vector<geometry::PrimitivePtr>& prims);
     DepthFilter depthFilterOf(const scene::Options& options, const FileLoc& loc);
     /// How many depth layers a depth pass keeps: the two-layer filters read
@@ -577,6 +580,8 @@ std::optional<LightMapJob> Renderer::Impl::planLightMap(FrameState& frame, const
                 job.size = !it->second.ints.empty() ? it->second.ints[0] : int(it->second.floatAt(0, float(job.size)));
     const DepthFilter filter = depthFilterOf(options, light.shader.loc);
     const Pass::Cull cull = depthCullOf(options, light.shader.loc);
+    job.filter = filter;
+    job.dualOffset = dualOffsetOf(options);
     // Nearest-depth maps are compared with a bias anyway: dice them at 4
     // pixels a micropolygon. The two-layer filters store the far sides of
     // curved solids, where coarser chords leak light (measured in
@@ -609,8 +614,7 @@ std::optional<LightMapJob> Renderer::Impl::planLightMap(FrameState& frame, const
 LightMap Renderer::Impl::makeLightMap(FrameState& frame, LightMapJob& job,
                                       const std::vector<geometry::PrimitivePtr>& prims) {
     const scene::Options& options = frame.world->options;
-    const DepthFilter filter = depthFilterOf(options, job.loc);
-    const float offset = dualOffsetOf(options);
+    const DepthFilter filter = job.filter;
     LightMap made;
     // One depth pass: rendered, recorded in the statistics, reduced to a map image.
     auto render = [&](Pass& pass) {
@@ -623,7 +627,7 @@ LightMap Renderer::Impl::makeLightMap(FrameState& frame, LightMapJob& job,
                                {"worker_cpu_seconds", r.counters.workerCpuSeconds},
                                {"counts", schedulerJson(r.counters)},
                                {"samples", r.samples}});
-        return depthImageOf(film, pass, filter, offset);
+        return depthImageOf(film, pass, filter, job.dualOffset);
     };
 
     // The map goes to this frame's lookups from memory: its header from the

@@ -13,12 +13,13 @@
 //     z nearer than every covered tile's min z (with the lowest bias) is
 //     lit; z beyond every covered tile's max z (with the highest bias), for
 //     a region wholly inside the bounding box, is shadowed. Both are exact:
-//     they give the result filtering would. A region inside at most 2x2
-//     tiles gets the same test again with the depth ranges of their 8x8
-//     blocks. On second-depth maps a light-facing point would take virtual
-//     samples even when every comparison is shadowed (see lookup()), so it
-//     is culled as shadowed only when its tangent plane is deeper than the
-//     covered depths too.
+//     they give the result filtering would. A region within 2x2 tiles is
+//     tested with the finer depth ranges of the 8x8-texel blocks it covers
+//     instead. A whole batch (a shaded grid) is tested first, with the
+//     union of its regions. On second-depth maps a light-facing point
+//     would take virtual samples even when every comparison is shadowed
+//     (see lookup()), so it is culled as shadowed only when its tangent
+//     plane is deeper than the covered depths too.
 //  4b. Second-depth maps (umbra's addition): a light-facing point whose
 //     tangent plane is the plane every covered block stores -- an open
 //     surface stored as its own second layer (Wang & Molnar §3.3) -- gets
