@@ -150,11 +150,12 @@ Vec3 xform(const Mat4& m, const Mat4& inv, XKind k, const Vec3& v) {
 /// The difference of `a` at point i along one grid direction (neighbours
 /// `stride` apart; i is at `pos` of `count` points along it), per unit of
 /// `step`: central inside, one-sided at the edges.
-template <class T> T gridDifference(In<T> a, int i, int stride, int pos, int count, float step) {
+/// (Selects rather than branches: the neighbours before and after, the
+/// point itself at an edge, halved when both are neighbours.)
+template <class T> inline T gridDifference(In<T> a, int i, int stride, int pos, int count, float step) {
     if (count < 2) return T(0);
-    if (pos == 0) return (a[i + stride] - a[i]) * (1.0f / step);
-    if (pos == count - 1) return (a[i] - a[i - stride]) * (1.0f / step);
-    return (a[i + stride] - a[i - stride]) * (0.5f / step);
+    const int before = pos > 0 ? i - stride : i, after = pos < count - 1 ? i + stride : i;
+    return (a[after] - a[before]) * ((after - before == 2 * stride ? 0.5f : 1.0f) / step);
 }
 template <class T> T deriv(const Exec& x, In<T> a, int i, int dir, float step) {
     if (a.s == 0 || step == 0) return T(0);
@@ -177,12 +178,17 @@ template <class T> void derivsOfActive(const Exec& x, In<T> a, T* du, T* dv) {
         std::fill_n(dv, x.active.size(), T(0));
         return;
     }
+    if (a.s == 0) {  // uniform: no change across the grid
+        std::fill_n(du, x.active.size(), T(0));
+        std::fill_n(dv, x.active.size(), T(0));
+        return;
+    }
     int iv = 0, rowStart = 0;
     for (size_t k = 0; k < x.active.size(); ++k) {
         const int i = x.active[k];
         while (i >= rowStart + nu) rowStart += nu, ++iv;
-        du[k] = a.s == 0 ? T(0) : gridDifference(a, i, 1, i - rowStart, nu, 1.0f);
-        dv[k] = a.s == 0 ? T(0) : gridDifference(a, i, nu, iv, nv, 1.0f);
+        du[k] = gridDifference(a, i, 1, i - rowStart, nu, 1.0f);
+        dv[k] = gridDifference(a, i, nu, iv, nv, 1.0f);
     }
 }
 float gridDu(const Exec& x) { return x.ctx->grid->du; }
