@@ -215,10 +215,15 @@ public:
 
 private:
     std::pair<const void*, size_t> code(const uint8_t* raw, size_t n) {
+        // Written as plain forward loops over separate buffers, which the
+        // compiler vectorises (one loop in place, backwards, it did not).
+        m_split.resize(n);
         m_tmp.resize(n);
         const size_t half = (n + 1) / 2;
-        for (size_t i = 0; i < n; ++i) m_tmp[(i & 1) ? half + i / 2 : i / 2] = raw[i];
-        for (size_t i = n; i-- > 1;) m_tmp[i] = uint8_t(int(m_tmp[i]) - int(m_tmp[i - 1]) + 128 + 256);
+        for (size_t j = 0; j < half; ++j) m_split[j] = raw[2 * j];
+        for (size_t j = 0; half + j < n; ++j) m_split[half + j] = raw[2 * j + 1];
+        if (n > 0) m_tmp[0] = m_split[0];
+        for (size_t i = 1; i < n; ++i) m_tmp[i] = uint8_t(m_split[i] - m_split[i - 1] + 128);
         // Output must be smaller than the input to be worth storing.
         m_out.resize(n);
         const size_t coded = libdeflate_zlib_compress(m_compressor, m_tmp.data(), n, m_out.data(), n - 1);
@@ -227,7 +232,7 @@ private:
     }
 
     libdeflate_compressor* m_compressor;
-    std::vector<uint8_t> m_tmp, m_out;
+    std::vector<uint8_t> m_split, m_tmp, m_out;  // bytes split into halves; their differences; the zlib stream
     std::map<size_t, std::vector<uint8_t>> m_empty;  // by size: edge tiles are smaller
 };
 
