@@ -360,12 +360,9 @@ void SampleBuffer::rasterizeQuad(const MicroGrid& g, const HitContext& ctx, int 
         const size_t row = size_t(sy) * size_t(m_sw);
         for (int sx = sx0; sx <= sx1; sx += 4) {
             const size_t s = row + size_t(sx);
-            F4 x, y;
-            std::memcpy(&x, &m_px[s], sizeof x);
-            std::memcpy(&y, &m_py[s], sizeof y);
+            const F4 x = load4(&m_px[s]), y = load4(&m_py[s]);
             const int lanes = sx1 - sx >= 3 ? 0xf : (1 << (sx1 - sx + 1)) - 1;
-            F4 useful;
-            std::memcpy(&useful, &ctx.farthestUseful[s], sizeof useful);
+            const F4 useful = load4(&ctx.farthestUseful[s]);
             if (!(laneMask(useful >= nearest) & lanes)) continue;
             if (!setUp) {
                 ta.setup(g, ctx.inverseDepth, v00, v10, v11, 2 * mp);
@@ -411,7 +408,6 @@ bool SampleBuffer::record(const MicroGrid& g, const HitContext& ctx, const Tri& 
     const uint32_t sub = t.sub;
 
     if (ctx.depthMode) {
-        if (m_cfg.depthLayers == 1) return takeNearest(s, z, gid, sub);
         if (keyLess(z, gid, sub, m_z[s], m_id[s], m_sub[s])) {
             // The nearest hit from another grid than the new nearest is the
             // old nearest (it was nearer than everything else); a surface
@@ -798,10 +794,7 @@ void SampleBuffer::resolveColour(film::Film& film, int bx0, int by0, int bx1, in
             value = F4{m_ci[s].x, m_ci[s].y, m_ci[s].z, m_alpha[s]};
         }
         return [value](float* acc, float w) {
-            F4 sum;
-            std::memcpy(&sum, acc, sizeof sum);
-            sum += w * value;
-            std::memcpy(acc, &sum, sizeof sum);
+            store4(acc, load4(acc) + w * value);
         };
     });
     const float* acc = m_acc.data();

@@ -145,8 +145,6 @@ Vec3 xform(const Mat4& m, const Mat4& inv, XKind k, const Vec3& v) {
     return v;
 }
 
-/// Derivative along u (dir 0) or v (dir 1) of register r at point i, per
-/// unit of u/v: central differences inside, one-sided at the edges.
 /// The difference of `a` at point i along one grid direction (neighbours
 /// `stride` apart; i is at `pos` of `count` points along it), per unit of
 /// `step`: central inside, one-sided at the edges.
@@ -157,6 +155,8 @@ template <class T> inline T gridDifference(In<T> a, int i, int stride, int pos, 
     const int before = pos > 0 ? i - stride : i, after = pos < count - 1 ? i + stride : i;
     return (a[after] - a[before]) * ((after - before == 2 * stride ? 0.5f : 1.0f) / step);
 }
+/// Derivative along u (dir 0) or v (dir 1) of register r at point i, per
+/// unit of u/v: central differences inside, one-sided at the edges.
 template <class T> T deriv(const Exec& x, In<T> a, int i, int dir, float step) {
     if (a.s == 0 || step == 0) return T(0);
     int nu = x.nu, nv = x.nv;
@@ -173,12 +173,7 @@ template <class T> T deriv(const Exec& x, In<T> a, int i, int dir, float step) {
 /// from the last one's without a division.
 template <class T> void derivsOfActive(const Exec& x, In<T> a, T* du, T* dv) {
     const int nu = x.nu, nv = x.nv;
-    if (nu < 1) {  // no rows to walk: deriv() gives 0 here too
-        std::fill_n(du, x.active.size(), T(0));
-        std::fill_n(dv, x.active.size(), T(0));
-        return;
-    }
-    if (a.s == 0) {  // uniform: no change across the grid
+    if (nu < 1 || a.s == 0) {  // no rows to walk, or uniform: deriv() gives 0 too
         std::fill_n(du, x.active.size(), T(0));
         std::fill_n(dv, x.active.size(), T(0));
         return;

@@ -98,7 +98,7 @@ bool prepareMap(const DepthImage& image, PreparedMap& out, std::string& why) {
         const float* row = image.z.data() + size_t(y) * size_t(w);
         I4 any{};
         int x = 0;
-        for (; x + 4 <= w; x += 4) any |= finite4(loadF4(row + x));
+        for (; x + 4 <= w; x += 4) any |= finite4(load4(row + x));
         bool hasDepth = (any[0] | any[1] | any[2] | any[3]) != 0;
         for (; x < w; ++x) hasDepth = hasDepth || isFiniteDepth(row[x]);
         if (!hasDepth) continue;

@@ -155,14 +155,8 @@ struct RegionSamples {
         }
         cellsNs = ns, cellsNt = nt;
     }
-    template <typename V, typename T> static V load(const std::vector<T>& v, int k) {
-        V r;
-        std::memcpy(&r, &v[size_t(k)], sizeof r);
-        return r;
-    }
-    template <typename V, typename T> static void store(std::vector<T>& v, int k, V x) {
-        std::memcpy(&v[size_t(k)], &x, sizeof x);
-    }
+    template <typename T> static auto load(const std::vector<T>& v, int k) { return load4(&v[size_t(k)]); }
+    template <typename T, typename V> static void store(std::vector<T>& v, int k, V x) { store4(&v[size_t(k)], x); }
 };
 
 /// The sum of the lanes. Box-filter weights are 1, so sums of them are
@@ -253,12 +247,12 @@ struct PointRegions {
             const I4 nan = ~(hS >= 0) | ~(hT >= 0);  // NaN widths
             hS = nan ? F4{} + wd.minHalf : hS;
             hT = nan ? F4{} + wd.minHalf : hT;
-            std::memcpy(&z[size_t(i0)], &depth, sizeof depth);
-            std::memcpy(&s[size_t(i0)], &ss, sizeof ss);
-            std::memcpy(&t[size_t(i0)], &tt, sizeof tt);
-            std::memcpy(&hs[size_t(i0)], &hS, sizeof hS);
-            std::memcpy(&ht[size_t(i0)], &hT, sizeof hT);
-            std::memcpy(&usable[size_t(i0)], &ok, sizeof ok);
+            store4(&z[size_t(i0)], depth);
+            store4(&s[size_t(i0)], ss);
+            store4(&t[size_t(i0)], tt);
+            store4(&hs[size_t(i0)], hS);
+            store4(&ht[size_t(i0)], hT);
+            store4(&usable[size_t(i0)], ok);
             // (Lanes of unusable points, perhaps not numbers, convert 0.)
             auto texel = [&](F4 v, int lo, int hi) {
                 const F4 inside = v < float(lo) ? F4{} + float(lo) : (v > float(hi) ? F4{} + float(hi) : v);
@@ -266,10 +260,10 @@ struct PointRegions {
             };
             const I4 il = texel(ss - hS, wd.dx0 - 1, wd.dx1 + 1), ih = texel(ss + hS, wd.dx0 - 1, wd.dx1 + 1);
             const I4 jl = texel(tt - hT, wd.dy0 - 1, wd.dy1 + 1), jh = texel(tt + hT, wd.dy0 - 1, wd.dy1 + 1);
-            std::memcpy(&iLo[size_t(i0)], &il, sizeof il);
-            std::memcpy(&iHi[size_t(i0)], &ih, sizeof ih);
-            std::memcpy(&jLo[size_t(i0)], &jl, sizeof jl);
-            std::memcpy(&jHi[size_t(i0)], &jh, sizeof jh);
+            store4(&iLo[size_t(i0)], il);
+            store4(&iHi[size_t(i0)], ih);
+            store4(&jLo[size_t(i0)], jl);
+            store4(&jHi[size_t(i0)], jh);
             allUsable4 &= ok;
             auto lower = [](F4 a, F4 b) { return a < b ? a : b; };
             auto upper = [](F4 a, F4 b) { return a > b ? a : b; };
@@ -851,7 +845,7 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                 U4 seeds = U4{} + pointSeed + U4{0, 1, 2, 3} * 0x9e3779b9u;
                 for (int q = 0; q < region.padded; q += 4, seeds += 4u * 0x9e3779b9u) {
                     const U4 h = hash32Lanes(seeds);
-                    const F4 a = region.load<F4>(region.cellA, q), b = region.load<F4>(region.cellB, q);
+                    const F4 a = region.load(region.cellA, q), b = region.load(region.cellB, q);
                     const F4 ju = toF4(I4(h & 0x7ffu)) * (1.0f / 2048.0f);
                     const F4 jv = toF4(I4((h >> 11) & 0x7ffu)) * (1.0f / 2048.0f);
                     const F4 u = loS + (a + ju) * ds, v = loT + (b + jv) * dt;
@@ -896,8 +890,8 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                 F4 shadowedWeights{}, weights{};
                 for (int q = 0; q < region.padded; q += 4) {
                     // Padding lanes weigh 0.
-                    const F4 d = region.load<F4>(region.depth, q), w = region.load<F4>(region.weight, q);
-                    const I4 shadowed = z > d + region.load<F4>(region.bias, q);
+                    const F4 d = region.load(region.depth, q), w = region.load(region.weight, q);
+                    const I4 shadowed = z > d + region.load(region.bias, q);
                     weights += w;
                     shadowedWeights += shadowed ? w : F4{};
                 }
@@ -905,7 +899,7 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                 weightSum = sumLanes(weights);
             }
             auto weightsAt = [&](int q) -> F4 {
-                if (!unitWeights) return region.load<F4>(region.weight, q);
+                if (!unitWeights) return region.load(region.weight, q);
                 return I4{q, q + 1, q + 2, q + 3} < count ? F4{} + 1.0f : F4{};
             };
 
@@ -924,13 +918,13 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                 ++st.virtualPoints;
                 F4 deeperWeights{};
                 for (int q = 0; q < region.padded; q += 4) {
-                    const F4 d = region.load<F4>(region.depth, q);
+                    const F4 d = region.load(region.depth, q);
                     // Relative slack for the rounding of the plane transform:
                     // a planar surface stored in the map (two-sided, §3.3)
                     // then lights itself unbiased.
-                    const F4 limit = d + region.load<F4>(region.bias, q) + kVirtualSlack * (d < F4{} ? -d : d);
-                    const F4 Z = plane.a * (toF4(region.load<I4>(region.iu, q)) + 0.5f) +
-                                 plane.b * (toF4(region.load<I4>(region.iv, q)) + 0.5f) + plane.d;
+                    const F4 limit = d + region.load(region.bias, q) + kVirtualSlack * (d < F4{} ? -d : d);
+                    const F4 Z = plane.a * (toF4(region.load(region.iu, q)) + 0.5f) +
+                                 plane.b * (toF4(region.load(region.iv, q)) + 0.5f) + plane.d;
                     I4 deeper;
                     if (m_virtualMode == 1) {
                         const F4 inverseDepth = m_wScale * Z;

@@ -31,12 +31,18 @@ inline F4 abs4(F4 v) { return F4(U4(v) & 0x7fffffffu); }
 /// Lanes that are finite numbers: -1, else 0 (infinities and NaN).
 inline I4 finite4(F4 v) { return abs4(v) <= std::numeric_limits<float>::max(); }
 
-/// Four floats from memory, and back, without alignment requirements.
-inline F4 loadF4(const float* p) {
+/// Four lanes from memory, and back, without alignment requirements.
+inline F4 load4(const float* p) {
     F4 v;
     std::memcpy(&v, p, sizeof v);
     return v;
 }
-inline void storeF4(float* p, F4 v) { std::memcpy(p, &v, sizeof v); }
+inline I4 load4(const int32_t* p) {
+    I4 v;
+    std::memcpy(&v, p, sizeof v);
+    return v;
+}
+inline void store4(float* p, F4 v) { std::memcpy(p, &v, sizeof v); }
+inline void store4(int32_t* p, I4 v) { std::memcpy(p, &v, sizeof v); }
 
 }  // namespace umbra
