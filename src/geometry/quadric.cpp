@@ -290,6 +290,7 @@ Grid Quadric::dice(int nu, int nv) const {
     std::vector<float> a, b;
     initGrid(g, nu, nv, m_range, ParamMap{}, a, b);
     g.N.resize(g.P.size());
+    g.ownNormals = true;
     evalGrid(nu, nv, a, b, g.P.data(), g.N.data());
     static const SurfaceData kEmpty;
     interpolateVars(m_data ? *m_data : kEmpty, CornerRefs{}, a, b, false, g);

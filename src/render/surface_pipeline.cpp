@@ -7,6 +7,13 @@
 
 namespace umbra::render {
 
+bool normalsFlip(const scene::Attributes& attrs, const Mat4& cameraFromObject) {
+    // dPdu x dPdv measured in camera space is the family's outward normal
+    // when cameraFromObject keeps handedness; a mirroring transform reverses
+    // it, and so does an inside-out orientation (RI spec 3.2 §4.2).
+    return attrs.insideOut != (cameraFromObject.det3() < 0);
+}
+
 SurfacePipeline::SurfacePipeline(FrameState& frame, const Pass& pass, Services& services, Diagnostics& diag,
                                  const film::Film& film)
     : m_frame(frame), m_pass(pass), m_services(services), m_diag(diag),
@@ -95,9 +102,13 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
     geometry::Grid g = prim.dice(nu, nv);
     Mat4 c = cameraFromObject(prim);
     g.transform(c, c.inverse());
+    // The family's own normals are outward; an inside-out primitive's point
+    // in. User-supplied normals are used as given.
+    if (g.ownNormals && attrs.insideOut)
+        for (Vec3& n : g.N) n = -n;
 
     const PreparedAttributes& pa = m_frame.attributes.at(&attrs);
-    const bool flip = attrs.outsideIsLeft != (c.det3() < 0);
+    const bool flip = normalsFlip(attrs, c);
     // A depth pass needs only positions; it runs the shading system just for
     // displacement.
     const std::vector<Vec3>* positions = &g.P;
@@ -105,8 +116,8 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
     if (!m_pass.depthOnly || pa.displacement) {
         GridState state{&m_frame, &m_pass, &rec, c};
         sg.resize(nu + 1, nv + 1);
+        sg.flipNormals = flip;  // before bind(), which makes Ng
         sg.bind(g, attrs.color, attrs.opacity, cam.perspective);
-        sg.flipNormals = flip;
         sg.seed = hashKeys(m_frame.frameSeed, uint32_t(id), uint32_t(id >> 32));
         sg.renderState = &state;
 
@@ -166,10 +177,8 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
 }
 
 bool SurfacePipeline::cullFacing(const std::vector<Vec3>& P, bool flip, hider::ShadedGrid& out) const {
-    // A micropolygon faces the eye when its outward normal points at it.
-    // The outward normal has the direction of dPdu x dPdv, negated when the
-    // grid's orientation is flipped (left-handed "outside", or a mirroring
-    // transform).
+    // A micropolygon faces the eye when its outward normal points at it:
+    // dPdu x dPdv in camera space, negated when normalsFlip() says so.
     const int nu = out.nu, nv = out.nv, nu1 = nu + 1;
     const bool perspective = m_pass.camera.perspective;
     const bool dropFront = m_pass.cull == Pass::Cull::Front;

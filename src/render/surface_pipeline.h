@@ -14,6 +14,11 @@
 
 namespace umbra::render {
 
+/// The one orientation rule: whether dPdu x dPdv, measured in the space of
+/// `cameraFromObject`, must be negated to give the primitive's outward
+/// normal (Ng, calculatenormal(), facing culls).
+bool normalsFlip(const scene::Attributes& attrs, const Mat4& cameraFromObject);
+
 class SurfacePipeline : public hider::GeometryPipeline {
 public:
     SurfacePipeline(FrameState& frame, const Pass& pass, Services& services, Diagnostics& diag,

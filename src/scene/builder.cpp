@@ -106,12 +106,6 @@ bool Builder::currentIsLeft(const Mat4& transform) const {
     return det >= 0;
 }
 
-std::shared_ptr<const Attributes> Builder::attributesFor(const Mat4& worldFromObject) {
-    bool flip = m_state.orientationLeft != currentIsLeft(worldFromObject);
-    if (m_state.attrs->outsideIsLeft != flip) mutableAttributes().outsideIsLeft = flip;
-    return m_state.attrs;
-}
-
 std::shared_ptr<ShaderRecord> Builder::makeShader(const std::string& name, ri::ParamList params,
                                                   const FileLoc& loc) const {
     auto s = std::make_shared<ShaderRecord>();
@@ -340,7 +334,7 @@ void Builder::objectInstance(const std::string& handle, const FileLoc& loc) {
     for (const ObjectPrim& op : it->second) {
         PrimitiveRecord r = op.record;
         r.worldFromObject = m_state.transform * op.objectFromPrim;
-        r.attributes = attributesFor(r.worldFromObject);
+        r.attributes = m_state.attrs;
         m_world->primitives.push_back(std::move(r));
     }
 }
@@ -815,21 +809,27 @@ void Builder::sides(int n, const FileLoc& loc) {
 }
 
 void Builder::orientation(const std::string& o, const FileLoc& loc) {
-    bool left = currentIsLeft(m_state.transform);
+    // The attribute is kept relative to the current coordinate system
+    // (Attributes::insideOut), so "lh" and "rh" compare with its handedness.
+    const bool left = currentIsLeft(m_state.transform);
+    bool insideOut;
     if (o == "outside")
-        m_state.orientationLeft = left;
+        insideOut = false;
     else if (o == "inside")
-        m_state.orientationLeft = !left;
+        insideOut = true;
     else if (o == "lh")
-        m_state.orientationLeft = true;
+        insideOut = !left;
     else if (o == "rh")
-        m_state.orientationLeft = false;
-    else
+        insideOut = left;
+    else {
         m_diag.error(loc, "Orientation: unknown orientation \"{}\" (expected \"outside\", \"inside\", \"lh\" or "
                      "\"rh\")", o);
+        return;
+    }
+    if (m_state.attrs->insideOut != insideOut) mutableAttributes().insideOut = insideOut;
 }
 
-void Builder::reverseOrientation(const FileLoc& loc) { m_state.orientationLeft = !m_state.orientationLeft; }
+void Builder::reverseOrientation(const FileLoc&) { mutableAttributes().insideOut = !m_state.attrs->insideOut; }
 
 void Builder::basis(const ri::BasisSpec& u, int ustep, const ri::BasisSpec& v, int vstep, const FileLoc& loc) {
     Basis b[2];
@@ -990,7 +990,7 @@ void Builder::primitive(const std::string& type, ri::RequestArgs args, ri::Param
         return;
     }
     r.worldFromObject = m_state.transform;
-    r.attributes = attributesFor(r.worldFromObject);
+    r.attributes = m_state.attrs;
     m_world->primitives.push_back(std::move(r));
 }
 

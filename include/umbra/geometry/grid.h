@@ -39,6 +39,8 @@ struct Grid {
     int nu = 0, nv = 0;                 // micropolygons along u and v
     std::vector<Vec3> P;                // (nu+1)*(nv+1) positions
     std::vector<Vec3> N;                // shading normals, or empty: derive from P
+    bool ownNormals = false;            // N is the family's outward normal (e.g. a quadric's
+                                        // closed form), not user-supplied: it follows Orientation
     std::vector<float> u, v;            // surface parameters of each vertex
     float du = 0, dv = 0;               // parametric spacing between vertices
     std::vector<GridVar> vars;          // s, t, Cs, Os, user primitive variables

@@ -40,7 +40,6 @@ public:
     const Mat4& currentTransform() const { return m_state.transform; }
     bool inWorld() const { return m_world != nullptr; }
     /// Orientation as a handedness: true when "outside" is left-handed.
-    bool orientationLeftHanded() const { return m_state.orientationLeft; }
 
     void unhandled(std::string_view request, const FileLoc& loc) override;
     std::vector<std::string> archiveSearchPath() const override;
@@ -152,7 +151,6 @@ private:
     struct State {
         std::shared_ptr<Attributes> attrs;
         Mat4 transform;
-        bool orientationLeft = true;  // RenderMan starts "outside" in left-handed camera space
     };
     struct OpenBlock {
         Block kind;
@@ -175,7 +173,6 @@ private:
     bool skipMotionSample();
     void concat(const Mat4& m);
     bool currentIsLeft(const Mat4& transform) const;
-    std::shared_ptr<const Attributes> attributesFor(const Mat4& worldFromObject);
     void push(Block kind, const FileLoc& loc);
     /// Pops the innermost block of `kind`; reports and returns false when it
     /// is not the innermost (Attribute-like blocks) or not open at all.

@@ -50,14 +50,15 @@ struct Attributes {
     bool matte = false;
     float shadingRate = 1.0f;        // micropolygon area in pixels
     int sides = 2;                   // 1: back faces are culled
-    // Orientation (RI spec 3.2 §4.2): true when the primitive's orientation
-    // disagrees with the handedness of its object coordinate system, so its
-    // "outside" normal is -(dPdu x dPdv) instead of dPdu x dPdv. The builder
-    // computes it per primitive from the Orientation/ReverseOrientation state
-    // and the handedness of cameraFromObject (camera space is left-handed):
-    // false for the default "outside", true after "inside", ReverseOrientation,
-    // or a mirroring transform (negative determinant) given after Orientation.
-    bool outsideIsLeft = false;
+    // Orientation (RI spec 3.2 §4.2): true when the current orientation
+    // differs from the handedness of the current coordinate system, so the
+    // primitive is "turned inside out". The spec's orientation flips with
+    // every mirroring transform, so this relative flag is what stays fixed
+    // under transforms: "outside" and the default give false, "inside" true,
+    // ReverseOrientation toggles, "lh"/"rh" compare with the handedness of
+    // the coordinate system they are given in (camera space is left-handed).
+    // How a grid's normals follow from it: render::normalsFlip().
+    bool insideOut = false;
     std::shared_ptr<const ShaderRecord> surface;       // null: the default surface
     std::shared_ptr<const ShaderRecord> displacement;  // null: none
     std::shared_ptr<const ShaderRecord> atmosphere;    // null: none

@@ -182,12 +182,14 @@ TEST(Builder, OrientationAgainstHandedness) {
                  "AttributeBegin Orientation \"inside\" Sphere 1 -1 1 360 AttributeEnd WorldEnd");
     const auto& p = r->sink.worlds.at(0).primitives;
     ASSERT_EQ(p.size(), 6u);
-    EXPECT_FALSE(p[0].attributes->outsideIsLeft);
-    EXPECT_TRUE(p[1].attributes->outsideIsLeft);   // mirrored after the orientation was set
-    EXPECT_TRUE(p[2].attributes->outsideIsLeft);
-    EXPECT_FALSE(p[3].attributes->outsideIsLeft);  // "outside" re-matches the mirrored space
-    EXPECT_TRUE(p[4].attributes->outsideIsLeft);   // rh in a left-handed world
-    EXPECT_TRUE(p[5].attributes->outsideIsLeft);
+    // RI spec 3.2 §4.2: the orientation flips with every mirroring transform,
+    // so a mirror alone never turns a primitive inside out.
+    EXPECT_FALSE(p[0].attributes->insideOut);
+    EXPECT_FALSE(p[1].attributes->insideOut);  // mirrored: orientation and handedness flip together
+    EXPECT_TRUE(p[2].attributes->insideOut);   // ReverseOrientation
+    EXPECT_FALSE(p[3].attributes->insideOut);  // "outside" matches the mirrored space
+    EXPECT_TRUE(p[4].attributes->insideOut);   // rh in a left-handed world
+    EXPECT_TRUE(p[5].attributes->insideOut);
 }
 
 TEST(Builder, OptionsAttributesAndBasis) {
