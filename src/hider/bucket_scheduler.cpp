@@ -98,13 +98,14 @@ struct Frame {
         if (node.bound.empty()) return false;
         const int m = settings.filterMargin;
         const int bw = settings.bucketSize[0], bh = settings.bucketSize[1];
-        auto lo = [](float v, int origin, int margin, int size) {
-            return int(std::floor((double(v) - margin - origin) / size));
+        // Bounds across the eye plane are infinite: clamp before converting.
+        auto bucketOf = [](float v, int origin, int margin, int size, int count) {
+            return floorToIntClamped((double(v) - margin - origin) / size, -1, count);
         };
-        node.bx0 = std::max(0, lo(node.bound.min.x, film.x0(), m, bw));
-        node.by0 = std::max(0, lo(node.bound.min.y, film.y0(), m, bh));
-        node.bx1 = std::min(bucketsX - 1, lo(node.bound.max.x, film.x0(), -m, bw));
-        node.by1 = std::min(bucketsY - 1, lo(node.bound.max.y, film.y0(), -m, bh));
+        node.bx0 = std::max(0, bucketOf(node.bound.min.x, film.x0(), m, bw, bucketsX));
+        node.by0 = std::max(0, bucketOf(node.bound.min.y, film.y0(), m, bh, bucketsY));
+        node.bx1 = std::min(bucketsX - 1, bucketOf(node.bound.max.x, film.x0(), -m, bw, bucketsX));
+        node.by1 = std::min(bucketsY - 1, bucketOf(node.bound.max.y, film.y0(), -m, bh, bucketsY));
         if (parent) {  // only buckets that visit the parent can visit a piece
             node.bx0 = std::max(node.bx0, parent->bx0);
             node.by0 = std::max(node.by0, parent->by0);

@@ -25,6 +25,15 @@ inline float degrees(float rad) { return rad * (180.0f / kPi); }
 inline float lerp(float t, float a, float b) { return a + t * (b - a); }
 template <typename T> inline T clamp(T x, T lo, T hi) { return x < lo ? lo : (x > hi ? hi : x); }
 
+/// floor(v) as an int in [lo, hi], clamped before the conversion: a float
+/// to int conversion out of range is undefined (x86 gives INT_MIN for
+/// +-inf), and bounds across the eye plane are infinite. NaN gives lo.
+inline int floorToIntClamped(double v, int lo, int hi) {
+    if (!(v >= double(lo))) return lo;  // below, or NaN
+    if (v >= double(hi)) return hi;
+    return int(std::floor(v));
+}
+
 /// A 2-D vector or point (raster positions, texture coordinates).
 struct Vec2 {
     float x = 0, y = 0;
