@@ -297,17 +297,19 @@ bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Option
         format = Format::Png;
     } else if (driver == "file") {
         format = formatOfExtension(path).value_or(Format::Tiff);
-    } else if (driver == "framebuffer") {
+    } else {
+        // A window ("framebuffer", "it", "x11", ...) or a driver umbra does
+        // not have: one unusable Display must not cost the frame, so the
+        // image goes to a file as the "file" driver would write it.
         std::optional<Format> f = formatOfExtension(path);
         if (!f) path += ".tif";
         format = f.value_or(Format::Tiff);
-        diag.warningOnce("framebuffer-display", display.loc,
-                         "display driver \"framebuffer\": umbra has no window; writing \"{}\" instead", path);
-    } else {
-        diag.error(display.loc, "display \"{}\": unknown display driver \"{}\" (expected file, tiff, openexr, png, "
-                   "framebuffer, zfile or shadow)",
-                   display.name, display.driver);
-        return false;
+        diag.warningOnce("display-driver:" + driver, display.loc,
+                         "display driver \"{}\": {}; writing \"{}\" instead", display.driver,
+                         driver == "framebuffer" || driver == "it" || driver == "x11" || driver == "windows"
+                             ? "umbra has no window"
+                             : "not a driver umbra has (it has file, tiff, openexr, png, zfile and shadow)",
+                         path);
     }
     if (path.empty()) {
         diag.error(display.loc, "display has an empty file name (expected a file name)");

@@ -223,6 +223,7 @@ void Builder::frameEnd(const FileLoc& loc) {
     m_state = b.saved;
     m_frame = -1;
     m_objectHandle.clear();
+    m_preWorldLights.clear();
     m_sink.frameEnd(loc);
 }
 
@@ -251,6 +252,14 @@ void Builder::worldBegin(const FileLoc& loc) {
         m_world->coordinateSystems[name] = worldFromCamera * cameraFromNamed;
     m_lightHandles.clear();
     m_state.transform = Mat4::identity();
+    for (const PreWorldLight& l : m_preWorldLights) {
+        const size_t first = m_world->lights.size();
+        if (l.area)
+            areaLightSource(l.name, l.handle, l.params, l.loc);
+        else
+            lightSource(l.name, l.handle, l.params, l.loc);
+        if (m_world->lights.size() > first) m_world->lights.back().shader.worldFromShader = worldFromCamera * l.cameraFromShader;
+    }
 }
 
 void Builder::worldEnd(const FileLoc& loc) {
@@ -519,14 +528,15 @@ void Builder::option(const std::string& name, ri::ParamList params, const FileLo
 
 void Builder::format(int xres, int yres, float pixelAspect, const FileLoc& loc) {
     if (!optionsAllowed("Format", loc)) return;
-    if (xres < 1 || yres < 1 || !(pixelAspect > 0)) {
-        m_diag.error(loc, "Format: expected positive xresolution, yresolution and pixelaspectratio, got {} {} {}",
-                     xres, yres, pixelAspect);
-        return;
-    }
-    m_options.xResolution = xres;
-    m_options.yResolution = yres;
-    m_options.pixelAspectRatio = pixelAspect;
+    // A value of zero or less asks for the default (PRMan, Aqsis and Pixie
+    // read `Format 640 480 -1` so); the pixel aspect ratio says nothing else.
+    const Options defaults;
+    if (xres < 1 || yres < 1)
+        m_diag.warning(loc, "Format: resolution {} {} is not positive; using the default {} {}", xres, yres,
+                       xres < 1 ? defaults.xResolution : xres, yres < 1 ? defaults.yResolution : yres);
+    m_options.xResolution = xres < 1 ? defaults.xResolution : xres;
+    m_options.yResolution = yres < 1 ? defaults.yResolution : yres;
+    m_options.pixelAspectRatio = pixelAspect > 0 && std::isfinite(pixelAspect) ? pixelAspect : 1.0f;
 }
 
 void Builder::frameAspectRatio(float aspect, const FileLoc& loc) {
@@ -905,13 +915,22 @@ void Builder::deformation(const std::string& name, ri::ParamList params, const F
     unsupported("Deformation", loc, "Deformation: transformation shaders are not supported (ignored)");
 }
 
+bool Builder::lightAllowed(const char* request, const std::string& name, const std::string& handle,
+                           const ri::ParamList& params, const FileLoc& loc) {
+    if (!m_objectHandle.empty()) {
+        m_diag.error(loc, "{}: lights are not allowed inside ObjectBegin/ObjectEnd (ignored)", request);
+        return false;
+    }
+    if (m_world) return true;
+    // Before WorldBegin: kept and turned on in the world, as PRMan, Aqsis
+    // and Pixie do; its shader space is where it was given.
+    m_preWorldLights.push_back({name, handle, params, m_state.transform, std::string_view(request) != "LightSource", loc});
+    return false;
+}
+
 void Builder::lightSource(const std::string& name, const std::string& handle, ri::ParamList params,
                           const FileLoc& loc) {
-    if (!m_world || !m_objectHandle.empty()) {
-        m_diag.error(loc, "LightSource: lights are only allowed inside WorldBegin/WorldEnd, outside object "
-                     "definitions (ignored)");
-        return;
-    }
+    if (!lightAllowed("LightSource", name, handle, params, loc)) return;
     if (skipMotionSample()) return;
     LightRecord l;
     l.shader = *makeShader(name, std::move(params), loc);
@@ -926,11 +945,7 @@ void Builder::lightSource(const std::string& name, const std::string& handle, ri
 
 void Builder::areaLightSource(const std::string& name, const std::string& handle, ri::ParamList params,
                               const FileLoc& loc) {
-    if (!m_world || !m_objectHandle.empty()) {
-        m_diag.error(loc, "AreaLightSource: lights are only allowed inside WorldBegin/WorldEnd, outside object "
-                     "definitions (ignored)");
-        return;
-    }
+    if (!lightAllowed("AreaLightSource", name, handle, params, loc)) return;
     unsupported("AreaLightSource", loc, "AreaLightSource: area lights are not supported (recorded, turned off)");
     LightRecord l;
     l.shader = *makeShader(name, std::move(params), loc);

@@ -170,6 +170,10 @@ private:
     std::shared_ptr<ShaderRecord> makeShader(const std::string& name, ri::ParamList params, const FileLoc& loc) const;
     bool optionsAllowed(const char* request, const FileLoc& loc);
     bool requireWorld(const std::string& request, const FileLoc& loc);
+    /// Whether a light request may add its light now; one before WorldBegin
+    /// is kept for the world.
+    bool lightAllowed(const char* request, const std::string& name, const std::string& handle,
+                      const ri::ParamList& params, const FileLoc& loc);
     bool skipMotionSample();
     void concat(const Mat4& m);
     bool currentIsLeft(const Mat4& transform) const;
@@ -190,6 +194,17 @@ private:
     int m_frame = -1;
     std::map<std::string, Mat4> m_cameraSpaces;  // named before WorldBegin: cameraFromNamed
     std::map<std::string, int> m_lightHandles;   // handle -> index into m_world->lights
+    /// Lights given before WorldBegin (as the RenderMan Companion writes
+    /// them), in camera-relative shader space; each world of the frame
+    /// starts with them on.
+    struct PreWorldLight {
+        std::string name, handle;
+        ri::ParamList params;
+        Mat4 cameraFromShader;
+        bool area = false;
+        FileLoc loc;
+    };
+    std::vector<PreWorldLight> m_preWorldLights;
     std::map<std::string, std::vector<ObjectPrim>> m_objects;
     std::string m_objectHandle;                  // non-empty while defining an object
     Mat4 m_objectFromCurrentAtBegin;

@@ -331,13 +331,19 @@ TEST(Film, ErrorsLeaveNoFiles) {
     fs::create_directories(dir / "taken.tif" / "inside");
     EXPECT_FALSE(f.writeDisplay(display((dir / "taken.tif").string(), "tiff", "rgba"), o, {}, diag));
     EXPECT_EQ(diag.errorCount(), 2);
-    // Unknown driver and mode.
-    EXPECT_FALSE(f.writeDisplay(display((dir / "a.tif").string(), "it", "rgba"), o, {}, diag));
-    EXPECT_EQ(diag.recorded().back().str(),
-              "scene.rib:12:3: error: display \"" + (dir / "a.tif").string() +
-                  "\": unknown display driver \"it\" (expected file, tiff, openexr, png, framebuffer, zfile or shadow)");
+    // An unknown mode.
     EXPECT_FALSE(f.writeDisplay(display((dir / "a.tif").string(), "tiff", "rgbq"), o, {}, diag));
-    EXPECT_EQ(diag.errorCount(), 4);
+    EXPECT_EQ(diag.errorCount(), 3);
+    // A driver umbra does not have ("it", PRMan's viewer) is a warning: the
+    // image goes to the file the "file" driver would write.
+    const int warnings = diag.warningCount();
+    EXPECT_TRUE(f.writeDisplay(display((dir / "viewer").string(), "it", "rgba"), o, {}, diag));
+    EXPECT_EQ(diag.errorCount(), 3);
+    EXPECT_EQ(diag.warningCount(), warnings + 1);
+    EXPECT_EQ(diag.recorded().back().str(), "scene.rib:12:3: warning: display driver \"it\": umbra has no window; "
+                                            "writing \"" + (dir / "viewer.tif").string() + "\" instead");
+    ASSERT_TRUE(fs::exists(dir / "viewer.tif"));
+    fs::remove(dir / "viewer.tif");
     // Nothing but the directory made above.
     std::vector<std::string> left;
     for (const auto& e : fs::directory_iterator(dir)) left.push_back(e.path().filename().string());

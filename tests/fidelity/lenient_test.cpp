@@ -1,0 +1,123 @@
+// What other RenderMan renderers accept, umbra accepts: the RenderMan
+// Companion's lights before WorldBegin, `Format x y -1`, display drivers
+// umbra does not have. Each frame is rendered (exit status 0: warnings
+// allowed) and compared with the same scene written plainly.
+
+#include "support/render_harness.h"
+
+#include <gtest/gtest.h>
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+using namespace umbra;
+using umbra::test::Image;
+using umbra::test::ScratchDir;
+
+namespace {
+
+struct Rendered {
+    Image image;
+    int errors = 0, warnings = 0, failedFrames = 0;
+};
+
+Rendered renderScene(const std::string& rib, const std::string& imagePath) {
+    Diagnostics diag;
+    diag.setQuiet(true);
+    Rendered r;
+    test::renderRib(rib, diag, 0, 0, &r.failedFrames);
+    r.errors = diag.errorCount();
+    r.warnings = diag.warningCount();
+    EXPECT_TRUE(test::readImage(imagePath, &r.image)) << imagePath;
+    return r;
+}
+
+double meanAbsDiff(const Image& a, const Image& b) {
+    if (a.pixels.size() != b.pixels.size()) return 1e9;
+    double d = 0;
+    for (size_t i = 0; i < a.pixels.size(); ++i) d += std::fabs(a.pixels[i] - b.pixels[i]);
+    return d / double(a.pixels.size());
+}
+
+}  // namespace
+
+TEST(Lenient, LightsBeforeWorldBeginShineFromWhereTheyWereGiven) {
+    // The Companion's style: the light is declared in camera space, before
+    // the camera transform. In camera space the light sits at (-4, 4, -2),
+    // up, left and behind the eye; the world is moved 5 away. The plain
+    // scene gives the same light in world space: camera (x, y, z) is world
+    // (x, y, z - 5).
+    ScratchDir dir("pre-world-light");
+    const std::string image = dir.file("light.tif");
+    constexpr const char* scene = R"(
+Format 160 120 1
+Display "{}" "file" "rgb"
+Projection "perspective" "fov" 40
+{}
+Translate 0 0 5
+WorldBegin
+{}
+Surface "matte"
+Sphere 1 -1 1 360
+WorldEnd
+)";
+    const char* camLight = "LightSource \"pointlight\" 1 \"from\" [-4 4 -2] \"intensity\" [30]";
+    const char* worldLight = "LightSource \"pointlight\" 1 \"from\" [-4 4 -7] \"intensity\" [30]";
+    Rendered before = renderScene(fmt::format(scene, image, camLight, ""), image);
+    EXPECT_EQ(before.errors, 0);
+    EXPECT_EQ(before.failedFrames, 0);
+    Rendered plain = renderScene(fmt::format(scene, image, "", worldLight), image);
+    ASSERT_GT(plain.image.channelSum(0), 100.0);
+    EXPECT_LT(meanAbsDiff(before.image, plain.image), 1e-5);
+}
+
+TEST(Lenient, NegativeOrZeroFormatValuesMeanTheDefaults) {
+    ScratchDir dir("format-defaults");
+    const std::string image = dir.file("f.tif");
+    constexpr const char* scene = R"(
+Format {}
+Display "{}" "file" "rgb"
+WorldBegin
+Surface "constant"
+Translate 0 0 5
+Sphere 1 -1 1 360
+WorldEnd
+)";
+    // Pixel aspect -1 is the default 1: the same picture as writing 1.
+    Rendered negative = renderScene(fmt::format(scene, "64 48 -1", image), image);
+    EXPECT_EQ(negative.errors, 0);
+    Rendered one = renderScene(fmt::format(scene, "64 48 1", image), image);
+    EXPECT_EQ(negative.image.width, 64);
+    EXPECT_EQ(meanAbsDiff(negative.image, one.image), 0.0);
+    // A resolution of zero or less is the default 640 x 480, with a warning.
+    Rendered zero = renderScene(fmt::format(scene, "0 -1 1", image), image);
+    EXPECT_EQ(zero.errors, 0);
+    EXPECT_GE(zero.warnings, 1);
+    EXPECT_EQ(zero.image.width, 640);
+    EXPECT_EQ(zero.image.height, 480);
+}
+
+TEST(Lenient, AViewerDisplayStillWritesTheFrame) {
+    // `Display "name" "it"` (PRMan's viewer), "x11", "framebuffer": one
+    // warning, and the image written as the "file" driver would.
+    ScratchDir dir("viewer-display");
+    for (const char* driver : {"it", "x11", "framebuffer", "xpm"}) {
+        const std::string name = dir.file(fmt::format("view-{}", driver));
+        std::string rib = fmt::format(R"(
+Format 32 24 1
+Display "{}" "{}" "rgb"
+WorldBegin
+Surface "constant"
+Translate 0 0 5
+Sphere 1 -1 1 360
+WorldEnd
+)",
+                                      name, driver);
+        Rendered viewer = renderScene(rib, name + ".tif");
+        EXPECT_EQ(viewer.errors, 0) << driver;
+        EXPECT_EQ(viewer.failedFrames, 0) << driver;
+        EXPECT_EQ(viewer.warnings, 1) << driver;
+        EXPECT_GT(viewer.image.channelSum(0), 10.0) << driver;
+    }
+}
