@@ -3,7 +3,6 @@
 #include <gtest/gtest.h>
 #include <zlib.h>
 
-#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -223,9 +222,10 @@ TEST(Parser, ReadArchiveBesideTheIncludingFile) {
     EXPECT_NE(messages(d).back().find("ReadArchive: archives nested more than 32 deep"), std::string::npos);
 }
 
-TEST(Parser, MillionPolygonMeshParsesQuickly) {
+TEST(Parser, MillionPolygonMeshParses) {
     // 1M quads on a 1000x1000 grid of points: about 30 MB of RIB text
-    // (a smaller grid in unoptimised, e.g. sanitizer, builds).
+    // (a smaller grid in unoptimised, e.g. sanitizer, builds). Only the
+    // result is checked; speed is for the benchmarks, not a clock here.
 #ifdef NDEBUG
     const int n = 1000;
 #else
@@ -246,16 +246,11 @@ TEST(Parser, MillionPolygonMeshParsesQuickly) {
     rib += "]\n";
     Recorder r;
     Diagnostics d;
-    auto t0 = std::chrono::steady_clock::now();
     ASSERT_TRUE(parseString(rib, "big.rib", r, d));
-    [[maybe_unused]] double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     ASSERT_EQ(r.args.size(), 1u);
     EXPECT_EQ(r.args[0].intArrays[1].size(), size_t(4 * n * n));
     EXPECT_EQ(r.args[0].intArrays[1][4 * n * n - 1], (n - 1) * (n + 1) + (n - 1) + n + 1);
     EXPECT_EQ(r.params[0].find("P")->count(), size_t((n + 1) * (n + 1)));
-#ifdef NDEBUG
-    EXPECT_LT(seconds, 3.0);
-#endif
 }
 
 }  // namespace
