@@ -85,6 +85,18 @@ TEST(Parser, WrongArgumentCountIsReportedAndSkipped) {
     EXPECT_EQ(p->rec.log, (std::vector<std::string>{"Translate 1 2 3"}));
 }
 
+TEST(Parser, NumbersOutOfFloatRangeSkipTheirRequest) {
+    // 1e39 would be infinity as a float: the request never reaches the
+    // target, in positional arguments or in a parameter list alike.
+    auto p = parse("Translate 1e39 0 0\nSphere 1 -1 1 360 \"Cs\" [nan 0 0]\nTranslate 1 2 3.4e38");
+    EXPECT_FALSE(p->ok);
+    EXPECT_EQ(messages(p->diag), (std::vector<std::string>{
+        "t.rib:1:11: error: Translate: number out of range \"1e39\" (expected a magnitude of at most 3.4e38, the "
+        "largest 32-bit float)",
+        "t.rib:2:25: error: Sphere: not a finite number \"nan\" (expected a finite number)"}));
+    EXPECT_EQ(p->rec.log, (std::vector<std::string>{"Translate 1 2 3.4e+38"}));
+}
+
 TEST(Parser, UnknownRequestSkipsItsArguments) {
     auto p = parse("Spher 1 2 [3] \"x\"\nTranslate 1 2 3");
     EXPECT_EQ(messages(p->diag), (std::vector<std::string>{
