@@ -1,0 +1,128 @@
+// Inputs past the renderer's limits (docs/rib.md, "Limits") finish with a
+// located warning and a sensible image instead of hanging or exhausting
+// memory. Renders whose risk is memory run the `umbra` command in a child
+// process under a 1 GiB address-space limit (RLIMIT_AS); its exit status,
+// messages and image are checked. A CPU-time limit turns a runaway render
+// into a failure instead of a stall; no test reads a clock.
+
+#include "support/render_harness.h"
+
+#include <gtest/gtest.h>
+
+#include <fmt/format.h>
+
+#include <fcntl.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+using namespace umbra;
+using umbra::test::Image;
+using umbra::test::ScratchDir;
+
+namespace {
+
+constexpr rlim_t kAddressSpace = rlim_t(1) << 30;  // 1 GiB
+constexpr rlim_t kCpuSeconds = 300;                 // far beyond any of these renders
+
+/// How a child render ended.
+struct ChildRun {
+    bool exited = false;  // false: killed by a signal (e.g. SIGXCPU, SIGSEGV)
+    int status = -1;      // exit status, or the signal
+    std::string messages; // what it printed
+    std::string describe() const {
+        return fmt::format("{} {}; output:\n{}", exited ? "exit status" : "killed by signal", status, messages);
+    }
+};
+
+std::string readText(const std::string& path) {
+    std::ifstream in(path);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+
+/// Writes `rib` to dir/name and renders it with `umbra render --threads 2`
+/// in a child process limited to 1 GiB of address space.
+ChildRun renderInChild(const ScratchDir& dir, const std::string& name, const std::string& rib) {
+    const std::string ribPath = dir.file(name);
+    const std::string logPath = dir.file(name + ".log");
+    {
+        std::ofstream out(ribPath);
+        out << rib;
+    }
+    const pid_t pid = fork();
+    if (pid == 0) {
+        rlimit as{kAddressSpace, kAddressSpace};
+        rlimit cpu{kCpuSeconds, kCpuSeconds};
+        setrlimit(RLIMIT_AS, &as);
+        setrlimit(RLIMIT_CPU, &cpu);
+        const int fd = open(logPath.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        if (fd >= 0) {
+            dup2(fd, 1);
+            dup2(fd, 2);
+        }
+        setenv("UMBRA_SHADER_PATH", UMBRA_SOURCE_DIR "/shaders_dsl", 1);
+        execl(UMBRA_APP, "umbra", "render", "--threads", "2", ribPath.c_str(), static_cast<char*>(nullptr));
+        _exit(127);
+    }
+    ChildRun run;
+    int status = 0;
+    if (pid < 0 || waitpid(pid, &status, 0) != pid) return run;
+    run.exited = WIFEXITED(status);
+    run.status = run.exited ? WEXITSTATUS(status) : WTERMSIG(status);
+    run.messages = readText(logPath);
+    return run;
+}
+
+/// A 64 x 48 perspective frame of `world`, camera 5 units back; its
+/// Display writes `out`.
+std::string frame(const std::string& out, const std::string& options, const std::string& world) {
+    return fmt::format(R"(Display "{}" "openexr" "rgba" "string type" "float"
+Format 64 48 1
+Projection "perspective" "fov" 40
+{}
+Translate 0 0 5
+WorldBegin
+Surface "constant"
+{}
+WorldEnd
+)", out, options, world);
+}
+
+/// Sum of the alpha channel: the covered area in pixels.
+double coverage(const std::string& path) {
+    Image img;
+    EXPECT_TRUE(test::readImage(path, &img)) << path;
+    return img.pixels.empty() ? 0.0 : img.channelSum(3);
+}
+
+bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+
+}  // namespace
+
+TEST(Limits, QuadricSweepsOfAHugeAngleAreClampedToOneTurn) {
+    // thetamax 1e30 left u * thetamax no precision, so splitting never made
+    // pieces small enough to dice. Clamped, each quadric renders whole.
+    ScratchDir dir("limits-sweep");
+    const std::string world = R"(AttributeBegin Translate -1.5 0.6 0 Rotate -60 1 0 0 Sphere 0.4 -0.4 0.4 1e30 AttributeEnd
+AttributeBegin Translate -0.5 0.6 0 Rotate -60 1 0 0 Cylinder 0.3 -0.3 0.3 -1e30 AttributeEnd
+AttributeBegin Translate 0.5 0.6 0 Rotate -60 1 0 0 Cone 0.5 0.3 1e30 AttributeEnd
+AttributeBegin Translate 1.5 0.6 0 Rotate -60 1 0 0 Disk 0 0.3 1e30 AttributeEnd
+AttributeBegin Translate -1 -0.6 0 Rotate -60 1 0 0 Paraboloid 0.3 0 0.5 1e30 AttributeEnd
+AttributeBegin Translate 0 -0.6 0 Rotate -60 1 0 0 Hyperboloid 0.3 0 -0.3 0.3 0 0.3 1e30 AttributeEnd
+AttributeBegin Translate 1 -0.6 0 Rotate -60 1 0 0 Torus 0.25 0.1 -1e30 1e30 1e30 AttributeEnd
+)";
+    const ChildRun run = renderInChild(dir, "sweep.rib", frame(dir.file("out.exr"), "", world));
+    ASSERT_TRUE(run.exited && run.status == 0) << run.describe();
+    EXPECT_TRUE(contains(run.messages, "sweep.rib:8:54: warning: Sphere: thetamax 1e+30 is outside [-360, 360] "
+                                       "degrees; clamped to 360"))
+        << run.messages;
+    EXPECT_TRUE(contains(run.messages, "sweep.rib:14:52: warning: Torus: phimin -1e+30 is outside")) << run.messages;
+    // Seven shapes of a few dozen pixels each.
+    EXPECT_GT(coverage(dir.file("out.exr")), 7 * 20.0);
+}
