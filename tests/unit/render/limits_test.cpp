@@ -126,3 +126,22 @@ AttributeBegin Translate 1 -0.6 0 Rotate -60 1 0 0 Torus 0.25 0.1 -1e30 1e30 1e3
     // Seven shapes of a few dozen pixels each.
     EXPECT_GT(coverage(dir.file("out.exr")), 7 * 20.0);
 }
+
+TEST(Limits, HugeShadingRateDicesBlockyButPresent) {
+    // ShadingRate 1000 is a micropolygon 32 pixels on a side: the sphere
+    // (about 40 pixels across) used to be diced into a grid whose corners
+    // lie on one meridian and covers nothing. It is diced coarsely, into at
+    // least 8 x 4 micropolygons, and covers most of its disk.
+    ScratchDir dir("limits-coarse");
+    Diagnostics diag;
+    test::renderRib(frame(dir.file("fine.exr"), "", "ShadingRate 1\nSphere 1 -1 1 360"), diag);
+    auto coarseStats = test::renderRib(frame(dir.file("coarse.exr"), "", "ShadingRate 1000\nSphere 1 -1 1 360"), diag);
+    ASSERT_EQ(diag.errorCount(), 0);
+    const double fine = coverage(dir.file("fine.exr")), coarse = coverage(dir.file("coarse.exr"));
+    EXPECT_GT(fine, 200.0);
+    EXPECT_GT(coarse, 0.75 * fine);
+    EXPECT_LT(coarse, 1.01 * fine);  // the facets lie inside the sphere
+    const auto& counts = coarseStats["frames"][0]["passes"][0]["counts"];
+    EXPECT_GE(counts["micropolygons"].get<uint64_t>(), 32u);
+    EXPECT_LE(counts["micropolygons"].get<uint64_t>(), 64u);  // coarse: far fewer than the ~1000 pixels at rate 1
+}
