@@ -628,9 +628,18 @@ void Builder::pixelVariance(float v, const FileLoc& loc) {
 
 void Builder::pixelSamples(float xs, float ys, const FileLoc& loc) {
     if (!optionsAllowed("PixelSamples", loc)) return;
-    if (!(xs >= 1 && ys >= 1 && xs <= 1024 && ys <= 1024)) {
-        m_diag.error(loc, "PixelSamples: expected sample counts between 1 and 1024, got {} {}", xs, ys);
+    if (!(xs >= 1 && ys >= 1)) {
+        m_diag.error(loc, "PixelSamples: expected sample counts of at least 1, got {} {}", xs, ys);
         return;
+    }
+    if (xs > kMaxPixelSamples || ys > kMaxPixelSamples) {
+        // The sample buffer and the filter's weight tables grow with the
+        // samples of a pixel: 1000 x 1000 would need gigabytes per bucket.
+        const float cx = std::min(xs, float(kMaxPixelSamples)), cy = std::min(ys, float(kMaxPixelSamples));
+        m_diag.warning(loc, "PixelSamples: {} {} exceeds the maximum of {} samples along each axis of a pixel; "
+                       "clamped to {} {}", xs, ys, kMaxPixelSamples, cx, cy);
+        xs = cx;
+        ys = cy;
     }
     // Fractional rates round up to whole samples per pixel.
     m_options.pixelSamples[0] = int(std::ceil(xs - 1e-4f));
@@ -651,6 +660,15 @@ void Builder::pixelFilter(const std::string& name, float xwidth, float ywidth, c
     if (!(xwidth > 0 && ywidth > 0)) {
         m_diag.error(loc, "PixelFilter: expected positive widths, got {} {}", xwidth, ywidth);
         return;
+    }
+    if (xwidth > kMaxFilterWidth || ywidth > kMaxFilterWidth) {
+        // Every bucket samples the filter's reach around it: a width of
+        // 1e6 pixels would sample the whole frame, for every bucket.
+        const float cx = std::min(xwidth, kMaxFilterWidth), cy = std::min(ywidth, kMaxFilterWidth);
+        m_diag.warning(loc, "PixelFilter: widths {} {} exceed the maximum of {} pixels; clamped to {} {}", xwidth,
+                       ywidth, kMaxFilterWidth, cx, cy);
+        xwidth = cx;
+        ywidth = cy;
     }
     m_options.pixelFilter = n;
     m_options.filterWidth[0] = xwidth;
@@ -794,6 +812,13 @@ void Builder::shadingRate(float rate, const FileLoc& loc) {
     if (!(rate > 0)) {
         m_diag.error(loc, "ShadingRate: expected a positive area in pixels, got {}", rate);
         return;
+    }
+    if (rate < kMinShadingRate) {
+        // Finer only multiplies micropolygons (1e-6 would make a million a
+        // pixel). An attribute may be set per object: reported once.
+        m_diag.warningOnce("limit:ShadingRate", loc, "ShadingRate: {} is below the minimum of 1/64 pixel; clamped "
+                           "to 0.015625", rate);
+        rate = kMinShadingRate;
     }
     mutableAttributes().shadingRate = rate;
 }

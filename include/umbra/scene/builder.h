@@ -15,6 +15,13 @@
 
 namespace umbra::scene {
 
+/// Request values beyond which a render would hang or exhaust memory; the
+/// builder clamps to them with a warning at the request (docs/rib.md,
+/// "Limits").
+constexpr float kMinShadingRate = 1.0f / 64;  // pixels of area: 8 x 8 micropolygons a pixel
+constexpr float kMaxFilterWidth = 16;         // pixels, each axis
+constexpr int kMaxPixelSamples = 32;          // samples along each axis of a pixel
+
 /// An ri::Target that turns requests into scene records (see docs/rib.md
 /// for what each request does and which ones are reported unsupported).
 ///

@@ -127,6 +127,49 @@ AttributeBegin Translate 1 -0.6 0 Rotate -60 1 0 0 Torus 0.25 0.1 -1e30 1e30 1e3
     EXPECT_GT(coverage(dir.file("out.exr")), 7 * 20.0);
 }
 
+TEST(Limits, TinyShadingRateIsClampedAndTheSphereStillRenders) {
+    // ShadingRate 1e-6 asked for a million micropolygons a pixel.
+    ScratchDir dir("limits-rate");
+    const std::string sphere = "Sphere 1 -1 1 360";
+    const ChildRun ref = renderInChild(dir, "ref.rib", frame(dir.file("ref.exr"), "", "ShadingRate 1\n" + sphere));
+    ASSERT_TRUE(ref.exited && ref.status == 0) << ref.describe();
+    const ChildRun run = renderInChild(dir, "tiny.rib", frame(dir.file("tiny.exr"), "", "ShadingRate 1e-6\n" + sphere));
+    ASSERT_TRUE(run.exited && run.status == 0) << run.describe();
+    EXPECT_TRUE(contains(run.messages, "tiny.rib:8:1: warning: ShadingRate: 1e-06 is below the minimum of 1/64 "
+                                       "pixel; clamped to 0.015625"))
+        << run.messages;
+    const double a = coverage(dir.file("ref.exr")), b = coverage(dir.file("tiny.exr"));
+    EXPECT_GT(a, 200.0);
+    EXPECT_NEAR(b, a, 0.02 * a);
+}
+
+TEST(Limits, HugePixelSamplesAndFilterAreClampedWithinOneGigabyte) {
+    // PixelSamples 1000 1000 on a 64 x 48 frame would be 3e9 samples, and a
+    // filter 1e6 pixels wide would make every bucket sample the whole
+    // frame; together they are the largest sample buffer the limits allow.
+    ScratchDir dir("limits-samples");
+    const std::string sphere = "Sphere 1 -1 1 360";
+    const ChildRun ref = renderInChild(dir, "ref.rib", frame(dir.file("ref.exr"), "", sphere));
+    ASSERT_TRUE(ref.exited && ref.status == 0) << ref.describe();
+    const ChildRun run = renderInChild(
+        dir, "big.rib", frame(dir.file("big.exr"), "PixelSamples 1000 1000\nPixelFilter \"gaussian\" 1e6 1e6", sphere));
+    ASSERT_TRUE(run.exited && run.status == 0) << run.describe();
+    EXPECT_TRUE(contains(run.messages, "big.rib:4:1: warning: PixelSamples: 1000 1000 exceeds the maximum of 32 "
+                                       "samples along each axis of a pixel; clamped to 32 32"))
+        << run.messages;
+    EXPECT_TRUE(contains(run.messages, "big.rib:5:1: warning: PixelFilter: widths 1000000 1000000 exceed the maximum of "
+                                       "16 pixels; clamped to 16 16"))
+        << run.messages;
+    // A wide filter spreads the sphere, some of it off the frame; but it is
+    // there, and nothing is out of range.
+    Image img;
+    ASSERT_TRUE(test::readImage(dir.file("big.exr"), &img));
+    for (float v : img.pixels) ASSERT_TRUE(std::isfinite(v) && v >= -1e-4f && v <= 1.0001f) << v;
+    const double a = coverage(dir.file("ref.exr")), b = img.channelSum(3);
+    EXPECT_GT(b, 0.3 * a);
+    EXPECT_LT(b, 1.05 * a);
+}
+
 TEST(Limits, HugeShadingRateDicesBlockyButPresent) {
     // ShadingRate 1000 is a micropolygon 32 pixels on a side: the sphere
     // (about 40 pixels across) used to be diced into a grid whose corners

@@ -276,3 +276,31 @@ TEST(Builder, UnsupportedRequestsWarnOnce) {
 
 }  // namespace
 }  // namespace umbra::scene
+
+namespace umbra::scene {
+namespace {
+
+TEST(Limits, ShadingRatePixelSamplesAndFilterWidthAreClampedWithAWarning) {
+    auto r = run("PixelSamples 1000 3\nPixelFilter \"gaussian\" 1e6 4\nWorldBegin\nShadingRate 1e-6\nSphere 1 -1 1 360\n"
+                 "ShadingRate 1e-5\nSphere 1 -1 1 360\nWorldEnd");
+    EXPECT_EQ(r->diag.errorCount(), 0);
+    EXPECT_EQ(r->messages(), (std::vector<std::string>{
+        "s.rib:1:1: warning: PixelSamples: 1000 3 exceeds the maximum of 32 samples along each axis of a pixel; "
+        "clamped to 32 3",
+        "s.rib:2:1: warning: PixelFilter: widths 1000000 4 exceed the maximum of 16 pixels; clamped to 16 4",
+        // An attribute may be set per object: one warning for them all.
+        "s.rib:4:1: warning: ShadingRate: 1e-06 is below the minimum of 1/64 pixel; clamped to 0.015625"}));
+    ASSERT_EQ(r->sink.worlds.size(), 1u);
+    const Options& o = r->sink.worlds[0].options;
+    EXPECT_EQ(o.pixelSamples[0], kMaxPixelSamples);
+    EXPECT_EQ(o.pixelSamples[1], 3);
+    EXPECT_EQ(o.filterWidth[0], kMaxFilterWidth);
+    EXPECT_EQ(o.filterWidth[1], 4.0f);
+    for (const PrimitiveRecord& p : r->sink.worlds[0].primitives) EXPECT_EQ(p.attributes->shadingRate, kMinShadingRate);
+    // At the limits themselves: no warning.
+    auto ok = run("PixelSamples 32 32 PixelFilter \"box\" 16 16 WorldBegin ShadingRate 0.015625 WorldEnd");
+    EXPECT_TRUE(ok->messages().empty());
+}
+
+}  // namespace
+}  // namespace umbra::scene
