@@ -161,10 +161,10 @@ bool Builder::pop(Block kind, const char* request, const FileLoc& loc, OpenBlock
             return false;
         }
         // Close what was left open inside the world or frame.
+        const size_t first = size_t(m_blocks.rend() - it);
+        reportOpenBlocks(first, request, loc);
         while (m_blocks.back().kind != kind) {
             const OpenBlock& b = m_blocks.back();
-            m_diag.error(loc, "{}: the {} at {} is still open (closed here)", request, beginName(int(b.kind)),
-                         b.loc.str());
             if (b.kind == Block::Object) m_objectHandle.clear();
             if (b.kind == Block::World) m_world.reset();
             m_blocks.pop_back();
@@ -175,10 +175,34 @@ bool Builder::pop(Block kind, const char* request, const FileLoc& loc, OpenBlock
     return true;
 }
 
+void Builder::reportOpenBlocks(size_t first, const char* request, const FileLoc& loc) {
+    // Innermost first; 1e5 unclosed AttributeBegins give a few lines, not 1e5.
+    size_t listed = 0;
+    for (size_t k = m_blocks.size(); k-- > first;) {
+        const OpenBlock& b = m_blocks[k];
+        if (listed == size_t(kMaxListedOpenBlocks)) {
+            const size_t rest = k + 1 - first;
+            const OpenBlock& outer = m_blocks[first];
+            if (request)
+                m_diag.error(loc, "{}: ... and {} more open blocks, closed here (the outermost is the {} at {})",
+                             request, rest, beginName(int(outer.kind)), outer.loc.str());
+            else
+                m_diag.error(outer.loc, "{}: ... and {} more blocks with no matching end before the end of the "
+                             "input (the outermost is this one)", beginName(int(outer.kind)), rest);
+            return;
+        }
+        ++listed;
+        if (request)
+            m_diag.error(loc, "{}: the {} at {} is still open (closed here)", request, beginName(int(b.kind)),
+                         b.loc.str());
+        else
+            m_diag.error(b.loc, "{}: no matching {} before the end of the input", beginName(int(b.kind)),
+                         endName(int(b.kind)));
+    }
+}
+
 void Builder::endOfInput(const FileLoc& loc) {
-    for (auto it = m_blocks.rbegin(); it != m_blocks.rend(); ++it)
-        m_diag.error(it->loc, "{}: no matching {} before the end of the input", beginName(int(it->kind)),
-                     endName(int(it->kind)));
+    reportOpenBlocks(0, nullptr, loc);
     m_blocks.clear();
     m_world.reset();
     m_objectHandle.clear();

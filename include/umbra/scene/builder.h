@@ -21,6 +21,9 @@ namespace umbra::scene {
 constexpr float kMinShadingRate = 1.0f / 64;  // pixels of area: 8 x 8 micropolygons a pixel
 constexpr float kMaxFilterWidth = 16;         // pixels, each axis
 constexpr int kMaxPixelSamples = 32;          // samples along each axis of a pixel
+/// Open blocks named one by one when a WorldEnd, FrameEnd or the end of
+/// the input closes them; the rest are counted in one line.
+constexpr int kMaxListedOpenBlocks = 10;
 
 /// An ri::Target that turns requests into scene records (see docs/rib.md
 /// for what each request does and which ones are reported unsupported).
@@ -188,6 +191,9 @@ private:
     /// is not the innermost (Attribute-like blocks) or not open at all.
     /// World and Frame ends close any blocks left open inside them.
     bool pop(Block kind, const char* request, const FileLoc& loc, OpenBlock* out);
+    /// Reports the blocks m_blocks[first..] (innermost first) as left open,
+    /// at most kMaxListedOpenBlocks of them, then one line for the rest.
+    void reportOpenBlocks(size_t first, const char* request, const FileLoc& loc);
     void unsupported(const std::string& key, const FileLoc& loc, const std::string& what);
     std::string expandSearchPath(const std::string& kind, const std::string& value) const;
 

@@ -302,5 +302,28 @@ TEST(Limits, ShadingRatePixelSamplesAndFilterWidthAreClampedWithAWarning) {
     EXPECT_TRUE(ok->messages().empty());
 }
 
+TEST(Limits, AHundredThousandUnclosedBlocksGiveAFewLines) {
+    // Ten blocks named, innermost first, then one line for the rest.
+    std::string rib = "FrameBegin 1\nWorldBegin\n";
+    for (int i = 0; i < 100000; ++i) rib += "AttributeBegin\n";
+    auto r = run(rib);
+    std::vector<std::string> m = r->messages();
+    ASSERT_EQ(m.size(), size_t(kMaxListedOpenBlocks) + 1);
+    EXPECT_EQ(m[0], "s.rib:100002:1: error: AttributeBegin: no matching AttributeEnd before the end of the input");
+    EXPECT_EQ(m[9], "s.rib:99993:1: error: AttributeBegin: no matching AttributeEnd before the end of the input");
+    EXPECT_EQ(m[10], "s.rib:1:1: error: FrameBegin: ... and 99992 more blocks with no matching end before the end of "
+                     "the input (the outermost is this one)");
+    // WorldEnd closing them: the same cap.
+    rib += "WorldEnd\n";
+    r = run(rib);
+    m = r->messages();
+    ASSERT_EQ(m.size(), size_t(kMaxListedOpenBlocks) + 2);
+    EXPECT_EQ(m[0], "s.rib:100003:1: error: WorldEnd: the AttributeBegin at s.rib:100002:1 is still open (closed here)");
+    EXPECT_EQ(m[10], "s.rib:100003:1: error: WorldEnd: ... and 99990 more open blocks, closed here (the outermost "
+                     "is the AttributeBegin at s.rib:3:1)");
+    EXPECT_EQ(m[11], "s.rib:1:1: error: FrameBegin: no matching FrameEnd before the end of the input");
+    EXPECT_EQ(r->sink.worlds.size(), 1u);
+}
+
 }  // namespace
 }  // namespace umbra::scene
