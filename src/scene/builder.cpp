@@ -210,7 +210,22 @@ void Builder::endOfInput(const FileLoc& loc) {
 
 void Builder::version(float v, const FileLoc& loc) {}
 void Builder::declare(const ri::ParamDecl& decl, const FileLoc& loc) {}
-void Builder::readArchive(const std::string& resolvedPath, const FileLoc& loc) {}
+bool Builder::readArchive(const std::string& resolvedPath, const FileLoc& loc) {
+    // The nesting limit bounds the depth, not the work: archives that each
+    // read the next twice, 30 deep, would read 2^30 files. Each frame may
+    // make m_options.archiveReads reads; one error, then the rest of the
+    // frame's ReadArchive requests are skipped.
+    if (m_archiveReads < m_options.archiveReads) {
+        ++m_archiveReads;
+        return true;
+    }
+    if (!m_archiveBudgetReported)
+        m_diag.error(loc, "ReadArchive: more than {} archive reads in one frame; this and the frame's further "
+                     "ReadArchive requests are skipped (raise Option \"limits\" \"archivereads\" if the scene "
+                     "needs more)", m_options.archiveReads);
+    m_archiveBudgetReported = true;
+    return false;
+}
 
 void Builder::errorHandler(const std::string& name, const FileLoc& loc) {
     if (name == "print")
@@ -234,6 +249,8 @@ void Builder::frameBegin(int frame, const FileLoc& loc) {
             return;
         }
     push(Block::Frame, loc);
+    m_archiveReads = 0;
+    m_archiveBudgetReported = false;
     m_blocks.back().savedOptions = std::make_shared<Options>(m_options);
     m_blocks.back().savedSpaces = std::make_shared<std::map<std::string, Mat4>>(m_cameraSpaces);
     m_frame = frame;
@@ -537,6 +554,13 @@ void Builder::option(const std::string& name, ri::ParamList params, const FileLo
                 continue;
             }
             (pn == "gridsize" ? m_options.gridSize : m_options.eyeSplits) = v;
+        } else if (name == "limits" && pn == "archivereads") {
+            int v = params.getInt(pn, -1);
+            if (v < 0) {
+                m_diag.error(p.loc, "Option: limits \"archivereads\" expects an integer of 0 or more, got {}", v);
+                continue;
+            }
+            m_options.archiveReads = v;
         } else if (name == "statistics" && pn == "endofframe") {
             m_options.statisticsEndOfFrame = params.getInt(pn, 0) != 0;
         } else if (name == "umbra" && !umbraValueValid("Option", p, m_diag)) {

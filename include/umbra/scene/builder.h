@@ -59,7 +59,7 @@ public:
     void version(float v, const FileLoc& loc) override;
     void declare(const ri::ParamDecl& decl, const FileLoc& loc) override;
     void errorHandler(const std::string& name, const FileLoc& loc) override;
-    void readArchive(const std::string& resolvedPath, const FileLoc& loc) override;
+    bool readArchive(const std::string& resolvedPath, const FileLoc& loc) override;
 
     void frameBegin(int frame, const FileLoc& loc) override;
     void frameEnd(const FileLoc& loc) override;
@@ -210,6 +210,8 @@ private:
     std::string m_objectHandle;                  // non-empty while defining an object
     Mat4 m_objectFromCurrentAtBegin;
     int m_motionRequests = 0;
+    int m_archiveReads = 0;              // ReadArchive requests of the current frame (or before the first)
+    bool m_archiveBudgetReported = false;
     std::map<std::string, std::string> m_defaultSearchPaths;
 };
 

@@ -325,5 +325,56 @@ TEST(Limits, AHundredThousandUnclosedBlocksGiveAFewLines) {
     EXPECT_EQ(r->sink.worlds.size(), 1u);
 }
 
+/// Writes archives a01.rib .. aNN.rib into `dir`, each reading the next
+/// twice; the last holds one sphere.
+void writeFanOut(const std::filesystem::path& dir, int depth) {
+    std::filesystem::create_directories(dir);
+    for (int k = 1; k <= depth; ++k) {
+        std::ofstream out(dir / fmt::format("a{:02}.rib", k));
+        if (k == depth)
+            out << "Sphere 1 -1 1 360\n";
+        else
+            out << fmt::format("ReadArchive \"a{0:02}.rib\"\nReadArchive \"a{0:02}.rib\"\n", k + 1);
+    }
+}
+
+TEST(Limits, ArchivesThatFanOutStopAtTheFramesReadBudget) {
+    // 30 archives deep, each reading the next twice, would read 2^30 files
+    // within the nesting limit. The frame's budget of reads stops them with
+    // one located error.
+    const auto dir = std::filesystem::temp_directory_path() / fmt::format("umbra-fanout-{}", ::getpid());
+    writeFanOut(dir, 30);
+    auto r = run("WorldBegin\nReadArchive \"a01.rib\"\nWorldEnd\n", dir.string());
+    std::vector<std::string> m = r->messages();
+    ASSERT_EQ(m.size(), 1u);
+    EXPECT_NE(m[0].find(": error: ReadArchive: more than 10000 archive reads in one frame; this and the frame's "
+                        "further ReadArchive requests are skipped (raise Option \"limits\" \"archivereads\" if the "
+                        "scene needs more)"),
+              std::string::npos)
+        << m[0];
+    EXPECT_EQ(m[0].find("a"), 0u);  // located in one of the archives
+    ASSERT_EQ(r->sink.worlds.size(), 1u);
+    // Depth-first: the reads reach the bottom, whose spheres are kept.
+    EXPECT_GT(r->sink.worlds[0].primitives.size(), 1000u);
+
+    // Option "limits" "archivereads" sets the budget, per frame: each
+    // frame reads its own 40.
+    r = run("Option \"limits\" \"archivereads\" 40\n"
+            "FrameBegin 1 WorldBegin ReadArchive \"a01.rib\" WorldEnd FrameEnd\n"
+            "FrameBegin 2 WorldBegin ReadArchive \"a01.rib\" WorldEnd FrameEnd\n",
+            dir.string());
+    m = r->messages();
+    ASSERT_EQ(m.size(), 2u);
+    EXPECT_NE(m[0].find("more than 40 archive reads in one frame"), std::string::npos) << m[0];
+    ASSERT_EQ(r->sink.worlds.size(), 2u);
+    EXPECT_EQ(r->sink.worlds[0].primitives.size(), r->sink.worlds[1].primitives.size());
+    EXPECT_EQ(r->sink.worlds[0].primitives.size(), 7u);  // 40 reads: 30 down to a sphere, 10 on the way back
+
+    r = run("Option \"limits\" \"archivereads\" -1", dir.string());
+    EXPECT_EQ(r->messages(), (std::vector<std::string>{
+        "s.rib:1:17: error: Option: limits \"archivereads\" expects an integer of 0 or more, got -1"}));
+    std::filesystem::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace umbra::scene
