@@ -117,6 +117,38 @@ void flatnessCounts(const Vec3* Q, int n, float flatness, float* countU, float* 
     *countV = cv;
 }
 
+void turningCounts(const Vec3* Q, int n, float maxTurn, float* countU, float* countV) {
+    // Total turning of one polyline of the lattice: the angles between its
+    // consecutive chords, each taken as |a/|a| - b/|b||, which is
+    // 2 sin(angle / 2) (under the angle by at most a third, at a half
+    // turn). Chords of no length (a sphere's pole row) turn nothing. The
+    // n - 1 corners of n chords miss a chord's share of the turning:
+    // scaled by n / (n - 1).
+    auto turning = [&](const Vec3* first, int stride) {
+        float total = 0;
+        Vec3 prev;
+        bool have = false;
+        for (int k = 0; k < n; ++k) {
+            const Vec3 d = first[(k + 1) * stride] - first[k * stride];
+            const float len = length(d);
+            if (!(len > 0) || !std::isfinite(len)) continue;
+            const Vec3 dir = d / len;
+            if (have) total += length(dir - prev);
+            prev = dir;
+            have = true;
+        }
+        return total;
+    };
+    float tu = 0, tv = 0;
+    for (int j = 0; j <= n; ++j) tu = std::max(tu, turning(Q + j * (n + 1), 1));
+    for (int i = 0; i <= n; ++i) tv = std::max(tv, turning(Q + i, n + 1));
+    const float scale = n > 1 ? float(n) / float(n - 1) / maxTurn : 0.0f;
+    // A tolerance below one keeps a sweep of exactly k * maxTurn at k.
+    auto count = [&](float t) { return std::max(1.0f, std::ceil(t * scale - 0.05f)); };
+    *countU = count(tu);
+    *countV = count(tv);
+}
+
 DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, const DiceParams& p, int eyeSplits,
                   Diagnostics* diag) {
     DiceResult res;
@@ -165,13 +197,15 @@ DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, co
     const float zEye = eyePlaneZ(p);
     // Flatness is measured in pixel space: raster x and y, and camera depth
     // in pixel widths.
-    thread_local std::vector<Vec3> pixelSpace;
+    thread_local std::vector<Vec3> pixelSpace, cameraSpace;
     const bool flat = p.flatness > 0;
     if (flat) pixelSpace.resize(P.size());
+    cameraSpace.resize(P.size());
     float nearest = kInfinity;
     for (size_t k = 0; k < P.size(); ++k) {
         Vec3& q = P[k];
         Vec3 c = p.cameraFromObject.point(q);
+        cameraSpace[k] = c;
         if (p.orthographic) {
             q = rasterFromObject.point(q);
         } else {
@@ -198,12 +232,35 @@ DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, co
     rasterLengths(P.data(), n, n, &lenU, &lenV);
     const float side = std::sqrt(std::max(p.shadingRate, 1e-6f));
     // Work in float first: a primitive near the eye can be millions of pixels long.
-    const float fu = std::max(1.0f, std::min(std::ceil(lenU / side), flatU));
-    const float fv = std::max(1.0f, std::min(std::ceil(lenV / side), flatV));
-    if (!(fu * fv <= float(std::max(p.gridSize, 1)))) {
+    float fu = std::max(1.0f, std::min(std::ceil(lenU / side), flatU));
+    float fv = std::max(1.0f, std::min(std::ceil(lenV / side), flatV));
+    const float gridSize = float(std::max(p.gridSize, 1));
+    if (!(fu * fv <= gridSize)) {
         res.decision = Decision::Split;
         res.splitU = !(fv > fu);
         return res;
+    }
+    // However coarse the rate, a curved primitive keeps enough
+    // micropolygons for none of their edges to turn by more than maxTurn:
+    // at ShadingRate 1000 a sphere is blocky, not a 1x1 grid whose corners
+    // lie on one meridian and cover nothing. Flat primitives turn nothing
+    // and keep their counts. The lattice's turning is at most n half
+    // turns, so counts at that many or more need no measuring. The
+    // minimum never makes a grid exceed gridSize (it gives way first), so
+    // it never causes a split.
+    const float turnCap = std::ceil(float(n) * kPi / std::max(p.maxTurn, 1e-3f));
+    if (p.maxTurn > 0 && std::min(fu, fv) < turnCap) {
+        float tu, tv;
+        turningCounts(cameraSpace.data(), n, p.maxTurn, &tu, &tv);
+        float mu = std::max(fu, tu), mv = std::max(fv, tv);
+        while (mu * mv > gridSize && (mu > fu || mv > fv)) {
+            if (mu > fu && (mu >= mv || !(mv > fv)))
+                mu -= 1;
+            else
+                mv -= 1;
+        }
+        fu = mu;
+        fv = mv;
     }
     res.decision = Decision::Dice;
     res.nu = int(fu);

@@ -175,6 +175,21 @@ Bound3 QuadricShape::bound(const ParamRange& r) const {
 bool Quadric::shapeFromRecord(const scene::PrimitiveRecord& rec, QuadricShape* s, Diagnostics& diag) {
     const std::string& t = rec.type;
     const auto& a = rec.floatArgs;
+    // A sweep beyond one turn only retraces the surface, and a huge one
+    // (1e30 degrees) leaves u * thetamax no precision, so splitting never
+    // makes the pieces small: angles are clamped to [-360, 360] degrees, as
+    // PRMan and Aqsis effectively do (docs/rib.md, "Limits"). Non-finite
+    // values pass through to the check below. Reported at the first
+    // request of each kind and argument, so a scene of many such spheres
+    // gives one line (and the ray-tracing scene, which makes the
+    // primitives again, none).
+    auto angle = [&](const char* name, float deg) {
+        if (!std::isfinite(deg) || std::abs(deg) <= kMaxSweepDegrees) return deg;
+        const float clamped = std::copysign(kMaxSweepDegrees, deg);
+        diag.warningOnce(fmt::format("quadric-sweep:{}:{}", t, name), rec.loc,
+                         "{}: {} {} is outside [-360, 360] degrees; clamped to {}", t, name, deg, clamped);
+        return clamped;
+    };
     auto expect = [&](size_t n, const char* names) {
         if (a.size() == n) return true;
         diag.error(rec.loc, "{}: expected {} arguments ({}), got {}", t, n, names, a.size());
@@ -191,20 +206,20 @@ bool Quadric::shapeFromRecord(const scene::PrimitiveRecord& rec, QuadricShape* s
             s->phi0 = std::asin(clamp(a[1] / a[0], -1.0f, 1.0f));
             s->phi1 = std::asin(clamp(a[2] / a[0], -1.0f, 1.0f));
         }
-        s->thetaMax = radians(a[3]);
+        s->thetaMax = radians(angle("thetamax", a[3]));
     } else if (t == "Cylinder") {
         if (!expect(4, "radius zmin zmax thetamax")) return false;
         s->kind = QuadricKind::Cylinder;
         s->radius = a[0];
         s->z0 = a[1];
         s->z1 = a[2];
-        s->thetaMax = radians(a[3]);
+        s->thetaMax = radians(angle("thetamax", a[3]));
     } else if (t == "Cone" || t == "Disk") {
         if (!expect(3, t == "Cone" ? "height radius thetamax" : "height radius thetamax")) return false;
         s->kind = t == "Cone" ? QuadricKind::Cone : QuadricKind::Disk;
         s->z0 = a[0];
         s->radius = a[1];
-        s->thetaMax = radians(a[2]);
+        s->thetaMax = radians(angle("thetamax", a[2]));
     } else if (t == "Paraboloid") {
         if (!expect(4, "rmax zmin zmax thetamax")) return false;
         if (a[2] == 0 || a[1] / a[2] < 0) {
@@ -217,21 +232,30 @@ bool Quadric::shapeFromRecord(const scene::PrimitiveRecord& rec, QuadricShape* s
         s->z0 = a[1];
         s->z1 = a[2];
         s->paraZMax = a[2];
-        s->thetaMax = radians(a[3]);
+        s->thetaMax = radians(angle("thetamax", a[3]));
     } else if (t == "Hyperboloid") {
         if (!expect(7, "x1 y1 z1 x2 y2 z2 thetamax")) return false;
         s->kind = QuadricKind::Hyperboloid;
         s->p1 = {a[0], a[1], a[2]};
         s->p2 = {a[3], a[4], a[5]};
-        s->thetaMax = radians(a[6]);
+        s->thetaMax = radians(angle("thetamax", a[6]));
     } else if (t == "Torus") {
         if (!expect(5, "majorradius minorradius phimin phimax thetamax")) return false;
         s->kind = QuadricKind::Torus;
         s->majorRadius = a[0];
         s->radius = a[1];
-        s->phi0 = radians(a[2]);
-        s->phi1 = radians(a[3]);
-        s->thetaMax = radians(a[4]);
+        float phiMin = angle("phimin", a[2]), phiMax = angle("phimax", a[3]);
+        if (std::abs(phiMax - phiMin) > kMaxSweepDegrees) {
+            // Each end within a turn, yet up to two turns apart.
+            const float clamped = phiMin + std::copysign(kMaxSweepDegrees, phiMax - phiMin);
+            diag.warningOnce("quadric-sweep:Torus:phi", rec.loc,
+                             "Torus: phimin {} to phimax {} sweeps more than 360 degrees; phimax clamped to {}",
+                             phiMin, phiMax, clamped);
+            phiMax = clamped;
+        }
+        s->phi0 = radians(phiMin);
+        s->phi1 = radians(phiMax);
+        s->thetaMax = radians(angle("thetamax", a[4]));
     } else {
         diag.error(rec.loc, "{}: not a quadric", t);
         return false;

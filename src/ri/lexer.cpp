@@ -2,9 +2,13 @@
 
 #include <fmt/format.h>
 
+#include <cctype>
+#include <cfloat>
 #include <charconv>
 #include <climits>
 #include <cmath>
+#include <limits>
+#include <string>
 
 namespace umbra::ri {
 
@@ -12,6 +16,21 @@ namespace {
 inline bool isSpace(unsigned char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\f' || c == '\v'; }
 // Characters that end a bare word (a number or a request name).
 inline bool endsWord(unsigned char c) { return isSpace(c) || c == '[' || c == ']' || c == '"' || c == '#'; }
+constexpr double kInfinityD = std::numeric_limits<double>::infinity();
+// "nan", "inf" and "infinity" in any case: never a request name, always a
+// number that is not one.
+bool isNonFiniteName(std::string_view w) {
+    auto is = [&](std::string_view name) {
+        if (w.size() != name.size()) return false;
+        for (size_t k = 0; k < w.size(); ++k)
+            if (std::tolower(static_cast<unsigned char>(w[k])) != name[k]) return false;
+        return true;
+    };
+    return is("nan") || is("inf") || is("infinity");
+}
+std::string notFinite(std::string_view word) {
+    return fmt::format("not a finite number \"{}\" (expected a finite number)", word);
+}
 }  // namespace
 
 Lexer::Lexer(std::string_view text) : m_text(text) {}
@@ -76,6 +95,7 @@ Token Lexer::next() {
     std::string_view word(s + start, m_pos - start);
     bool numeric = (c >= '0' && c <= '9') || c == '+' || c == '-' || c == '.';
     if (!numeric) {
+        if (isNonFiniteName(word)) return makeError(t.line, t.column, notFinite(word));
         t.kind = TokenKind::Name;
         t.text = word;
         return t;
@@ -83,11 +103,24 @@ Token Lexer::next() {
     std::string_view digits = word;
     if (!digits.empty() && digits[0] == '+') digits.remove_prefix(1);
     double v = 0;
-    bool ok = !digits.empty();
     const char* end = digits.data() + digits.size();
     auto res = std::from_chars(digits.data(), end, v, std::chars_format::general);
-    ok = ok && res.ec == std::errc() && res.ptr == end && std::isfinite(v);
-    if (!ok) return makeError(t.line, t.column, fmt::format("bad number \"{}\"", word));
+    if (digits.empty() || res.ptr != end || (res.ec != std::errc() && res.ec != std::errc::result_out_of_range))
+        return makeError(t.line, t.column, fmt::format("bad number \"{}\"", word));
+    if (res.ec == std::errc::result_out_of_range) {
+        // Too small for a double is zero; too large is an error below.
+        size_t e = digits.find_first_of("eE");
+        bool underflow = e != std::string_view::npos && e + 1 < digits.size() && digits[e + 1] == '-';
+        v = underflow ? 0.0 : kInfinityD;
+    }
+    if (std::isnan(v) || (std::isinf(v) && res.ec == std::errc()))
+        return makeError(t.line, t.column, notFinite(word));
+    // Every value ends up in a 32-bit float (or int): beyond FLT_MAX it
+    // would silently become infinity.
+    if (!(std::fabs(v) <= double(FLT_MAX)))
+        return makeError(t.line, t.column,
+                         fmt::format("number out of range \"{}\" (expected a magnitude of at most 3.4e38, the "
+                                     "largest 32-bit float)", word));
     bool integral = word.find_first_of(".eE") == std::string_view::npos;
     t.kind = TokenKind::Number;
     t.number = v;

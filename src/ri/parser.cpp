@@ -963,12 +963,12 @@ bool Parser::readArchive(const std::string& name, const FileLoc& loc, const std:
                      "Option \"searchpath\" \"archive\")", name);
         return false;
     }
+    if (!m_target.readArchive(found, loc)) return false;
     std::string bytes, why;
     if (!readWholeFile(found, &bytes, &why)) {
         m_diag.error(loc, "ReadArchive: cannot read archive \"{}\": {}", name, why);
         return false;
     }
-    m_target.readArchive(found, loc);
     return parseBytes(bytes, display, directoryOf(found), depth + 1, &loc);
 }
 

@@ -155,10 +155,10 @@ bool Builder::pop(Block kind, const char* request, const FileLoc& loc, OpenBlock
             return false;
         }
         // Close what was left open inside the world or frame.
+        const size_t first = size_t(m_blocks.rend() - it);
+        reportOpenBlocks(first, request, loc);
         while (m_blocks.back().kind != kind) {
             const OpenBlock& b = m_blocks.back();
-            m_diag.error(loc, "{}: the {} at {} is still open (closed here)", request, beginName(int(b.kind)),
-                         b.loc.str());
             if (b.kind == Block::Object) m_objectHandle.clear();
             if (b.kind == Block::World) m_world.reset();
             m_blocks.pop_back();
@@ -169,10 +169,34 @@ bool Builder::pop(Block kind, const char* request, const FileLoc& loc, OpenBlock
     return true;
 }
 
+void Builder::reportOpenBlocks(size_t first, const char* request, const FileLoc& loc) {
+    // Innermost first; 1e5 unclosed AttributeBegins give a few lines, not 1e5.
+    size_t listed = 0;
+    for (size_t k = m_blocks.size(); k-- > first;) {
+        const OpenBlock& b = m_blocks[k];
+        if (listed == size_t(kMaxListedOpenBlocks)) {
+            const size_t rest = k + 1 - first;
+            const OpenBlock& outer = m_blocks[first];
+            if (request)
+                m_diag.error(loc, "{}: ... and {} more open blocks, closed here (the outermost is the {} at {})",
+                             request, rest, beginName(int(outer.kind)), outer.loc.str());
+            else
+                m_diag.error(outer.loc, "{}: ... and {} more blocks with no matching end before the end of the "
+                             "input (the outermost is this one)", beginName(int(outer.kind)), rest);
+            return;
+        }
+        ++listed;
+        if (request)
+            m_diag.error(loc, "{}: the {} at {} is still open (closed here)", request, beginName(int(b.kind)),
+                         b.loc.str());
+        else
+            m_diag.error(b.loc, "{}: no matching {} before the end of the input", beginName(int(b.kind)),
+                         endName(int(b.kind)));
+    }
+}
+
 void Builder::endOfInput(const FileLoc& loc) {
-    for (auto it = m_blocks.rbegin(); it != m_blocks.rend(); ++it)
-        m_diag.error(it->loc, "{}: no matching {} before the end of the input", beginName(int(it->kind)),
-                     endName(int(it->kind)));
+    reportOpenBlocks(0, nullptr, loc);
     m_blocks.clear();
     m_world.reset();
     m_objectHandle.clear();
@@ -180,7 +204,22 @@ void Builder::endOfInput(const FileLoc& loc) {
 
 void Builder::version(float v, const FileLoc& loc) {}
 void Builder::declare(const ri::ParamDecl& decl, const FileLoc& loc) {}
-void Builder::readArchive(const std::string& resolvedPath, const FileLoc& loc) {}
+bool Builder::readArchive(const std::string& resolvedPath, const FileLoc& loc) {
+    // The nesting limit bounds the depth, not the work: archives that each
+    // read the next twice, 30 deep, would read 2^30 files. Each frame may
+    // make m_options.archiveReads reads; one error, then the rest of the
+    // frame's ReadArchive requests are skipped.
+    if (m_archiveReads < m_options.archiveReads) {
+        ++m_archiveReads;
+        return true;
+    }
+    if (!m_archiveBudgetReported)
+        m_diag.error(loc, "ReadArchive: more than {} archive reads in one frame; this and the frame's further "
+                     "ReadArchive requests are skipped (raise Option \"limits\" \"archivereads\" if the scene "
+                     "needs more)", m_options.archiveReads);
+    m_archiveBudgetReported = true;
+    return false;
+}
 
 void Builder::errorHandler(const std::string& name, const FileLoc& loc) {
     if (name == "print")
@@ -204,6 +243,8 @@ void Builder::frameBegin(int frame, const FileLoc& loc) {
             return;
         }
     push(Block::Frame, loc);
+    m_archiveReads = 0;
+    m_archiveBudgetReported = false;
     m_blocks.back().savedOptions = std::make_shared<Options>(m_options);
     m_blocks.back().savedSpaces = std::make_shared<std::map<std::string, Mat4>>(m_cameraSpaces);
     m_frame = frame;
@@ -516,6 +557,13 @@ void Builder::option(const std::string& name, ri::ParamList params, const FileLo
                 continue;
             }
             (pn == "gridsize" ? m_options.gridSize : m_options.eyeSplits) = v;
+        } else if (name == "limits" && pn == "archivereads") {
+            int v = params.getInt(pn, -1);
+            if (v < 0) {
+                m_diag.error(p.loc, "Option: limits \"archivereads\" expects an integer of 0 or more, got {}", v);
+                continue;
+            }
+            m_options.archiveReads = v;
         } else if (name == "statistics" && pn == "endofframe") {
             m_options.statisticsEndOfFrame = params.getInt(pn, 0) != 0;
         } else if (name == "umbra" && !umbraValueValid("Option", p, m_diag)) {
@@ -632,9 +680,18 @@ void Builder::pixelVariance(float v, const FileLoc& loc) {
 
 void Builder::pixelSamples(float xs, float ys, const FileLoc& loc) {
     if (!optionsAllowed("PixelSamples", loc)) return;
-    if (!(xs >= 1 && ys >= 1 && xs <= 1024 && ys <= 1024)) {
-        m_diag.error(loc, "PixelSamples: expected sample counts between 1 and 1024, got {} {}", xs, ys);
+    if (!(xs >= 1 && ys >= 1)) {
+        m_diag.error(loc, "PixelSamples: expected sample counts of at least 1, got {} {}", xs, ys);
         return;
+    }
+    if (xs > kMaxPixelSamples || ys > kMaxPixelSamples) {
+        // The sample buffer and the filter's weight tables grow with the
+        // samples of a pixel: 1000 x 1000 would need gigabytes per bucket.
+        const float cx = std::min(xs, float(kMaxPixelSamples)), cy = std::min(ys, float(kMaxPixelSamples));
+        m_diag.warning(loc, "PixelSamples: {} {} exceeds the maximum of {} samples along each axis of a pixel; "
+                       "clamped to {} {}", xs, ys, kMaxPixelSamples, cx, cy);
+        xs = cx;
+        ys = cy;
     }
     // Fractional rates round up to whole samples per pixel.
     m_options.pixelSamples[0] = int(std::ceil(xs - 1e-4f));
@@ -655,6 +712,15 @@ void Builder::pixelFilter(const std::string& name, float xwidth, float ywidth, c
     if (!(xwidth > 0 && ywidth > 0)) {
         m_diag.error(loc, "PixelFilter: expected positive widths, got {} {}", xwidth, ywidth);
         return;
+    }
+    if (xwidth > kMaxFilterWidth || ywidth > kMaxFilterWidth) {
+        // Every bucket samples the filter's reach around it: a width of
+        // 1e6 pixels would sample the whole frame, for every bucket.
+        const float cx = std::min(xwidth, kMaxFilterWidth), cy = std::min(ywidth, kMaxFilterWidth);
+        m_diag.warning(loc, "PixelFilter: widths {} {} exceed the maximum of {} pixels; clamped to {} {}", xwidth,
+                       ywidth, kMaxFilterWidth, cx, cy);
+        xwidth = cx;
+        ywidth = cy;
     }
     m_options.pixelFilter = n;
     m_options.filterWidth[0] = xwidth;
@@ -798,6 +864,13 @@ void Builder::shadingRate(float rate, const FileLoc& loc) {
     if (!(rate > 0)) {
         m_diag.error(loc, "ShadingRate: expected a positive area in pixels, got {}", rate);
         return;
+    }
+    if (rate < kMinShadingRate) {
+        // Finer only multiplies micropolygons (1e-6 would make a million a
+        // pixel). An attribute may be set per object: reported once.
+        m_diag.warningOnce("limit:ShadingRate", loc, "ShadingRate: {} is below the minimum of 1/64 pixel; clamped "
+                           "to 0.015625", rate);
+        rate = kMinShadingRate;
     }
     mutableAttributes().shadingRate = rate;
 }

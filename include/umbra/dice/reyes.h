@@ -49,6 +49,12 @@ struct DiceParams {
     /// lattice's second differences; leave 0 when displacement may add
     /// detail the lattice cannot see.
     float flatness = 0;
+    /// The most, in radians, one micropolygon edge may turn along the
+    /// surface (measured on the test lattice in camera space): a floor on
+    /// the counts whatever the shading rate, so a huge ShadingRate dices a
+    /// sphere into at least 8 x 4 micropolygons instead of a 1 x 1 grid
+    /// that covers nothing. 0 turns the floor off.
+    float maxTurn = kPi / 4;
 };
 
 /// The three outcomes of the REYES loop for one primitive.
@@ -101,5 +107,13 @@ void rasterLengths(const Vec3* raster, int nu, int nv, float* lenU, float* lenV)
 /// along u and v, and its largest twist (a cell off its diagonal), give
 /// the counts; see reyes.cpp for the budget.
 void flatnessCounts(const Vec3* pixelSpace, int n, float flatness, float* countU, float* countV);
+
+/// The fewest micropolygons along u and v (at least 1) for which no edge
+/// turns by more than `maxTurn` radians, from an (n+1) x (n+1) lattice of
+/// the surface (row after row, u fastest; any space that keeps angles,
+/// e.g. camera space): the largest total turning of a row (a column),
+/// divided by `maxTurn`. A full circle at pi/4 gives 8, a half circle 4, a
+/// straight line 1.
+void turningCounts(const Vec3* lattice, int n, float maxTurn, float* countU, float* countV);
 
 }  // namespace umbra::dice

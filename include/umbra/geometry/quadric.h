@@ -19,6 +19,11 @@
 
 namespace umbra::geometry {
 
+/// The largest sweep angle a quadric keeps, in degrees: thetamax (and the
+/// torus's phimin, phimax and their difference) beyond it are clamped with
+/// a warning (docs/rib.md, "Limits").
+constexpr float kMaxSweepDegrees = 360;
+
 /// Which of the RI spec's quadric requests a QuadricShape describes.
 enum class QuadricKind { Sphere, Cylinder, Cone, Disk, Paraboloid, Hyperboloid, Torus };
 

@@ -34,7 +34,9 @@ struct Token {
 /// Splits RIB text into tokens without allocating per token. Numbers are
 /// read with std::from_chars; a word that starts like a number but is not
 /// one ("1.2.3", "4x") is an Error token, so a typo never silently becomes
-/// a request name.
+/// a request name. So is a number no 32-bit float holds (|x| > 3.4e38,
+/// e.g. "1e39") and a non-finite one ("nan", "inf", "-inf" in any case):
+/// every value ends up in a float, where it would silently become infinity.
 class Lexer {
 public:
     /// `text` must outlive the lexer.

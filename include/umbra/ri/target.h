@@ -36,6 +36,11 @@ struct BasisSpec {
     std::array<float, 16> matrix{};
 };
 
+/// ReadArchive requests one frame may make unless Option "limits"
+/// "archivereads" says otherwise: archives that each read the next twice,
+/// 30 deep, stay within the nesting limit but would read 2^30 files.
+constexpr int kDefaultArchiveReads = 10000;
+
 /// Receives parsed requests. Every method has a default that calls
 /// unhandled(), so a partial target (a test, a tool) overrides only what it
 /// needs; scene::Builder overrides all of them.
@@ -54,8 +59,13 @@ public:
     virtual void version(float v, const FileLoc& loc) { unhandled("version", loc); }
     virtual void declare(const ParamDecl& decl, const FileLoc& loc) { unhandled("Declare", loc); }
     virtual void errorHandler(const std::string& name, const FileLoc& loc) { unhandled("ErrorHandler", loc); }
-    /// Called before the archive's own requests; the parser reads it.
-    virtual void readArchive(const std::string& resolvedPath, const FileLoc& loc) { unhandled("ReadArchive", loc); }
+    /// Called for each archive found, before the parser reads it. False
+    /// refuses the read (the target has reported why): scene::Builder
+    /// keeps each frame within its archive-read budget.
+    virtual bool readArchive(const std::string& resolvedPath, const FileLoc& loc) {
+        unhandled("ReadArchive", loc);
+        return true;
+    }
 
     // Blocks.
     virtual void frameBegin(int frame, const FileLoc& loc) { unhandled("FrameBegin", loc); }

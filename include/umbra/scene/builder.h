@@ -15,6 +15,16 @@
 
 namespace umbra::scene {
 
+/// Request values beyond which a render would hang or exhaust memory; the
+/// builder clamps to them with a warning at the request (docs/rib.md,
+/// "Limits").
+constexpr float kMinShadingRate = 1.0f / 64;  // pixels of area: 8 x 8 micropolygons a pixel
+constexpr float kMaxFilterWidth = 16;         // pixels, each axis
+constexpr int kMaxPixelSamples = 32;          // samples along each axis of a pixel
+/// Open blocks named one by one when a WorldEnd, FrameEnd or the end of
+/// the input closes them; the rest are counted in one line.
+constexpr int kMaxListedOpenBlocks = 10;
+
 /// An ri::Target that turns requests into scene records (see docs/rib.md
 /// for what each request does and which ones are reported unsupported).
 ///
@@ -48,7 +58,7 @@ public:
     void version(float v, const FileLoc& loc) override;
     void declare(const ri::ParamDecl& decl, const FileLoc& loc) override;
     void errorHandler(const std::string& name, const FileLoc& loc) override;
-    void readArchive(const std::string& resolvedPath, const FileLoc& loc) override;
+    bool readArchive(const std::string& resolvedPath, const FileLoc& loc) override;
 
     void frameBegin(int frame, const FileLoc& loc) override;
     void frameEnd(const FileLoc& loc) override;
@@ -182,6 +192,9 @@ private:
     /// is not the innermost (Attribute-like blocks) or not open at all.
     /// World and Frame ends close any blocks left open inside them.
     bool pop(Block kind, const char* request, const FileLoc& loc, OpenBlock* out);
+    /// Reports the blocks m_blocks[first..] (innermost first) as left open,
+    /// at most kMaxListedOpenBlocks of them, then one line for the rest.
+    void reportOpenBlocks(size_t first, const char* request, const FileLoc& loc);
     void unsupported(const std::string& key, const FileLoc& loc, const std::string& what);
     std::string expandSearchPath(const std::string& kind, const std::string& value) const;
 
@@ -209,6 +222,8 @@ private:
     std::string m_objectHandle;                  // non-empty while defining an object
     Mat4 m_objectFromCurrentAtBegin;
     int m_motionRequests = 0;
+    int m_archiveReads = 0;              // ReadArchive requests of the current frame (or before the first)
+    bool m_archiveBudgetReported = false;
     std::map<std::string, std::string> m_defaultSearchPaths;
 };
 

@@ -7,6 +7,7 @@
 // (WorldBegin ... WorldEnd) when it renders it.
 
 #include "umbra/ri/param_list.h"
+#include "umbra/ri/target.h"
 #include "umbra/util/error.h"
 #include "umbra/util/math.h"
 
@@ -151,6 +152,9 @@ struct Options {
     int bucketSize[2] = {16, 16};
     int gridSize = 256;                       // max micropolygons per grid
     int eyeSplits = 10;
+    /// ReadArchive requests allowed in one frame (Option "limits"
+    /// "archivereads"); bounds the work of archives that read each other.
+    int archiveReads = ri::kDefaultArchiveReads;
     std::map<std::string, std::string> searchPaths;  // "shader", "texture", "archive", "resource"
     bool statisticsEndOfFrame = false;
     float shutter[2] = {0, 0};

@@ -310,3 +310,80 @@ TEST(Dice, FlatnessDicesSmoothSurfacesCoarselyWithinTheirStandOff) {
         }
     }
 }
+
+TEST(Dice, TurningCountsFollowHowFarTheSurfaceTurns) {
+    // On the 8 x 8 test lattice: a sphere turns a full circle along u and a
+    // half along v (8 and 4 edges at 45 degrees each); a quarter cylinder
+    // a quarter turn along u and nothing along v; a flat quad nothing.
+    struct Case {
+        const char* name;
+        PrimitivePtr prim;
+        float u, v;
+    };
+    Case cases[] = {
+        {"sphere", make("Sphere", {1, -1, 1, 360}), 8, 4},
+        {"quarter cylinder", make("Cylinder", {1, -1, 1, 90}), 2, 1},
+        {"quad", quad({-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}), 1, 1},
+    };
+    for (auto& c : cases) {
+        std::vector<Vec3> P;
+        c.prim->dicePositions(8, 8, P);
+        // Angles do not change with a rotation and a uniform scale.
+        for (Vec3& q : P) q = (Mat4::rotate(30, {1, 2, 3}) * Mat4::scale({3, 3, 3})).point(q);
+        float u = 0, v = 0;
+        turningCounts(P.data(), 8, kPi / 4, &u, &v);
+        EXPECT_EQ(u, c.u) << c.name;
+        EXPECT_EQ(v, c.v) << c.name;
+    }
+}
+
+TEST(Dice, HugeShadingRateStillDicesACurvedSurfaceIntoSeveralMicropolygons) {
+    // At ShadingRate 1000 (micropolygons 32 pixels on a side) the rate
+    // alone dices a sphere 20 pixels across into a grid whose corners lie
+    // on one meridian: its projection covers nothing. The turning floor
+    // keeps 8 x 4, which covers most of the sphere's disk; a flat quad
+    // keeps what the rate gives it.
+    DiceParams p = perspective(Mat4::translate({0, 0, 32}) * Mat4::rotate(70, {1, 0, 0}));
+    p.shadingRate = 1000;
+    auto sphere = make("Sphere", {1, -1, 1, 360});
+    // The silhouette's area: a convex closed grid covers it twice, front and back.
+    auto silhouette = [&](const DiceResult& r) {
+        const auto ras = toRaster(sphere->dice(r.nu, r.nv), p);
+        double twice = 0;
+        for (int j = 0; j < r.nv; ++j)
+            for (int i = 0; i < r.nu; ++i) {
+                const Vec3& a = ras[size_t(j * (r.nu + 1) + i)];
+                const Vec3& b = ras[size_t(j * (r.nu + 1) + i + 1)];
+                const Vec3& c = ras[size_t((j + 1) * (r.nu + 1) + i + 1)];
+                const Vec3& d = ras[size_t((j + 1) * (r.nu + 1) + i)];
+                auto tri = [](const Vec3& x, const Vec3& y, const Vec3& z) {
+                    return 0.5 * std::abs(double((y.x - x.x) * (z.y - x.y) - (y.y - x.y) * (z.x - x.x)));
+                };
+                twice += tri(a, b, c) + tri(a, c, d);
+            }
+        return twice / 2;
+    };
+    const double disk = M_PI * 10 * 10;  // radius 320 / 32 pixels
+    DiceResult r = decide(*sphere, sphere->bound(), p);
+    ASSERT_EQ(r.decision, Decision::Dice);
+    EXPECT_EQ(r.nu, 8);
+    EXPECT_EQ(r.nv, 4);
+    EXPECT_GT(silhouette(r), 0.75 * disk);
+    auto q = quad({-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0});
+    const DiceResult withFloor = decide(*q, q->bound(), p);
+    // Without the floor, the old answer.
+    p.maxTurn = 0;
+    r = decide(*sphere, sphere->bound(), p);
+    ASSERT_EQ(r.decision, Decision::Dice);
+    EXPECT_LT(silhouette(r), 0.05 * disk) << r.nu << "x" << r.nv;
+    const DiceResult noFloor = decide(*q, q->bound(), p);
+    EXPECT_EQ(withFloor.nu, noFloor.nu);
+    EXPECT_EQ(withFloor.nv, noFloor.nv);
+    // The floor gives way to gridSize rather than forcing a split.
+    p.maxTurn = kPi / 4;
+    p.gridSize = 16;
+    r = decide(*sphere, sphere->bound(), p);
+    ASSERT_EQ(r.decision, Decision::Dice);
+    EXPECT_LE(r.nu * r.nv, 16);
+    EXPECT_GE(r.nu * r.nv, 12);
+}

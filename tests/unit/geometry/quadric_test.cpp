@@ -258,3 +258,61 @@ TEST(Quadric, MalformedArgumentsAreReportedWithLocation) {
     ASSERT_EQ(diag.recorded().size(), 2u);
     EXPECT_EQ(diag.recorded()[1].message, "Torus: \"Cs\" has 1 values, expected 4 (one per corner)");
 }
+
+TEST(Quadric, SweepsBeyondOneTurnAreClampedWithALocatedWarning) {
+    // thetamax 1e30 would leave u * thetamax no precision; each quadric's
+    // sweep is clamped to 360 degrees (or -360) and warned about once.
+    struct Case {
+        const char* type;
+        std::vector<float> args;
+        float expectedThetaMax;  // radians
+    };
+    const Case cases[] = {
+        {"Sphere", {1, -1, 1, 1e30f}, 2 * kPi},
+        {"Cylinder", {1, -1, 1, -1e30f}, -2 * kPi},
+        {"Cone", {1, 1, 720}, 2 * kPi},
+        {"Disk", {0, 1, -400}, -2 * kPi},
+        {"Paraboloid", {1, 0.1f, 1, 1e30f}, 2 * kPi},
+        {"Hyperboloid", {1, 0, -1, 0, 1, 1, 1e30f}, 2 * kPi},
+    };
+    for (const Case& c : cases) {
+        SCOPED_TRACE(c.type);
+        Diagnostics diag;
+        diag.setRecord(true);
+        diag.setSink([](const Diagnostic&) {});
+        auto rec = record(c.type, c.args);
+        QuadricShape shape;
+        ASSERT_TRUE(Quadric::shapeFromRecord(*rec, &shape, diag));
+        EXPECT_FLOAT_EQ(shape.thetaMax, c.expectedThetaMax);
+        ASSERT_EQ(diag.recorded().size(), 1u);
+        EXPECT_EQ(diag.recorded()[0].severity, Severity::Warning);
+        EXPECT_EQ(diag.recorded()[0].str().rfind(fmt::format("test.rib:3:1: warning: {}: thetamax ", c.type), 0), 0u)
+            << diag.recorded()[0].str();
+        // The clamped sweep is an ordinary one: its bound is finite.
+        auto prims = makePrimitives(rec, diag);
+        ASSERT_EQ(prims.size(), 1u);
+        EXPECT_TRUE(std::isfinite(prims[0]->bound().max.x));
+        EXPECT_EQ(diag.recorded().size(), 1u);  // made again: not warned again
+    }
+    // The torus: both ends of phi, and their distance, as well as thetamax.
+    Diagnostics diag;
+    diag.setRecord(true);
+    diag.setSink([](const Diagnostic&) {});
+    QuadricShape shape;
+    ASSERT_TRUE(Quadric::shapeFromRecord(*record("Torus", {1, 0.25f, -300, 1e30f, 1e30f}), &shape, diag));
+    EXPECT_FLOAT_EQ(shape.thetaMax, 2 * kPi);
+    EXPECT_FLOAT_EQ(shape.phi0, radians(-300.0f));
+    EXPECT_FLOAT_EQ(shape.phi1, radians(60.0f));  // clamped to 360, then to one turn past phimin
+    ASSERT_EQ(diag.recorded().size(), 3u);
+    EXPECT_EQ(diag.recorded()[0].str(),
+              "test.rib:3:1: warning: Torus: phimax 1e+30 is outside [-360, 360] degrees; clamped to 360");
+    EXPECT_EQ(diag.recorded()[1].str(),
+              "test.rib:3:1: warning: Torus: phimin -300 to phimax 360 sweeps more than 360 degrees; phimax clamped "
+              "to 60");
+    EXPECT_EQ(diag.recorded()[2].message, "Torus: thetamax 1e+30 is outside [-360, 360] degrees; clamped to 360");
+    // Within range: no warning, the angles as given.
+    Diagnostics quiet;
+    ASSERT_TRUE(Quadric::shapeFromRecord(*record("Sphere", {1, -1, 1, -360}), &shape, quiet));
+    EXPECT_FLOAT_EQ(shape.thetaMax, -2 * kPi);
+    EXPECT_EQ(quiet.warningCount(), 0);
+}

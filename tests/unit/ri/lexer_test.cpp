@@ -77,6 +77,29 @@ TEST(Lexer, BadNumberIsAnErrorNotAName) {
     EXPECT_EQ(t[2].kind, TokenKind::Error);
 }
 
+TEST(Lexer, NumbersNoFloatHoldsAreErrors) {
+    // 1e39 is a finite double but infinity as a float; 1e400 is not even a
+    // double. Tiny values underflow to zero, which is fine.
+    auto t = lexAll("1e39 -3.5e38 1e400 3.4e38 1e-400 nan -INF +inf Infinity");
+    ASSERT_EQ(t.size(), 10u);
+    EXPECT_EQ(t[0].kind, TokenKind::Error);
+    EXPECT_EQ(t[0].text, "number out of range \"1e39\" (expected a magnitude of at most 3.4e38, the largest 32-bit "
+                         "float)");
+    EXPECT_EQ(t[0].column, 1);
+    EXPECT_EQ(t[1].kind, TokenKind::Error);
+    EXPECT_EQ(t[1].column, 6);
+    EXPECT_EQ(t[2].kind, TokenKind::Error);
+    EXPECT_EQ(t[2].text.find("number out of range \"1e400\""), 0u);
+    EXPECT_EQ(t[3].kind, TokenKind::Number);
+    EXPECT_EQ(t[4].kind, TokenKind::Number);
+    EXPECT_EQ(t[4].number, 0.0);
+    for (int k = 5; k < 9; ++k) {
+        EXPECT_EQ(t[size_t(k)].kind, TokenKind::Error) << k;
+        EXPECT_EQ(t[size_t(k)].text.find("not a finite number"), 0u) << k;
+    }
+    EXPECT_EQ(t[5].text, "not a finite number \"nan\" (expected a finite number)");
+}
+
 TEST(Lexer, UnterminatedStringResumesOnNextLine) {
     auto t = lexAll("Surface \"plastic\n WorldBegin");
     EXPECT_EQ(t[1].kind, TokenKind::Error);

@@ -3,7 +3,6 @@
 #include <gtest/gtest.h>
 #include <zlib.h>
 
-#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -84,6 +83,18 @@ TEST(Parser, WrongArgumentCountIsReportedAndSkipped) {
     EXPECT_EQ(messages(p->diag), (std::vector<std::string>{
         "t.rib:1:1: error: Sphere: missing argument thetamax (usage: Sphere radius zmin zmax thetamax)"}));
     EXPECT_EQ(p->rec.log, (std::vector<std::string>{"Translate 1 2 3"}));
+}
+
+TEST(Parser, NumbersOutOfFloatRangeSkipTheirRequest) {
+    // 1e39 would be infinity as a float: the request never reaches the
+    // target, in positional arguments or in a parameter list alike.
+    auto p = parse("Translate 1e39 0 0\nSphere 1 -1 1 360 \"Cs\" [nan 0 0]\nTranslate 1 2 3.4e38");
+    EXPECT_FALSE(p->ok);
+    EXPECT_EQ(messages(p->diag), (std::vector<std::string>{
+        "t.rib:1:11: error: Translate: number out of range \"1e39\" (expected a magnitude of at most 3.4e38, the "
+        "largest 32-bit float)",
+        "t.rib:2:25: error: Sphere: not a finite number \"nan\" (expected a finite number)"}));
+    EXPECT_EQ(p->rec.log, (std::vector<std::string>{"Translate 1 2 3.4e+38"}));
 }
 
 TEST(Parser, UnknownRequestSkipsItsArguments) {
@@ -223,9 +234,10 @@ TEST(Parser, ReadArchiveBesideTheIncludingFile) {
     EXPECT_NE(messages(d).back().find("ReadArchive: archives nested more than 32 deep"), std::string::npos);
 }
 
-TEST(Parser, MillionPolygonMeshParsesQuickly) {
+TEST(Parser, MillionPolygonMeshParses) {
     // 1M quads on a 1000x1000 grid of points: about 30 MB of RIB text
-    // (a smaller grid in unoptimised, e.g. sanitizer, builds).
+    // (a smaller grid in unoptimised, e.g. sanitizer, builds). Only the
+    // result is checked; speed is for the benchmarks, not a clock here.
 #ifdef NDEBUG
     const int n = 1000;
 #else
@@ -246,16 +258,11 @@ TEST(Parser, MillionPolygonMeshParsesQuickly) {
     rib += "]\n";
     Recorder r;
     Diagnostics d;
-    auto t0 = std::chrono::steady_clock::now();
     ASSERT_TRUE(parseString(rib, "big.rib", r, d));
-    [[maybe_unused]] double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     ASSERT_EQ(r.args.size(), 1u);
     EXPECT_EQ(r.args[0].intArrays[1].size(), size_t(4 * n * n));
     EXPECT_EQ(r.args[0].intArrays[1][4 * n * n - 1], (n - 1) * (n + 1) + (n - 1) + n + 1);
     EXPECT_EQ(r.params[0].find("P")->count(), size_t((n + 1) * (n + 1)));
-#ifdef NDEBUG
-    EXPECT_LT(seconds, 3.0);
-#endif
 }
 
 }  // namespace

@@ -278,3 +278,105 @@ TEST(Builder, UnsupportedRequestsWarnOnce) {
 
 }  // namespace
 }  // namespace umbra::scene
+
+namespace umbra::scene {
+namespace {
+
+TEST(Limits, ShadingRatePixelSamplesAndFilterWidthAreClampedWithAWarning) {
+    auto r = run("PixelSamples 1000 3\nPixelFilter \"gaussian\" 1e6 4\nWorldBegin\nShadingRate 1e-6\nSphere 1 -1 1 360\n"
+                 "ShadingRate 1e-5\nSphere 1 -1 1 360\nWorldEnd");
+    EXPECT_EQ(r->diag.errorCount(), 0);
+    EXPECT_EQ(r->messages(), (std::vector<std::string>{
+        "s.rib:1:1: warning: PixelSamples: 1000 3 exceeds the maximum of 32 samples along each axis of a pixel; "
+        "clamped to 32 3",
+        "s.rib:2:1: warning: PixelFilter: widths 1000000 4 exceed the maximum of 16 pixels; clamped to 16 4",
+        // An attribute may be set per object: one warning for them all.
+        "s.rib:4:1: warning: ShadingRate: 1e-06 is below the minimum of 1/64 pixel; clamped to 0.015625"}));
+    ASSERT_EQ(r->sink.worlds.size(), 1u);
+    const Options& o = r->sink.worlds[0].options;
+    EXPECT_EQ(o.pixelSamples[0], kMaxPixelSamples);
+    EXPECT_EQ(o.pixelSamples[1], 3);
+    EXPECT_EQ(o.filterWidth[0], kMaxFilterWidth);
+    EXPECT_EQ(o.filterWidth[1], 4.0f);
+    for (const PrimitiveRecord& p : r->sink.worlds[0].primitives) EXPECT_EQ(p.attributes->shadingRate, kMinShadingRate);
+    // At the limits themselves: no warning.
+    auto ok = run("PixelSamples 32 32 PixelFilter \"box\" 16 16 WorldBegin ShadingRate 0.015625 WorldEnd");
+    EXPECT_TRUE(ok->messages().empty());
+}
+
+TEST(Limits, AHundredThousandUnclosedBlocksGiveAFewLines) {
+    // Ten blocks named, innermost first, then one line for the rest.
+    std::string rib = "FrameBegin 1\nWorldBegin\n";
+    for (int i = 0; i < 100000; ++i) rib += "AttributeBegin\n";
+    auto r = run(rib);
+    std::vector<std::string> m = r->messages();
+    ASSERT_EQ(m.size(), size_t(kMaxListedOpenBlocks) + 1);
+    EXPECT_EQ(m[0], "s.rib:100002:1: error: AttributeBegin: no matching AttributeEnd before the end of the input");
+    EXPECT_EQ(m[9], "s.rib:99993:1: error: AttributeBegin: no matching AttributeEnd before the end of the input");
+    EXPECT_EQ(m[10], "s.rib:1:1: error: FrameBegin: ... and 99992 more blocks with no matching end before the end of "
+                     "the input (the outermost is this one)");
+    // WorldEnd closing them: the same cap.
+    rib += "WorldEnd\n";
+    r = run(rib);
+    m = r->messages();
+    ASSERT_EQ(m.size(), size_t(kMaxListedOpenBlocks) + 2);
+    EXPECT_EQ(m[0], "s.rib:100003:1: error: WorldEnd: the AttributeBegin at s.rib:100002:1 is still open (closed here)");
+    EXPECT_EQ(m[10], "s.rib:100003:1: error: WorldEnd: ... and 99990 more open blocks, closed here (the outermost "
+                     "is the AttributeBegin at s.rib:3:1)");
+    EXPECT_EQ(m[11], "s.rib:1:1: error: FrameBegin: no matching FrameEnd before the end of the input");
+    EXPECT_EQ(r->sink.worlds.size(), 1u);
+}
+
+/// Writes archives a01.rib .. aNN.rib into `dir`, each reading the next
+/// twice; the last holds one sphere.
+void writeFanOut(const std::filesystem::path& dir, int depth) {
+    std::filesystem::create_directories(dir);
+    for (int k = 1; k <= depth; ++k) {
+        std::ofstream out(dir / fmt::format("a{:02}.rib", k));
+        if (k == depth)
+            out << "Sphere 1 -1 1 360\n";
+        else
+            out << fmt::format("ReadArchive \"a{0:02}.rib\"\nReadArchive \"a{0:02}.rib\"\n", k + 1);
+    }
+}
+
+TEST(Limits, ArchivesThatFanOutStopAtTheFramesReadBudget) {
+    // 30 archives deep, each reading the next twice, would read 2^30 files
+    // within the nesting limit. The frame's budget of reads stops them with
+    // one located error.
+    const auto dir = std::filesystem::temp_directory_path() / fmt::format("umbra-fanout-{}", ::getpid());
+    writeFanOut(dir, 30);
+    auto r = run("WorldBegin\nReadArchive \"a01.rib\"\nWorldEnd\n", dir.string());
+    std::vector<std::string> m = r->messages();
+    ASSERT_EQ(m.size(), 1u);
+    EXPECT_NE(m[0].find(": error: ReadArchive: more than 10000 archive reads in one frame; this and the frame's "
+                        "further ReadArchive requests are skipped (raise Option \"limits\" \"archivereads\" if the "
+                        "scene needs more)"),
+              std::string::npos)
+        << m[0];
+    EXPECT_EQ(m[0].find("a"), 0u);  // located in one of the archives
+    ASSERT_EQ(r->sink.worlds.size(), 1u);
+    // Depth-first: the reads reach the bottom, whose spheres are kept.
+    EXPECT_GT(r->sink.worlds[0].primitives.size(), 1000u);
+
+    // Option "limits" "archivereads" sets the budget, per frame: each
+    // frame reads its own 40.
+    r = run("Option \"limits\" \"archivereads\" 40\n"
+            "FrameBegin 1 WorldBegin ReadArchive \"a01.rib\" WorldEnd FrameEnd\n"
+            "FrameBegin 2 WorldBegin ReadArchive \"a01.rib\" WorldEnd FrameEnd\n",
+            dir.string());
+    m = r->messages();
+    ASSERT_EQ(m.size(), 2u);
+    EXPECT_NE(m[0].find("more than 40 archive reads in one frame"), std::string::npos) << m[0];
+    ASSERT_EQ(r->sink.worlds.size(), 2u);
+    EXPECT_EQ(r->sink.worlds[0].primitives.size(), r->sink.worlds[1].primitives.size());
+    EXPECT_EQ(r->sink.worlds[0].primitives.size(), 7u);  // 40 reads: 30 down to a sphere, 10 on the way back
+
+    r = run("Option \"limits\" \"archivereads\" -1", dir.string());
+    EXPECT_EQ(r->messages(), (std::vector<std::string>{
+        "s.rib:1:17: error: Option: limits \"archivereads\" expects an integer of 0 or more, got -1"}));
+    std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace umbra::scene

@@ -1,0 +1,190 @@
+// Inputs past the renderer's limits (docs/rib.md, "Limits") finish with a
+// located warning and a sensible image instead of hanging or exhausting
+// memory. Renders whose risk is memory run the `umbra` command in a child
+// process under a 1 GiB address-space limit (RLIMIT_AS); its exit status,
+// messages and image are checked. A CPU-time limit turns a runaway render
+// into a failure instead of a stall; no test reads a clock.
+
+#include "support/render_harness.h"
+
+#include <gtest/gtest.h>
+
+#include <fmt/format.h>
+
+#include <fcntl.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+using namespace umbra;
+using umbra::test::Image;
+using umbra::test::ScratchDir;
+
+namespace {
+
+constexpr rlim_t kAddressSpace = rlim_t(1) << 30;  // 1 GiB
+constexpr rlim_t kCpuSeconds = 300;                 // far beyond any of these renders
+
+/// How a child render ended.
+struct ChildRun {
+    bool exited = false;  // false: killed by a signal (e.g. SIGXCPU, SIGSEGV)
+    int status = -1;      // exit status, or the signal
+    std::string messages; // what it printed
+    std::string describe() const {
+        return fmt::format("{} {}; output:\n{}", exited ? "exit status" : "killed by signal", status, messages);
+    }
+};
+
+std::string readText(const std::string& path) {
+    std::ifstream in(path);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+
+/// Writes `rib` to dir/name and renders it with `umbra render --threads 2`
+/// in a child process limited to 1 GiB of address space.
+ChildRun renderInChild(const ScratchDir& dir, const std::string& name, const std::string& rib) {
+    const std::string ribPath = dir.file(name);
+    const std::string logPath = dir.file(name + ".log");
+    {
+        std::ofstream out(ribPath);
+        out << rib;
+    }
+    const pid_t pid = fork();
+    if (pid == 0) {
+        rlimit as{kAddressSpace, kAddressSpace};
+        rlimit cpu{kCpuSeconds, kCpuSeconds};
+        setrlimit(RLIMIT_AS, &as);
+        setrlimit(RLIMIT_CPU, &cpu);
+        const int fd = open(logPath.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        if (fd >= 0) {
+            dup2(fd, 1);
+            dup2(fd, 2);
+        }
+        setenv("UMBRA_SHADER_PATH", UMBRA_SOURCE_DIR "/shaders_dsl", 1);
+        execl(UMBRA_APP, "umbra", "render", "--threads", "2", ribPath.c_str(), static_cast<char*>(nullptr));
+        _exit(127);
+    }
+    ChildRun run;
+    int status = 0;
+    if (pid < 0 || waitpid(pid, &status, 0) != pid) return run;
+    run.exited = WIFEXITED(status);
+    run.status = run.exited ? WEXITSTATUS(status) : WTERMSIG(status);
+    run.messages = readText(logPath);
+    return run;
+}
+
+/// A 64 x 48 perspective frame of `world`, camera 5 units back; its
+/// Display writes `out`.
+std::string frame(const std::string& out, const std::string& options, const std::string& world) {
+    return fmt::format(R"(Display "{}" "openexr" "rgba" "string type" "float"
+Format 64 48 1
+Projection "perspective" "fov" 40
+{}
+Translate 0 0 5
+WorldBegin
+Surface "constant"
+{}
+WorldEnd
+)", out, options, world);
+}
+
+/// Sum of the alpha channel: the covered area in pixels.
+double coverage(const std::string& path) {
+    Image img;
+    EXPECT_TRUE(test::readImage(path, &img)) << path;
+    return img.pixels.empty() ? 0.0 : img.channelSum(3);
+}
+
+bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+
+}  // namespace
+
+TEST(Limits, QuadricSweepsOfAHugeAngleAreClampedToOneTurn) {
+    // thetamax 1e30 left u * thetamax no precision, so splitting never made
+    // pieces small enough to dice. Clamped, each quadric renders whole.
+    ScratchDir dir("limits-sweep");
+    const std::string world = R"(AttributeBegin Translate -1.5 0.6 0 Rotate -60 1 0 0 Sphere 0.4 -0.4 0.4 1e30 AttributeEnd
+AttributeBegin Translate -0.5 0.6 0 Rotate -60 1 0 0 Cylinder 0.3 -0.3 0.3 -1e30 AttributeEnd
+AttributeBegin Translate 0.5 0.6 0 Rotate -60 1 0 0 Cone 0.5 0.3 1e30 AttributeEnd
+AttributeBegin Translate 1.5 0.6 0 Rotate -60 1 0 0 Disk 0 0.3 1e30 AttributeEnd
+AttributeBegin Translate -1 -0.6 0 Rotate -60 1 0 0 Paraboloid 0.3 0 0.5 1e30 AttributeEnd
+AttributeBegin Translate 0 -0.6 0 Rotate -60 1 0 0 Hyperboloid 0.3 0 -0.3 0.3 0 0.3 1e30 AttributeEnd
+AttributeBegin Translate 1 -0.6 0 Rotate -60 1 0 0 Torus 0.25 0.1 -1e30 1e30 1e30 AttributeEnd
+)";
+    const ChildRun run = renderInChild(dir, "sweep.rib", frame(dir.file("out.exr"), "", world));
+    ASSERT_TRUE(run.exited && run.status == 0) << run.describe();
+    EXPECT_TRUE(contains(run.messages, "sweep.rib:8:54: warning: Sphere: thetamax 1e+30 is outside [-360, 360] "
+                                       "degrees; clamped to 360"))
+        << run.messages;
+    EXPECT_TRUE(contains(run.messages, "sweep.rib:14:52: warning: Torus: phimin -1e+30 is outside")) << run.messages;
+    // Seven shapes of a few dozen pixels each.
+    EXPECT_GT(coverage(dir.file("out.exr")), 7 * 20.0);
+}
+
+TEST(Limits, TinyShadingRateIsClampedAndTheSphereStillRenders) {
+    // ShadingRate 1e-6 asked for a million micropolygons a pixel.
+    ScratchDir dir("limits-rate");
+    const std::string sphere = "Sphere 1 -1 1 360";
+    const ChildRun ref = renderInChild(dir, "ref.rib", frame(dir.file("ref.exr"), "", "ShadingRate 1\n" + sphere));
+    ASSERT_TRUE(ref.exited && ref.status == 0) << ref.describe();
+    const ChildRun run = renderInChild(dir, "tiny.rib", frame(dir.file("tiny.exr"), "", "ShadingRate 1e-6\n" + sphere));
+    ASSERT_TRUE(run.exited && run.status == 0) << run.describe();
+    EXPECT_TRUE(contains(run.messages, "tiny.rib:8:1: warning: ShadingRate: 1e-06 is below the minimum of 1/64 "
+                                       "pixel; clamped to 0.015625"))
+        << run.messages;
+    const double a = coverage(dir.file("ref.exr")), b = coverage(dir.file("tiny.exr"));
+    EXPECT_GT(a, 200.0);
+    EXPECT_NEAR(b, a, 0.02 * a);
+}
+
+TEST(Limits, HugePixelSamplesAndFilterAreClampedWithinOneGigabyte) {
+    // PixelSamples 1000 1000 on a 64 x 48 frame would be 3e9 samples, and a
+    // filter 1e6 pixels wide would make every bucket sample the whole
+    // frame; together they are the largest sample buffer the limits allow.
+    ScratchDir dir("limits-samples");
+    const std::string sphere = "Sphere 1 -1 1 360";
+    const ChildRun ref = renderInChild(dir, "ref.rib", frame(dir.file("ref.exr"), "", sphere));
+    ASSERT_TRUE(ref.exited && ref.status == 0) << ref.describe();
+    const ChildRun run = renderInChild(
+        dir, "big.rib", frame(dir.file("big.exr"), "PixelSamples 1000 1000\nPixelFilter \"gaussian\" 1e6 1e6", sphere));
+    ASSERT_TRUE(run.exited && run.status == 0) << run.describe();
+    EXPECT_TRUE(contains(run.messages, "big.rib:4:1: warning: PixelSamples: 1000 1000 exceeds the maximum of 32 "
+                                       "samples along each axis of a pixel; clamped to 32 32"))
+        << run.messages;
+    EXPECT_TRUE(contains(run.messages, "big.rib:5:1: warning: PixelFilter: widths 1000000 1000000 exceed the maximum of "
+                                       "16 pixels; clamped to 16 16"))
+        << run.messages;
+    // A wide filter spreads the sphere, some of it off the frame; but it is
+    // there, and nothing is out of range.
+    Image img;
+    ASSERT_TRUE(test::readImage(dir.file("big.exr"), &img));
+    for (float v : img.pixels) ASSERT_TRUE(std::isfinite(v) && v >= -1e-4f && v <= 1.0001f) << v;
+    const double a = coverage(dir.file("ref.exr")), b = img.channelSum(3);
+    EXPECT_GT(b, 0.3 * a);
+    EXPECT_LT(b, 1.05 * a);
+}
+
+TEST(Limits, HugeShadingRateDicesBlockyButPresent) {
+    // ShadingRate 1000 is a micropolygon 32 pixels on a side: the sphere
+    // (about 40 pixels across) used to be diced into a grid whose corners
+    // lie on one meridian and covers nothing. It is diced coarsely, into at
+    // least 8 x 4 micropolygons, and covers most of its disk.
+    ScratchDir dir("limits-coarse");
+    Diagnostics diag;
+    test::renderRib(frame(dir.file("fine.exr"), "", "ShadingRate 1\nSphere 1 -1 1 360"), diag);
+    auto coarseStats = test::renderRib(frame(dir.file("coarse.exr"), "", "ShadingRate 1000\nSphere 1 -1 1 360"), diag);
+    ASSERT_EQ(diag.errorCount(), 0);
+    const double fine = coverage(dir.file("fine.exr")), coarse = coverage(dir.file("coarse.exr"));
+    EXPECT_GT(fine, 200.0);
+    EXPECT_GT(coarse, 0.75 * fine);
+    EXPECT_LT(coarse, 1.01 * fine);  // the facets lie inside the sphere
+    const auto& counts = coarseStats["frames"][0]["passes"][0]["counts"];
+    EXPECT_GE(counts["micropolygons"].get<uint64_t>(), 32u);
+    EXPECT_LE(counts["micropolygons"].get<uint64_t>(), 64u);  // coarse: far fewer than the ~1000 pixels at rate 1
+}
