@@ -532,7 +532,9 @@ private:
 
     void genReturn(const Stmt& s) {
         if (m_funcs.empty()) return;
-        FuncInfo& f = m_funcs.back();
+        // A copy: the value may be a call, whose inlining pushes onto m_funcs
+        // and can move its elements.
+        const FuncInfo f = m_funcs.back();
         if (!s.exprs.empty()) {
             if (f.retTy == Ty::Void) {
                 error(s.loc, "a void function or shader cannot return a value");
