@@ -806,11 +806,12 @@ private:
         if (!base) return {};
         Val idx = coerce(gen(*e.kids[1], Ty::Float), Ty::Float, e.kids[1]->loc);
         if (!idx) return {};
-        const RegInfo& r = m_cs.regs[base.reg];
-        if (r.arrayLen > 0) {
-            int t = temp(r.ty);
+        // By value: temp() below adds a register and can move m_cs.regs.
+        const Ty elemTy = m_cs.regs[base.reg].ty;
+        if (m_cs.regs[base.reg].arrayLen > 0) {
+            int t = temp(elemTy);
             emit(Op::LoadElem, e.loc, t, base.reg, idx.reg);
-            return {t, r.ty};
+            return {t, elemTy};
         }
         if (isTriple(base.ty)) {
             int t = temp(Ty::Float);
