@@ -1566,6 +1566,9 @@ private:
             m_scope->vars[fm.name] = r;
             if (!fm.type.output) m_readOnly.insert(r);
         }
+        // What the throwaway code does is not what the shader does: an
+        // illuminate() there does not make a light non-ambient.
+        const bool hadIlluminate = m_hasIlluminate, usedLights = m_cs.usesLights;
         m_inlining.insert(f.get());
         m_funcs.push_back({f->ret.ty == Ty::Void ? -1 : temp(f->ret.ty), f->ret.ty, -1, 0, int(m_loops.size())});
         genStmt(*f->body);
@@ -1575,6 +1578,8 @@ private:
         m_cs.code.resize(codeSize);
         m_cs.args.resize(argsSize);
         m_cs.ctls.resize(ctlSize);
+        m_hasIlluminate = hadIlluminate;
+        m_cs.usesLights = usedLights;
     }
 
     CompiledShader& m_cs;

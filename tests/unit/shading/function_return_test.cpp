@@ -498,3 +498,13 @@ TEST(FunctionReturn, LightShadersCallFunctionsAroundIlluminateAndSolar) {
         expectNear(g.Oi[i], u < 0.5f ? Vec3(0.f) : Vec3(0.5f, 0.5f * u, -0.5f) * (1 + u), 1e-5f);
     }
 }
+
+TEST(FunctionReturn, IlluminateInAnUncalledFunctionLeavesAnAmbientLight) {
+    // A light is ambient when it runs no illuminate() or solar(); one in a
+    // function it never calls does not count.
+    Harness h;
+    auto amb = h.instance("void unused() { illuminate(P) Cl = 5; }\nlight amb(float k = 0.25) { Cl = k; }");
+    ShadingGrid g = leaningGrid();
+    h.surface("surface s() { Ci = ambient(); }", g, {amb.get()});
+    for (size_t i = 0; i < 6; ++i) expectNear(g.Ci[i], Vec3(0.25f), 1e-6f);
+}
