@@ -508,3 +508,19 @@ TEST(FunctionReturn, IlluminateInAnUncalledFunctionLeavesAnAmbientLight) {
     h.surface("surface s() { Ci = ambient(); }", g, {amb.get()});
     for (size_t i = 0; i < 6; ++i) expectNear(g.Ci[i], Vec3(0.25f), 1e-6f);
 }
+
+TEST(FunctionReturn, LightsourceAfterANestedIlluminanceLoop) {
+    // lightsource() in an outer loop's body reads the outer loop's light,
+    // also after an inner loop over the lights has ended.
+    Harness h;
+    h.svc.spaces["world"] = Mat4::identity();
+    auto a = h.instance("light la(output float tag = 3) { solar(vector(0, 0, 1), 0) Cl = 1; }");
+    auto b = h.instance("light lb(output float tag = 7) { solar(vector(0, 0, 1), 0) Cl = 2; }");
+    ShadingGrid g = leaningGrid();
+    h.surface("float count() { float n = 0; illuminance(P) n += 1; return n; }\n"
+              "surface s() { float sum = 0, inner = 0;\n"
+              "  illuminance(P) { inner += count(); float t = 0; if (lightsource(\"tag\", t)) sum += t; else sum -= 100; }\n"
+              "  Ci = color(sum, inner, 0); }",
+              g, {a.get(), b.get()});
+    for (size_t i = 0; i < 6; ++i) expectNear(g.Ci[i], Vec3(3 + 7, 4, 0), 1e-6f);
+}
