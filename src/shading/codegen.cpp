@@ -8,6 +8,7 @@
 
 #include "builtins.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -1453,8 +1454,11 @@ private:
     /// Inlines a user function: formals alias the arguments (RSL passes by
     /// reference; only output formals may be written).
     Val inlineCall(const Expr& e, const std::shared_ptr<FuncDef>& f, const std::shared_ptr<Scope>& defScope) {
-        if (m_inlining.count(f.get())) {
-            error(e.loc, fmt::format("function '{}' calls itself (recursion is not allowed)", f->name));
+        if (auto self = std::find(m_inlining.begin(), m_inlining.end(), f.get()); self != m_inlining.end()) {
+            // Name the functions between, when the call comes back through others.
+            std::string via;
+            for (auto g = self + 1; g != m_inlining.end(); ++g) via += fmt::format("{}'{}'", via.empty() ? " through " : ", ", (*g)->name);
+            error(e.loc, fmt::format("function '{}' calls itself{} (recursion is not allowed)", f->name, via));
             return {};
         }
         if (m_inlining.size() > 64) {
@@ -1518,7 +1522,7 @@ private:
         for (auto& [n, r] : scope->vars)
             if (!readOnly.count(r)) m_readOnly.erase(r);
         m_scope = scope;
-        m_inlining.insert(f.get());
+        m_inlining.push_back(f.get());
         int savedCtl = m_ctl;
         int frame = -1;
         if (needFrame) {
@@ -1534,7 +1538,7 @@ private:
             --m_frameDepth;
         }
         m_ctl = savedCtl;
-        m_inlining.erase(f.get());
+        m_inlining.pop_back();
         m_scope = savedScope;
         m_readOnly = savedReadOnly;
         return {result, f->ret.ty};
@@ -1569,11 +1573,11 @@ private:
         // What the throwaway code does is not what the shader does: an
         // illuminate() there does not make a light non-ambient.
         const bool hadIlluminate = m_hasIlluminate, usedLights = m_cs.usesLights;
-        m_inlining.insert(f.get());
+        m_inlining.push_back(f.get());
         m_funcs.push_back({f->ret.ty == Ty::Void ? -1 : temp(f->ret.ty), f->ret.ty, -1, 0, int(m_loops.size())});
         genStmt(*f->body);
         m_funcs.pop_back();
-        m_inlining.erase(f.get());
+        m_inlining.pop_back();
         m_scope = saved;
         m_cs.code.resize(codeSize);
         m_cs.args.resize(argsSize);
@@ -1589,7 +1593,8 @@ private:
     std::map<std::string, int> m_constS;
     std::vector<LoopInfo> m_loops;
     std::vector<FuncInfo> m_funcs;
-    std::set<const FuncDef*> m_inlining, m_inlinedOnce;
+    std::vector<const FuncDef*> m_inlining;  // the functions being inlined, outermost first
+    std::set<const FuncDef*> m_inlinedOnce;
     std::set<int> m_readOnly;
     std::set<std::string> m_reported;
     int m_frameDepth = 0;

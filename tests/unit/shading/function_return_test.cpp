@@ -360,7 +360,10 @@ TEST(FunctionReturn, RecursionIsRejectedWithAClearError) {
         {"float f(float x) { if (x < 1) return 0; return f(x - 1) + 1; }\nsurface s() { Ci = f(u); }",
          "rec.sl:1:48: error: function 'f' calls itself (recursion is not allowed)"},
         {"float a(float x) { return b(x); }\nfloat b(float x) { return x < 0 ? 0 : a(x - 1); }\nsurface s() { Ci = a(u); }",
-         "rec.sl:2:39: error: function 'a' calls itself (recursion is not allowed)"},
+         "rec.sl:2:39: error: function 'a' calls itself through 'b' (recursion is not allowed)"},
+        {"float c(float x) { return x; }\nfloat a(float x) { return b(c(x)); }\n"
+         "float b(float x) { return d(x); }\nfloat d(float x) { return a(x) + c(x); }\nsurface s() { Ci = a(u); }",
+         "rec.sl:4:27: error: function 'a' calls itself through 'b', 'd' (recursion is not allowed)"},
         {"float f(float x) { return f(x); }\nsurface s() { Ci = 1; }",
          "rec.sl:1:27: error: function 'f' calls itself (recursion is not allowed)"},
     };
