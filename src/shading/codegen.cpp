@@ -417,7 +417,7 @@ private:
             for (auto& b : s.body) genStmt(*b);
             popScope();
             break;
-        case Stmt::ExprS: gen(*s.exprs[0], Ty::Void); break;
+        case Stmt::ExprS: genEffect(*s.exprs[0]); break;
         case Stmt::Decl:
             for (auto& d : s.decls) declareLocal(d);
             break;
@@ -484,7 +484,7 @@ private:
 
     void genLoop(const Stmt& s) {
         bool isFor = s.kind == Stmt::For;
-        if (isFor && s.exprs[0]) gen(*s.exprs[0], Ty::Void);
+        if (isFor && s.exprs[0]) genEffect(*s.exprs[0]);
         int saved = m_ctl;
         emit(Op::LoopBegin, s.loc);
         int lDepth = m_frameDepth++;
@@ -510,7 +510,7 @@ private:
         m_loops.pop_back();
         emit(Op::LoopCont, s.loc);
         --m_frameDepth;
-        if (step) gen(*step, Ty::Void);
+        if (step) genEffect(*step);
         emit(Op::Jump, s.loc).target = top;
         m_cs.code[exitAt].target = here();
         m_ctl = saved;
@@ -700,6 +700,29 @@ private:
         }
     }
 
+    /// Generates an expression evaluated for its effects (a statement, a for
+    /// loop's init or step): the one place where a void call may stand.
+    void genEffect(const Expr& e) {
+        const Expr* saved = m_effectExpr;
+        m_effectExpr = &e;
+        gen(e, Ty::Void);
+        m_effectExpr = saved;
+    }
+
+    /// True when `name` calls a void user function, or a built-in whose
+    /// every form is void.
+    bool callIsVoid(const std::string& name) const {
+        std::shared_ptr<Scope> where;
+        if (auto f = lookupFunc(name, &where)) return f->ret.ty == Ty::Void;
+        bool any = false;
+        for (const BuiltinSig& sig : builtinTable()) {
+            if (name != sig.name) continue;
+            if (sig.ret[0] != 'v') return false;
+            any = true;
+        }
+        return any;
+    }
+
     Val gen(const Expr& e, Ty hint) {
         if (++m_exprDepth > 1200) {
             error(e.loc, "expression nested too deeply");
@@ -724,7 +747,12 @@ private:
             return {r, m_cs.regs[r].ty};
         }
         case Expr::Index: return genIndex(e);
-        case Expr::Call: return genCall(e, hint);
+        case Expr::Call:
+            if (&e != m_effectExpr && callIsVoid(e.name)) {
+                error(e.loc, fmt::format("'{}' returns no value (it is void) but its value is used", e.name));
+                return {};
+            }
+            return genCall(e, hint);
         case Expr::Unary: return genUnary(e);
         case Expr::Binary: return genBinary(e);
         case Expr::Assign: return genAssign(e);
@@ -1469,6 +1497,7 @@ private:
             error(e.loc, fmt::format("function '{}' expects {} argument(s), got {}", f->name, f->formals.size(), e.kids.size()));
             return {};
         }
+        checkReturns(*f);
         m_inlinedOnce.insert(f.get());
         auto scope = std::make_shared<Scope>();
         scope->parent = defScope;
@@ -1544,6 +1573,15 @@ private:
         return {result, f->ret.ty};
     }
 
+    /// A function with a value must have a return statement; without one
+    /// its callers would read a result register nothing wrote.
+    void checkReturns(const FuncDef& f) {
+        if (f.ret.ty == Ty::Void) return;
+        int count = 0;
+        countReturns(*f.body, &count);
+        if (count == 0) error(f.loc, fmt::format("function '{}' must return a {} but has no return statement", f.name, tyName(f.ret.ty)));
+    }
+
     /// True unless the body's only return is its last statement.
     static bool needsReturnFrame(const Stmt& body) {
         int count = 0;
@@ -1561,6 +1599,7 @@ private:
     void checkUncalled(const std::shared_ptr<FuncDef>& f, const std::shared_ptr<Scope>& globals) {
         // Bind each formal to a fresh variable of its type and generate the
         // body into throwaway code, only for its error messages.
+        checkReturns(*f);
         size_t codeSize = m_cs.code.size(), argsSize = m_cs.args.size(), ctlSize = m_cs.ctls.size();
         auto saved = m_scope;
         m_scope = std::make_shared<Scope>();
@@ -1600,6 +1639,7 @@ private:
     int m_frameDepth = 0;
     int m_ctl = 0;
     int m_exprDepth = 0;
+    const Expr* m_effectExpr = nullptr;  // see genEffect()
     bool m_hasIlluminate = false;
 };
 

@@ -527,3 +527,33 @@ TEST(FunctionReturn, LightsourceAfterANestedIlluminanceLoop) {
               g, {a.get(), b.get()});
     for (size_t i = 0; i < 6; ++i) expectNear(g.Ci[i], Vec3(3 + 7, 4, 0), 1e-6f);
 }
+
+TEST(FunctionReturn, ValuesOfVoidCallsAndMissingReturnsAreErrors) {
+    // Both would leave the caller reading a register nothing wrote.
+    struct Case {
+        const char* src;
+        const char* message;
+    };
+    const Case cases[] = {
+        {"void paint() { Ci = 1; }\nsurface s() { Oi = paint(); }",
+         "bad.sl:2:20: error: 'paint' returns no value (it is void) but its value is used"},
+        {"surface s() { color c = 0; float x = 1 + setcomp(c, 0, 1); Ci = x; }",
+         "bad.sl:1:42: error: 'setcomp' returns no value (it is void) but its value is used"},
+        {"float half(float x) { float y = x / 2; }\nsurface s() { Ci = half(u); }",
+         "bad.sl:1:7: error: function 'half' must return a float but has no return statement"},
+        {"color never() { Ci = 0; }\nsurface s() { Ci = 1; }",
+         "bad.sl:1:7: error: function 'never' must return a color but has no return statement"},
+    };
+    for (const Case& c : cases) {
+        Harness h;
+        EXPECT_FALSE(h.sys.compileSource(c.src, "bad.sl")) << c.src;
+        EXPECT_NE(h.messages().find(c.message), std::string::npos) << h.messages();
+    }
+    // As statements, and as a for loop's step, void calls are fine.
+    Harness h;
+    ShadingGrid g = runLine(h,
+                            "void bump(output float k) { k += 1; }\n"
+                            "surface s() { float k, n = 0; for (k = 0; k < 3 + u * 5; bump(k)) n += 2; bump(n); printf(\"\"); Ci = n; }");
+    EXPECT_EQ(h.diag.errorCount(), 0) << h.messages();
+    for (size_t i = 0; i < g.Ci.size(); ++i) EXPECT_NEAR(g.Ci[i].x, 2 * std::ceil(3 + g.u[i] * 5) + 1, 1e-5f) << i;
+}
