@@ -8,6 +8,7 @@
 
 #include "builtins.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -416,7 +417,7 @@ private:
             for (auto& b : s.body) genStmt(*b);
             popScope();
             break;
-        case Stmt::ExprS: gen(*s.exprs[0], Ty::Void); break;
+        case Stmt::ExprS: genEffect(*s.exprs[0]); break;
         case Stmt::Decl:
             for (auto& d : s.decls) declareLocal(d);
             break;
@@ -483,7 +484,7 @@ private:
 
     void genLoop(const Stmt& s) {
         bool isFor = s.kind == Stmt::For;
-        if (isFor && s.exprs[0]) gen(*s.exprs[0], Ty::Void);
+        if (isFor && s.exprs[0]) genEffect(*s.exprs[0]);
         int saved = m_ctl;
         emit(Op::LoopBegin, s.loc);
         int lDepth = m_frameDepth++;
@@ -509,7 +510,7 @@ private:
         m_loops.pop_back();
         emit(Op::LoopCont, s.loc);
         --m_frameDepth;
-        if (step) gen(*step, Ty::Void);
+        if (step) genEffect(*step);
         emit(Op::Jump, s.loc).target = top;
         m_cs.code[exitAt].target = here();
         m_ctl = saved;
@@ -532,7 +533,9 @@ private:
 
     void genReturn(const Stmt& s) {
         if (m_funcs.empty()) return;
-        FuncInfo& f = m_funcs.back();
+        // A copy: the value may be a call, whose inlining pushes onto m_funcs
+        // and can move its elements.
+        const FuncInfo f = m_funcs.back();
         if (!s.exprs.empty()) {
             if (f.retTy == Ty::Void) {
                 error(s.loc, "a void function or shader cannot return a value");
@@ -697,6 +700,29 @@ private:
         }
     }
 
+    /// Generates an expression evaluated for its effects (a statement, a for
+    /// loop's init or step): the one place where a void call may stand.
+    void genEffect(const Expr& e) {
+        const Expr* saved = m_effectExpr;
+        m_effectExpr = &e;
+        gen(e, Ty::Void);
+        m_effectExpr = saved;
+    }
+
+    /// True when `name` calls a void user function, or a built-in whose
+    /// every form is void.
+    bool callIsVoid(const std::string& name) const {
+        std::shared_ptr<Scope> where;
+        if (auto f = lookupFunc(name, &where)) return f->ret.ty == Ty::Void;
+        bool any = false;
+        for (const BuiltinSig& sig : builtinTable()) {
+            if (name != sig.name) continue;
+            if (sig.ret[0] != 'v') return false;
+            any = true;
+        }
+        return any;
+    }
+
     Val gen(const Expr& e, Ty hint) {
         if (++m_exprDepth > 1200) {
             error(e.loc, "expression nested too deeply");
@@ -721,7 +747,12 @@ private:
             return {r, m_cs.regs[r].ty};
         }
         case Expr::Index: return genIndex(e);
-        case Expr::Call: return genCall(e, hint);
+        case Expr::Call:
+            if (&e != m_effectExpr && callIsVoid(e.name)) {
+                error(e.loc, fmt::format("'{}' returns no value (it is void) but its value is used", e.name));
+                return {};
+            }
+            return genCall(e, hint);
         case Expr::Unary: return genUnary(e);
         case Expr::Binary: return genBinary(e);
         case Expr::Assign: return genAssign(e);
@@ -804,11 +835,12 @@ private:
         if (!base) return {};
         Val idx = coerce(gen(*e.kids[1], Ty::Float), Ty::Float, e.kids[1]->loc);
         if (!idx) return {};
-        const RegInfo& r = m_cs.regs[base.reg];
-        if (r.arrayLen > 0) {
-            int t = temp(r.ty);
+        // By value: temp() below adds a register and can move m_cs.regs.
+        const Ty elemTy = m_cs.regs[base.reg].ty;
+        if (m_cs.regs[base.reg].arrayLen > 0) {
+            int t = temp(elemTy);
             emit(Op::LoadElem, e.loc, t, base.reg, idx.reg);
-            return {t, r.ty};
+            return {t, elemTy};
         }
         if (isTriple(base.ty)) {
             int t = temp(Ty::Float);
@@ -1450,8 +1482,11 @@ private:
     /// Inlines a user function: formals alias the arguments (RSL passes by
     /// reference; only output formals may be written).
     Val inlineCall(const Expr& e, const std::shared_ptr<FuncDef>& f, const std::shared_ptr<Scope>& defScope) {
-        if (m_inlining.count(f.get())) {
-            error(e.loc, fmt::format("function '{}' calls itself (recursion is not allowed)", f->name));
+        if (auto self = std::find(m_inlining.begin(), m_inlining.end(), f.get()); self != m_inlining.end()) {
+            // Name the functions between, when the call comes back through others.
+            std::string via;
+            for (auto g = self + 1; g != m_inlining.end(); ++g) via += fmt::format("{}'{}'", via.empty() ? " through " : ", ", (*g)->name);
+            error(e.loc, fmt::format("function '{}' calls itself{} (recursion is not allowed)", f->name, via));
             return {};
         }
         if (m_inlining.size() > 64) {
@@ -1462,6 +1497,7 @@ private:
             error(e.loc, fmt::format("function '{}' expects {} argument(s), got {}", f->name, f->formals.size(), e.kids.size()));
             return {};
         }
+        checkReturns(*f);
         m_inlinedOnce.insert(f.get());
         auto scope = std::make_shared<Scope>();
         scope->parent = defScope;
@@ -1515,7 +1551,7 @@ private:
         for (auto& [n, r] : scope->vars)
             if (!readOnly.count(r)) m_readOnly.erase(r);
         m_scope = scope;
-        m_inlining.insert(f.get());
+        m_inlining.push_back(f.get());
         int savedCtl = m_ctl;
         int frame = -1;
         if (needFrame) {
@@ -1531,10 +1567,19 @@ private:
             --m_frameDepth;
         }
         m_ctl = savedCtl;
-        m_inlining.erase(f.get());
+        m_inlining.pop_back();
         m_scope = savedScope;
         m_readOnly = savedReadOnly;
         return {result, f->ret.ty};
+    }
+
+    /// A function with a value must have a return statement; without one
+    /// its callers would read a result register nothing wrote.
+    void checkReturns(const FuncDef& f) {
+        if (f.ret.ty == Ty::Void) return;
+        int count = 0;
+        countReturns(*f.body, &count);
+        if (count == 0) error(f.loc, fmt::format("function '{}' must return a {} but has no return statement", f.name, tyName(f.ret.ty)));
     }
 
     /// True unless the body's only return is its last statement.
@@ -1554,6 +1599,7 @@ private:
     void checkUncalled(const std::shared_ptr<FuncDef>& f, const std::shared_ptr<Scope>& globals) {
         // Bind each formal to a fresh variable of its type and generate the
         // body into throwaway code, only for its error messages.
+        checkReturns(*f);
         size_t codeSize = m_cs.code.size(), argsSize = m_cs.args.size(), ctlSize = m_cs.ctls.size();
         auto saved = m_scope;
         m_scope = std::make_shared<Scope>();
@@ -1563,15 +1609,20 @@ private:
             m_scope->vars[fm.name] = r;
             if (!fm.type.output) m_readOnly.insert(r);
         }
-        m_inlining.insert(f.get());
+        // What the throwaway code does is not what the shader does: an
+        // illuminate() there does not make a light non-ambient.
+        const bool hadIlluminate = m_hasIlluminate, usedLights = m_cs.usesLights;
+        m_inlining.push_back(f.get());
         m_funcs.push_back({f->ret.ty == Ty::Void ? -1 : temp(f->ret.ty), f->ret.ty, -1, 0, int(m_loops.size())});
         genStmt(*f->body);
         m_funcs.pop_back();
-        m_inlining.erase(f.get());
+        m_inlining.pop_back();
         m_scope = saved;
         m_cs.code.resize(codeSize);
         m_cs.args.resize(argsSize);
         m_cs.ctls.resize(ctlSize);
+        m_hasIlluminate = hadIlluminate;
+        m_cs.usesLights = usedLights;
     }
 
     CompiledShader& m_cs;
@@ -1581,12 +1632,14 @@ private:
     std::map<std::string, int> m_constS;
     std::vector<LoopInfo> m_loops;
     std::vector<FuncInfo> m_funcs;
-    std::set<const FuncDef*> m_inlining, m_inlinedOnce;
+    std::vector<const FuncDef*> m_inlining;  // the functions being inlined, outermost first
+    std::set<const FuncDef*> m_inlinedOnce;
     std::set<int> m_readOnly;
     std::set<std::string> m_reported;
     int m_frameDepth = 0;
     int m_ctl = 0;
     int m_exprDepth = 0;
+    const Expr* m_effectExpr = nullptr;  // see genEffect()
     bool m_hasIlluminate = false;
 };
 

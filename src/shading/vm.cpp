@@ -633,7 +633,9 @@ void illumNext(Exec& x, const Instr& in, int* pc) {
         return;
     }
     x.illum.pop_back();
-    x.currentLight = -1;
+    // Back in an enclosing loop's body (nested illuminance), lightsource()
+    // reads that loop's light again: the one before its `next`.
+    x.currentLight = x.illum.empty() ? -1 : x.illum.back().next - 1;
     x.refreshActive();
     *pc = in.target;
 }

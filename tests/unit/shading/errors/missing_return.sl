@@ -1,0 +1,6 @@
+float halve(float x) { float y = x / 2; }
+
+surface missing_return()
+{
+    Ci = halve(s);
+}

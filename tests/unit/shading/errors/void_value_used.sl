@@ -1,0 +1,6 @@
+void paint(color c) { Ci = c; }
+
+surface void_value_used()
+{
+    Oi = paint(Cs);
+}
