@@ -357,6 +357,7 @@ void Builder::objectBegin(const std::string& handle, const FileLoc& loc) {
     push(Block::Object, loc);
     m_objectHandle = handle;
     m_objects[handle].clear();
+    m_objectAttributesAtBegin = m_state.attrs;
     bool ok = true;
     m_objectFromCurrentAtBegin = m_state.transform.inverse(&ok);
     if (!ok) m_diag.error(loc, "ObjectBegin: the current transform is singular");
@@ -381,10 +382,19 @@ void Builder::objectInstance(const std::string& handle, const FileLoc& loc) {
         return;
     }
     if (skipMotionSample()) return;
+    // Pieces share attributes: the instance's where the definition set
+    // none, else one merge per distinct state inside the definition.
+    std::map<const Attributes*, std::shared_ptr<const Attributes>> merged;
     for (const ObjectPrim& op : it->second) {
         PrimitiveRecord r = op.record;
         r.worldFromObject = m_state.transform * op.objectFromPrim;
-        r.attributes = m_state.attrs;
+        if (op.record.attributes == op.atBegin) {
+            r.attributes = m_state.attrs;
+        } else {
+            auto& a = merged[op.record.attributes.get()];
+            if (!a) a = std::make_shared<const Attributes>(instanceAttributes(*m_state.attrs, *op.atBegin, *op.record.attributes));
+            r.attributes = a;
+        }
         m_world->primitives.push_back(std::move(r));
     }
 }
@@ -1073,7 +1083,8 @@ void Builder::primitive(const std::string& type, ri::RequestArgs args, ri::Param
     r.params = std::move(params);
     r.loc = loc;
     if (!m_objectHandle.empty()) {
-        ObjectPrim op{std::move(r), m_objectFromCurrentAtBegin * m_state.transform};
+        r.attributes = m_state.attrs;
+        ObjectPrim op{std::move(r), m_objectFromCurrentAtBegin * m_state.transform, m_objectAttributesAtBegin};
         m_objects[m_objectHandle].push_back(std::move(op));
         return;
     }

@@ -172,8 +172,9 @@ private:
     /// A primitive inside ObjectBegin/ObjectEnd, relative to the object's
     /// coordinate system (the transform at ObjectBegin).
     struct ObjectPrim {
-        PrimitiveRecord record;
+        PrimitiveRecord record;   // its attributes: the state inside the definition
         Mat4 objectFromPrim;
+        std::shared_ptr<const Attributes> atBegin;  // the state at ObjectBegin
     };
 
     Attributes& mutableAttributes();
@@ -220,6 +221,7 @@ private:
     std::vector<PreWorldLight> m_preWorldLights;
     std::map<std::string, std::vector<ObjectPrim>> m_objects;
     std::string m_objectHandle;                  // non-empty while defining an object
+    std::shared_ptr<const Attributes> m_objectAttributesAtBegin;
     Mat4 m_objectFromCurrentAtBegin;
     int m_motionRequests = 0;
     int m_archiveReads = 0;              // ReadArchive requests of the current frame (or before the first)

@@ -44,7 +44,8 @@ struct Basis {
 };
 
 /// The attribute state a primitive carries (immutable once a primitive
-/// references it; the builder copies on write).
+/// references it; the builder copies on write). A new field must also be
+/// merged by instanceAttributes() (src/scene/attributes.cpp).
 struct Attributes {
     Color color{1, 1, 1};
     Color opacity{1, 1, 1};
@@ -85,6 +86,12 @@ struct Attributes {
     /// attribute() shadeop and for modules' own attributes ("umbra:...").
     std::map<std::string, ri::Param> user;
 };
+
+/// The attributes of a piece of an object instance: the instance's, except
+/// for those the object's definition set (RI spec 3.2 §4.4 as PRMan reads
+/// it): where `defined` (the piece's state inside ObjectBegin/ObjectEnd)
+/// differs from `atBegin` (the state at ObjectBegin), the definition wins.
+Attributes instanceAttributes(const Attributes& instance, const Attributes& atBegin, const Attributes& defined);
 
 /// A geometric primitive request: type name ("Sphere", "PointsPolygons",
 /// "PatchMesh", ...), its positional arguments, its parameter list, and the
