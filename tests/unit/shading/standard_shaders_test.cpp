@@ -49,7 +49,7 @@ struct Reference {
             if (c <= 0) continue;
             diff += Cl * c;
             Vec3 H = normalize(Ln + V);
-            spec += Cl * std::pow(std::max(0.f, dot(Nn, H)), 1 / roughness);
+            spec += Cl * std::pow(std::max(0.f, dot(Nn, H)), 8 / roughness);  // PRMan's exponent
         }
         return (Ka * ambient + Kd * diff) + Ks * spec;
     }
