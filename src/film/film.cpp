@@ -342,6 +342,9 @@ bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Option
         zQ.dither = v;
     }
 
+    if (const ri::Param* f = display.params.find("filter"))
+        diag.warningOnce("display-filter", f->loc, "display \"{}\": a display's own \"filter\" is not supported; "
+                         "every display uses the frame's PixelFilter", display.name);
     std::vector<ChannelSource> channels;
     if (mode.isAov()) {
         int idx = findAov(mode.aovName);
@@ -483,7 +486,20 @@ bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Option
     const bool unpremultiply = format == Format::Png && alphaChannel >= 0;
 
     // Convert the pixels.
-    const float gain = options.exposureGain, invGamma = options.exposureGamma != 0 ? 1.0f / options.exposureGamma : 1.0f;
+    // A display's own "exposure" [gain gamma] replaces the frame's, and then
+    // applies to its AOV's channels too.
+    float gain = options.exposureGain, gamma = options.exposureGamma;
+    bool ownExposure = false;
+    if (const ri::Param* e = display.params.find("exposure"); e && e->floats.size() == 2) {
+        gain = e->floats[0];
+        gamma = e->floats[1];
+        ownExposure = true;
+    } else if (e) {
+        diag.warning(e->loc, "display \"{}\": \"exposure\" expects [gain gamma] (ignored)", display.name);
+    }
+    if (ownExposure)
+        for (ChannelSource& c : channels) c.exposure = c.exposure || c.kind == ChannelSource::Aov;
+    const float invGamma = gamma > 0 ? 1.0f / gamma : 1.0f;
     const bool exposeIdentity = gain == 1.0f && invGamma == 1.0f;
     const size_t npix = size_t(m_width) * size_t(m_height);
     // Uninitialised: every value is written below, by the row's thread.

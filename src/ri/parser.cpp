@@ -758,12 +758,14 @@ private:
         return true;
     }
 
-    /// Requests whose parameters are a shader's: undeclared names there are
-    /// the shader's own parameters, typed by its declarations when bound.
+    /// Requests whose parameters are a shader's (or a display driver's):
+    /// undeclared names there are the shader's own parameters, typed by its
+    /// declarations when bound; a driver reads what it knows ("exposure"
+    /// [gain gamma]) and ignores the rest.
     static bool isShaderRequest(std::string_view request) {
         return request == "Surface" || request == "Displacement" || request == "Atmosphere" ||
                request == "Interior" || request == "Exterior" || request == "LightSource" ||
-               request == "AreaLightSource" || request == "Imager";
+               request == "AreaLightSource" || request == "Imager" || request == "Display";
     }
 
     /// A declaration from the values alone: strings are `uniform string`,

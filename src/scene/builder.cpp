@@ -203,7 +203,11 @@ void Builder::endOfInput(const FileLoc& loc) {
 }
 
 void Builder::version(float v, const FileLoc& loc) {}
-void Builder::declare(const ri::ParamDecl& decl, const FileLoc& loc) {}
+void Builder::declare(const ri::ParamDecl& decl, const FileLoc& loc) {
+    // Displays name declared output variables bare: `Declare "mask"
+    // "varying float"`, then `Display "+m.tif" "file" "mask"`.
+    m_declarations[decl.name] = decl;
+}
 bool Builder::readArchive(const std::string& resolvedPath, const FileLoc& loc) {
     // The nesting limit bounds the depth, not the work: archives that each
     // read the next twice, 30 deep, would read 2^30 files. Each frame may
@@ -784,6 +788,8 @@ void Builder::display(const std::string& name, const std::string& driver, const 
     d.name = add ? name.substr(1) : name;
     d.driver = driver;
     d.mode = mode;
+    auto declared = m_declarations.find(mode);
+    if (declared != m_declarations.end()) d.mode = declared->second.str();
     d.params = std::move(params);
     d.loc = loc;
     if (!add) m_options.displays.clear();

@@ -219,6 +219,7 @@ private:
         FileLoc loc;
     };
     std::vector<PreWorldLight> m_preWorldLights;
+    std::map<std::string, ri::ParamDecl> m_declarations;  // by Declare, by name
     std::map<std::string, std::vector<ObjectPrim>> m_objects;
     std::string m_objectHandle;                  // non-empty while defining an object
     std::shared_ptr<const Attributes> m_objectAttributesAtBegin;
