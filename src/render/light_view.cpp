@@ -1,5 +1,7 @@
 #include "render/light_view.h"
 
+#include "shading/slc.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -32,12 +34,14 @@ LightGeometry lightGeometry(const scene::LightRecord& light, const shading::Shad
     LightGeometry g;
     const std::string& name = light.shader.name;
     bool hasCone = light.shader.params.find("coneangle") || (shader && shader->param("coneangle"));
-    if (contains(name, "spot") || hasCone)
+    if (shader && shader->code().isSolarLight)
+        g.shape = LightShape::Distant;  // solar(): whatever the user named it
+    else if (contains(name, "spot") || hasCone)
         g.shape = LightShape::Spot;
     else if (contains(name, "distant") || contains(name, "solar"))
         g.shape = LightShape::Distant;
-    else if (contains(name, "point"))
-        g.shape = LightShape::Point;
+    else if (contains(name, "point") || (shader && !shader->code().isAmbientLight))
+        g.shape = LightShape::Point;  // illuminate() from a position without a cone
     // RenderMan's defaults: from the shader-space origin along its +z axis.
     g.from = pointParam(light, "from").value_or(light.shader.worldFromShader.point({0, 0, 0}));
     g.to = pointParam(light, "to").value_or(light.shader.worldFromShader.point({0, 0, 1}));

@@ -307,13 +307,17 @@ PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const st
     ss.sampling.perspective = pass.camera.perspective;
     ss.sampling.farClip = pass.camera.farClip;
     if (pass.depthOnly) ss.filterMargin = 0;  // depths are per-pixel minima, never filtered
-    if (pass.depthOnly && pass.name != "camera") {
-        // Automatic depth maps: one regular sample at each pixel centre
-        // (Reeves), in buckets holding about as many samples as a camera
-        // bucket does.
+    if (pass.depthOnly) {
+        // Depth maps, automatic or from a light-view RIB: one regular sample
+        // at each texel centre (Reeves), whatever PixelSamples says. Every
+        // filter's comparison assumes a texel holds its surfaces' depths at
+        // its centre: the minimum of jittered samples is a point nearer the
+        // light, and a two-layer map's virtual samples then see an open
+        // floor shadow itself. Automatic maps' buckets hold about as many
+        // samples as a camera bucket does.
         ss.sampling.xSamples = ss.sampling.ySamples = 1;
         ss.sampling.jitter = false;
-        if (settings.bucketSize <= 0) ss.bucketSize[0] = ss.bucketSize[1] = 64;
+        if (settings.bucketSize <= 0 && pass.name != "camera") ss.bucketSize[0] = ss.bucketSize[1] = 64;
     } else {
         ss.sampling.xSamples = std::max(1, options.pixelSamples[0]);
         ss.sampling.ySamples = std::max(1, options.pixelSamples[1]);
@@ -702,7 +706,13 @@ DepthFilter Renderer::Impl::depthFilterOf(const scene::Options& options, const F
 
 Pass::Cull Renderer::Impl::depthCullOf(const scene::Options& options, const FileLoc& loc) {
     auto it = options.user.find("umbra:depthcull");
-    if (it == options.user.end() || it->second.strings.empty()) return Pass::Cull::Back;
+    if (it == options.user.end() || it->second.strings.empty()) {
+        // By default each filter culls as its paper does: a second-depth map
+        // needs the far side of a solid (Wang & Molnar store it, culling
+        // nothing), the others store the lit side (Weiskopf & Ertl cull
+        // back faces). Only Sides 1 surfaces are ever culled.
+        return depthFilterOf(options, loc) == DepthFilter::Second ? Pass::Cull::None : Pass::Cull::Back;
+    }
     const std::string& v = it->second.strings[0];
     if (v == "none") return Pass::Cull::None;
     if (v == "front" || v == "lightfacing") return Pass::Cull::Front;

@@ -604,6 +604,7 @@ private:
             return;
         }
         m_hasIlluminate = true;
+        (solar ? m_hasSolar : m_hasIlluminateAt) = true;
         size_t n = s.exprs.size();
         bool ok = solar ? (n == 0 || n == 2) : (n == 1 || n == 3);
         if (!ok) {
@@ -637,6 +638,8 @@ private:
 
 public:
     bool hasIlluminate() const { return m_hasIlluminate; }
+    bool hasSolar() const { return m_hasSolar; }
+    bool hasIlluminateAt() const { return m_hasIlluminateAt; }
 
 private:
     // --- expressions ---------------------------------------------------
@@ -1612,6 +1615,7 @@ private:
         // What the throwaway code does is not what the shader does: an
         // illuminate() there does not make a light non-ambient.
         const bool hadIlluminate = m_hasIlluminate, usedLights = m_cs.usesLights;
+        const bool hadSolar = m_hasSolar, hadIlluminateAt = m_hasIlluminateAt;
         m_inlining.push_back(f.get());
         m_funcs.push_back({f->ret.ty == Ty::Void ? -1 : temp(f->ret.ty), f->ret.ty, -1, 0, int(m_loops.size())});
         genStmt(*f->body);
@@ -1622,6 +1626,8 @@ private:
         m_cs.args.resize(argsSize);
         m_cs.ctls.resize(ctlSize);
         m_hasIlluminate = hadIlluminate;
+        m_hasSolar = hadSolar;
+        m_hasIlluminateAt = hadIlluminateAt;
         m_cs.usesLights = usedLights;
     }
 
@@ -1641,6 +1647,7 @@ private:
     int m_exprDepth = 0;
     const Expr* m_effectExpr = nullptr;  // see genEffect()
     bool m_hasIlluminate = false;
+    bool m_hasSolar = false, m_hasIlluminateAt = false;  // which of the two the light uses
 };
 
 }  // namespace
@@ -1669,6 +1676,7 @@ std::shared_ptr<CompiledShader> compileShaderSource(const std::string& text, con
     cg.run(prog, prog.shaders[0]);
     if (errs.count()) return nullptr;
     cs->isAmbientLight = cs->kind == ShaderKind::Light && !cg.hasIlluminate();
+    cs->isSolarLight = cs->kind == ShaderKind::Light && cg.hasSolar() && !cg.hasIlluminateAt();
     if (!inferVaryingAndOptimize(*cs, errs)) return nullptr;
     return cs;
 }

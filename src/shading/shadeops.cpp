@@ -544,10 +544,17 @@ void shadow(Exec& x, const Instr& in, Args& A, bool four) {
     atLeast(result);
     In<Vec3> Pin = A.v(first);
     In<Vec3> Nin = A.v(nArg);
+    // The normal turned towards the camera, faceforward(N, I): the side of
+    // the surface the camera sees is the one whose light the lookup
+    // measures. An open two-sided floor lit from above and seen from above
+    // is then light-facing whichever way its parameters wind, and its
+    // virtual samples light it; the far side of a solid stays unlit.
+    const std::vector<Vec3>& eyeRays = x.ctx->grid->I;
     for (size_t k = 0; k < count; ++k) {
         const int i = x.active[k];
         P[k] = Pin[i];
         N[k] = Nin[i];
+        if (size_t(i) < eyeRays.size() && dot(N[k], eyeRays[size_t(i)]) > 0) N[k] = -N[k];
     }
     derivsOfActive(x, Pin, dPdu.data(), dPdv.data());
     if (four) {

@@ -308,6 +308,7 @@ struct CompiledShader {
     std::vector<std::string> constStrings;
     int globalRegs[gGlobalCount];
     bool isAmbientLight = false;   // light without illuminate/solar
+    bool isSolarLight = false;     // light with solar() and no illuminate(): a distant light
     bool usesLights = false;
 
     std::string listing() const;

@@ -532,15 +532,24 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
     };
 
     // Second-depth maps with normals get virtual samples (Wang & Molnar).
+    // Midpoint and dual maps get them too, where the papers are silent: a
+    // light-facing receiver whose own comparisons shadow it is compared by
+    // its tangent plane instead of its one depth. An open floor stored as
+    // its single layer (z1 + offset) then lights itself at any slope, where
+    // comparing its depth with the stored depths of its neighbours shadows
+    // it in stripes at grazing light (docs/shadows.md).
     const bool secondDepth = !kPointSample && m_filter == DepthFilter::Second && batch.N && m_virtualMode != 0;
+    const bool twoLayer = m_filter == DepthFilter::Second || m_filter == DepthFilter::Midpoint ||
+                          m_filter == DepthFilter::Dual;
+    const bool virtualCompare = !kPointSample && twoLayer && batch.N && m_virtualMode != 0;
     // Once per batch, not per point: what tangent planes need.
-    const PlaneFrame planes = secondDepth ? planeFrame(lightFromCurrent.inverse()) : PlaneFrame();
+    const PlaneFrame planes = virtualCompare ? planeFrame(lightFromCurrent.inverse()) : PlaneFrame();
 
     // Second-depth maps: the points' tangent planes, all at once when a
     // test of the whole batch needs them, else one point's when it does.
     thread_local std::vector<TangentPlane> t_planes;
     BatchPlanes batchPlanes;
-    if (secondDepth) {
+    if (virtualCompare) {
         batchPlanes.frame = &planes;
         batchPlanes.planes = &t_planes;
     }
@@ -700,7 +709,7 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                     ++st.culledLit;
                     return true;
                 }
-                if (regionInside && z > zMax + biasHi && (!secondDepth || secondDepthShadowed(zMax))) {
+                if (regionInside && z > zMax + biasHi && (!virtualCompare || secondDepthShadowed(zMax))) {
                     ++st.culledShadowed;
                     out[i] = 1.0f;
                     return true;
@@ -867,7 +876,7 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                         for (int l = 0; l < 4; ++l) d[l] = real[l] ? texelDepth(iu[l], iv[l]) : kInfinity;
                     }
                     shadowed -= z > d + bias;
-                    if (secondDepth) {
+                    if (virtualCompare) {
                         region.store(region.iu, q, iu);
                         region.store(region.iv, q, iv);
                         region.store(region.bias, q, bias);
@@ -907,7 +916,7 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
             // all-shadowed comparisons too: see lookup()).
             const bool mixed = inShadow > 0 && inShadow < weightSum;
             const bool virtualSamples =
-                secondDepth && (mixed || (inShadow > 0 && facesLight(planes, P, batch.N[i])));
+                virtualCompare && (mixed || (inShadow > 0 && facesLight(planes, P, batch.N[i])));
             TangentPlane plane;
             if (virtualSamples) plane = planeOfPoint();
             if (virtualSamples && plane.valid) {
