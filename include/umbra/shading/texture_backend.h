@@ -55,8 +55,9 @@ public:
 
 /// The backend, loading the plugin on the first call (thread-safe). Null,
 /// with the reason in `error`, when the plugin cannot be loaded. The plugin
-/// is looked for in $UMBRA_PLUGIN_PATH, beside the running executable, and
-/// in the build's plugin directory.
+/// is looked for in $UMBRA_PLUGIN_PATH, beside the running executable, in
+/// `<exe dir>/../lib/umbra` (an installed tree) and in the build's plugin
+/// directory.
 TextureBackend* textureBackend(std::string* error);
 
 }  // namespace umbra::shading
