@@ -10,6 +10,7 @@
 #include "render/surface_pipeline.h"
 
 #include "umbra/film/film.h"
+#include "umbra/render/make_files.h"
 #include "umbra/hider/bucket_scheduler.h"
 #include "umbra/ri/parser.h"
 #include "umbra/scene/builder.h"
@@ -252,44 +253,9 @@ void Renderer::prepare(scene::Builder& builder, const std::string& ribFile) cons
 }
 
 void Renderer::make(const scene::MakeRecord& make) {
-    Diagnostics& diag = m_impl->diag;
-    if (make.request == "MakeShadow") {
-        if (make.inputs.empty()) {
-            diag.error(make.loc, "MakeShadow: expected an input depth file and an output map name");
-            ++m_failed;
-            return;
-        }
-        if (!makeShadow(make.inputs[0], make.output, diag, make.loc)) ++m_failed;
-        m_impl->maps->invalidate(make.output);
-        return;
-    }
-    if (make.request == "MakeTexture" || make.request == "MakeLatLongEnvironment") {
-        shading::MakeTextureRequest request;
-        request.kind = make.request == "MakeTexture" ? "texture" : "latlong";
-        request.inputs = make.inputs;
-        request.output = make.output;
-        if (make.request == "MakeTexture" && make.stringArgs.size() >= 3) {
-            request.swrap = make.stringArgs[0];
-            request.twrap = make.stringArgs[1];
-            request.filter = make.stringArgs[2];
-        } else if (!make.stringArgs.empty()) {
-            request.filter = make.stringArgs[0];
-        }
-        if (make.floatArgs.size() >= 2) {
-            request.swidth = make.floatArgs[0];
-            request.twidth = make.floatArgs[1];
-        }
-        std::string error;
-        shading::TextureBackend* backend = shading::textureBackend(&error);
-        if (!backend || !backend->makeTexture(request, &error)) {
-            diag.error(make.loc, "{}: cannot make \"{}\" from \"{}\": {}", make.request, make.output,
-                       make.inputs.empty() ? "" : make.inputs[0], error);
-            ++m_failed;
-        }
-        return;
-    }
-    diag.warningOnce("unsupported " + make.request, make.loc, "{}: not supported yet; no file written",
-                     make.request);
+    if (!makeFile(make, m_impl->diag)) ++m_failed;
+    // A map made again under a name already read is read again.
+    if (make.request == "MakeShadow") m_impl->maps->invalidate(make.output);
 }
 
 PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const std::vector<geometry::PrimitivePtr>& prims,

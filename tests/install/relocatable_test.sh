@@ -3,7 +3,8 @@
 #
 # `cmake --install` into WORK_DIR/prefix, move the prefix to WORK_DIR/moved,
 # then, from a directory holding no shaders, render a scene that uses the
-# standard plastic and distantlight shaders. A scene naming a missing shader must report the
+# standard plastic and distantlight shaders, and make a texture (which
+# loads the plugin). A scene naming a missing shader must report the
 # moved tree's shader directory as the one searched, not the source tree's.
 set -eu
 cmake=$1 build=$2 work=$3 source=$4
@@ -31,6 +32,12 @@ WorldEnd
 RIB
 "$umbra" render --quiet plastic.rib
 [ -s plastic.tif ] || { echo "no image rendered"; exit 1; }
+# The texture plugin is the moved tree's (glibc's loader names what it maps).
+LD_DEBUG=files "$umbra" txmake plastic.tif plastic.tx 2>txmake.log
+[ -s plastic.tx ] || { echo "no texture made"; cat txmake.log; exit 1; }
+grep -q "file=$work/moved/lib/umbra/umbra_oiio.so .*generating link map" txmake.log ||
+  { echo "the moved tree's plugin was not loaded:"; grep umbra_oiio txmake.log; exit 1; }
+
 sed 's/"plastic"/"nosuchshader"/' plastic.rib >missing.rib
 if "$umbra" render --quiet missing.rib 2>missing.log; then
   echo "a missing shader did not fail the render"; exit 1

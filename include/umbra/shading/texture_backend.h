@@ -28,8 +28,12 @@ struct MakeTextureRequest {
     std::vector<std::string> inputs;  // one image, or six cube faces (+x -x +y -y +z -z)
     std::string output;
     std::string swrap = "black", twrap = "black";  // "black", "periodic", "clamp"
-    std::string filter = "gaussian";
+    std::string filter = "gaussian";  // an OpenImageIO filter name (render/make_files.cpp maps RenderMan's)
     float swidth = 2, twidth = 2;
+    /// Cube faces: the full field of view (degrees, >= 90) each face was
+    /// rendered with. The faces are resampled into a lat-long map, stored
+    /// and looked up as MakeLatLongEnvironment's are.
+    float fov = 90;
 };
 
 /// The texture services; thread-safe. Implemented by the plugin.
