@@ -5,7 +5,12 @@
 //   umbra SCENE.rib ...                      (same as `umbra render`)
 //   umbra slc [--listing] FILE.sl ...        (compile shaders, report errors)
 //   umbra info [--json] MAP                  (depth-map storage figures)
+//   umbra txmake [--wrap M] [--swrap M] [--twrap M] [--filter F] [--width W] IN.tif OUT.tx
+//   umbra txmake --shadow IN.z OUT.shd
+//   umbra txmake --envlatl IN.tif OUT.env
+//   umbra txmake --envcube PX NX PY NY PZ NZ OUT.env [--fov DEGREES]
 
+#include "umbra/render/make_files.h"
 #include "umbra/render/renderer.h"
 #include "umbra/util/error.h"
 
@@ -21,7 +26,7 @@
 int main(int argc, char** argv) {
     // `umbra scene.rib` is `umbra render scene.rib`.
     std::vector<std::string> args(argv, argv + argc);
-    static const char* kCommands[] = {"render", "slc", "info", "-h", "--help", "--version"};
+    static const char* kCommands[] = {"render", "slc", "info", "txmake", "-h", "--help", "--version"};
     bool hasCommand = false;
     if (args.size() > 1)
         for (const char* c : kCommands) hasCommand |= args[1] == c;
@@ -56,6 +61,26 @@ int main(int argc, char** argv) {
     info->add_option("map", mapPath, "Depth map (.shd / .exr)")->required();
     info->add_flag("--json", json, "Print JSON");
 
+    umbra::apps::TxmakeArgs tx;
+    auto* txmake = app.add_subcommand(
+        "txmake", "Make a texture, environment or shadow map, as MakeTexture, MakeLatLongEnvironment, "
+                  "MakeCubeFaceEnvironment and MakeShadow do");
+    txmake->add_option("files", tx.files, "Input file(s), then the output file")->required();
+    txmake->add_flag("--shadow", tx.shadow, "Make a shadow map from a zfile or OpenEXR depth image (MakeShadow)");
+    txmake->add_flag("--envlatl", tx.envLatl, "Make a lat-long environment map (MakeLatLongEnvironment)");
+    txmake->add_flag("--envcube", tx.envCube,
+                     "Make an environment map from six faces px nx py ny pz nz (MakeCubeFaceEnvironment)");
+    const std::vector<std::string> wraps{"periodic", "black", "clamp"};
+    txmake->add_option("--wrap", tx.wrap, "Wrap mode in s and t (default black)")->check(CLI::IsMember(wraps));
+    txmake->add_option("--swrap", tx.swrap, "Wrap mode in s")->check(CLI::IsMember(wraps));
+    txmake->add_option("--twrap", tx.twrap, "Wrap mode in t")->check(CLI::IsMember(wraps));
+    txmake->add_option("--filter", tx.filter,
+                       std::string("Filter for the MIP levels (default gaussian): ") + umbra::render::makeFilterNames());
+    txmake->add_option("--width", tx.width, "Filter width in s and t (default 2)")->check(CLI::PositiveNumber);
+    txmake->add_option("--swidth", tx.swidth, "Filter width in s")->check(CLI::PositiveNumber);
+    txmake->add_option("--twidth", tx.twidth, "Filter width in t")->check(CLI::PositiveNumber);
+    txmake->add_option("--fov", tx.fov, "Cube faces' full field of view, degrees (default 90)");
+
     std::vector<char*> cargs;
     for (auto& a : args) cargs.push_back(a.data());
     try {
@@ -73,6 +98,7 @@ int main(int argc, char** argv) {
         if (*render) return umbra::render::renderFiles(ribFiles, settings, statsPath, diag);
         if (*slc) return umbra::apps::compileShaders(slcFiles, listing, diag);
         if (*info) return umbra::apps::describeMap(mapPath, json, diag);
+        if (*txmake) return umbra::apps::txmake(tx, diag);
     } catch (const std::bad_alloc&) {
         fmt::print(stderr, "umbra: out of memory: the frame needs more memory than this machine has "
                            "(check Format, PixelSamples and shadowmapsize)\n");

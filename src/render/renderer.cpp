@@ -1,6 +1,7 @@
 #include "umbra/render/renderer.h"
 #include "umbra/util/cpu_time.h"
 #include "umbra/util/file.h"
+#include "umbra/util/search_path.h"
 
 #include "render/frame.h"
 #include "render/light_view.h"
@@ -9,6 +10,7 @@
 #include "render/surface_pipeline.h"
 
 #include "umbra/film/film.h"
+#include "umbra/render/make_files.h"
 #include "umbra/hider/bucket_scheduler.h"
 #include "umbra/ri/parser.h"
 #include "umbra/scene/builder.h"
@@ -55,24 +57,6 @@ struct Stopwatch {
     double wall() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count(); }
     double cpu() const { return processCpuSeconds() - cpu0; }
 };
-
-/// Directories of a RIB search path: ':'-separated, '&' is the previous
-/// (default) value, '@' the default.
-std::vector<std::string> splitSearchPath(const std::string& spec, const std::vector<std::string>& defaults) {
-    std::vector<std::string> out;
-    size_t start = 0;
-    while (start <= spec.size()) {
-        size_t end = spec.find(':', start);
-        if (end == std::string::npos) end = spec.size();
-        std::string item = spec.substr(start, end - start);
-        if (item == "&" || item == "@")
-            out.insert(out.end(), defaults.begin(), defaults.end());
-        else if (!item.empty())
-            out.push_back(item);
-        start = end + 1;
-    }
-    return out;
-}
 
 std::string nowDateTime() {
     std::time_t t = std::time(nullptr);
@@ -178,6 +162,8 @@ struct Renderer::Impl {
     int threadCount() const { return settings.threads > 0 ? settings.threads : tbb::this_task_arena::max_concurrency(); }
 
     Impl(const RenderSettings& s, Diagnostics& d) : settings(s), diag(d) {
+        if (settings.shaderPath.empty()) settings.shaderPath = splitSearchPath(defaultShaderPath());
+        if (settings.texturePath.empty()) settings.texturePath = splitSearchPath(defaultTexturePath());
         arena = std::make_unique<tbb::task_arena>(threadCount());
         shading = std::make_unique<shading::ShadingSystem>(diag, settings.shaderPath);
         tileCache = std::make_shared<TileCache>();
@@ -252,45 +238,24 @@ nlohmann::json Renderer::statistics() const {
 
 void Renderer::renderWorld(const scene::WorldRecord& world) { m_impl->renderWorld(world, m_failed); }
 
+void Renderer::prepare(scene::Builder& builder, const std::string& ribFile) const {
+    // Shaders and textures named in a scene are looked for in the current
+    // directory, then beside the RIB file, then in the defaults ('@'), as
+    // Aqsis (".:@") and Pixie (".:$SHADERS") do for the current directory.
+    std::string ribDir = std::filesystem::path(ribFile).parent_path().string();
+    if (ribFile == "-" || ribDir == ".") ribDir.clear();
+    const std::string initial = ribDir.empty() ? ".:@" : ".:" + ribDir + ":@";
+    const RenderSettings& s = m_impl->settings;
+    builder.setDefaultSearchPath("shader", joinSearchPath(s.shaderPath));
+    builder.setDefaultSearchPath("texture", joinSearchPath(s.texturePath));
+    builder.setSearchPath("shader", initial);
+    builder.setSearchPath("texture", initial);
+}
+
 void Renderer::make(const scene::MakeRecord& make) {
-    Diagnostics& diag = m_impl->diag;
-    if (make.request == "MakeShadow") {
-        if (make.inputs.empty()) {
-            diag.error(make.loc, "MakeShadow: expected an input depth file and an output map name");
-            ++m_failed;
-            return;
-        }
-        if (!makeShadow(make.inputs[0], make.output, diag, make.loc)) ++m_failed;
-        m_impl->maps->invalidate(make.output);
-        return;
-    }
-    if (make.request == "MakeTexture" || make.request == "MakeLatLongEnvironment") {
-        shading::MakeTextureRequest request;
-        request.kind = make.request == "MakeTexture" ? "texture" : "latlong";
-        request.inputs = make.inputs;
-        request.output = make.output;
-        if (make.request == "MakeTexture" && make.stringArgs.size() >= 3) {
-            request.swrap = make.stringArgs[0];
-            request.twrap = make.stringArgs[1];
-            request.filter = make.stringArgs[2];
-        } else if (!make.stringArgs.empty()) {
-            request.filter = make.stringArgs[0];
-        }
-        if (make.floatArgs.size() >= 2) {
-            request.swidth = make.floatArgs[0];
-            request.twidth = make.floatArgs[1];
-        }
-        std::string error;
-        shading::TextureBackend* backend = shading::textureBackend(&error);
-        if (!backend || !backend->makeTexture(request, &error)) {
-            diag.error(make.loc, "{}: cannot make \"{}\" from \"{}\": {}", make.request, make.output,
-                       make.inputs.empty() ? "" : make.inputs[0], error);
-            ++m_failed;
-        }
-        return;
-    }
-    diag.warningOnce("unsupported " + make.request, make.loc, "{}: not supported yet; no file written",
-                     make.request);
+    if (!makeFile(make, m_impl->diag)) ++m_failed;
+    // A map made again under a name already read is read again.
+    if (make.request == "MakeShadow") m_impl->maps->invalidate(make.output);
 }
 
 PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const std::vector<geometry::PrimitivePtr>& prims,
@@ -367,11 +332,17 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
         }
     }
 
-    std::vector<std::string> defaults = settings.shaderPath;
-    auto sp = options.searchPaths.find("shader");
-    shading->setSearchPath(sp == options.searchPaths.end() ? defaults : splitSearchPath(sp->second, defaults));
-    auto tp = options.searchPaths.find("texture");
-    if (tp != options.searchPaths.end()) shading->setTextureSearchPath(splitSearchPath(tp->second, {"."}));
+    // The builder expanded '&' and '@'; a builder no one prepared
+    // (Renderer::prepare) leaves unset paths at ".:@".
+    auto pathOf = [&](const char* kind, const std::vector<std::string>& builtin) {
+        auto it = options.searchPaths.find(kind);
+        if (it != options.searchPaths.end()) return splitSearchPath(it->second);
+        std::vector<std::string> dirs{"."};
+        dirs.insert(dirs.end(), builtin.begin(), builtin.end());
+        return dirs;
+    };
+    shading->setSearchPath(pathOf("shader", settings.shaderPath));
+    shading->setTextureSearchPath(pathOf("texture", settings.texturePath));
 
     // Option "umbra" "tilecachemb": the shadow tile cache's memory bound.
     if (auto it = options.user.find("umbra:tilecachemb"); it != options.user.end()) {
@@ -733,17 +704,12 @@ float Renderer::Impl::dualOffsetOf(const scene::Options& options) {
 
 int renderFiles(const std::vector<std::string>& files, const RenderSettings& settingsIn, const std::string& statsPath,
                 Diagnostics& diag) {
-    RenderSettings settings = settingsIn;
-    if (settings.shaderPath.empty()) {
-        if (const char* env = std::getenv("UMBRA_SHADER_PATH"))
-            settings.shaderPath = splitSearchPath(env, {UMBRA_DEFAULT_SHADER_DIR});
-        else
-            settings.shaderPath = {UMBRA_DEFAULT_SHADER_DIR};
-    }
+    const RenderSettings& settings = settingsIn;
     Renderer renderer(settings, diag);
     bool ok = true;
     for (const auto& file : files) {
         scene::Builder builder(renderer, diag);
+        renderer.prepare(builder, file);
         if (!ri::parseFile(file, builder, diag)) ok = false;
         if (diag.aborted()) {
             ok = false;

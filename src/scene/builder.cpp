@@ -1,4 +1,5 @@
 #include "umbra/scene/builder.h"
+#include "umbra/util/search_path.h"
 
 #include <algorithm>
 #include <cmath>
@@ -22,18 +23,6 @@ const char* endName(int kind) {
 // reported once, and left out of the world.
 constexpr const char* kUnsupportedGeometry[] = {"NuPatch", "SubdivisionMesh", "Points", "Curves",
                                                 "Blobby",  "Procedural",      "Geometry"};
-
-std::vector<std::string> splitPath(const std::string& s) {
-    std::vector<std::string> out;
-    size_t start = 0;
-    while (start <= s.size()) {
-        size_t colon = s.find(':', start);
-        if (colon == std::string::npos) colon = s.size();
-        if (colon > start) out.push_back(s.substr(start, colon - start));
-        start = colon + 1;
-    }
-    return out;
-}
 
 /// The numeric settings of Option (and Attribute) "umbra": the range each
 /// must lie in. Out of range, they would make a depth pass of no pixels, or
@@ -78,6 +67,10 @@ void Builder::setDefaultSearchPath(const std::string& kind, const std::string& p
     m_defaultSearchPaths[kind] = path;
 }
 
+void Builder::setSearchPath(const std::string& kind, const std::string& spec) {
+    m_options.searchPaths[kind] = expandSearchPath(kind, spec);
+}
+
 void Builder::unhandled(std::string_view request, const FileLoc& loc) {
     m_diag.warningOnce("unhandled:" + std::string(request), loc, "{}: not handled by the scene builder", request);
 }
@@ -86,7 +79,7 @@ std::vector<std::string> Builder::archiveSearchPath() const {
     auto it = m_options.searchPaths.find("archive");
     if (it == m_options.searchPaths.end() || it->second.empty()) it = m_options.searchPaths.find("resource");
     if (it == m_options.searchPaths.end()) return {};
-    return splitPath(it->second);
+    return splitSearchPath(it->second);
 }
 
 void Builder::unsupported(const std::string& key, const FileLoc& loc, const std::string& what) {
@@ -525,24 +518,11 @@ void Builder::coordSysTransform(const std::string& name, const FileLoc& loc) {
 }
 
 std::string Builder::expandSearchPath(const std::string& kind, const std::string& value) const {
-    std::string out;
-    auto append = [&](const std::string& part) {
-        if (part.empty()) return;
-        if (!out.empty()) out += ':';
-        out += part;
-    };
-    for (const std::string& part : splitPath(value)) {
-        if (part == "&") {
-            auto it = m_options.searchPaths.find(kind);
-            if (it != m_options.searchPaths.end()) append(it->second);
-        } else if (part == "@") {
-            auto it = m_defaultSearchPaths.find(kind);
-            if (it != m_defaultSearchPaths.end()) append(it->second);
-        } else {
-            append(part);
-        }
-    }
-    return out;
+    // '&' is the previous value; before any, the built-in default ('@').
+    auto def = m_defaultSearchPaths.find(kind);
+    const std::string builtin = def != m_defaultSearchPaths.end() ? def->second : std::string();
+    auto prev = m_options.searchPaths.find(kind);
+    return umbra::expandSearchPath(value, prev != m_options.searchPaths.end() ? prev->second : builtin, builtin);
 }
 
 void Builder::option(const std::string& name, ri::ParamList params, const FileLoc& loc) {

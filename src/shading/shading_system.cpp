@@ -1,6 +1,7 @@
 // ShadingSystem: compile cache, instance binding, and shading one grid.
 
 #include "umbra/shading/shading_system.h"
+#include "umbra/util/search_path.h"
 
 #include "vm.h"
 
@@ -212,12 +213,8 @@ bool readFile(const std::string& path, std::string* text) {
 }
 
 std::vector<std::string> includePathFor(const std::string& path, const std::vector<std::string>& searchPath) {
-    std::vector<std::string> inc = searchPath;
-#ifdef UMBRA_STD_SHADER_DIR
-    inc.push_back(UMBRA_STD_SHADER_DIR);
-#endif
     (void)path;
-    return inc;
+    return searchPath;
 }
 
 }  // namespace
@@ -290,9 +287,6 @@ std::shared_ptr<const Shader> ShadingSystem::find(const std::string& name, const
     }
     namespace fs = std::filesystem;
     std::vector<std::string> dirs = m_searchPath;
-#ifdef UMBRA_STD_SHADER_DIR
-    dirs.push_back(UMBRA_STD_SHADER_DIR);
-#endif
     std::string found;
     std::error_code ec;
     bool hasExt = name.size() > 3 && name.compare(name.size() - 3, 3, ".sl") == 0;
@@ -459,10 +453,7 @@ bool compileFile(const std::string& path, Diagnostics& diag, std::string* listin
         diag.error(FileLoc::inFile(path), "cannot read shader file");
         return false;
     }
-    std::vector<std::string> inc;
-#ifdef UMBRA_STD_SHADER_DIR
-    inc.push_back(UMBRA_STD_SHADER_DIR);
-#endif
+    std::vector<std::string> inc = splitSearchPath(defaultShaderPath());
     auto code = compileShaderSource(text, path, inc, diag);
     if (!code) return false;
     if (listing) *listing = code->listing();

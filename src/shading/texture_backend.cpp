@@ -1,7 +1,7 @@
 #include "umbra/shading/texture_backend.h"
+#include "umbra/util/search_path.h"
 
 #include <dlfcn.h>
-#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -14,11 +14,12 @@ namespace {
 std::vector<std::string> pluginCandidates() {
     std::vector<std::string> out;
     if (const char* env = std::getenv("UMBRA_PLUGIN_PATH")) out.push_back(std::string(env) + "/umbra_oiio.so");
-    char exe[4096];
-    ssize_t n = readlink("/proc/self/exe", exe, sizeof(exe) - 1);
-    if (n > 0) {
-        exe[n] = 0;
-        out.push_back((std::filesystem::path(exe).parent_path() / "umbra_oiio.so").string());
+    // Beside the executable (the build tree), or in <prefix>/lib/umbra for
+    // <prefix>/bin/umbra (an installed tree, wherever it was moved).
+    const std::filesystem::path exeDir = executableDirectory();
+    if (!exeDir.empty()) {
+        out.push_back((exeDir / "umbra_oiio.so").string());
+        out.push_back((exeDir.parent_path() / "lib" / "umbra" / "umbra_oiio.so").string());
     }
 #ifdef UMBRA_PLUGIN_DIR
     out.push_back(std::string(UMBRA_PLUGIN_DIR) + "/umbra_oiio.so");

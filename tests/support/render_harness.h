@@ -67,6 +67,7 @@ inline nlohmann::json renderRib(const std::string& rib, Diagnostics& diag, int t
     settings.shaderPath = {std::string(UMBRA_SOURCE_DIR) + "/shaders_dsl"};
     render::Renderer renderer(settings, diag);
     scene::Builder builder(renderer, diag);
+    renderer.prepare(builder, "test.rib");
     ri::parseString(rib, "test.rib", builder, diag);
     if (failedFrames) *failedFrames = renderer.failedFrames();
     return renderer.statistics();

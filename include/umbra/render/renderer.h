@@ -4,6 +4,7 @@
 // the camera pass, through the same REYES core (hider/bucket_scheduler.h),
 // writes the displays and records statistics.
 
+#include "umbra/scene/builder.h"
 #include "umbra/scene/scene.h"
 #include "umbra/util/error.h"
 
@@ -24,7 +25,11 @@ struct RenderSettings {
     bool quiet = false;         // no statistics summary
     bool noShadows = false;     // every shadow() lookup and depth pass off (Reeves' Table 1 baseline)
     bool skipExisting = false;  // frames whose outputs all exist are not rendered
-    std::vector<std::string> shaderPath;  // default shader directories ('&' in RIB searchpaths)
+    /// The default shader and texture directories, what '@' stands for in
+    /// RIB search paths. Empty: $UMBRA_SHADER_PATH / $UMBRA_TEXTURE_PATH, or
+    /// the standard shaders (umbra/util/search_path.h).
+    std::vector<std::string> shaderPath;
+    std::vector<std::string> texturePath;
 };
 
 /// Renders worlds as the scene builder finishes them (a scene::SceneSink).
@@ -32,6 +37,11 @@ class Renderer : public scene::SceneSink {
 public:
     Renderer(const RenderSettings& settings, Diagnostics& diag);
     ~Renderer() override;
+
+    /// Gives a builder about to read `ribFile` the search paths' defaults:
+    /// '@' is the settings' path; before any Option "searchpath", the
+    /// shader and texture paths are ".:<ribFile's directory>:@".
+    void prepare(scene::Builder& builder, const std::string& ribFile) const;
 
     void renderWorld(const scene::WorldRecord& world) override;
     void make(const scene::MakeRecord& make) override;

@@ -41,8 +41,11 @@ public:
     Builder(SceneSink& sink, Diagnostics& diag);
     ~Builder() override;
 
-    /// What '@' stands for in Option "searchpath" `kind` (e.g. "shader").
+    /// What '@' stands for in Option "searchpath" `kind` (e.g. "shader"),
+    /// and what '&' stands for before the path is first set.
     void setDefaultSearchPath(const std::string& kind, const std::string& path);
+    /// Sets search path `kind` as Option "searchpath" does ('&', '@' expanded).
+    void setSearchPath(const std::string& kind, const std::string& spec);
 
     /// Current state, for tests and tools.
     const Options& options() const { return m_options; }

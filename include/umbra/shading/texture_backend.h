@@ -28,8 +28,12 @@ struct MakeTextureRequest {
     std::vector<std::string> inputs;  // one image, or six cube faces (+x -x +y -y +z -z)
     std::string output;
     std::string swrap = "black", twrap = "black";  // "black", "periodic", "clamp"
-    std::string filter = "gaussian";
+    std::string filter = "gaussian";  // an OpenImageIO filter name (render/make_files.cpp maps RenderMan's)
     float swidth = 2, twidth = 2;
+    /// Cube faces: the full field of view (degrees, >= 90) each face was
+    /// rendered with. The faces are resampled into a lat-long map, stored
+    /// and looked up as MakeLatLongEnvironment's are.
+    float fov = 90;
 };
 
 /// The texture services; thread-safe. Implemented by the plugin.
@@ -55,8 +59,9 @@ public:
 
 /// The backend, loading the plugin on the first call (thread-safe). Null,
 /// with the reason in `error`, when the plugin cannot be loaded. The plugin
-/// is looked for in $UMBRA_PLUGIN_PATH, beside the running executable, and
-/// in the build's plugin directory.
+/// is looked for in $UMBRA_PLUGIN_PATH, beside the running executable, in
+/// `<exe dir>/../lib/umbra` (an installed tree) and in the build's plugin
+/// directory.
 TextureBackend* textureBackend(std::string* error);
 
 }  // namespace umbra::shading

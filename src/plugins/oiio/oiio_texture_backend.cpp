@@ -5,10 +5,14 @@
 
 #include <Imath/ImathVec.h>
 #include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imagebufalgo.h>
 #include <OpenImageIO/texture.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <ctime>
 #include <mutex>
 #include <sstream>
 
@@ -26,6 +30,113 @@ OIIO::TextureOpt toOiio(const TextureOptions& o) {
     opt.twidth = o.twidth;
     opt.fill = o.fill;
     return opt;
+}
+
+const char* kFaceNames[6] = {"px", "nx", "py", "ny", "pz", "nz"};
+
+/// A cube face as the camera that rendered it saw the world: looking along
+/// `forward`, with `right` and `up` the image's +x and +y. These are the
+/// RenderMan views along each axis (left-handed: right = up x forward),
+/// as Aqsis and PRMan read them.
+struct FaceFrame {
+    Vec3 forward, right, up;
+};
+const FaceFrame kFaceFrames[6] = {
+    {{1, 0, 0}, {0, 0, -1}, {0, 1, 0}},   // px
+    {{-1, 0, 0}, {0, 0, 1}, {0, 1, 0}},   // nx
+    {{0, 1, 0}, {1, 0, 0}, {0, 0, -1}},   // py
+    {{0, -1, 0}, {1, 0, 0}, {0, 0, 1}},   // ny
+    {{0, 0, 1}, {1, 0, 0}, {0, 1, 0}},    // pz
+    {{0, 0, -1}, {-1, 0, 0}, {0, 1, 0}},  // nz
+};
+
+/// `path` with `suffix` inserted before its extension ("a/b.tx" -> "a/b.umbra-tmp.tx").
+std::string withSuffix(const std::string& path, const std::string& suffix) {
+    std::string out = path;
+    size_t dot = out.find_last_of('.');
+    size_t slash = out.find_last_of('/');
+    if (dot == std::string::npos || (slash != std::string::npos && dot < slash))
+        out += suffix;
+    else
+        out.insert(dot, suffix);
+    return out;
+}
+
+float dot3(const Vec3& a, const Vec3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+
+/// The faces of a MakeCubeFaceEnvironment request resampled into one
+/// lat-long image (4n x 2n for n x n faces) laid out as environment()
+/// reads MakeLatLongEnvironment's maps: OpenImageIO's default, +y at the
+/// top, s = atan2(-x, z) / 2pi + 1/2, t = 1/2 - asin(y) / pi, texel
+/// centres at (i + 1/2) / width.
+bool cubeToLatLong(const MakeTextureRequest& r, OIIO::ImageBuf* out, std::string* error) {
+    std::vector<std::vector<float>> faces(6);
+    int res = 0, nch = 0;
+    OIIO::ImageSpec first;
+    for (int f = 0; f < 6; ++f) {
+        OIIO::ImageBuf face(r.inputs[size_t(f)]);
+        if (!face.read(0, 0, true, OIIO::TypeDesc::FLOAT)) {
+            *error = "cannot read the " + std::string(kFaceNames[f]) + " face \"" + r.inputs[size_t(f)] +
+                     "\": " + face.geterror();
+            return false;
+        }
+        const OIIO::ImageSpec& spec = face.spec();
+        auto describe = [&] {
+            return "the " + std::string(kFaceNames[f]) + " face \"" + r.inputs[size_t(f)] + "\" is " +
+                   std::to_string(spec.width) + "x" + std::to_string(spec.height) + " pixels with " +
+                   std::to_string(spec.nchannels) + " channels";
+        };
+        if (spec.width != spec.height) {
+            *error = describe() + "; expected a square image";
+            return false;
+        }
+        if (f == 0) {
+            res = spec.width;
+            nch = spec.nchannels;
+            first = spec;
+        } else if (spec.width != res || spec.nchannels != nch) {
+            *error = describe() + "; expected " + std::to_string(res) + "x" + std::to_string(res) + " pixels with " +
+                     std::to_string(nch) + " channels, as the px face has";
+            return false;
+        }
+        faces[size_t(f)].resize(size_t(res) * size_t(res) * size_t(nch));
+        face.get_pixels(face.roi(), OIIO::TypeDesc::FLOAT, faces[size_t(f)].data());
+    }
+    const float tanHalf = std::tan(r.fov * float(M_PI) / 360.0f);
+    const int width = 4 * res, height = 2 * res;
+    std::vector<float> pixels(size_t(width) * size_t(height) * size_t(nch));
+    for (int j = 0; j < height; ++j)
+        for (int i = 0; i < width; ++i) {
+            const float phi = ((float(i) + 0.5f) / float(width) - 0.5f) * 2.0f * float(M_PI);
+            const float theta = (0.5f - (float(j) + 0.5f) / float(height)) * float(M_PI);
+            const Vec3 d(-std::cos(theta) * std::sin(phi), std::sin(theta), std::cos(theta) * std::cos(phi));
+            int f = 0;
+            for (int k = 1; k < 6; ++k)
+                if (dot3(d, kFaceFrames[k].forward) > dot3(d, kFaceFrames[f].forward)) f = k;
+            const FaceFrame& fr = kFaceFrames[f];
+            const float depth = dot3(d, fr.forward);
+            const float sx = dot3(d, fr.right) / depth / tanHalf, sy = dot3(d, fr.up) / depth / tanHalf;
+            // Bilinear, clamped at the face's edges; pixel (x, y) is centred
+            // at s = (x + 1/2) / res, t = (y + 1/2) / res, t = 0 at the top.
+            const float x = (sx + 1.0f) * 0.5f * float(res) - 0.5f, y = (1.0f - sy) * 0.5f * float(res) - 0.5f;
+            const int x0 = int(std::floor(x)), y0 = int(std::floor(y));
+            const float fx = x - float(x0), fy = y - float(y0);
+            auto at = [&](int px, int py, int c) {
+                px = std::clamp(px, 0, res - 1);
+                py = std::clamp(py, 0, res - 1);
+                return faces[size_t(f)][(size_t(py) * size_t(res) + size_t(px)) * size_t(nch) + size_t(c)];
+            };
+            float* o = &pixels[(size_t(j) * size_t(width) + size_t(i)) * size_t(nch)];
+            for (int c = 0; c < nch; ++c)
+                o[c] = (1 - fy) * ((1 - fx) * at(x0, y0, c) + fx * at(x0 + 1, y0, c)) +
+                       fy * ((1 - fx) * at(x0, y0 + 1, c) + fx * at(x0 + 1, y0 + 1, c));
+        }
+    OIIO::ImageSpec spec(width, height, nch, OIIO::TypeDesc::FLOAT);
+    spec.channelnames = first.channelnames;
+    spec.alpha_channel = first.alpha_channel;
+    out->reset(spec);
+    out->set_pixels(out->roi(), OIIO::TypeDesc::FLOAT, pixels.data());
+    return true;
 }
 
 class OiioTextureBackend final : public TextureBackend {
@@ -70,23 +181,45 @@ public:
             *error = "no input image";
             return false;
         }
+        const bool environment = r.kind == "latlong" || r.kind == "cubeface";
         OIIO::ImageSpec config;
-        config.attribute("maketx:filtername", r.filter == "box" ? "box" : "gaussian");
-        config.attribute("wrapmodes", r.swrap + "," + r.twrap);
+        config.attribute("maketx:filtername", r.filter);
+        // Environment maps wrap around in s and stop at the poles in t.
+        config.attribute("wrapmodes", environment ? std::string("periodic,clamp") : r.swrap + "," + r.twrap);
         config.tile_width = config.tile_height = 64;
-        OIIO::ImageBufAlgo::MakeTextureMode mode = OIIO::ImageBufAlgo::MakeTxTexture;
-        if (r.kind == "latlong") mode = OIIO::ImageBufAlgo::MakeTxEnvLatl;
-        OIIO::ImageBuf input(r.inputs[0]);
-        // The temporary name keeps the extension: OIIO picks the format by it.
-        std::string tmp = r.output;
-        size_t dot = tmp.find_last_of('.');
-        size_t slash = tmp.find_last_of('/');
-        if (dot == std::string::npos || (slash != std::string::npos && dot < slash))
-            tmp += ".umbra-tmp";
-        else
-            tmp.insert(dot, ".umbra-tmp");
+        OIIO::ImageBufAlgo::MakeTextureMode mode =
+            environment ? OIIO::ImageBufAlgo::MakeTxEnvLatl : OIIO::ImageBufAlgo::MakeTxTexture;
+        // Update mode stamps the texture with its source file's time, not
+        // the clock's: the same inputs make the same bytes. (The output is
+        // written under a new name, so update mode never skips the work.)
+        config.attribute("maketx:updatemode", 1);
+        // The temporary names keep the extension: OIIO picks the format by it.
+        const std::string tmp = withSuffix(r.output, ".umbra-tmp");
+        std::string source = r.inputs[0];
+        if (r.kind == "cubeface") {
+            if (r.inputs.size() != 6) {
+                *error = "expected six cube faces";
+                return false;
+            }
+            // The faces become one lat-long image, in a file dated like the
+            // newest face.
+            OIIO::ImageBuf latlong;
+            if (!cubeToLatLong(r, &latlong, error)) return false;
+            source = r.output + ".umbra-tmp-faces.tif";
+            std::time_t newest = 0;
+            for (const std::string& face : r.inputs)
+                newest = std::max(newest, OIIO::Filesystem::last_write_time(face));
+            if (!latlong.write(source)) {
+                *error = "cannot write the resampled faces \"" + source + "\": " + latlong.geterror();
+                std::remove(source.c_str());
+                return false;
+            }
+            OIIO::Filesystem::last_write_time(source, newest);
+        }
         std::stringstream log;
-        if (!OIIO::ImageBufAlgo::make_texture(mode, input, tmp, config, &log)) {
+        const bool made = OIIO::ImageBufAlgo::make_texture(mode, source, tmp, config, &log);
+        if (r.kind == "cubeface") std::remove(source.c_str());
+        if (!made) {
             *error = OIIO::geterror();
             if (error->empty()) *error = log.str();
             std::remove(tmp.c_str());

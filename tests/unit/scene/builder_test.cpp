@@ -162,6 +162,37 @@ TEST(Builder, SearchPathsExpandAmpersandAndAt) {
     EXPECT_EQ(r->builder->archiveSearchPath(), (std::vector<std::string>{"/x", "/y"}));
 }
 
+TEST(Builder, FirstAmpersandIsTheDefault) {
+    // Before any Option "searchpath", '&' is the built-in default, for
+    // every kind: shader, texture, archive, procedural, display.
+    auto r = std::make_unique<Session>();
+    r->builder = std::make_unique<Builder>(r->sink, r->diag);
+    for (const char* kind : {"shader", "texture", "archive", "procedural", "display"})
+        r->builder->setDefaultSearchPath(kind, std::string("/std/") + kind);
+    ri::Parser p(*r->builder, r->diag);
+    p.parseString("Option \"searchpath\" \"shader\" \"/mine:&\" \"texture\" \"&:/maps\"\n"
+                  "Option \"searchpath\" \"archive\" \"@\" \"procedural\" \"/p:&\" \"display\" \"/d\"\n"
+                  "Option \"searchpath\" \"display\" \"&:@\"",
+                  "s.rib");
+    const auto& sp = r->builder->options().searchPaths;
+    EXPECT_EQ(sp.at("shader"), "/mine:/std/shader");
+    EXPECT_EQ(sp.at("texture"), "/std/texture:/maps");
+    EXPECT_EQ(sp.at("archive"), "/std/archive");
+    EXPECT_EQ(sp.at("procedural"), "/p:/std/procedural");
+    EXPECT_EQ(sp.at("display"), "/d:/std/display");
+    EXPECT_EQ(r->diag.errorCount(), 0);
+}
+
+TEST(Builder, SetSearchPathSeedsWhatAmpersandStandsFor) {
+    auto r = std::make_unique<Session>();
+    r->builder = std::make_unique<Builder>(r->sink, r->diag);
+    r->builder->setDefaultSearchPath("shader", "/std");
+    r->builder->setSearchPath("shader", ".:/scenes:@");
+    ri::Parser p(*r->builder, r->diag);
+    p.parseString("Option \"searchpath\" \"shader\" \"/mine:&\"", "s.rib");
+    EXPECT_EQ(r->builder->options().searchPaths.at("shader"), "/mine:.:/scenes:/std");
+}
+
 TEST(Builder, ReadArchiveUsesTheArchiveSearchPath) {
     auto dir = std::filesystem::path(UMBRA_BINARY_DIR) / "test_scene_tmp" / "lib";
     std::filesystem::create_directories(dir);

@@ -1,0 +1,77 @@
+#include "umbra/util/search_path.h"
+
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+
+namespace umbra {
+
+std::vector<std::string> splitSearchPath(const std::string& path) {
+    std::vector<std::string> out;
+    size_t start = 0;
+    while (start <= path.size()) {
+        size_t end = path.find(':', start);
+        if (end == std::string::npos) end = path.size();
+        if (end > start) out.push_back(path.substr(start, end - start));
+        start = end + 1;
+    }
+    return out;
+}
+
+std::string joinSearchPath(const std::vector<std::string>& dirs) {
+    std::string out;
+    for (const std::string& d : dirs) {
+        if (d.empty()) continue;
+        if (!out.empty()) out += ':';
+        out += d;
+    }
+    return out;
+}
+
+std::string expandSearchPath(const std::string& spec, const std::string& previous, const std::string& builtin) {
+    std::vector<std::string> out;
+    for (const std::string& part : splitSearchPath(spec)) {
+        if (part == "&") {
+            for (auto& d : splitSearchPath(previous)) out.push_back(d);
+        } else if (part == "@") {
+            for (auto& d : splitSearchPath(builtin)) out.push_back(d);
+        } else {
+            out.push_back(part);
+        }
+    }
+    return joinSearchPath(out);
+}
+
+std::string executableDirectory() {
+    std::error_code ec;
+    std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+    if (ec) return {};
+    return exe.parent_path().string();
+}
+
+std::string builtinShaderDir() {
+    namespace fs = std::filesystem;
+    std::string exeDir = executableDirectory();
+    if (!exeDir.empty()) {
+        fs::path installed = fs::path(exeDir).parent_path() / "share" / "umbra" / "shaders";
+        std::error_code ec;
+        if (fs::is_directory(installed, ec)) return installed.lexically_normal().string();
+    }
+    return UMBRA_SOURCE_SHADER_DIR;
+}
+
+std::string defaultShaderPath() {
+    const std::string builtin = builtinShaderDir();
+    const char* env = std::getenv("UMBRA_SHADER_PATH");
+    if (!env || !*env) return builtin;
+    return expandSearchPath(env, builtin, builtin);
+}
+
+std::string defaultTexturePath() {
+    const char* env = std::getenv("UMBRA_TEXTURE_PATH");
+    if (!env || !*env) return {};
+    return expandSearchPath(env, {}, {});
+}
+
+}  // namespace umbra
