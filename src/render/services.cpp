@@ -140,13 +140,20 @@ void Services::applyDefaultBias(const ShadowMap& map, ShadowParams& params) cons
     DepthFilter f = map.depthFilter();
     if (f != DepthFilter::Min && f != DepthFilter::Max && f != DepthFilter::Average) return;
     const auto& user = m_frame->world->options.user;
-    auto get = [&](const char* name, float def) {
+    // Option "shadow" "bias" / "bias0" / "bias1": any one given (0 too)
+    // replaces PRMan's default 0.225, the others then being 0.
+    bool given = false;
+    auto get = [&](const char* name) {
         auto it = user.find(name);
-        return it != user.end() && !it->second.floats.empty() ? it->second.floats[0] : def;
+        if (it == user.end()) return 0.0f;
+        const ri::Param& p = it->second;
+        given = true;
+        return !p.floats.empty() ? p.floats[0] : (!p.ints.empty() ? float(p.ints[0]) : 0.0f);
     };
-    params.bias = get("shadow:bias", kDefaultShadowBias);
-    params.bias0 = get("shadow:bias0", 0);
-    params.bias1 = get("shadow:bias1", 0);
+    params.bias = get("shadow:bias");
+    params.bias0 = get("shadow:bias0");
+    params.bias1 = get("shadow:bias1");
+    if (!given) params.bias = kDefaultShadowBias;
 }
 
 bool Services::raytrace(const GridState& st, const shading::ShadowQuery& q, float* result) {

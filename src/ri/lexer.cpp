@@ -146,8 +146,25 @@ Token Lexer::lexString(int line, int column) {
         return t;
     }
     m_scratch.assign(s + start, m_pos - start);
+    // A string may span lines, as PRMan, Aqsis and Pixie read it; one that
+    // never ends is reported at its quote and lexing resumes on the line
+    // after it, so one missing quote costs one request.
+    size_t firstNewline = 0, lineStartAtNewline = 0;
+    int lineAtNewline = 0;
     while (m_pos < n) {
         char ch = s[m_pos];
+        if (ch == '\n') {
+            if (firstNewline == 0) {
+                firstNewline = m_pos;
+                lineAtNewline = m_line;
+                lineStartAtNewline = m_lineStart;
+            }
+            m_scratch.push_back(ch);
+            ++m_pos;
+            ++m_line;
+            m_lineStart = m_pos;
+            continue;
+        }
         if (ch == '"') {
             ++m_pos;
             Token t;
@@ -157,7 +174,6 @@ Token Lexer::lexString(int line, int column) {
             t.text = m_scratch;
             return t;
         }
-        if (ch == '\n') break;
         if (ch != '\\') {
             m_scratch.push_back(ch);
             ++m_pos;
@@ -194,7 +210,12 @@ Token Lexer::lexString(int line, int column) {
         }
     }
     // Resume on the next line so the rest of the file still parses.
-    return makeError(line, column, "unterminated string (a string must end with '\"' on the line it starts)");
+    if (firstNewline != 0) {
+        m_pos = firstNewline;
+        m_line = lineAtNewline;
+        m_lineStart = lineStartAtNewline;  // the newline itself is lexed next
+    }
+    return makeError(line, column, "unterminated string (no closing '\"' before the end of the input)");
 }
 
 }  // namespace umbra::ri

@@ -279,32 +279,29 @@ std::shared_ptr<const Shader> ShadingSystem::compile(const std::string& path) {
     return shader;
 }
 
+std::optional<std::string> ShadingSystem::findFile(const std::string& name) const {
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    bool hasExt = name.size() > 3 && name.compare(name.size() - 3, 3, ".sl") == 0;
+    if (fs::path(name).has_parent_path() && fs::is_regular_file(name, ec)) return name;
+    for (const std::string& d : m_searchPath) {
+        fs::path p = fs::path(d) / (hasExt ? name : name + ".sl");
+        if (fs::is_regular_file(p, ec)) return p.string();
+    }
+    return std::nullopt;
+}
+
 std::shared_ptr<const Shader> ShadingSystem::find(const std::string& name, const FileLoc& loc) {
     {
         std::lock_guard<std::mutex> lock(m_mutex);
         auto it = m_byName.find(name);
         if (it != m_byName.end()) return it->second;
     }
-    namespace fs = std::filesystem;
-    std::vector<std::string> dirs = m_searchPath;
-    std::string found;
-    std::error_code ec;
-    bool hasExt = name.size() > 3 && name.compare(name.size() - 3, 3, ".sl") == 0;
-    if (fs::path(name).has_parent_path() && fs::is_regular_file(name, ec)) found = name;
-    for (const std::string& d : dirs) {
-        if (!found.empty()) break;
-        for (const std::string& candidate : {hasExt ? name : name + ".sl"}) {
-            fs::path p = fs::path(d) / candidate;
-            if (fs::is_regular_file(p, ec)) {
-                found = p.string();
-                break;
-            }
-        }
-    }
+    const std::string found = findFile(name).value_or("");
     std::shared_ptr<const Shader> shader;
     if (found.empty()) {
         std::string where;
-        for (const std::string& d : dirs) where += (where.empty() ? "" : ":") + d;
+        for (const std::string& d : m_searchPath) where += (where.empty() ? "" : ":") + d;
         m_diag.error(loc, "cannot find shader '{}' (searched {})", name, where.empty() ? "nothing" : where);
     } else {
         shader = compile(found);
@@ -315,6 +312,11 @@ std::shared_ptr<const Shader> ShadingSystem::find(const std::string& name, const
 }
 
 std::shared_ptr<const ShaderInstance> ShadingSystem::instantiate(const scene::ShaderRecord& record, ShaderKind expected) {
+    // "null" is the conventional name of no shader (depth passes write
+    // Surface "null"): no surface shader, so the default surface as Pixie
+    // and Aqsis draw it, and no displacement, atmosphere or light. Unless a
+    // null.sl is on the search path.
+    if (record.name == "null" && !findFile(record.name)) return nullptr;
     auto shader = find(record.name, record.loc);
     if (!shader) return nullptr;
     if (shader->kind() != expected) {

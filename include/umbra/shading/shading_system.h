@@ -12,6 +12,7 @@
 
 #include <map>
 #include <memory>
+#include <optional>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -163,6 +164,8 @@ public:
     /// Finds `name` (or name.sl) on the search path and compiles it on first
     /// use; null (with an error at `loc`) if not found or invalid.
     std::shared_ptr<const Shader> find(const std::string& name, const FileLoc& loc = {});
+    /// The file `name` (or name.sl) names on the search path, if any.
+    std::optional<std::string> findFile(const std::string& name) const;
     /// Compiles source text; `fileName` names it in messages. Not cached.
     std::shared_ptr<const Shader> compileSource(const std::string& source, const std::string& fileName);
 

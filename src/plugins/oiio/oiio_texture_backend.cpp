@@ -10,10 +10,12 @@
 #include <OpenImageIO/texture.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <ctime>
 #include <mutex>
+#include <cctype>
 #include <sstream>
 
 namespace {
@@ -193,8 +195,15 @@ public:
         // the clock's: the same inputs make the same bytes. (The output is
         // written under a new name, so update mode never skips the work.)
         config.attribute("maketx:updatemode", 1);
-        // The temporary names keep the extension: OIIO picks the format by it.
+        // The temporary names keep the extension: OIIO picks the format by
+        // it. RenderMan's own names (".tex", ".tx", ".env", ".tdl", ...) are
+        // tiled TIFF, as txmake writes them; only ".exr" asks for OpenEXR.
         const std::string tmp = withSuffix(r.output, ".umbra-tmp");
+        {
+            std::string ext = OIIO::Filesystem::extension(r.output);
+            for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+            if (ext != ".exr") config.attribute("maketx:fileformatname", "tiff");
+        }
         std::string source = r.inputs[0];
         if (r.kind == "cubeface") {
             if (r.inputs.size() != 6) {

@@ -265,5 +265,24 @@ TEST(Parser, MillionPolygonMeshParses) {
     EXPECT_EQ(r.params[0].find("P")->count(), size_t((n + 1) * (n + 1)));
 }
 
+
+TEST(Parser, StringsMaySpanLinesAndAnUnendedOneCostsOneRequest) {
+    // PRMan, Aqsis and Pixie read a newline inside a string as part of it.
+    auto p = parse("Surface \"two\nlines\"\nSphere 1 -1 1 360\n");
+    ASSERT_TRUE(p->ok) << fmt::format("{}", fmt::join(messages(p->diag), "\n"));
+    ASSERT_EQ(p->rec.log.size(), 2u);
+    EXPECT_EQ(p->rec.log[0], "Surface two\nlines");
+    EXPECT_EQ(p->rec.log[1], "Sphere@t.rib:3:1");  // lines still count
+    // A quote never closed: reported at the quote, and the next lines parse.
+    auto q = parse("Surface \"plastic\nSphere 1 -1 1 360\nTranslate 1 2 3\n");
+    EXPECT_FALSE(q->ok);
+    ASSERT_EQ(messages(q->diag).size(), 1u);
+    EXPECT_EQ(messages(q->diag)[0],
+              "t.rib:1:9: error: Surface: unterminated string (no closing '\"' before the end of the input)");
+    ASSERT_EQ(q->rec.log.size(), 2u);
+    EXPECT_EQ(q->rec.log[0], "Sphere@t.rib:2:1");
+    EXPECT_EQ(q->rec.log[1], "Translate 1 2 3");
+}
+
 }  // namespace
 }  // namespace umbra::ri
