@@ -9,7 +9,8 @@
 namespace umbra::apps {
 
 /// Compiles each shader, printing errors (and the bytecode with `listing`).
-int compileShaders(const std::vector<std::string>& files, bool listing, Diagnostics& diag);
+int compileShaders(const std::vector<std::string>& files, const std::vector<std::string>& includePath, bool listing,
+                   Diagnostics& diag);
 /// Prints a depth map's resolution, bounds, tiles and storage (Reeves' Table 2).
 int describeMap(const std::string& path, bool json, Diagnostics& diag);
 

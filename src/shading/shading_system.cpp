@@ -453,17 +453,14 @@ void ShadingSystem::shade(ShadingGrid& grid, const ShadeRequest& request, Render
     releaseExecs(mark);
 }
 
-bool compileFile(const std::string& path, Diagnostics& diag, std::string* listing) {
+bool compileFile(const std::string& path, const std::vector<std::string>& includePath, Diagnostics& diag,
+                 std::string* listing) {
     std::string text;
     if (!readFile(path, &text)) {
         diag.error(FileLoc::inFile(path), "cannot read shader file");
         return false;
     }
-    std::vector<std::string> inc;
-#ifdef UMBRA_STD_SHADER_DIR
-    inc.push_back(UMBRA_STD_SHADER_DIR);
-#endif
-    auto code = compileShaderSource(text, path, inc, diag);
+    auto code = compileShaderSource(text, path, includePathFor(path, includePath), diag);
     if (!code) return false;
     if (listing) *listing = code->listing();
     return true;

@@ -203,8 +203,11 @@ private:
     mutable TextureBackend* m_textures = nullptr;
 };
 
-/// `umbra slc FILE.sl`: compiles one file, reporting errors; with a
-/// non-null `listing`, stores the bytecode listing there. True on success.
-bool compileFile(const std::string& path, Diagnostics& diag, std::string* listing);
+/// `umbra slc [-I DIR] FILE.sl`: compiles one file, reporting errors;
+/// #include looks beside the including file, then in `includePath`, then
+/// in the standard shader directory. With a non-null `listing`, stores the
+/// bytecode listing there. True on success.
+bool compileFile(const std::string& path, const std::vector<std::string>& includePath, Diagnostics& diag,
+                 std::string* listing);
 
 }  // namespace umbra::shading
