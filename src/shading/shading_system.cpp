@@ -453,6 +453,21 @@ void ShadingSystem::shade(ShadingGrid& grid, const ShadeRequest& request, Render
     releaseExecs(mark);
 }
 
+void ShadingSystem::shadeImager(ShadingGrid& grid, const ShaderInstance& imager, RendererServices& services) const {
+    UMBRA_CHECK(imager.shader().kind() == ShaderKind::Imager, "shadeImager() runs imager shaders only");
+    UMBRA_CHECK(grid.alpha.size() == size_t(grid.size()), "an imager grid holds one alpha per pixel");
+    size_t mark = execMark();
+    ShadeContext ctx;
+    ctx.system = this;
+    ctx.grid = &grid;
+    ctx.services = &services;
+    grid.m_outputs.clear();
+    Exec* e = acquireExec();
+    e->setup(imager.shader().code(), &imager, ctx, kImagerStream);
+    e->run();
+    releaseExecs(mark);
+}
+
 bool compileFile(const std::string& path, const std::vector<std::string>& includePath, Diagnostics& diag,
                  std::string* listing) {
     std::string text;

@@ -106,6 +106,9 @@ public:
     // Varying globals (one value per vertex).
     std::vector<Vec3> P, N, Ng, I, dPdu, dPdv, Cs, Os, Ci, Oi;
     std::vector<float> s, t, u, v;
+    /// Imager grids only: the pixels' coverage (RenderMan's `alpha`), one
+    /// per vertex; resize() leaves it alone and other grids leave it empty.
+    std::vector<float> alpha;
     // Uniform globals.
     float du = 0, dv = 0;
     Vec3 E{0, 0, 0};
@@ -184,6 +187,11 @@ public:
     /// once per grid each), then atmosphere. Without a surface, Ci = Cs
     /// shaded as defaultsurface and Oi = Os.
     void shade(ShadingGrid& grid, const ShadeRequest& request, RendererServices& services) const;
+    /// Runs an imager shader over a grid of pixels: P is each pixel's
+    /// raster position (x, y, 0), Ci/Oi its filtered colour and opacity and
+    /// `alpha` its coverage (grid.alpha, one per vertex); the shader
+    /// rewrites Ci, Oi and alpha in place.
+    void shadeImager(ShadingGrid& grid, const ShaderInstance& imager, RendererServices& services) const;
 
     Diagnostics& diagnostics() const { return m_diag; }
     /// The texture backend (OpenImageIO in a plugin), loaded on first use

@@ -2,7 +2,7 @@
 // polymorphism of built-ins, mixed-type built-ins, the two-value and
 // parameterised filterstep, transform from a named space by a matrix,
 // arraylength, shadername, incident/opposite, I in light shaders, imager
-// globals and #include along the search path. Each result is checked
+// shaders and #include along the search path. Each result is checked
 // against the same formula written here in C++, on grids whose points
 // differ, so a value computed once where it varies (or per point where it
 // is uniform) shows.
@@ -193,6 +193,34 @@ TEST(Compat, ImagerAndVolumeGlobals) {
         << h.messages();
     // alpha belongs to imagers: other shaders do not see it.
     EXPECT_FALSE(h.sys.compileSource("surface t() { Ci = alpha; }", "t.sl"));
+}
+
+TEST(Compat, ImagerSeesEachPixelAndRewritesColourAndAlpha) {
+    Harness h;
+    auto imager = h.instance("imager bg(color bgcolor = color(0.2, 0.4, 0.6)) {\n"
+                             "  Ci += (1 - alpha) * bgcolor + color(xcomp(P), ycomp(P), s + t) * 0.001;\n"
+                             "  Oi = 1; alpha = 1 - alpha * 0.5;\n"
+                             "}\n");
+    ASSERT_TRUE(imager);
+    ShadingGrid g;
+    g.resize(4, 1);
+    g.alpha.resize(4);
+    for (size_t i = 0; i < 4; ++i) {
+        g.P[i] = Vec3(float(i) + 0.5f, 7.5f, 0);
+        g.s[i] = g.P[i].x;
+        g.t[i] = g.P[i].y;
+        g.alpha[i] = float(i) / 3;
+        g.Ci[i] = Vec3(0.1f, 0, 0) * g.alpha[i];
+        g.Oi[i] = Vec3(g.alpha[i]);
+    }
+    h.sys.shadeImager(g, *imager, h.svc);
+    for (size_t i = 0; i < 4; ++i) {
+        const float a = float(i) / 3, x = float(i) + 0.5f;
+        expectNear(g.Ci[i], Vec3(0.1f * a, 0, 0) + Vec3(0.2f, 0.4f, 0.6f) * (1 - a) + Vec3(x, 7.5f, x + 7.5f) * 0.001f,
+                   1e-5f);
+        expectNear(g.Oi[i], Vec3(1));
+        EXPECT_NEAR(g.alpha[i], 1 - 0.5f * a, 1e-6f);
+    }
 }
 
 // #include looks beside the including file first, then along the path.
