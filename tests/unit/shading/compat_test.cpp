@@ -272,3 +272,45 @@ TEST(Compat, MixedTypeFormsOfArithmeticCastsAndComparisons) {
         expectNear(g.Oi[i], c + Vec3(1), 1e-6f);
     }
 }
+
+// Cl set by a function the illuminate() body calls, and a global
+// written through `extern` inside a function.
+TEST(Compat, LightFunctionsSetClAndExternReachesGlobals) {
+    Harness h;
+    auto light = h.instance("void shine(float k) { extern color Cl; Cl = color(k, 2 * k, xcomp(Ps)); }\n"
+                            "light l(float k = 0.5) { illuminate(point(0, 0, 0)) { shine(k); } }\n");
+    ASSERT_TRUE(light);
+    ShadingGrid g = line(5);
+    h.surface("void paint(color c) { extern color Ci; Ci = c; }\n"
+              "surface t() { color acc = 0; illuminance(P) { acc += Cl * (normalize(L) . vector(0, 0, -1)); }\n"
+              "  paint(acc); }\n",
+              g, {light.get()});
+    for (size_t i = 0; i < 5; ++i) {
+        const Vec3 P = g.P[i];
+        // L points from the surface to the light at the origin.
+        const float cosine = dot(normalize(-P), Vec3(0, 0, -1));
+        expectNear(g.Ci[i], Vec3(0.5f, 1.0f, P.x) * cosine, 1e-5f);
+    }
+}
+
+// A volume shader runs as the atmosphere after the surface, on its Ci/Oi.
+TEST(Compat, VolumeShaderRunsAsAtmosphere) {
+    Harness h;
+    auto surf = h.instance("surface t() { Ci = color(s, 0, 1); Oi = 1; }");
+    auto vol = h.instance("volume v(float d = 2; color fogc = color(0.5, 0.5, 0.5)) {\n"
+                          "  float f = 1 - exp(-length(I) / d);\n"
+                          "  Ci = mix(Ci, fogc, f); Oi = mix(Oi, color 1, f);\n"
+                          "}\n");
+    ASSERT_TRUE(surf && vol);
+    ShadingGrid g = makeGrid(5, 1, [](float u, float) { return Vec3(u, 0, 1 + 3 * u); });
+    ShadeRequest req;
+    req.surface = surf.get();
+    req.atmosphere = vol.get();
+    h.sys.shade(g, req, h.svc);
+    for (size_t i = 0; i < 5; ++i) {
+        const float f = 1 - std::exp(-length(g.I[i]) / 2);
+        const Vec3 c(g.s[i], 0, 1);
+        expectNear(g.Ci[i], c + (Vec3(0.5f) - c) * f, 1e-5f);
+        expectNear(g.Oi[i], Vec3(1), 1e-6f);
+    }
+}
