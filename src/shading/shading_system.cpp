@@ -152,8 +152,10 @@ void ShadingGrid::bind(const geometry::Grid& grid, const Color& color, const Col
     for (size_t i = 0; i < n; ++i) {
         N[i] = i < grid.N.size() ? grid.N[i] : Ng[i];
         I[i] = perspective ? P[i] - E : Vec3(0, 0, P[i].z);
+        // RI 3.2 section 12.1.1: a shader that sets neither leaves black
+        // and opaque (a surface without Oi = ... must not vanish).
         Ci[i] = Vec3(0.f);
-        Oi[i] = Vec3(0.f);
+        Oi[i] = Vec3(1.f);
     }
     primvars = &grid.vars;
 }

@@ -94,7 +94,8 @@ public:
     /// are not cleared; fill what the primitive provides.
     void resize(int uVertices, int vVertices);
     /// Fills P, N, u, v, du, dv, s, t, Cs, Os, dPdu, dPdv, Ng from a diced
-    /// grid already in camera space; `color`/`opacity` are the attribute
+    /// grid already in camera space, and sets Ci = 0 and Oi = 1 (RI 3.2's
+    /// values where a shader leaves them); `color`/`opacity` are the attribute
     /// values used when the grid has no Cs/Os; `eye` is E (camera space).
     /// Other grid variables are bound to shader parameters of the same name.
     void bind(const geometry::Grid& grid, const Color& color, const Color& opacity, bool perspective);
