@@ -146,13 +146,16 @@ TEST(Output, FailedRenderLeavesNoFile) {
 }
 
 // The Imager shader runs on every filtered pixel before output: P is the
-// pixel centre in raster space, Ci/alpha the filtered colour and coverage.
+// pixel centre in raster space, Ci/alpha the filtered colour and coverage;
+// option() answers as it does for surfaces.
 TEST(Imager, RunsOnEachFilteredPixelBeforeOutput) {
     ScratchDir dir("imager");
     {
         std::ofstream(dir.file("tag.sl")) << "imager tag(color bg = color(0, 0, 1)) {\n"
+                                             "  float res[3];\n"
+                                             "  float ok = option(\"Format\", res);\n"
                                              "  Ci += (1 - alpha) * bg;\n"
-                                             "  setcomp(Ci, 0, xcomp(P) / 64 + ycomp(P) / 4096);\n"
+                                             "  setcomp(Ci, 0, ok * (xcomp(P) / res[0] + ycomp(P) / (res[1] * 64)));\n"
                                              "  Oi = 1; alpha = 1;\n"
                                              "}\n";
     }
