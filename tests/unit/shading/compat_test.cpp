@@ -81,6 +81,8 @@ TEST(Compat, BuiltinOfUniformArgumentsIsUniform) {
         << h.messages();
     // So is random() outside a uniform store, even added to a uniform one.
     EXPECT_FALSE(h.sys.compileSource("surface t() { float v = random(); uniform float b = random() + v; }", "t.sl"));
+    // A uniform store under varying control stays an error, random() or not.
+    EXPECT_FALSE(h.sys.compileSource("surface t() { uniform float b = 0; if (u > 0.5) b = random(); }", "t.sl"));
 }
 
 TEST(Compat, PowOfAColorAndAFloat) {
