@@ -44,8 +44,8 @@ const std::vector<BuiltinSig>& builtinTable() {
         {"abs", Bi::Abs, "f", "f"}, {"abs", Bi::AbsT, "t", "t"}, {"sign", Bi::Sign, "f", "f"},
         {"floor", Bi::Floor, "f", "f"}, {"floor", Bi::FloorT, "t", "t"}, {"ceil", Bi::Ceil, "f", "f"},
         {"ceil", Bi::CeilT, "t", "t"}, {"round", Bi::Round, "f", "f"}, {"radians", Bi::Radians, "f", "f"},
-        {"degrees", Bi::Degrees, "f", "f"}, {"pow", Bi::Pow, "f", "ff"}, {"pow", Bi::PowT, "t", "tf"}, {"mod", Bi::Mod, "f", "ff"},
-        {"mod", Bi::ModT, "t", "tf"}, {"min", Bi::MinF, "f", "ff"}, {"min", Bi::MinT, "t", "tt"},
+        {"degrees", Bi::Degrees, "f", "f"}, {"pow", Bi::Pow, "f", "ff"}, {"pow", Bi::PowT, "t", "tf"},
+        {"mod", Bi::Mod, "f", "ff"}, {"mod", Bi::ModT, "t", "tf"}, {"min", Bi::MinF, "f", "ff"}, {"min", Bi::MinT, "t", "tt"},
         {"max", Bi::MaxF, "f", "ff"}, {"max", Bi::MaxT, "t", "tt"}, {"clamp", Bi::ClampF, "f", "fff"},
         {"clamp", Bi::ClampT, "t", "ttt"}, {"mix", Bi::MixF, "f", "fff"}, {"mix", Bi::MixTF, "t", "ttf"},
         {"mix", Bi::MixT, "t", "ttt"}, {"step", Bi::Step, "f", "ff"}, {"smoothstep", Bi::SmoothStep, "f", "fff"},
@@ -140,7 +140,8 @@ bool globalVisible(ShaderKind k, GlobalId g) {
         // as in Pixie, whose ambient lights read it.
         return g != gCi && g != gOi && g != gCs && g != gOs && g != gAlpha;
     case ShaderKind::Displacement:
-        return g != gCi && g != gOi && g != gL && g != gCl && g != gOl && g != gPs && g != gCs && g != gOs && g != gAlpha;
+        return g != gCi && g != gOi && g != gL && g != gCl && g != gOl && g != gPs && g != gCs && g != gOs &&
+               g != gAlpha;
     case ShaderKind::Volume:
         return g == gP || g == gI || g == gCi || g == gOi || g == gE || g == gNcomps || g == gTime;
     case ShaderKind::Imager:
@@ -681,7 +682,6 @@ private:
         return {};
     }
 
-    /// Emits `dst = expr` for a scalar destination register.
     /// Generates the value stored into register `dst`; while it is
     /// generated, m_uniformDest says whether `dst` is declared uniform.
     Val genStored(int dst, const Expr& e, Ty hint) {
@@ -693,6 +693,7 @@ private:
         return v;
     }
 
+    /// Emits `dst = expr` for a scalar destination register.
     void assignTo(int dst, Ty dstTy, const Expr& e, SrcLoc loc) {
         int before = here();
         Val v = coerce(genStored(dst, e, dstTy), dstTy, loc);

@@ -762,8 +762,14 @@ void execCall(Exec& x, const Instr& in) {
         int first = two ? 3 : 2;
         const float one = 1;
         In<float> widthScale{&one, 0};
-        for (int k = first; k + 1 < in.nargs; k += 2)
-            if (A.ty(k) == Ty::String && A.s(k) == "width" && A.ty(k + 1) == Ty::Float) widthScale = A.f(k + 1);
+        for (int k = first; k + 1 < in.nargs; k += 2) {
+            const std::string name = A.ty(k) == Ty::String ? A.s(k) : std::string();
+            if (name == "width" && A.ty(k + 1) == Ty::Float) widthScale = A.f(k + 1);
+            else if (name != "filter")  // every filter is a box here
+                x.ctx->system->diagnostics().warningOnce("shading:filterstep:" + name,
+                                                         FileLoc::inFile(x.cs->fileName, in.loc.line, in.loc.col),
+                                                         "unknown filterstep parameter '{}' ignored", name);
+        }
         In<float> e = A.f(0), v = A.f(1), v2 = two ? A.f(2) : A.f(1);
         float* d = x.ptr[size_t(dst)];
         forActive(x, x.vary[size_t(dst)], [&](int i) {

@@ -116,6 +116,11 @@ TEST(Compat, FilterStepOverAnIntervalAndWithAWidth) {
     }
     // Some points lie inside the filter: the test sees the ramp, not a step.
     EXPECT_NEAR(g.Ci[4].x, 0.5f, 1e-5f);  // s = 0.4: [0.4, 0.6] is half above 0.5
+    EXPECT_EQ(h.diag.warningCount(), 0) << h.messages();
+    // "filter" is accepted (all filters are boxes); other names warn once.
+    h.surface("surface t() { Ci = filterstep(0.5, s, \"filter\", \"gaussian\", \"sharpness\", 2); }", g);
+    EXPECT_EQ(h.diag.warningCount(), 1) << h.messages();
+    EXPECT_NE(h.messages().find("unknown filterstep parameter 'sharpness'"), std::string::npos) << h.messages();
 }
 
 TEST(Compat, TransformFromANamedSpaceByAMatrix) {
