@@ -9,11 +9,12 @@
 
 namespace umbra::apps {
 
-int compileShaders(const std::vector<std::string>& files, bool listing, Diagnostics& diag) {
+int compileShaders(const std::vector<std::string>& files, const std::vector<std::string>& includePath, bool listing,
+                   Diagnostics& diag) {
     bool ok = true;
     for (const auto& file : files) {
         std::string text;
-        if (!shading::compileFile(file, diag, listing ? &text : nullptr)) {
+        if (!shading::compileFile(file, includePath, diag, listing ? &text : nullptr)) {
             ok = false;
             continue;
         }

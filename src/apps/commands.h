@@ -9,7 +9,8 @@
 namespace umbra::apps {
 
 /// Compiles each shader, printing errors (and the bytecode with `listing`).
-int compileShaders(const std::vector<std::string>& files, bool listing, Diagnostics& diag);
+int compileShaders(const std::vector<std::string>& files, const std::vector<std::string>& includePath, bool listing,
+                   Diagnostics& diag);
 /// What `umbra txmake` was asked to make.
 struct TxmakeArgs {
     std::vector<std::string> files;  // inputs, then the output

@@ -3,7 +3,7 @@
 //   umbra render SCENE.rib [MORE.rib ...] [--threads N] [--progress]
 //                [--stats FILE.json] [--bucket-size N] [--quiet] [--no-shadows]
 //   umbra SCENE.rib ...                      (same as `umbra render`)
-//   umbra slc [--listing] FILE.sl ...        (compile shaders, report errors)
+//   umbra slc [--listing] [-I DIR] FILE.sl ... (compile shaders, report errors)
 //   umbra info [--json] MAP                  (depth-map storage figures)
 //   umbra txmake [--wrap M] [--swrap M] [--twrap M] [--filter F] [--width W] IN.tif OUT.tx
 //   umbra txmake --shadow IN.z OUT.shd
@@ -50,10 +50,12 @@ int main(int argc, char** argv) {
     render->add_flag("--skip-existing", settings.skipExisting, "Do not re-render frames whose outputs exist");
 
     std::vector<std::string> slcFiles;
+    std::vector<std::string> slcIncludes;
     bool listing = false;
     auto* slc = app.add_subcommand("slc", "Compile shading-language shaders and report errors");
     slc->add_option("files", slcFiles, "Shader sources (.sl)")->required();
     slc->add_flag("--listing", listing, "Print the bytecode listing");
+    slc->add_option("-I,--include", slcIncludes, "Directory searched for #include files (after the including file's own)");
 
     std::string mapPath;
     bool json = false;
@@ -96,7 +98,7 @@ int main(int argc, char** argv) {
     // and renamed, so none is left half-written.
     try {
         if (*render) return umbra::render::renderFiles(ribFiles, settings, statsPath, diag);
-        if (*slc) return umbra::apps::compileShaders(slcFiles, listing, diag);
+        if (*slc) return umbra::apps::compileShaders(slcFiles, slcIncludes, listing, diag);
         if (*info) return umbra::apps::describeMap(mapPath, json, diag);
         if (*txmake) return umbra::apps::txmake(tx, diag);
     } catch (const std::bad_alloc&) {

@@ -80,7 +80,7 @@ struct FrameState {
 struct GridState {
     const FrameState* frame = nullptr;
     const Pass* pass = nullptr;
-    const scene::PrimitiveRecord* record = nullptr;
+    const scene::PrimitiveRecord* record = nullptr;  // null for an imager's grid of pixels
     Mat4 cameraFromObject;
 };
 

@@ -206,6 +206,9 @@ struct Renderer::Impl {
     void renderWorld(const scene::WorldRecord& world, int& failed);
     PassResult runPass(FrameState& frame, const Pass& pass, const std::vector<geometry::PrimitivePtr>& prims,
                        film::Film& film, const std::string& label);
+    /// Runs the Imager shader over the filtered pixels, one row of the
+    /// crop region per grid, before exposure and quantization.
+    void runImager(const FrameState& frame, const Pass& pass, const scene::ShaderRecord& record, film::Film& film);
     /// The automatic depth map of `light` to make, or nothing (with a
     /// warning) when umbra cannot derive its view. Serial: it looks up the
     /// light's shader and reports what it finds in a fixed order.
@@ -256,6 +259,43 @@ void Renderer::make(const scene::MakeRecord& make) {
     if (!makeFile(make, m_impl->diag)) ++m_failed;
     // A map made again under a name already read is read again.
     if (make.request == "MakeShadow") m_impl->maps->invalidate(make.output);
+}
+
+void Renderer::Impl::runImager(const FrameState& frame, const Pass& pass, const scene::ShaderRecord& record,
+                               film::Film& film) {
+    auto imager = shading->instantiate(record, shading::ShaderKind::Imager);
+    if (!imager) return;  // reported by instantiate()
+    GridState state;
+    state.frame = &frame;
+    state.pass = &pass;
+    const int width = film.width();
+    tbb::parallel_for(film.y0(), film.y1(), [&](int y) {
+        shading::ShadingGrid g;
+        g.resize(width, 1);
+        g.alpha.resize(size_t(width));
+        g.renderState = &state;
+        g.seed = uint32_t(y);
+        for (int i = 0; i < width; ++i) {
+            const float* px = film.rgba(film.x0() + i, y);
+            const Vec3 p(float(film.x0() + i) + 0.5f, float(y) + 0.5f, 0.0f);
+            g.P[size_t(i)] = g.I[size_t(i)] = p;
+            g.s[size_t(i)] = g.u[size_t(i)] = p.x;
+            g.t[size_t(i)] = g.v[size_t(i)] = p.y;
+            g.N[size_t(i)] = g.Ng[size_t(i)] = Vec3(0, 0, -1);
+            g.Ci[size_t(i)] = Vec3(px[0], px[1], px[2]);  // premultiplied, as filtered
+            g.Oi[size_t(i)] = Vec3(px[3], px[3], px[3]);
+            g.alpha[size_t(i)] = px[3];
+        }
+        shading->shadeImager(g, *imager, *services);
+        for (int i = 0; i < width; ++i) {
+            float* px = film.rgba(film.x0() + i, y);
+            const Vec3& c = g.Ci[size_t(i)];
+            px[0] = c.x;
+            px[1] = c.y;
+            px[2] = c.z;
+            px[3] = g.alpha[size_t(i)];
+        }
+    });
 }
 
 PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const std::vector<geometry::PrimitivePtr>& prims,
@@ -448,6 +488,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
         diag);
     PassResult camera;
     arena->execute([&] { camera = runPass(frame, pass, prims, film, fmt::format("frame {}", world.frameNumber)); });
+    if (options.imager && !depthFrame) arena->execute([&] { runImager(frame, pass, *options.imager, film); });
     passes.push_back({{"name", pass.name},
                       {"wall_seconds", camera.wall},
                       {"cpu_seconds", camera.cpu},

@@ -186,6 +186,7 @@ bool Services::raytrace(const GridState& st, const shading::ShadowQuery& q, floa
 
 bool Services::attribute(const shading::ShadingGrid& grid, const std::string& name, shading::ShadeValue* out) {
     const GridState& st = stateOf(grid);
+    if (!st.record) return false;  // an imager's grid of pixels has no primitive
     const scene::Attributes& a = *st.record->attributes;
     if (name == "ShadingRate") {
         out->floats = {a.shadingRate};

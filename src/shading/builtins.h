@@ -14,14 +14,15 @@ enum class Bi : int16_t {
     // float -> float, per point
     Sin, Cos, Tan, Asin, Acos, Atan, Exp, Log, Sqrt, InvSqrt, Abs, Sign, Floor, Ceil, Round, Radians, Degrees,
     // float, float -> float
-    Atan2, Pow, LogBase, Mod, MinF, MaxF, Step,
-    MinT, MaxT, ClampF, ClampT, MixF, MixT, MixTF, SmoothStep, FilterStep,
+    Atan2, Pow, PowT, LogBase, Mod, MinF, MaxF, Step,
+    MinT, MaxT, ClampF, ClampT, MixF, MixT, MixTF, SmoothStep, FilterStep, FilterStep2,
     AbsT, FloorT, CeilT, ModT,
     SplineF, SplineT, SplineBasisF, SplineBasisT,
     // geometry
     Xcomp, Ycomp, Zcomp, SetXcomp, SetYcomp, SetZcomp, CompM, SetCompM,
     Length, Distance, Normalize, FaceForward, FaceForward3, Reflect, Refract, Fresnel, FresnelRT,
     Transform, TransformFT, TransformM, VTransform, VTransformFT, VTransformM, NTransform, NTransformFT, NTransformM,
+    TransformSM, VTransformSM, NTransformSM,
     CTransform, CTransformFT, CalculateNormal, Area, Depth, PtLined, Rotate3,
     DuF, DvF, DuT, DvT, DerivF, DerivT,
     // matrices
@@ -37,7 +38,8 @@ enum class Bi : int16_t {
     Ambient, Diffuse, Specular, SpecularBrdf, Phong,
     TextureF, TextureC, TextureF4, TextureC4, EnvironmentF, EnvironmentC, Shadow, Shadow4, TextureInfo,
     // message passing
-    LightSource, SurfaceMsg, DisplacementMsg, AtmosphereMsg, Attribute, Option, RendererInfo,
+    LightSource, SurfaceMsg, DisplacementMsg, AtmosphereMsg, Incident, Opposite, Attribute, Option, RendererInfo,
+    ShaderNameOf,
     // conversions
     ColorFromSpace,
     Count

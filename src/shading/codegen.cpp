@@ -44,12 +44,12 @@ const std::vector<BuiltinSig>& builtinTable() {
         {"abs", Bi::Abs, "f", "f"}, {"abs", Bi::AbsT, "t", "t"}, {"sign", Bi::Sign, "f", "f"},
         {"floor", Bi::Floor, "f", "f"}, {"floor", Bi::FloorT, "t", "t"}, {"ceil", Bi::Ceil, "f", "f"},
         {"ceil", Bi::CeilT, "t", "t"}, {"round", Bi::Round, "f", "f"}, {"radians", Bi::Radians, "f", "f"},
-        {"degrees", Bi::Degrees, "f", "f"}, {"pow", Bi::Pow, "f", "ff"}, {"mod", Bi::Mod, "f", "ff"},
-        {"mod", Bi::ModT, "t", "tf"}, {"min", Bi::MinF, "f", "ff"}, {"min", Bi::MinT, "t", "tt"},
+        {"degrees", Bi::Degrees, "f", "f"}, {"pow", Bi::Pow, "f", "ff"}, {"pow", Bi::PowT, "t", "tf"},
+        {"mod", Bi::Mod, "f", "ff"}, {"mod", Bi::ModT, "t", "tf"}, {"min", Bi::MinF, "f", "ff"}, {"min", Bi::MinT, "t", "tt"},
         {"max", Bi::MaxF, "f", "ff"}, {"max", Bi::MaxT, "t", "tt"}, {"clamp", Bi::ClampF, "f", "fff"},
         {"clamp", Bi::ClampT, "t", "ttt"}, {"mix", Bi::MixF, "f", "fff"}, {"mix", Bi::MixTF, "t", "ttf"},
         {"mix", Bi::MixT, "t", "ttt"}, {"step", Bi::Step, "f", "ff"}, {"smoothstep", Bi::SmoothStep, "f", "fff"},
-        {"filterstep", Bi::FilterStep, "f", "ff"},
+        {"filterstep", Bi::FilterStep, "f", "ff*"}, {"filterstep", Bi::FilterStep2, "f", "fff*"},
         {"xcomp", Bi::Xcomp, "f", "p"}, {"ycomp", Bi::Ycomp, "f", "p"}, {"zcomp", Bi::Zcomp, "f", "p"},
         {"setxcomp", Bi::SetXcomp, "v", "&pf"}, {"setycomp", Bi::SetYcomp, "v", "&pf"},
         {"setzcomp", Bi::SetZcomp, "v", "&pf"}, {"comp", Bi::CompM, "f", "mff"},
@@ -63,7 +63,9 @@ const std::vector<BuiltinSig>& builtinTable() {
         {"transform", Bi::TransformM, "t", "mp"}, {"vtransform", Bi::VTransform, "t", "sp"},
         {"vtransform", Bi::VTransformFT, "t", "ssp"}, {"vtransform", Bi::VTransformM, "t", "mp"},
         {"ntransform", Bi::NTransform, "t", "sp"}, {"ntransform", Bi::NTransformFT, "t", "ssp"},
-        {"ntransform", Bi::NTransformM, "t", "mp"}, {"ctransform", Bi::CTransform, "c", "sc"},
+        {"ntransform", Bi::NTransformM, "t", "mp"}, {"transform", Bi::TransformSM, "t", "smp"},
+        {"vtransform", Bi::VTransformSM, "t", "smp"}, {"ntransform", Bi::NTransformSM, "t", "smp"},
+        {"ctransform", Bi::CTransform, "c", "sc"},
         {"ctransform", Bi::CTransformFT, "c", "ssc"}, {"calculatenormal", Bi::CalculateNormal, "n", "p"},
         {"area", Bi::Area, "f", "p"}, {"depth", Bi::Depth, "f", "p"}, {"ptlined", Bi::PtLined, "f", "ppp"},
         {"rotate", Bi::Rotate3, "t", "pfpp"},
@@ -84,11 +86,13 @@ const std::vector<BuiltinSig>& builtinTable() {
         {"cellnoise", Bi::CellT3, "h", "p"}, {"cellnoise", Bi::CellT4, "h", "pf"},
         {"random", Bi::RandomF, "f", "", true}, {"random", Bi::RandomT, "h", "", true},
         {"ambient", Bi::Ambient, "c", "", true, true}, {"diffuse", Bi::Diffuse, "c", "p", true, true},
-        {"specular", Bi::Specular, "c", "ppf", true, true}, {"specularbrdf", Bi::SpecularBrdf, "c", "ppff"},
+        {"specular", Bi::Specular, "c", "ppf", true, true}, {"specularbrdf", Bi::SpecularBrdf, "c", "pppf"},
         {"phong", Bi::Phong, "c", "ppf", true, true},
         {"textureinfo", Bi::TextureInfo, "f", "ss&a"},
         {"lightsource", Bi::LightSource, "f", "s&a", true}, {"surface", Bi::SurfaceMsg, "f", "s&a"},
         {"displacement", Bi::DisplacementMsg, "f", "s&a"}, {"atmosphere", Bi::AtmosphereMsg, "f", "s&a"},
+        {"incident", Bi::Incident, "f", "s&a"}, {"opposite", Bi::Opposite, "f", "s&a"},
+        {"shadername", Bi::ShaderNameOf, "s", "s"},
         {"attribute", Bi::Attribute, "f", "s&a"}, {"option", Bi::Option, "f", "s&a"},
         {"rendererinfo", Bi::RendererInfo, "f", "s&a"},
     };
@@ -124,20 +128,28 @@ const GlobalDef kGlobals[] = {
     {"dPdv", gDPdv, Ty::Vector, true}, {"Cs", gCs, Ty::Color, true}, {"Os", gOs, Ty::Color, true},
     {"Ci", gCi, Ty::Color, true},   {"Oi", gOi, Ty::Color, true},   {"L", gL, Ty::Vector, true},
     {"Cl", gCl, Ty::Color, true},   {"Ol", gOl, Ty::Color, true},   {"Ps", gPs, Ty::Point, true},
-    {"ncomps", gNcomps, Ty::Float, false}, {"time", gTime, Ty::Float, false},
+    {"ncomps", gNcomps, Ty::Float, false}, {"time", gTime, Ty::Float, false}, {"alpha", gAlpha, Ty::Float, true},
 };
 
 bool globalVisible(ShaderKind k, GlobalId g) {
     switch (k) {
     case ShaderKind::Surface:
-        return g != gPs && g != gOl;
+        return g != gPs && g != gOl && g != gAlpha;
     case ShaderKind::Light:
-        return g != gCi && g != gOi && g != gCs && g != gOs && g != gI;
+        // I is the surface's incident vector (the surface point's Ps - E),
+        // as in Pixie, whose ambient lights read it.
+        return g != gCi && g != gOi && g != gCs && g != gOs && g != gAlpha;
     case ShaderKind::Displacement:
-        return g != gCi && g != gOi && g != gL && g != gCl && g != gOl && g != gPs && g != gCs && g != gOs;
+        return g != gCi && g != gOi && g != gL && g != gCl && g != gOl && g != gPs && g != gCs && g != gOs &&
+               g != gAlpha;
     case ShaderKind::Volume:
-    case ShaderKind::Imager:
         return g == gP || g == gI || g == gCi || g == gOi || g == gE || g == gNcomps || g == gTime;
+    case ShaderKind::Imager:
+        // P is the pixel's raster position (x, y, 0). Aqsis's compiler
+        // also accepts s and t in imagers (its filmgrain reads them);
+        // umbra gives them P's x and y.
+        return g == gP || g == gCi || g == gOi || g == gAlpha || g == gS || g == gT || g == gE || g == gNcomps ||
+               g == gTime;
     }
     return true;
 }
@@ -673,10 +685,21 @@ private:
         return {};
     }
 
+    /// Generates the value stored into register `dst`; while it is
+    /// generated, m_uniformDest says whether `dst` is declared uniform.
+    Val genStored(int dst, const Expr& e, Ty hint) {
+        const RegInfo& d = m_cs.regs[dst];
+        bool saved = m_uniformDest;
+        m_uniformDest = d.fixed && !d.varying && d.kind != RegKind::Temp && d.kind != RegKind::Const;
+        Val v = gen(e, hint);
+        m_uniformDest = saved;
+        return v;
+    }
+
     /// Emits `dst = expr` for a scalar destination register.
     void assignTo(int dst, Ty dstTy, const Expr& e, SrcLoc loc) {
         int before = here();
-        Val v = coerce(gen(e, dstTy), dstTy, loc);
+        Val v = coerce(genStored(dst, e, dstTy), dstTy, loc);
         if (!v) return;
         if (m_cs.regs[v.reg].arrayLen > 0) {
             error(loc, "cannot assign an array to a scalar");
@@ -1089,7 +1112,7 @@ private:
             if (op.empty()) {
                 assignTo(r, ri.ty, rhs, e.loc);
             } else {
-                Val v = binaryOp(op, {r, ri.ty}, gen(rhs, ri.ty), e.loc);
+                Val v = binaryOp(op, {r, ri.ty}, genStored(r, rhs, ri.ty), e.loc);
                 v = coerce(v, ri.ty, e.loc);
                 if (!v) return {};
                 if (m_cs.code.back().dst == v.reg && retargetable(m_cs.code.back().op)) m_cs.code.back().dst = r;
@@ -1210,6 +1233,16 @@ private:
             return acc;
         }
         if (e.name == "concat" && e.kids.empty()) return {constS(""), Ty::String};
+        if (e.name == "shadername" && e.kids.empty()) return {constS(m_cs.name), Ty::String};
+        if (e.name == "arraylength") {
+            Val a = e.kids.size() == 1 ? gen(*e.kids[0], Ty::Void) : Val{};
+            if (e.kids.size() != 1 || (a && m_cs.regs[a.reg].arrayLen <= 0)) {
+                error(e.loc, "arraylength() expects one array");
+                return {};
+            }
+            if (!a) return {};
+            return {constF(float(m_cs.regs[a.reg].arrayLen)), Ty::Float};
+        }
         std::vector<Val> args;
         for (auto& k : e.kids) args.push_back(gen(*k, Ty::Void));
         for (auto& a : args)
@@ -1259,6 +1292,9 @@ private:
                 cost += c;
             }
             if (cost < 0) continue;
+            // Of a fixed and a variadic version, the one naming more
+            // arguments wins: filterstep(e, s1, s2, "width", w).
+            if (variadic) cost += int(args.size() - codes.size());
             bool retTriple = sig.ret[0] == 'h' || sig.ret[0] == 't' || sig.ret[0] == 'c' || sig.ret[0] == 'p' || sig.ret[0] == 'n';
             if (isTriple(hint) != retTriple && hint != Ty::Void && sig.ret[0] != 'v' && (sig.ret[0] == 'h' || hint == Ty::Float)) cost += 5;
             if (sig.ret[0] == 'h' && !isTriple(hint)) cost += 5;
@@ -1342,7 +1378,10 @@ private:
                     }
         }
         Val r = callBuiltin(best->id, ret, regs, e.loc, outMask);
-        if (best->alwaysVarying) m_cs.code.back().varies = true;
+        // random() is polymorphic in storage class: stored into a uniform
+        // variable it draws one value per grid; elsewhere one per point.
+        bool random = best->id == Bi::RandomF || best->id == Bi::RandomT;
+        if (best->alwaysVarying && !(random && m_uniformDest)) m_cs.code.back().varies = true;
         return r;
     }
 
@@ -1645,6 +1684,7 @@ private:
     int m_frameDepth = 0;
     int m_ctl = 0;
     int m_exprDepth = 0;
+    bool m_uniformDest = false;  // generating a value stored into a uniform variable
     const Expr* m_effectExpr = nullptr;  // see genEffect()
     bool m_hasIlluminate = false;
     bool m_hasSolar = false, m_hasIlluminateAt = false;  // which of the two the light uses

@@ -51,6 +51,11 @@ int toInt(float f) {
 int clampIndexM(float f) { return f >= 0 ? std::min(toInt(f), 3) : 0; }
 float safeSqrt(float a) { return a > 0 ? std::sqrt(a) : 0.f; }
 float fixNan(float a) { return std::isfinite(a) ? a : 0.f; }
+/// pow() that is 0 where the real power is undefined or infinite.
+float safePow(float a, float b) {
+    if (a < 0 && b != std::floor(b)) return 0.f;
+    return fixNan(std::pow(a, b));
+}
 
 Vec3 faceforward(const Vec3& N, const Vec3& I, const Vec3& Nref) { return dot(I, Nref) < 0 ? N : -N; }
 Vec3 reflect(const Vec3& I, const Vec3& N) { return I - N * (2 * dot(I, N)); }
@@ -117,6 +122,14 @@ Vec3 rslPoint(const M16& m, const Vec3& p) {
 Vec3 rslVector(const M16& m, const Vec3& p) {
     const float* a = m.m;
     return {p.x * a[0] + p.y * a[4] + p.z * a[8], p.x * a[1] + p.y * a[5] + p.z * a[9], p.x * a[2] + p.y * a[6] + p.z * a[10]};
+}
+Vec3 rslNormal(const M16& m, const Vec3& n) {
+    Mat4 a;
+    std::memcpy(a.m, m.m, sizeof m.m);
+    Mat4 inv = a.inverse();  // RSL order: n' = n * inverse(m)^T
+    const auto& q = inv.m;
+    return Vec3(n.x * q[0][0] + n.y * q[0][1] + n.z * q[0][2], n.x * q[1][0] + n.y * q[1][1] + n.z * q[1][2],
+                n.x * q[2][0] + n.y * q[2][1] + n.z * q[2][2]);
 }
 
 /// currentFromSpace for a named space.
@@ -729,11 +742,10 @@ void execCall(Exec& x, const Instr& in) {
     case Bi::Round: map(x, dst, [](float a) { return std::round(a); }, A.f(0)); break;
     case Bi::Radians: map(x, dst, [](float a) { return radians(a); }, A.f(0)); break;
     case Bi::Degrees: map(x, dst, [](float a) { return degrees(a); }, A.f(0)); break;
-    case Bi::Pow:
-        map(x, dst, [](float a, float b) {
-            if (a < 0 && b != std::floor(b)) return 0.f;
-            return fixNan(std::pow(a, b));
-        }, A.f(0), A.f(1));
+    case Bi::Pow: map(x, dst, safePow, A.f(0), A.f(1)); break;
+    case Bi::PowT:
+        map(x, dst, [](const Vec3& a, float b) { return Vec3(safePow(a.x, b), safePow(a.y, b), safePow(a.z, b)); },
+            A.v(0), A.f(1));
         break;
     case Bi::Mod: map(x, dst, [](float a, float b) { return b == 0 ? 0.f : a - b * std::floor(a / b); }, A.f(0), A.f(1)); break;
     case Bi::ModT:
@@ -753,14 +765,40 @@ void execCall(Exec& x, const Instr& in) {
     case Bi::MixT: map(x, dst, [](const Vec3& a, const Vec3& b, const Vec3& t) { return a + (b - a) * t; }, A.v(0), A.v(1), A.v(2)); break;
     case Bi::Step: map(x, dst, [](float e, float a) { return a < e ? 0.f : 1.f; }, A.f(0), A.f(1)); break;
     case Bi::SmoothStep: map(x, dst, [](float a, float b, float c) { return smoothstep(a, b, c); }, A.f(0), A.f(1), A.f(2)); break;
-    case Bi::FilterStep: {
-        // A step filtered over the point's footprint: the change of x
-        // across one micropolygon in u and v.
-        In<float> e = A.f(0), v = A.f(1);
+    case Bi::FilterStep:
+    case Bi::FilterStep2: {
+        // A step box-filtered over [lo, hi]: the fraction of the interval
+        // at or above the edge. One value: the interval is centred on it,
+        // as wide as its change across one micropolygon in u and v; two
+        // values s1, s2: the interval between them. "width" scales it.
+        bool two = Bi(in.sub) == Bi::FilterStep2;
+        int first = two ? 3 : 2;
+        const float one = 1;
+        In<float> widthScale{&one, 0};
+        for (int k = first; k + 1 < in.nargs; k += 2) {
+            const std::string name = A.ty(k) == Ty::String ? A.s(k) : std::string();
+            if (name == "width" && A.ty(k + 1) == Ty::Float) widthScale = A.f(k + 1);
+            else if (name != "filter")  // every filter is a box here
+                x.ctx->system->diagnostics().warningOnce("shading:filterstep:" + name,
+                                                         FileLoc::inFile(x.cs->fileName, in.loc.line, in.loc.col),
+                                                         "unknown filterstep parameter '{}' ignored", name);
+        }
+        In<float> e = A.f(0), v = A.f(1), v2 = two ? A.f(2) : A.f(1);
         float* d = x.ptr[size_t(dst)];
         forActive(x, x.vary[size_t(dst)], [&](int i) {
-            float w = std::fabs(deriv(x, v, i, 0, 1.f)) + std::fabs(deriv(x, v, i, 1, 1.f));
-            d[i] = w <= 0 ? (v[i] < e[i] ? 0.f : 1.f) : clamp((v[i] - e[i]) / w + 0.5f, 0.f, 1.f);
+            float lo, hi;
+            if (two) {
+                lo = std::min(v[i], v2[i]);
+                hi = std::max(v[i], v2[i]);
+            } else {
+                float w = std::fabs(deriv(x, v, i, 0, 1.f)) + std::fabs(deriv(x, v, i, 1, 1.f));
+                lo = v[i] - 0.5f * w;
+                hi = v[i] + 0.5f * w;
+            }
+            float mid = 0.5f * (lo + hi), half = 0.5f * (hi - lo) * std::max(0.f, widthScale[i]);
+            lo = mid - half;
+            hi = mid + half;
+            d[i] = hi <= lo ? (mid < e[i] ? 0.f : 1.f) : clamp((hi - e[i]) / (hi - lo), 0.f, 1.f);
         });
         break;
     }
@@ -833,17 +871,24 @@ void execCall(Exec& x, const Instr& in) {
         map(x, dst, [&](const Vec3& p) { return xform(toFromFrom, inv, kind, p); }, A.v(ft ? 2 : 1));
         break;
     }
+    case Bi::TransformSM: case Bi::VTransformSM: case Bi::NTransformSM: {
+        // From the named space to "current", then by the matrix, as
+        // transform(m, transform(from, "current", p)).
+        Bi id = Bi(in.sub);
+        XKind kind = id == Bi::TransformSM ? XKind::Point : id == Bi::VTransformSM ? XKind::Vector : XKind::Normal;
+        Mat4 currentFromFrom = spaceMatrix(x, A.s(0), in);
+        Mat4 inv = currentFromFrom.inverse();
+        map(x, dst, [&](const M16& m, const Vec3& p) {
+            Vec3 c = xform(currentFromFrom, inv, kind, p);
+            if (kind == XKind::Point) return rslPoint(m, c);
+            if (kind == XKind::Vector) return rslVector(m, c);
+            return rslNormal(m, c);
+        }, A.m(1), A.v(2));
+        break;
+    }
     case Bi::TransformM: map(x, dst, rslPoint, A.m(0), A.v(1)); break;
     case Bi::VTransformM: map(x, dst, rslVector, A.m(0), A.v(1)); break;
-    case Bi::NTransformM:
-        map(x, dst, [](const M16& m, const Vec3& n) {
-            Mat4 a;
-            std::memcpy(a.m, m.m, sizeof m.m);
-            Mat4 inv = a.inverse();  // RSL order: n' = n * inverse(m)^T
-            const auto& q = inv.m;
-            return Vec3(n.x * q[0][0] + n.y * q[0][1] + n.z * q[0][2], n.x * q[1][0] + n.y * q[1][1] + n.z * q[1][2],
-                        n.x * q[2][0] + n.y * q[2][1] + n.z * q[2][2]);
-        }, A.m(0), A.v(1));
+    case Bi::NTransformM: map(x, dst, rslNormal, A.m(0), A.v(1));
         break;
     case Bi::SpaceMatrix: {
         M16 spaceToCurrent = toRsl(spaceMatrix(x, A.s(0), in));
@@ -1094,6 +1139,21 @@ void execCall(Exec& x, const Instr& in) {
     case Bi::SurfaceMsg: setResult(x, in, copyParam(x, x.ctx->surface, A.s(0), A.reg(1))); break;
     case Bi::DisplacementMsg: setResult(x, in, copyParam(x, x.ctx->displacement, A.s(0), A.reg(1))); break;
     case Bi::AtmosphereMsg: setResult(x, in, copyParam(x, x.ctx->atmosphere, A.s(0), A.reg(1))); break;
+    // umbra has no interior or exterior volume shaders (Interior/Exterior
+    // are ignored), so there is never a value to read.
+    case Bi::Incident:
+    case Bi::Opposite: setResult(x, in, 0); break;
+    case Bi::ShaderNameOf: {
+        // The name of the grid's shader of that kind; "" if it has none.
+        const std::string& kind = A.s(0);
+        const Exec* e = kind == shaderKindName(x.cs->kind) ? &x
+                        : kind == "surface" ? x.ctx->surface : kind == "displacement" ? x.ctx->displacement
+                        : kind == "atmosphere" ? x.ctx->atmosphere
+                        : kind == "light" && x.currentLight >= 0 ? x.ctx->lights[size_t(x.currentLight)].exec
+                                                                 : nullptr;
+        x.strs[size_t(dst)][0] = e && e->cs ? e->cs->name : std::string();
+        break;
+    }
     case Bi::Attribute:
     case Bi::Option:
     case Bi::RendererInfo: {

@@ -153,8 +153,10 @@ void ShadingGrid::bind(const geometry::Grid& grid, const Color& color, const Col
     for (size_t i = 0; i < n; ++i) {
         N[i] = i < grid.N.size() ? grid.N[i] : Ng[i];
         I[i] = perspective ? P[i] - E : Vec3(0, 0, P[i].z);
+        // RI 3.2 section 12.1.1: a shader that sets neither leaves black
+        // and opaque (a surface without Oi = ... must not vanish).
         Ci[i] = Vec3(0.f);
-        Oi[i] = Vec3(0.f);
+        Oi[i] = Vec3(1.f);
     }
     primvars = &grid.vars;
 }
@@ -449,14 +451,32 @@ void ShadingSystem::shade(ShadingGrid& grid, const ShadeRequest& request, Render
     releaseExecs(mark);
 }
 
-bool compileFile(const std::string& path, Diagnostics& diag, std::string* listing) {
+void ShadingSystem::shadeImager(ShadingGrid& grid, const ShaderInstance& imager, RendererServices& services) const {
+    UMBRA_CHECK(imager.shader().kind() == ShaderKind::Imager, "shadeImager() runs imager shaders only");
+    UMBRA_CHECK(grid.alpha.size() == size_t(grid.size()), "an imager grid holds one alpha per pixel");
+    size_t mark = execMark();
+    ShadeContext ctx;
+    ctx.system = this;
+    ctx.grid = &grid;
+    ctx.services = &services;
+    grid.m_outputs.clear();
+    Exec* e = acquireExec();
+    e->setup(imager.shader().code(), &imager, ctx, kImagerStream);
+    e->run();
+    releaseExecs(mark);
+}
+
+bool compileFile(const std::string& path, const std::vector<std::string>& includePath, Diagnostics& diag,
+                 std::string* listing) {
     std::string text;
     if (!readFile(path, &text)) {
         diag.error(FileLoc::inFile(path), "cannot read shader file");
         return false;
     }
-    std::vector<std::string> inc = splitSearchPath(defaultShaderPath());
-    auto code = compileShaderSource(text, path, inc, diag);
+    // -I directories, then the default shader path (the standard headers).
+    std::vector<std::string> inc = includePath;
+    for (const std::string& d : splitSearchPath(defaultShaderPath())) inc.push_back(d);
+    auto code = compileShaderSource(text, path, includePathFor(path, inc), diag);
     if (!code) return false;
     if (listing) *listing = code->listing();
     return true;

@@ -134,6 +134,7 @@ void Exec::setup(const CompiledShader& code, const ShaderInstance* instance, Sha
         case gT: return g.t.data();
         case gU: return g.u.data();
         case gV: return g.v.data();
+        case gAlpha: return g.alpha.size() == size_t(n) ? g.alpha.data() : nullptr;
         default: return nullptr;
         }
     };

@@ -79,7 +79,7 @@ struct ShadeContext {
 
 /// The random streams of a grid's shaders (Exec::randomStream); light l of
 /// the grid's light list has stream kFirstLightStream + l.
-enum : uint32_t { kDisplacementStream = 1, kSurfaceStream = 2, kAtmosphereStream = 3, kFirstLightStream = 16 };
+enum : uint32_t { kDisplacementStream = 1, kSurfaceStream = 2, kAtmosphereStream = 3, kImagerStream = 4, kFirstLightStream = 16 };
 
 /// One running shader instance.
 struct Exec {

@@ -95,7 +95,8 @@ public:
     /// are not cleared; fill what the primitive provides.
     void resize(int uVertices, int vVertices);
     /// Fills P, N, u, v, du, dv, s, t, Cs, Os, dPdu, dPdv, Ng from a diced
-    /// grid already in camera space; `color`/`opacity` are the attribute
+    /// grid already in camera space, and sets Ci = 0 and Oi = 1 (RI 3.2's
+    /// values where a shader leaves them); `color`/`opacity` are the attribute
     /// values used when the grid has no Cs/Os; `eye` is E (camera space).
     /// Other grid variables are bound to shader parameters of the same name.
     void bind(const geometry::Grid& grid, const Color& color, const Color& opacity, bool perspective);
@@ -107,6 +108,9 @@ public:
     // Varying globals (one value per vertex).
     std::vector<Vec3> P, N, Ng, I, dPdu, dPdv, Cs, Os, Ci, Oi;
     std::vector<float> s, t, u, v;
+    /// Imager grids only: the pixels' coverage (RenderMan's `alpha`), one
+    /// per vertex; resize() leaves it alone and other grids leave it empty.
+    std::vector<float> alpha;
     // Uniform globals.
     float du = 0, dv = 0;
     Vec3 E{0, 0, 0};
@@ -187,6 +191,11 @@ public:
     /// once per grid each), then atmosphere. Without a surface, Ci = Cs
     /// shaded as defaultsurface and Oi = Os.
     void shade(ShadingGrid& grid, const ShadeRequest& request, RendererServices& services) const;
+    /// Runs an imager shader over a grid of pixels: P is each pixel's
+    /// raster position (x, y, 0), Ci/Oi its filtered colour and opacity and
+    /// `alpha` its coverage (grid.alpha, one per vertex); the shader
+    /// rewrites Ci, Oi and alpha in place.
+    void shadeImager(ShadingGrid& grid, const ShaderInstance& imager, RendererServices& services) const;
 
     Diagnostics& diagnostics() const { return m_diag; }
     /// The texture backend (OpenImageIO in a plugin), loaded on first use
@@ -206,8 +215,11 @@ private:
     mutable TextureBackend* m_textures = nullptr;
 };
 
-/// `umbra slc FILE.sl`: compiles one file, reporting errors; with a
-/// non-null `listing`, stores the bytecode listing there. True on success.
-bool compileFile(const std::string& path, Diagnostics& diag, std::string* listing);
+/// `umbra slc [-I DIR] FILE.sl`: compiles one file, reporting errors;
+/// #include looks beside the including file, then in `includePath`, then
+/// in the standard shader directory. With a non-null `listing`, stores the
+/// bytecode listing there. True on success.
+bool compileFile(const std::string& path, const std::vector<std::string>& includePath, Diagnostics& diag,
+                 std::string* listing);
 
 }  // namespace umbra::shading

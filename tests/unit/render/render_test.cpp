@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <fstream>
 
 using namespace umbra;
 using umbra::test::Image;
@@ -142,4 +143,37 @@ TEST(Output, FailedRenderLeavesNoFile) {
     EXPECT_GT(diag.errorCount(), 0);
     EXPECT_FALSE(std::filesystem::exists(missingDir));
     EXPECT_FALSE(std::filesystem::exists(dir.file("missing")));
+}
+
+// The Imager shader runs on every filtered pixel before output: P is the
+// pixel centre in raster space, Ci/alpha the filtered colour and coverage;
+// option() answers as it does for surfaces.
+TEST(Imager, RunsOnEachFilteredPixelBeforeOutput) {
+    ScratchDir dir("imager");
+    {
+        std::ofstream(dir.file("tag.sl")) << "imager tag(color bg = color(0, 0, 1)) {\n"
+                                             "  float res[3];\n"
+                                             "  float ok = option(\"Format\", res);\n"
+                                             "  Ci += (1 - alpha) * bg;\n"
+                                             "  setcomp(Ci, 0, ok * (xcomp(P) / res[0] + ycomp(P) / (res[1] * 64)));\n"
+                                             "  Oi = 1; alpha = 1;\n"
+                                             "}\n";
+    }
+    const std::string world = "Surface \"constant\" Color [0 1 0] Polygon \"P\" [-2 -2 0  0 -2 0  0 2 0  -2 2 0]";
+    std::string rib = orthoFrame(dir.file("out.exr"), world, 2, 64);
+    rib = fmt::format("Option \"searchpath\" \"shader\" [\"{}:&\"]\nImager \"tag\"\n", dir.file("")) + rib;
+    Diagnostics diag;
+    test::renderRib(rib, diag);
+    EXPECT_EQ(diag.errorCount(), 0);
+    Image img;
+    ASSERT_TRUE(test::readImage(dir.file("out.exr"), &img));
+    ASSERT_EQ(img.width, 64);
+    for (int y : {0, 17, 63})
+        for (int x : {0, 20, 40, 63}) {
+            const bool covered = x < 32;  // the square covers the left half
+            EXPECT_NEAR(img.at(x, y, 0), (x + 0.5f) / 64 + (y + 0.5f) / 4096, 1e-5f) << x << "," << y;
+            EXPECT_NEAR(img.at(x, y, 1), covered ? 1.f : 0.f, 1e-5f) << x << "," << y;
+            EXPECT_NEAR(img.at(x, y, 2), covered ? 0.f : 1.f, 1e-5f) << x << "," << y;
+            EXPECT_NEAR(img.at(x, y, 3), 1.f, 1e-6f) << x << "," << y;
+        }
 }

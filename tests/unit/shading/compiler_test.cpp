@@ -78,7 +78,7 @@ TEST(Compiler, CompileFileAndIncludes) {
     Diagnostics diag;
     diag.setSink([](const Diagnostic&) {});
     std::string listing;
-    EXPECT_TRUE(compileFile((dir / "inc.sl").string(), diag, &listing));
+    EXPECT_TRUE(compileFile((dir / "inc.sl").string(), {}, diag, &listing));
     EXPECT_EQ(diag.errorCount(), 0);
     EXPECT_NE(listing.find("surface inc"), std::string::npos);
     // halve(0.25) is constant-folded... or computed at run time: run it.
@@ -93,7 +93,7 @@ TEST(Compiler, CompileFileAndIncludes) {
     req.surface = inst.get();
     h.sys.shade(g, req, h.svc);
     expectNear(g.Ci[0], Vec3(0.125f));
-    EXPECT_FALSE(compileFile((dir / "missing.sl").string(), diag, nullptr));
+    EXPECT_FALSE(compileFile((dir / "missing.sl").string(), {}, diag, nullptr));
     fs::remove_all(dir);
 }
 

@@ -619,8 +619,18 @@ TEST(ShadingGridBind, FromADicedGrid) {
         expectNear(g.Cs[size_t(k)], Vec3(0.1f, 0.2f, 0.3f));
         expectNear(g.Os[size_t(k)], Vec3(0.5f));
         EXPECT_EQ(g.s[size_t(k)], g.u[size_t(k)]);
+        // Black and opaque until a shader says otherwise (RI 3.2, 12.1.1).
+        expectNear(g.Ci[size_t(k)], Vec3(0.f));
+        expectNear(g.Oi[size_t(k)], Vec3(1.f));
     }
     EXPECT_EQ(g.primvars, &grid.vars);
+    // A surface that sets only Ci keeps the opaque default.
+    Harness h;
+    h.surface("surface t() { Ci = color(s, 0, 0); }", g);
+    for (int k = 0; k < 6; ++k) {
+        expectNear(g.Ci[size_t(k)], Vec3(g.s[size_t(k)], 0, 0));
+        expectNear(g.Oi[size_t(k)], Vec3(1.f));
+    }
 }
 
 TEST(Language, AttributeOptionAndRendererInfo) {

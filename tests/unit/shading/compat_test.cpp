@@ -1,0 +1,323 @@
+// Language forms the Aqsis and Pixie shader compilers accept: storage-class
+// polymorphism of built-ins, mixed-type built-ins, the two-value and
+// parameterised filterstep, transform from a named space by a matrix,
+// arraylength, shadername, incident/opposite, I in light shaders, imager
+// shaders and #include along the search path. Each result is checked
+// against the same formula written here in C++, on grids whose points
+// differ, so a value computed once where it varies (or per point where it
+// is uniform) shows.
+
+#include "shading_test_util.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+using namespace umbra;
+using namespace umbra::shading;
+using namespace umbra::shading::testing;
+
+namespace {
+
+/// A line of n points, P = (u, 0, 1), s = u = i / (n - 1).
+ShadingGrid line(int n = 11) {
+    return makeGrid(n, 1, [](float u, float) { return Vec3(u, 0, 1); });
+}
+
+float boxStep(float edge, float lo, float hi) {
+    if (hi <= lo) return lo < edge ? 0.f : 1.f;
+    return std::clamp((hi - edge) / (hi - lo), 0.f, 1.f);
+}
+
+}  // namespace
+
+TEST(Compat, RandomStoredInAUniformIsOneValuePerGrid) {
+    Harness h;
+    const std::string src =
+        "surface t() {\n"
+        "  uniform color c = color(random(), random(), random());\n"
+        "  uniform float f; f = random();\n"
+        "  float v = random();\n"
+        "  Ci = c; Oi = color(f, v, 0);\n"
+        "}\n";
+    auto sh = h.sys.compileSource(src, "t.sl");
+    ASSERT_TRUE(sh) << h.messages();
+    const std::string l = sh->listing();
+    EXPECT_NE(l.find("reg c uniform color"), std::string::npos) << l;
+    EXPECT_NE(l.find("reg v varying float"), std::string::npos) << l;
+    ShadingGrid g = line(8);
+    h.surface(src, g);
+    const Vec3 c = g.Ci[0];
+    for (float x : {c.x, c.y, c.z}) {
+        EXPECT_GE(x, 0.f);
+        EXPECT_LT(x, 1.f);
+    }
+    EXPECT_FALSE(c.x == c.y && c.y == c.z);  // three calls, three values
+    bool vDiffers = false;
+    for (size_t i = 1; i < 8; ++i) {
+        EXPECT_TRUE(g.Ci[i].x == c.x && g.Ci[i].y == c.y && g.Ci[i].z == c.z) << "point " << i;
+        EXPECT_EQ(g.Oi[i].x, g.Oi[0].x);
+        vDiffers = vDiffers || g.Oi[i].y != g.Oi[0].y;
+    }
+    EXPECT_TRUE(vDiffers) << "random() into a varying variable gives each point its own value";
+}
+
+TEST(Compat, BuiltinOfUniformArgumentsIsUniform) {
+    Harness h;
+    const std::string src =
+        "surface t() {\n"
+        "  uniform float a = sin(0.5) + pow(2, 3) + max(1, 4, 2);\n"
+        "  uniform color c = pow(color(0.5, 0.25, 2), 2) * a;\n"
+        "  Ci = c;\n"
+        "}\n";
+    ShadingGrid g = line(3);
+    h.surface(src, g);
+    const float a = std::sin(0.5f) + 8 + 4;
+    for (size_t i = 0; i < 3; ++i) expectNear(g.Ci[i], Vec3(0.25f * a, 0.0625f * a, 4 * a), 1e-4f);
+    // A built-in of a varying argument is varying.
+    EXPECT_FALSE(h.sys.compileSource("surface t() { uniform float b = sin(u); }", "t.sl"));
+    EXPECT_NE(h.messages().find("cannot assign a varying value to uniform variable 'b'"), std::string::npos)
+        << h.messages();
+    // So is random() outside a uniform store, even added to a uniform one.
+    EXPECT_FALSE(h.sys.compileSource("surface t() { float v = random(); uniform float b = random() + v; }", "t.sl"));
+    // A uniform store under varying control stays an error, random() or not.
+    EXPECT_FALSE(h.sys.compileSource("surface t() { uniform float b = 0; if (u > 0.5) b = random(); }", "t.sl"));
+}
+
+TEST(Compat, PowOfAColorAndAFloat) {
+    Harness h;
+    ShadingGrid g = line();
+    for (size_t i = 0; i < g.Cs.size(); ++i) g.Cs[i] = Vec3(g.u[i], 0.5f, 2 * g.u[i] - 1);
+    h.surface("surface t(float e = 2.5) { Ci = pow(Cs, e); Oi = pow(Cs, 2); }", g);
+    for (size_t i = 0; i < g.Cs.size(); ++i) {
+        const float u = g.u[i], z = 2 * u - 1;
+        // A negative base with a fractional exponent has no real power: 0.
+        expectNear(g.Ci[i], Vec3(std::pow(u, 2.5f), std::pow(0.5f, 2.5f), z < 0 ? 0.f : std::pow(z, 2.5f)), 1e-5f);
+        expectNear(g.Oi[i], Vec3(u * u, 0.25f, z * z), 1e-5f);
+    }
+}
+
+TEST(Compat, FilterStepOverAnIntervalAndWithAWidth) {
+    Harness h;
+    ShadingGrid g = line();  // du = 0.1: s changes by 0.1 per micropolygon
+    h.surface("surface t() {\n"
+              "  Ci = color(filterstep(0.5, s, s + 0.2), filterstep(0.5, s + 0.1, s - 0.1, \"width\", 2),\n"
+              "             filterstep(0.5, s));\n"
+              "  Oi = color(filterstep(0.5, s, \"width\", 0.5), 0, 0);\n"
+              "}\n",
+              g);
+    for (size_t i = 0; i < g.s.size(); ++i) {
+        const float s = g.s[i];
+        EXPECT_NEAR(g.Ci[i].x, boxStep(0.5f, s, s + 0.2f), 1e-5f) << "s = " << s;
+        EXPECT_NEAR(g.Ci[i].y, boxStep(0.5f, s - 0.2f, s + 0.2f), 1e-5f) << "s = " << s;
+        EXPECT_NEAR(g.Ci[i].z, boxStep(0.5f, s - 0.05f, s + 0.05f), 1e-5f) << "s = " << s;
+        EXPECT_NEAR(g.Oi[i].x, boxStep(0.5f, s - 0.025f, s + 0.025f), 1e-5f) << "s = " << s;
+    }
+    // Some points lie inside the filter: the test sees the ramp, not a step.
+    EXPECT_NEAR(g.Ci[4].x, 0.5f, 1e-5f);  // s = 0.4: [0.4, 0.6] is half above 0.5
+    EXPECT_EQ(h.diag.warningCount(), 0) << h.messages();
+    // "filter" is accepted (all filters are boxes); other names warn once.
+    h.surface("surface t() { Ci = filterstep(0.5, s, \"filter\", \"gaussian\", \"sharpness\", 2); }", g);
+    EXPECT_EQ(h.diag.warningCount(), 1) << h.messages();
+    EXPECT_NE(h.messages().find("unknown filterstep parameter 'sharpness'"), std::string::npos) << h.messages();
+}
+
+TEST(Compat, TransformFromANamedSpaceByAMatrix) {
+    Harness h;
+    h.svc.spaces["world"] = Mat4::translate(Vec3(10, 0, 0));  // currentFromWorld
+    ShadingGrid g = line(4);
+    h.surface("surface t() {\n"
+              "  matrix m = matrix(2,0,0,0, 0,3,0,0, 0,0,4,0, 1,1,1,1);\n"
+              "  point p = point(1 + s, 2, 3);\n"
+              "  Ci = color(transform(\"world\", m, p));\n"
+              "  Oi = color(vtransform(\"world\", m, vector p));\n"
+              "  Cs = color(ntransform(\"world\", m, normal p));\n"
+              "}\n",
+              g);
+    for (size_t i = 0; i < 4; ++i) {
+        const float x = 1 + g.s[i];
+        // From "world" to "current" (translated by 10 in x), then by m.
+        expectNear(g.Ci[i], Vec3(2 * (x + 10) + 1, 3 * 2 + 1, 4 * 3 + 1), 1e-4f);
+        expectNear(g.Oi[i], Vec3(2 * x, 6, 12), 1e-4f);
+        expectNear(g.Cs[i], Vec3(x / 2, 2.f / 3, 3.f / 4), 1e-5f);
+    }
+}
+
+TEST(Compat, ArrayLengthShaderNameIncidentAndOpposite) {
+    Harness h;
+    ShadingGrid g = line(3);
+    h.surface("surface named(float k[3] = {1, 2, 3}) {\n"
+              "  float a[5]; float o = 7 + s;\n"
+              "  float f = incident(\"x\", o) + opposite(\"y\", o);\n"
+              "  Ci = color(arraylength(k) * 10 + arraylength(a), f + o,\n"
+              "             shadername() == \"named\" && shadername(\"surface\") == \"named\" &&\n"
+              "             shadername(\"displacement\") == \"\" ? 1 : 0);\n"
+              "}\n",
+              g);
+    // No interior or exterior volumes: incident() and opposite() find
+    // nothing and leave their variable alone.
+    for (size_t i = 0; i < 3; ++i) expectNear(g.Ci[i], Vec3(35, 7 + g.s[i], 1));
+    EXPECT_FALSE(h.sys.compileSource("surface t() { float x = 1; Ci = arraylength(x); }", "t.sl"));
+    EXPECT_NE(h.messages().find("arraylength() expects one array"), std::string::npos) << h.messages();
+}
+
+TEST(Compat, SpecularBrdfTakesLNVAndRoughness) {
+    Harness h;
+    ShadingGrid g = line(5);
+    h.surface("surface t() {\n"
+              "  vector Lv = vector(s, 1, -1); normal Nn = normal(0, 0.2, -1); vector V = normalize(vector(0, s, -1));\n"
+              "  Ci = specularbrdf(Lv, Nn, V, 0.1 + s);\n"
+              "}\n",
+              g);
+    for (size_t i = 0; i < 5; ++i) {
+        const float s = g.s[i];
+        const Vec3 H = normalize(normalize(Vec3(s, 1, -1)) + normalize(Vec3(0, s, -1)));
+        const float want = std::pow(std::max(0.f, dot(normalize(Vec3(0, 0.2f, -1)), H)), 8 / (0.1f + s));  // PRMan's 8/roughness
+        expectNear(g.Ci[i], Vec3(want), 1e-5f);
+    }
+}
+
+// A light shader reads the surface's I and N (Pixie's ambient lights do).
+TEST(Compat, LightShadersReadTheSurfacesIAndN) {
+    Harness h;
+    auto light = h.instance("light l() { illuminate(point(0, 0, 0)) { Cl = color(I) + 10 * color(N); } }");
+    ASSERT_TRUE(light);
+    ShadingGrid g = line(5);
+    for (size_t i = 0; i < 5; ++i) {
+        g.I[i] = Vec3(g.s[i], 1, 2 * g.s[i]);
+        g.N[i] = Vec3(0, g.s[i], -1);
+    }
+    h.surface("surface t() { Ci = 0; illuminance(P) { Ci += Cl; } }", g, {light.get()});
+    for (size_t i = 0; i < 5; ++i) expectNear(g.Ci[i], g.I[i] + g.N[i] * 10.f, 1e-5f);
+}
+
+TEST(Compat, ImagerAndVolumeGlobals) {
+    Harness h;
+    EXPECT_TRUE(h.sys.compileSource("imager i() { Ci += (1 - alpha) * color(s, t, xcomp(P)); Oi = 1; alpha = 1; }", "i.sl"))
+        << h.messages();
+    EXPECT_TRUE(h.sys.compileSource("volume v() { Ci = mix(Ci, color 1, 1 - exp(-length(I))); Oi = Oi; }", "v.sl"))
+        << h.messages();
+    // alpha belongs to imagers: other shaders do not see it.
+    EXPECT_FALSE(h.sys.compileSource("surface t() { Ci = alpha; }", "t.sl"));
+}
+
+TEST(Compat, ImagerSeesEachPixelAndRewritesColourAndAlpha) {
+    Harness h;
+    auto imager = h.instance("imager bg(color bgcolor = color(0.2, 0.4, 0.6)) {\n"
+                             "  Ci += (1 - alpha) * bgcolor + color(xcomp(P), ycomp(P), s + t) * 0.001;\n"
+                             "  Oi = 1; alpha = 1 - alpha * 0.5;\n"
+                             "}\n");
+    ASSERT_TRUE(imager);
+    ShadingGrid g;
+    g.resize(4, 1);
+    g.alpha.resize(4);
+    for (size_t i = 0; i < 4; ++i) {
+        g.P[i] = Vec3(float(i) + 0.5f, 7.5f, 0);
+        g.s[i] = g.P[i].x;
+        g.t[i] = g.P[i].y;
+        g.alpha[i] = float(i) / 3;
+        g.Ci[i] = Vec3(0.1f, 0, 0) * g.alpha[i];
+        g.Oi[i] = Vec3(g.alpha[i]);
+    }
+    h.sys.shadeImager(g, *imager, h.svc);
+    for (size_t i = 0; i < 4; ++i) {
+        const float a = float(i) / 3, x = float(i) + 0.5f;
+        expectNear(g.Ci[i], Vec3(0.1f * a, 0, 0) + Vec3(0.2f, 0.4f, 0.6f) * (1 - a) + Vec3(x, 7.5f, x + 7.5f) * 0.001f,
+                   1e-5f);
+        expectNear(g.Oi[i], Vec3(1));
+        EXPECT_NEAR(g.alpha[i], 1 - 0.5f * a, 1e-6f);
+    }
+}
+
+// #include looks beside the including file first, then along the path.
+TEST(Compat, IncludeSearchesBesideTheFileThenThePath) {
+    namespace fs = std::filesystem;
+    const fs::path root = fs::temp_directory_path() / "umbra_compat_include_test";
+    fs::remove_all(root);
+    fs::create_directories(root / "own");
+    fs::create_directories(root / "lib");
+    std::ofstream(root / "own" / "a.h") << "#define A 1\n";
+    std::ofstream(root / "lib" / "a.h") << "#define A 2\n";
+    std::ofstream(root / "lib" / "b.h") << "#define B 3\n";
+    std::ofstream(root / "own" / "inc.sl") << "#include \"a.h\"\n#include \"b.h\"\nsurface inc() { Ci = A * 10 + B; }\n";
+    Harness h;
+    h.sys.setSearchPath({(root / "lib").string()});
+    auto sh = h.sys.compile((root / "own" / "inc.sl").string());
+    ASSERT_TRUE(sh) << h.messages();
+    scene::ShaderRecord rec;
+    auto inst = h.sys.instantiate(sh, rec);
+    ShadingGrid g = line(2);
+    ShadeRequest req;
+    req.surface = inst.get();
+    h.sys.shade(g, req, h.svc);
+    expectNear(g.Ci[0], Vec3(13));
+    // `umbra slc -I DIR` searches the same way.
+    Diagnostics diag;
+    diag.setSink([](const Diagnostic&) {});
+    EXPECT_TRUE(compileFile((root / "own" / "inc.sl").string(), {(root / "lib").string()}, diag, nullptr));
+    EXPECT_FALSE(compileFile((root / "own" / "inc.sl").string(), {}, diag, nullptr));  // b.h is on the path only
+    fs::remove_all(root);
+}
+
+TEST(Compat, MixedTypeFormsOfArithmeticCastsAndComparisons) {
+    Harness h;
+    ShadingGrid g = line(5);
+    h.surface("surface t() {\n"
+              "  color c = color(s, 0.5, 1);\n"
+              "  color m = mix(color(0, 0.5, 1), color(1), c);\n"
+              "  float eq = (c == color(s, 0.5, 1) ? 1 : 0) + (point(c) != point(s, 0.5, 1) ? 10 : 0);\n"
+              "  Ci = m * 2 + 0.5 * color(s) + color(eq, 0, 0) - c / 2;\n"
+              "  Oi = color(vector(c)) + color(normal(1));\n"
+              "}\n",
+              g);
+    for (size_t i = 0; i < 5; ++i) {
+        const float s = g.s[i];
+        const Vec3 c(s, 0.5f, 1);
+        const Vec3 m = Vec3(0, 0.5f, 1) + (Vec3(1) - Vec3(0, 0.5f, 1)) * c;
+        expectNear(g.Ci[i], m * 2.f + Vec3(0.5f * s) + Vec3(1, 0, 0) - c * 0.5f, 1e-5f);
+        expectNear(g.Oi[i], c + Vec3(1), 1e-6f);
+    }
+}
+
+// Cl set by a function the illuminate() body calls, and a global
+// written through `extern` inside a function.
+TEST(Compat, LightFunctionsSetClAndExternReachesGlobals) {
+    Harness h;
+    auto light = h.instance("void shine(float k) { extern color Cl; Cl = color(k, 2 * k, xcomp(Ps)); }\n"
+                            "light l(float k = 0.5) { illuminate(point(0, 0, 0)) { shine(k); } }\n");
+    ASSERT_TRUE(light);
+    ShadingGrid g = line(5);
+    h.surface("void paint(color c) { extern color Ci; Ci = c; }\n"
+              "surface t() { color acc = 0; illuminance(P) { acc += Cl * (normalize(L) . vector(0, 0, -1)); }\n"
+              "  paint(acc); }\n",
+              g, {light.get()});
+    for (size_t i = 0; i < 5; ++i) {
+        const Vec3 P = g.P[i];
+        // L points from the surface to the light at the origin.
+        const float cosine = dot(normalize(-P), Vec3(0, 0, -1));
+        expectNear(g.Ci[i], Vec3(0.5f, 1.0f, P.x) * cosine, 1e-5f);
+    }
+}
+
+// A volume shader runs as the atmosphere after the surface, on its Ci/Oi.
+TEST(Compat, VolumeShaderRunsAsAtmosphere) {
+    Harness h;
+    auto surf = h.instance("surface t() { Ci = color(s, 0, 1); Oi = 1; }");
+    auto vol = h.instance("volume v(float d = 2; color fogc = color(0.5, 0.5, 0.5)) {\n"
+                          "  float f = 1 - exp(-length(I) / d);\n"
+                          "  Ci = mix(Ci, fogc, f); Oi = mix(Oi, color 1, f);\n"
+                          "}\n");
+    ASSERT_TRUE(surf && vol);
+    ShadingGrid g = makeGrid(5, 1, [](float u, float) { return Vec3(u, 0, 1 + 3 * u); });
+    ShadeRequest req;
+    req.surface = surf.get();
+    req.atmosphere = vol.get();
+    h.sys.shade(g, req, h.svc);
+    for (size_t i = 0; i < 5; ++i) {
+        const float f = 1 - std::exp(-length(g.I[i]) / 2);
+        const Vec3 c(g.s[i], 0, 1);
+        expectNear(g.Ci[i], c + (Vec3(0.5f) - c) * f, 1e-5f);
+        expectNear(g.Oi[i], Vec3(1), 1e-6f);
+    }
+}
