@@ -129,19 +129,21 @@ const GlobalDef kGlobals[] = {
     {"Ci", gCi, Ty::Color, true},   {"Oi", gOi, Ty::Color, true},   {"L", gL, Ty::Vector, true},
     {"Cl", gCl, Ty::Color, true},   {"Ol", gOl, Ty::Color, true},   {"Ps", gPs, Ty::Point, true},
     {"ncomps", gNcomps, Ty::Float, false}, {"time", gTime, Ty::Float, false}, {"alpha", gAlpha, Ty::Float, true},
+    {"Ns", gNs, Ty::Normal, true},
 };
 
 bool globalVisible(ShaderKind k, GlobalId g) {
     switch (k) {
     case ShaderKind::Surface:
-        return g != gPs && g != gOl && g != gAlpha;
+        return g != gPs && g != gOl && g != gAlpha && g != gNs;
     case ShaderKind::Light:
+        // Ns: the surface point's normal (PRMan, Pixie and Aqsis give it).
         // I is the surface's incident vector (the surface point's Ps - E),
         // as in Pixie, whose ambient lights read it.
         return g != gCi && g != gOi && g != gCs && g != gOs && g != gAlpha;
     case ShaderKind::Displacement:
         return g != gCi && g != gOi && g != gL && g != gCl && g != gOl && g != gPs && g != gCs && g != gOs &&
-               g != gAlpha;
+               g != gAlpha && g != gNs;
     case ShaderKind::Volume:
         return g == gP || g == gI || g == gCi || g == gOi || g == gE || g == gNcomps || g == gTime;
     case ShaderKind::Imager:

@@ -290,7 +290,7 @@ struct CtlCtx {
 /// Shader globals.
 enum GlobalId : int {
     gP, gN, gNg, gI, gE, gS, gT, gU, gV, gDu, gDv, gDPdu, gDPdv, gCs, gOs, gCi, gOi, gL, gCl, gOl, gPs,
-    gNcomps, gTime, gAlpha, gGlobalCount
+    gNcomps, gTime, gAlpha, gNs, gGlobalCount
 };
 
 /// The output of the compiler for one shader.

@@ -122,6 +122,7 @@ void Exec::setup(const CompiledShader& code, const ShaderInstance* instance, Sha
         case gP: return light ? v3(ownPs) : v3(g.P);
         case gPs: return light ? v3(ownPs) : nullptr;
         case gN: return v3(g.N);
+        case gNs: return light ? v3(g.N) : nullptr;
         case gNg: return v3(g.Ng);
         case gI: return v3(g.I);
         case gDPdu: return v3(g.dPdu);

@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <fstream>
 
 using namespace umbra;
 using umbra::test::Image;
@@ -120,4 +121,31 @@ WorldEnd
         EXPECT_EQ(viewer.warnings, 1) << driver;
         EXPECT_GT(viewer.image.channelSum(0), 10.0) << driver;
     }
+}
+
+TEST(Lenient, LightShadersReadTheSurfacesNormalAsNs) {
+    // Ns in a light shader is the shaded point's normal (PRMan, Pixie and
+    // Aqsis give it): a light making Cl from it equals the surface doing so.
+    ScratchDir dir("ns-light");
+    std::ofstream(dir.file("nslight.sl")) << "light nslight() { solar(vector(0, 0, 1), 0) { Cl = abs(xcomp(normalize(Ns))); } }\n";
+    std::ofstream(dir.file("sumcl.sl")) << "surface sumcl() { Ci = 0; illuminance(P) { Ci += Cl; } Oi = 1; }\n";
+    std::ofstream(dir.file("nx.sl")) << "surface nx() { Ci = abs(xcomp(normalize(N))); Oi = 1; }\n";
+    const std::string image = dir.file("ns.tif");
+    constexpr const char* scene = R"(
+Option "searchpath" "shader" ["{}:&"]
+Format 64 48 1
+Display "{}" "file" "rgb"
+Projection "perspective" "fov" 40
+Translate 0 0 5
+WorldBegin
+LightSource "nslight" 1
+Surface "{}"
+Sphere 1 -1 1 360
+WorldEnd
+)";
+    Rendered fromLight = renderScene(fmt::format(scene, dir.file(""), image, "sumcl"), image);
+    EXPECT_EQ(fromLight.errors, 0);
+    Rendered fromSurface = renderScene(fmt::format(scene, dir.file(""), image, "nx"), image);
+    ASSERT_GT(fromSurface.image.channelSum(0), 50.0);
+    EXPECT_LT(meanAbsDiff(fromLight.image, fromSurface.image), 1e-6);
 }
