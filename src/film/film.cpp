@@ -254,7 +254,8 @@ Film Film::fromOptions(const scene::Options& o, std::vector<AovChannel> aovs, Fi
     std::optional<PixelFilter> f = PixelFilter::create(o.pixelFilter, o.filterWidth[0], o.filterWidth[1]);
     if (!f) {
         diag.error(o.loc, "unknown pixel filter \"{}\" with widths {} {} (expected box, triangle, gaussian, "
-                   "catmull-rom or sinc with positive widths); using gaussian 2 2",
+                   "catmull-rom, sinc, mitchell, separable-catmull-rom, blackman-harris, disk or bessel with positive "
+                   "widths); using gaussian 2 2",
                    o.pixelFilter, o.filterWidth[0], o.filterWidth[1]);
         f = PixelFilter(FilterKind::Gaussian, 2, 2);
     }

@@ -700,13 +700,14 @@ void Builder::pixelSamples(float xs, float ys, const FileLoc& loc) {
 
 void Builder::pixelFilter(const std::string& name, float xwidth, float ywidth, const FileLoc& loc) {
     if (!optionsAllowed("PixelFilter", loc)) return;
-    static const char* kFilters[] = {"box", "triangle", "gaussian", "catmull-rom", "sinc", "mitchell",
-                                     "blackman-harris"};
-    std::string n = name == "catmullrom" ? "catmull-rom" : name;
+    static const char* kFilters[] = {"box",  "triangle", "gaussian", "catmull-rom", "sinc", "mitchell",
+                                     "separable-catmull-rom", "blackman-harris", "disk", "bessel"};
+    // PRMan's "lanczos" is sinc(x) sinc(x / radius): umbra's windowed sinc.
+    std::string n = name == "catmullrom" ? "catmull-rom" : name == "lanczos" ? "sinc" : name;
     if (std::find_if(std::begin(kFilters), std::end(kFilters), [&](const char* f) { return n == f; }) ==
         std::end(kFilters)) {
         m_diag.error(loc, "PixelFilter: unknown filter \"{}\" (expected box, triangle, gaussian, catmull-rom, sinc, "
-                     "mitchell or blackman-harris)", name);
+                     "lanczos, mitchell, separable-catmull-rom, blackman-harris, disk or bessel)", name);
         return;
     }
     if (!(xwidth > 0 && ywidth > 0)) {
