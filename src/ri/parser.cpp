@@ -485,7 +485,11 @@ private:
             return;
         }
         ParamList params;
-        if (spec->params) buildParams(name, used, params);
+        if (spec->params) {
+            std::string_view rn = spec->name;
+            const bool classed = rn == "Option" || rn == "Attribute" || rn == "Hider";
+            buildParams(name, classed && !args.empty() ? args[0].str : std::string(), used, params);
+        }
         FileLoc where = loc(line, column);
         if (!spec->handler) {
             special(*spec, args, std::move(params), where);
@@ -783,9 +787,29 @@ private:
         return true;
     }
 
+    /// Requests whose parameters other renderers give meanings umbra may
+    /// not know (renderer-specific options, attributes, hider and display
+    /// settings): an undeclared name, or a value that does not fit its
+    /// declaration, is read as its values say with one warning per name,
+    /// never an error (docs/rib.md, "Lenient parameters").
+    static bool isLenientRequest(std::string_view request) {
+        return request == "Option" || request == "Attribute" || request == "Hider" || request == "Display" ||
+               request == "DisplayChannel" || request == "Camera" || request == "Resource";
+    }
+
+    /// "uniform float" for "uniform float name": a declaration without its name.
+    static std::string typeText(const ParamDecl& d) {
+        std::string s = d.str();
+        return s.size() > d.name.size() ? s.substr(0, s.size() - d.name.size() - 1) : s;
+    }
+
     // params: ( "name" value )*
-    void buildParams(std::string_view request, size_t first, ParamList& params) {
+    // `cls` is the Option/Attribute class or the Hider type (else empty).
+    void buildParams(std::string_view request, const std::string& cls, size_t first, ParamList& params) {
         const Declarations& decls = m_parser.m_decls;
+        const bool lenient = isLenientRequest(request);
+        // "Attribute \"dice\"" in lenient messages; the request alone otherwise.
+        const std::string where = cls.empty() ? std::string(request) : fmt::format("{} \"{}\"", request, cls);
         for (size_t i = first; i < m_values.size();) {
             Value& nameValue = m_values[i];
             if (nameValue.kind != Value::String) {
@@ -800,26 +824,85 @@ private:
             }
             Value& v = m_values[i + 1];
             i += 2;
-            Param p;
+            const std::string& token = nameValue.str;
+            const bool inlineDecl = token.find_first_of(" \t") != std::string::npos;
+            // The declaration in force (Declare, inline or standard), then
+            // the ones other renderers give the name in this class.
+            std::vector<ParamDecl> candidates;
             std::string why;
-            if (!decls.resolve(nameValue.str, &p.decl, &why)) {
-                if (!isShaderRequest(request) || !inferDeclaration(nameValue.str, v, &p.decl)) {
+            ParamDecl declared;
+            const bool resolved = decls.resolve(token, &declared, &why);
+            if (resolved) candidates.push_back(declared);
+            if (lenient && !inlineDecl)
+                for (ParamDecl& d : Declarations::forClass(request, cls, token)) candidates.push_back(std::move(d));
+            bool undeclared = false;
+            if (candidates.empty()) {
+                ParamDecl d;
+                if (lenient && !inlineDecl && inferDeclaration(token, v, &d)) {
+                    d.inferred = false;
+                    candidates.push_back(std::move(d));
+                    undeclared = true;
+                } else if (!isShaderRequest(request) || !inferDeclaration(token, v, &d)) {
                     error(nameValue.line, nameValue.column, request, "{}", why);
                     continue;
+                } else {
+                    candidates.push_back(std::move(d));
                 }
             }
-            p.loc = loc(nameValue.line, nameValue.column);
-            if (convert(request, nameValue, v, p)) params.add(std::move(p));
+            const FileLoc at = loc(nameValue.line, nameValue.column);
+            const std::string onceKey = fmt::format("param:{}:{}:{}", request, cls, candidates[0].name);
+            if (undeclared && cls != "user")
+                m_parser.m_diag.warningOnce(onceKey, at, "{}: parameter \"{}\" is not declared; read as \"{}\" (umbra "
+                                            "does not use it)", where, candidates[0].name, typeText(candidates[0]));
+            if (!lenient) {
+                Param p;
+                p.decl = candidates[0];
+                p.loc = at;
+                if (convert(request, nameValue, v, p, &why))
+                    params.add(std::move(p));
+                else
+                    error(nameValue.line, nameValue.column, request, "{}", why);
+                continue;
+            }
+            // Lenient: the first declaration the values fit; else what the
+            // values say, with one warning for the name.
+            bool done = false;
+            std::string firstWhy;
+            for (const ParamDecl& d : candidates) {
+                Value copy = v;
+                Param p;
+                p.decl = d;
+                p.loc = at;
+                if (convert(request, nameValue, copy, p, &why)) {
+                    params.add(std::move(p));
+                    done = true;
+                    break;
+                }
+                if (firstWhy.empty()) firstWhy = why;
+            }
+            if (done) continue;
+            Param p;
+            p.loc = at;
+            const bool inferred = inferDeclaration(candidates[0].name, v, &p.decl);
+            p.decl.inferred = false;
+            if (!inferred || !convert(request, nameValue, v, p, &why)) {
+                error(nameValue.line, nameValue.column, request, "{}", firstWhy);
+                continue;
+            }
+            m_parser.m_diag.warningOnce(onceKey, at, "{}: {}; read as \"{}\"", where, firstWhy, typeText(p.decl));
+            params.add(std::move(p));
         }
     }
 
-    bool convert(std::string_view request, const Value& nameValue, Value& v, Param& p) {
+    /// Fills `p` (whose declaration is set) from the value `v`; false with
+    /// `*why` saying what did not fit.
+    bool convert(std::string_view request, const Value& nameValue, Value& v, Param& p, std::string* why) {
         const ParamDecl& d = p.decl;
         size_t count = 0;
-        auto fail = [&](std::string_view what) {
-            error(nameValue.line, nameValue.column, request, "parameter \"{}\" ({} {}{}) expects {}, got {}", d.name,
-                  storageClassName(d.storage), paramTypeName(d.type),
-                  d.arraySize != 1 ? fmt::format("[{}]", d.arraySize) : std::string(), what, describe(v));
+        auto fail = [&](std::string_view what, std::string got = {}) {
+            *why = fmt::format("parameter \"{}\" ({} {}{}) expects {}, got {}", d.name, storageClassName(d.storage),
+                               paramTypeName(d.type), d.arraySize != 1 ? fmt::format("[{}]", d.arraySize) : std::string(),
+                               what, got.empty() ? describe(v) : got);
             return false;
         };
         if (d.type == ParamType::String) {
@@ -844,7 +927,7 @@ private:
             } else {
                 p.ints.resize(count);
                 for (size_t k = 0; k < count; ++k) {
-                    if (!integral(v.nums[k])) return fail("integers");
+                    if (!integral(v.nums[k])) return fail("integers", numberText(v.nums[k]));
                     p.ints[k] = static_cast<int>(v.nums[k]);
                 }
             }
@@ -853,17 +936,17 @@ private:
         std::string type = fmt::format("{} {}{}", storageClassName(d.storage), paramTypeName(d.type),
                                        d.arraySize != 1 ? fmt::format("[{}]", d.arraySize) : std::string());
         if (count == 0) {
-            error(nameValue.line, nameValue.column, request, "parameter \"{}\" ({}) has no values", d.name, type);
+            *why = fmt::format("parameter \"{}\" ({}) has no values", d.name, type);
             return false;
         }
         if (d.storage == StorageClass::Constant && count != per) {
-            error(nameValue.line, nameValue.column, request, "parameter \"{}\" ({}) expects {} value{}, got {}",
-                  d.name, type, per, per == 1 ? "" : "s", count);
+            *why = fmt::format("parameter \"{}\" ({}) expects {} value{}, got {}", d.name, type, per,
+                               per == 1 ? "" : "s", count);
             return false;
         }
         if (count % per != 0) {
-            error(nameValue.line, nameValue.column, request,
-                  "parameter \"{}\" ({}) expects a multiple of {} values, got {}", d.name, type, per, count);
+            *why = fmt::format("parameter \"{}\" ({}) expects a multiple of {} values, got {}", d.name, type, per,
+                               count);
             return false;
         }
         return true;

@@ -837,6 +837,14 @@ void Builder::attribute(const std::string& name, ri::ParamList params, const Fil
             bool casts = p.decl.type == ri::ParamType::String ? p.stringAt(0) != "transparent"
                                                               : params.getInt(pn, 1) != 0;
             mutableAttributes().castsShadows = casts;
+        } else if (name == "dice" && pn == "binary") {
+            mutableAttributes().binaryDice = params.getInt(pn, 0) != 0;
+            mutableAttributes().user[name + ":" + pn] = p;
+        } else if (name == "render" && pn == "casts_shadows" && p.decl.type == ri::ParamType::String) {
+            // BMRT's spelling: "none" casts no shadows; "opaque", "Os" and
+            // "shade" all cast one (umbra's depth maps are opaque).
+            mutableAttributes().castsShadows = p.stringAt(0) != "none";
+            mutableAttributes().user[name + ":" + pn] = p;
         } else if (name == "umbra" && !umbraValueValid("Attribute", p, m_diag)) {
             continue;
         } else {

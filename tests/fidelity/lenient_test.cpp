@@ -155,3 +155,29 @@ WorldEnd
         EXPECT_NEAR(r.image.at(1, 1, 0), 0.0f, 1e-4f) << filter;
     }
 }
+
+TEST(Lenient, BinaryDicingDrawsTheSamePicture) {
+    // Attribute "dice" "binary" [1] changes only how grids are counted:
+    // the lit sphere matches the plain one to within dicing noise, with no
+    // message.
+    ScratchDir dir("binary-dice");
+    const std::string image = dir.file("b.tif");
+    constexpr const char* scene = R"(
+Format 64 48 1
+Display "{}" "file" "rgb"
+Projection "perspective" "fov" 40
+WorldBegin
+LightSource "distantlight" 1 "from" [-1 1 -1] "to" [0 0 0]
+{}
+Surface "matte"
+Translate 0 0 5
+Sphere 1 -1 1 360
+WorldEnd
+)";
+    Rendered binary = renderScene(fmt::format(scene, image, "Attribute \"dice\" \"binary\" [1]"), image);
+    EXPECT_EQ(binary.errors, 0);
+    EXPECT_EQ(binary.warnings, 0);
+    Rendered plain = renderScene(fmt::format(scene, image, ""), image);
+    ASSERT_GT(plain.image.channelSum(0), 50.0);
+    EXPECT_LT(meanAbsDiff(binary.image, plain.image), 2e-3);
+}

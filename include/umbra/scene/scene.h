@@ -81,6 +81,8 @@ struct Attributes {
     // depth-map passes (Reeves' ground plane).
     bool visibleToCamera = true;
     bool castsShadows = true;
+    /// Attribute "dice" "binary": grids diced into powers of two.
+    bool binaryDice = false;
     /// Every other `Attribute "class" "name" value` by "class:name", for the
     /// attribute() shadeop and for modules' own attributes ("umbra:...").
     std::map<std::string, ri::Param> user;
