@@ -352,13 +352,19 @@ bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Option
             return false;
         }
         int comps = m_aovs[size_t(idx)].components;
+        // `Quantize "name" ...` for this output, unless the Display says.
+        Quantize aovQ = rgbaQ;
+        if (auto nq = options.namedQuantize.find(mode.aovName);
+            nq != options.namedQuantize.end() && !display.params.find("quantize"))
+            aovQ = Quantize{nq->second[0], nq->second[1], nq->second[2], display.params.find("dither") ? rgbaQ.dither
+                                                                                                        : nq->second[3]};
         if (comps != mode.aovComponents)
             diag.warning(display.loc, "display \"{}\": AOV \"{}\" has {} components, the mode asks for {}",
                          display.name, mode.aovName, comps, mode.aovComponents);
         static const char* kRgb[] = {"R", "G", "B"};
         for (int c = 0; c < comps; ++c) {
             std::string name = comps == 3 ? kRgb[c] : (comps == 1 ? mode.aovName : fmt::format("{}.{}", mode.aovName, c));
-            channels.push_back({ChannelSource::Aov, aovOffset(idx) + c, name, rgbaQ, false});
+            channels.push_back({ChannelSource::Aov, aovOffset(idx) + c, name, aovQ, false});
         }
     } else {
         for (char c : mode.standard) {

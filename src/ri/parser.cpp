@@ -160,6 +160,16 @@ const RequestSpec kRequests[] = {
     {"version", "f", "version", false, UMBRA_H(t.version(a.f(), l))},
     {"Declare", "ss", "name declaration", false, nullptr},
     {"ReadArchive", "s", "filename", true, nullptr},
+    {"ArchiveBegin", "s", "name", true, nullptr},
+    {"ArchiveEnd", "", "", false, nullptr},
+    {"IfBegin", "s", "condition", false, nullptr},
+    {"ElseIf", "s", "condition", false, nullptr},
+    {"Else", "", "", false, nullptr},
+    {"IfEnd", "", "", false, nullptr},
+    {"System", "s", "command", false, UMBRA_H(t.system(a.s(), l))},
+    {"Resource", "ss", "handle type", true, UMBRA_H(std::string h = a.s(); std::string ty = a.s(); t.resource(h, ty, std::move(p), l))},
+    {"ResourceBegin", "", "", false, UMBRA_H(t.resourceBegin(l))},
+    {"ResourceEnd", "", "", false, UMBRA_H(t.resourceEnd(l))},
     {"ErrorHandler", "s", "handler", false, UMBRA_H(t.errorHandler(a.s(), l))},
     {"FrameBegin", "i", "frame", false, UMBRA_H(t.frameBegin(a.i(), l))},
     {"FrameEnd", "", "", false, UMBRA_H(t.frameEnd(l))},
@@ -189,6 +199,7 @@ const RequestSpec kRequests[] = {
     {"CoordinateSystem", "s", "name", false, UMBRA_H(t.coordinateSystem(a.s(), l))},
     {"ScopedCoordinateSystem", "s", "name", false, UMBRA_H(t.scopedCoordinateSystem(a.s(), l))},
     {"CoordSysTransform", "s", "name", false, UMBRA_H(t.coordSysTransform(a.s(), l))},
+    {"Camera", "s", "name", true, UMBRA_H(t.camera(a.s(), std::move(p), l))},
 
     {"Option", "s", "name", true, UMBRA_H(t.option(a.s(), std::move(p), l))},
     {"Format", "iif", "xresolution yresolution pixelaspectratio", false,
@@ -240,6 +251,7 @@ const RequestSpec kRequests[] = {
      UMBRA_H(std::array<float, 6> v; for (float& x : v) x = a.f(); t.detail(v, l))},
     {"DetailRange", "ffff", "minvisible lowertransition uppertransition maxvisible", false,
      UMBRA_H(std::array<float, 4> v; for (float& x : v) x = a.f(); t.detailRange(v, l))},
+    {"GeometricRepresentation", "s", "type", false, UMBRA_H(t.geometricRepresentation(a.s(), l))},
     {"GeometricApproximation", "sf", "type value", false,
      UMBRA_H(std::string ty = a.s(); t.geometricApproximation(ty, a.f(), l))},
     {"Surface", "s", "name", true, UMBRA_H(t.surface(a.s(), std::move(p), l))},
@@ -407,8 +419,9 @@ bool gunzip(std::string_view bytes, std::string* out, std::string* error) {
 class StreamParser {
 public:
     StreamParser(Parser& parser, std::string_view text, std::shared_ptr<const std::string> file,
-                 std::string directory, int depth)
-        : m_parser(parser), m_lex(text), m_file(std::move(file)), m_directory(std::move(directory)), m_depth(depth) {}
+                 std::string directory, int depth, int firstLine = 1)
+        : m_parser(parser), m_text(text), m_lex(text, firstLine), m_file(std::move(file)),
+          m_directory(std::move(directory)), m_depth(depth) {}
 
     bool run() {
         Diagnostics& diag = m_parser.m_diag;
@@ -426,6 +439,11 @@ public:
             }
             request();
         }
+        if (m_recordDepth > 0)
+            diag.error(m_recordLoc, "ArchiveBegin: no matching ArchiveEnd before the end of {} (archive \"{}\" "
+                       "is not recorded)", *m_file, m_recordName);
+        for (size_t k = m_ifs.size(); k-- > 0;)
+            diag.error(m_ifs[k].loc, "IfBegin: no matching IfEnd before the end of {}", *m_file);
         if (m_depth == 0) m_parser.m_target.endOfInput(loc(m_tok.line, m_tok.column));
         return diag.errorCount() == errorsAtStart;
     }
@@ -436,6 +454,7 @@ private:
 
     template <typename... Args>
     void error(int line, int column, std::string_view request, fmt::format_string<Args...> f, Args&&... args) {
+        if (m_quiet) return;
         m_parser.m_diag.error(loc(line, column), "{}: {}", request, fmt::format(f, std::forward<Args>(args)...));
     }
 
@@ -467,7 +486,25 @@ private:
     void request() {
         std::string name(m_tok.text);
         int line = m_tok.line, column = m_tok.column;
+        const size_t offset = m_tok.offset;
         advance();
+        if (m_recordDepth > 0) {
+            // Inside ArchiveBegin/ArchiveEnd: kept as text, checked when read.
+            m_quiet = true;
+            collectValues(name);
+            m_quiet = false;
+            if (name == "ArchiveBegin")
+                ++m_recordDepth;
+            else if (name == "ArchiveEnd" && --m_recordDepth == 0)
+                finishRecording(offset);
+            return;
+        }
+        const bool ifRequest = name == "IfBegin" || name == "ElseIf" || name == "Else" || name == "IfEnd";
+        if (skipping() && !ifRequest) {
+            // A branch not taken: its requests are read past, not run.
+            collectValues(name);
+            return;
+        }
         const RequestSpec* spec = findRequest(name);
         bool ok = collectValues(name);
         if (!spec) {
@@ -794,7 +831,8 @@ private:
     /// never an error (docs/rib.md, "Lenient parameters").
     static bool isLenientRequest(std::string_view request) {
         return request == "Option" || request == "Attribute" || request == "Hider" || request == "Display" ||
-               request == "DisplayChannel" || request == "Camera" || request == "Resource";
+               request == "DisplayChannel" || request == "Camera" || request == "Resource" ||
+               request == "ArchiveBegin";
     }
 
     /// "uniform float" for "uniform float name": a declaration without its name.
@@ -971,16 +1009,110 @@ private:
             m_parser.m_target.declare(d, where);
         } else if (name == "ReadArchive") {
             m_parser.readArchive(args[0].str, where, m_directory, m_depth);
+        } else if (name == "ArchiveBegin") {
+            if (args[0].str.empty()) {
+                m_parser.m_diag.error(where, "ArchiveBegin: expected a non-empty archive name");
+                m_recordName.clear();
+            } else {
+                m_recordName = args[0].str;
+            }
+            // The body starts at the next token (or the end).
+            m_recordDepth = 1;
+            m_recordLoc = where;
+            m_recordStart = m_tok.offset;
+            m_recordLine = m_tok.line;
+        } else if (name == "ArchiveEnd") {
+            m_parser.m_diag.error(where, "ArchiveEnd: no matching ArchiveBegin (ignored)");
+        } else if (name == "IfBegin") {
+            IfState s;
+            s.loc = where;
+            s.parentActive = !skipping();
+            if (s.parentActive) s.active = s.taken = condition("IfBegin", args[0].str, where);
+            m_ifs.push_back(s);
+        } else if (name == "ElseIf" || name == "Else" || name == "IfEnd") {
+            if (m_ifs.empty()) {
+                m_parser.m_diag.error(where, "{}: no matching IfBegin (ignored)", name);
+                return;
+            }
+            IfState& s = m_ifs.back();
+            if (name == "IfEnd") {
+                m_ifs.pop_back();
+                return;
+            }
+            if (s.elseLoc.file) {
+                m_parser.m_diag.error(where, "{}: after the Else at {} of the IfBegin at {} (ignored)", name,
+                                      s.elseLoc.str(), s.loc.str());
+                return;
+            }
+            if (name == "Else") {
+                s.elseLoc = where;
+                s.active = s.parentActive && !s.taken;
+                s.taken = true;
+            } else {
+                s.active = s.parentActive && !s.taken && condition("ElseIf", args[0].str, where);
+                s.taken = s.taken || s.active;
+            }
         }
     }
 
+    /// One open IfBegin: whether the block it is in runs, whether one of
+    /// its branches has run, whether the current branch runs.
+    struct IfState {
+        FileLoc loc, elseLoc;
+        bool parentActive = true, taken = false, active = false;
+    };
+    bool skipping() const { return !m_ifs.empty() && !m_ifs.back().active; }
+
+    /// Evaluates an IfBegin/ElseIf condition against the target's values;
+    /// a malformed one is reported and false.
+    bool condition(std::string_view request, const std::string& expr, const FileLoc& where) {
+        Target& target = m_parser.m_target;
+        ExprLookup lookup = [&](const std::string& n, ExprValue* v) { return target.conditionValue(n, v); };
+        bool result = false;
+        std::string why;
+        std::vector<std::string> undefined;
+        if (!evaluateCondition(expr, lookup, &result, &why, &undefined)) {
+            m_parser.m_diag.error(where, "{}: bad condition \"{}\": {} (taken as false)", request, expr, why);
+            return false;
+        }
+        for (const std::string& u : undefined)
+            m_parser.m_diag.warningOnce("if-undefined:" + u, where, "{}: \"${}\" is not defined (taken as the "
+                                        "empty string)", request, u);
+        return result;
+    }
+
+    /// ArchiveEnd at byte `endOffset` closes the recorded archive.
+    void finishRecording(size_t endOffset) {
+        if (m_recordName.empty()) return;
+        Parser::InlineArchive a;
+        // From the start of the body's line, columns before it blanked, so
+        // messages on replay give the body's own lines and columns.
+        size_t lineStart = m_text.rfind('\n', m_recordStart == 0 ? 0 : m_recordStart - 1);
+        lineStart = lineStart == std::string_view::npos || m_recordStart == 0 ? 0 : lineStart + 1;
+        if (lineStart > m_recordStart) lineStart = m_recordStart;
+        a.text.assign(m_recordStart - lineStart, ' ');
+        a.text.append(m_text.substr(m_recordStart, endOffset - m_recordStart));
+        a.file = m_file;
+        a.firstLine = m_recordLine;
+        a.directory = m_directory;
+        m_parser.m_inlineArchives[m_recordName] = std::move(a);
+    }
+
     Parser& m_parser;
+    std::string_view m_text;
     Lexer m_lex;
     Token m_tok;
     std::shared_ptr<const std::string> m_file;
     std::string m_directory;
     int m_depth;
     std::vector<Value> m_values;
+    std::vector<IfState> m_ifs;
+    bool m_quiet = false;  // while recording an inline archive
+    int m_recordDepth = 0;  // > 0 while recording: ArchiveBegin nesting
+    std::string m_recordName;
+    FileLoc m_recordLoc;
+    size_t m_recordStart = 0;
+    int m_recordLine = 1;
 };
 
 Parser::Parser(Target& target, Diagnostics& diag) : m_target(target), m_diag(diag) {}
@@ -1019,6 +1151,13 @@ bool Parser::readArchive(const std::string& name, const FileLoc& loc, const std:
         m_diag.error(loc, "ReadArchive: archives nested more than {} deep (does \"{}\" read itself?)",
                      kMaxArchiveDepth, name);
         return false;
+    }
+    // An ArchiveBegin/ArchiveEnd archive of that name comes before files.
+    if (auto it = m_inlineArchives.find(name); it != m_inlineArchives.end()) {
+        if (!m_target.readArchive(name, loc)) return false;
+        const InlineArchive a = it->second;  // a copy: the body may redefine it
+        StreamParser p(*this, a.text, a.file, a.directory, depth + 1, a.firstLine);
+        return p.run();
     }
     // Candidates: an absolute name as is; otherwise beside the including
     // file, then on the archive search path. The display name keeps the

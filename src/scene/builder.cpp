@@ -8,13 +8,13 @@ namespace umbra::scene {
 namespace {
 
 const char* beginName(int kind) {
-    static const char* k[] = {"FrameBegin", "WorldBegin", "AttributeBegin", "TransformBegin", "SolidBegin",
-                              "ObjectBegin", "MotionBegin"};
+    static const char* k[] = {"FrameBegin",  "WorldBegin",  "AttributeBegin", "TransformBegin",
+                              "SolidBegin",  "ObjectBegin", "MotionBegin",    "ResourceBegin"};
     return k[kind];
 }
 const char* endName(int kind) {
-    static const char* k[] = {"FrameEnd", "WorldEnd", "AttributeEnd", "TransformEnd", "SolidEnd", "ObjectEnd",
-                              "MotionEnd"};
+    static const char* k[] = {"FrameEnd", "WorldEnd", "AttributeEnd", "TransformEnd",
+                              "SolidEnd", "ObjectEnd", "MotionEnd",   "ResourceEnd"};
     return k[kind];
 }
 
@@ -261,6 +261,7 @@ void Builder::frameEnd(const FileLoc& loc) {
     }
     m_options = *b.savedOptions;
     m_cameraSpaces = *b.savedSpaces;
+    m_namedCameras.clear();
     m_state = b.saved;
     m_frame = -1;
     m_objectHandle.clear();
@@ -291,6 +292,11 @@ void Builder::worldBegin(const FileLoc& loc) {
     m_world->coordinateSystems["camera"] = worldFromCamera;
     for (const auto& [name, cameraFromNamed] : m_cameraSpaces)
         m_world->coordinateSystems[name] = worldFromCamera * cameraFromNamed;
+    for (const auto& [name, namedCameraFromWorld] : m_namedCameras) {
+        bool invertible = true;
+        Mat4 worldFromNamed = namedCameraFromWorld.inverse(&invertible);
+        if (invertible) m_world->coordinateSystems[name] = worldFromNamed;
+    }
     m_lightHandles.clear();
     m_state.transform = Mat4::identity();
     for (const PreWorldLight& l : m_preWorldLights) {
@@ -486,6 +492,118 @@ void Builder::coordinateSystem(const std::string& name, const FileLoc& loc) {
 void Builder::scopedCoordinateSystem(const std::string& name, const FileLoc& loc) {
     unsupported("scopedcoordsys", loc, "ScopedCoordinateSystem: treated as CoordinateSystem (not scoped)");
     coordinateSystem(name, loc);
+}
+
+void Builder::camera(const std::string& name, ri::ParamList params, const FileLoc& loc) {
+    // RenderMan 14: names the camera the options describe so far. umbra
+    // renders one camera; the name is that camera's coordinate system.
+    if (!optionsAllowed("Camera", loc)) return;
+    m_namedCameras[name] = m_state.transform;
+}
+
+void Builder::resource(const std::string& handle, const std::string& type, ri::ParamList params,
+                       const FileLoc& loc) {
+    if (type != "attributes") {
+        unsupported("resource:" + type, loc,
+                    fmt::format("Resource: type \"{}\" is not supported (only \"attributes\"; ignored)", type));
+        return;
+    }
+    const std::string op = params.getString("operation", "");
+    const std::string subset = params.getString("subset", "all");
+    if (op == "save") {
+        m_resources[handle] = m_state;
+        return;
+    }
+    if (op != "restore") {
+        m_diag.error(loc, "Resource: \"operation\" must be \"save\" or \"restore\", got \"{}\" (ignored)", op);
+        return;
+    }
+    auto it = m_resources.find(handle);
+    if (it == m_resources.end()) {
+        m_diag.error(loc, "Resource: no attributes saved as \"{}\" (expected a Resource \"{}\" \"attributes\" "
+                     "\"operation\" \"save\" first; ignored)", handle, handle);
+        return;
+    }
+    const State& saved = it->second;
+    if (subset == "all") {
+        m_state = saved;
+        return;
+    }
+    // The subsets of PRMan's attribute state; the transform belongs to "all".
+    const Attributes& from = *saved.attrs;
+    if (subset == "shading") {
+        Attributes& a = mutableAttributes();
+        a.surface = from.surface, a.displacement = from.displacement, a.atmosphere = from.atmosphere;
+        a.color = from.color, a.opacity = from.opacity, a.lights = from.lights, a.matte = from.matte;
+        a.shadingRate = from.shadingRate, a.smoothShading = from.smoothShading;
+    } else if (subset == "visibility") {
+        Attributes& a = mutableAttributes();
+        a.visibleToCamera = from.visibleToCamera, a.castsShadows = from.castsShadows;
+    } else if (subset == "geometrymodification") {
+        Attributes& a = mutableAttributes();
+        a.displacement = from.displacement, a.displacementBound = from.displacementBound;
+        a.displacementBoundSpace = from.displacementBoundSpace;
+    } else {
+        unsupported("resource-subset:" + subset, loc,
+                    fmt::format("Resource: subset \"{}\" is not known (expected \"all\", \"shading\", "
+                                "\"visibility\" or \"geometrymodification\"); everything is restored", subset));
+        m_state = saved;
+    }
+}
+
+void Builder::resourceBegin(const FileLoc& loc) {
+    push(Block::Resource, loc);
+    m_blocks.back().savedResources = std::make_shared<std::map<std::string, State>>(m_resources);
+}
+
+void Builder::resourceEnd(const FileLoc& loc) {
+    OpenBlock b;
+    if (pop(Block::Resource, "ResourceEnd", loc, &b)) m_resources = *b.savedResources;
+}
+
+void Builder::geometricRepresentation(const std::string& type, const FileLoc& loc) {
+    if (type == "primitive") return;
+    unsupported("GeometricRepresentation:" + type, loc,
+                fmt::format("GeometricRepresentation: \"{}\" is not supported; surfaces are drawn as primitives",
+                            type));
+}
+
+void Builder::system(const std::string& command, const FileLoc& loc) {
+    m_diag.warning(loc, "System: running commands is not supported (ignored)");
+}
+
+bool Builder::conditionValue(const std::string& name, ri::ExprValue* out) const {
+    auto fromParam = [&](const ri::Param& p) {
+        *out = ri::ExprValue{};
+        if (p.decl.type == ri::ParamType::String) {
+            out->isString = true;
+            out->str = p.stringAt(0);
+        } else {
+            out->num = !p.ints.empty() ? double(p.ints[0]) : double(p.floatAt(0));
+        }
+        return true;
+    };
+    auto attribute = [&](const std::string& key) {
+        if (key == "identifier:name") {
+            *out = ri::ExprValue{true, 0, m_state.attrs->name};
+            return true;
+        }
+        auto it = m_state.attrs->user.find(key);
+        return it != m_state.attrs->user.end() && fromParam(it->second);
+    };
+    auto option = [&](const std::string& key) {
+        auto it = m_options.user.find(key);
+        return it != m_options.user.end() && fromParam(it->second);
+    };
+    if (name == "Frame") {
+        *out = ri::ExprValue{false, double(m_frame), ""};
+        return m_frame >= 0;
+    }
+    if (name.rfind("Attribute:", 0) == 0) return attribute(name.substr(10));
+    if (name.rfind("Option:", 0) == 0) return option(name.substr(7));
+    // "$user:pass", or "$pass" for "user:pass": an attribute, else an option.
+    const std::string key = name.find(':') == std::string::npos ? "user:" + name : name;
+    return attribute(key) || option(key);
 }
 
 void Builder::coordSysTransform(const std::string& name, const FileLoc& loc) {
@@ -758,8 +876,11 @@ void Builder::quantize(const std::string& type, float one, float qmin, float qma
     } else if (type == "z") {
         m_options.zQuantizeOne = one, m_options.zQuantizeMin = qmin;
         m_options.zQuantizeMax = qmax, m_options.zQuantizeDither = dither;
+    } else if (!type.empty()) {
+        // RenderMan 13+: the quantization of the output called `type`.
+        m_options.namedQuantize[type] = {one, qmin, qmax, dither};
     } else {
-        m_diag.error(loc, "Quantize: unknown type \"{}\" (expected \"rgba\" or \"z\")", type);
+        m_diag.error(loc, "Quantize: expected a type (\"rgba\", \"z\" or an output's name)");
     }
 }
 

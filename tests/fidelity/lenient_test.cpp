@@ -181,3 +181,69 @@ WorldEnd
     ASSERT_GT(plain.image.channelSum(0), 50.0);
     EXPECT_LT(meanAbsDiff(binary.image, plain.image), 2e-3);
 }
+
+TEST(Lenient, RenderMan13RequestsDrawWhatThePlainSceneDraws) {
+    // An inline archive read twice, a conditional on Option "user", a
+    // Resource restore and PRMan's other requests: the same picture as the
+    // two spheres written out plainly, with only System's warning.
+    ScratchDir dir("ri13");
+    const std::string image = dir.file("r.tif");
+    const std::string rich = fmt::format(R"rib(
+Option "user" "string pass" "beauty"
+Format 64 48 1
+Display "{}" "file" "rgb"
+Projection "perspective" "fov" 40
+Hider "raytrace" "integrationmode" "path"
+Camera "main"
+System "date"
+ArchiveBegin "ball"
+  Sphere 0.8 -0.8 0.8 360
+ArchiveEnd
+WorldBegin
+LightSource "distantlight" 1 "from" [-1 1 -1] "to" [0 0 0]
+Surface "matte"
+Color 1 0 0
+Resource "red" "attributes" "string operation" "save"
+IfBegin "$user:pass == 'shadow'"
+  Color 0 0 1
+Else
+  Color 0 1 0
+IfEnd
+AttributeBegin Translate -1 0 5 ReadArchive "ball" AttributeEnd
+Resource "red" "attributes" "string operation" "restore"
+AttributeBegin Translate 1 0 5 ReadArchive "ball" AttributeEnd
+WorldEnd
+)rib",
+                                         image);
+    const std::string plain = fmt::format(R"rib(
+Format 64 48 1
+Display "{}" "file" "rgb"
+Projection "perspective" "fov" 40
+WorldBegin
+LightSource "distantlight" 1 "from" [-1 1 -1] "to" [0 0 0]
+Surface "matte"
+AttributeBegin Color 0 1 0 Translate -1 0 5 Sphere 0.8 -0.8 0.8 360 AttributeEnd
+AttributeBegin Color 1 0 0 Translate 1 0 5 Sphere 0.8 -0.8 0.8 360 AttributeEnd
+WorldEnd
+)rib",
+                                          image);
+    Diagnostics diag;
+    diag.setRecord(true);
+    diag.setSink([](const Diagnostic&) {});
+    int failed = 0;
+    test::renderRib(rich, diag, 0, 0, &failed);
+    EXPECT_EQ(failed, 0);
+    EXPECT_EQ(diag.errorCount(), 0);
+    std::vector<std::string> messages;
+    for (const Diagnostic& d : diag.recorded()) messages.push_back(d.str());
+    EXPECT_EQ(messages, (std::vector<std::string>{
+                            "test.rib:6:1: warning: Hider: \"raytrace\" is not supported; \"hidden\" is used",
+                            "test.rib:8:1: warning: System: running commands is not supported (ignored)"}));
+    Image richImage;
+    ASSERT_TRUE(test::readImage(image, &richImage));
+    Rendered p = renderScene(plain, image);
+    EXPECT_EQ(p.errors, 0);
+    ASSERT_GT(p.image.channelSum(0), 20.0);
+    ASSERT_GT(p.image.channelSum(1), 20.0);
+    EXPECT_EQ(meanAbsDiff(richImage, p.image), 0.0);
+}
