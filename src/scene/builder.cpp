@@ -930,6 +930,14 @@ void Builder::hider(const std::string& name, ri::ParamList params, const FileLoc
 }
 
 void Builder::colorSamples(const std::vector<float>& nRGB, const std::vector<float>& RGBn, const FileLoc& loc) {
+    // Exporters write the identity (RGB as RGB): that is what umbra does.
+    auto identity3 = [](const std::vector<float>& m) {
+        if (m.size() != 9) return false;
+        for (int i = 0; i < 9; ++i)
+            if (m[size_t(i)] != (i % 4 == 0 ? 1.0f : 0.0f)) return false;
+        return true;
+    };
+    if (identity3(nRGB) && identity3(RGBn)) return;
     unsupported("ColorSamples", loc, "ColorSamples: only RGB colour is supported (ignored)");
 }
 

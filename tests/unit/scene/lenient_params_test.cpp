@@ -126,6 +126,13 @@ WorldEnd
     EXPECT_TRUE(prims[2].attributes->castsShadows);
 }
 
+TEST(LenientParams, IdentityColorSamplesAreRgbAndSilent) {
+    auto r = run("ColorSamples [1 0 0 0 1 0 0 0 1] [1 0 0 0 1 0 0 0 1]\n"
+                 "ColorSamples [0.3 0.3 0.4] [1 1 1]\nWorldBegin WorldEnd\n");
+    EXPECT_EQ(r->messages(), std::vector<std::string>{"s.rib:2:1: warning: ColorSamples: only RGB colour is "
+                                                      "supported (ignored)"});
+}
+
 TEST(LenientParams, ShaderAndGeometryParametersStayStrict) {
     // Leniency is for Option/Attribute/Hider/Display: an undeclared
     // primitive variable is still an error (it would be silently lost).
