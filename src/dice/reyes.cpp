@@ -262,6 +262,16 @@ DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, co
         fu = mu;
         fv = mv;
     }
+    if (p.binary) {
+        const float bu = std::exp2(std::ceil(std::log2(fu))), bv = std::exp2(std::ceil(std::log2(fv)));
+        if (bu * bv > gridSize) {
+            res.decision = Decision::Split;
+            res.splitU = !(bv > bu);
+            return res;
+        }
+        fu = bu;
+        fv = bv;
+    }
     res.decision = Decision::Dice;
     res.nu = int(fu);
     res.nv = int(fv);

@@ -254,7 +254,8 @@ Film Film::fromOptions(const scene::Options& o, std::vector<AovChannel> aovs, Fi
     std::optional<PixelFilter> f = PixelFilter::create(o.pixelFilter, o.filterWidth[0], o.filterWidth[1]);
     if (!f) {
         diag.error(o.loc, "unknown pixel filter \"{}\" with widths {} {} (expected box, triangle, gaussian, "
-                   "catmull-rom or sinc with positive widths); using gaussian 2 2",
+                   "catmull-rom, sinc, mitchell, separable-catmull-rom, blackman-harris, disk or bessel with positive "
+                   "widths); using gaussian 2 2",
                    o.pixelFilter, o.filterWidth[0], o.filterWidth[1]);
         f = PixelFilter(FilterKind::Gaussian, 2, 2);
     }
@@ -354,13 +355,19 @@ bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Option
             return false;
         }
         int comps = m_aovs[size_t(idx)].components;
+        // `Quantize "name" ...` for this output, unless the Display says.
+        Quantize aovQ = rgbaQ;
+        if (auto nq = options.namedQuantize.find(mode.aovName);
+            nq != options.namedQuantize.end() && !display.params.find("quantize"))
+            aovQ = Quantize{nq->second[0], nq->second[1], nq->second[2], display.params.find("dither") ? rgbaQ.dither
+                                                                                                        : nq->second[3]};
         if (comps != mode.aovComponents)
             diag.warning(display.loc, "display \"{}\": AOV \"{}\" has {} components, the mode asks for {}",
                          display.name, mode.aovName, comps, mode.aovComponents);
         static const char* kRgb[] = {"R", "G", "B"};
         for (int c = 0; c < comps; ++c) {
             std::string name = comps == 3 ? kRgb[c] : (comps == 1 ? mode.aovName : fmt::format("{}.{}", mode.aovName, c));
-            channels.push_back({ChannelSource::Aov, aovOffset(idx) + c, name, rgbaQ, false});
+            channels.push_back({ChannelSource::Aov, aovOffset(idx) + c, name, aovQ, false});
         }
     } else {
         for (char c : mode.standard) {

@@ -56,6 +56,7 @@ dice::DiceParams SurfacePipeline::diceParams(const geometry::Primitive& prim) co
     p.farClip = cam.farClip;
     p.maxEyeSplits = m_frame.world->options.eyeSplits;
     p.orthographic = !cam.perspective;
+    p.binary = attrs.binaryDice;
     if (attrs.displacementBound > 0) {
         // The bound is in object units: the longest transformed axis scales it.
         const Mat4& c = p.cameraFromObject;

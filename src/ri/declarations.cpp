@@ -50,6 +50,55 @@ constexpr const char* kStandard[] = {
     "uniform integer trace", "uniform string sense",
 };
 
+/// Option, Attribute and Hider parameters by class: "Request class decl".
+/// Each is honoured by umbra (docs/rib.md says how), or accepted and
+/// ignored without a warning because it only matters to features umbra has
+/// not got (ray tracing, baking, PRMan's caches). The class "*" of Hider
+/// is any hider type.
+constexpr const char* kByClass[] = {
+    // Options.
+    "Option render uniform float minshadowbias", "Option render uniform string bucketorder",
+    "Option shadow uniform float bias", "Option limits uniform integer brickmemory",
+    "Option limits uniform integer geocachememory", "Option limits uniform integer proceduralmemory",
+    "Option limits uniform integer deepshadowtiles", "Option limits uniform integer deepshadowmemory",
+    "Option statistics uniform string xmlfilename", "Option trace uniform integer maxdepth",
+    "Option trace uniform float specularthreshold",
+    // Attribute "visibility": PRMan's ray types and Pixie's "trace" (no
+    // ray tracing: accepted, ignored); transmission as a string in BMRT
+    // and Pixie RIBs ("opaque", "transparent", "shader").
+    "Attribute visibility uniform string transmission", "Attribute visibility uniform integer indirect",
+    "Attribute visibility uniform integer midpoint",
+    "Attribute dice uniform integer binary", "Attribute dice uniform integer rasterorient",
+    "Attribute dice uniform integer hair", "Attribute dice uniform string strategy",
+    "Attribute dice uniform string referencecamera", "Attribute dice uniform integer preservecv",
+    "Attribute cull uniform integer hidden", "Attribute cull uniform integer backfacing",
+    "Attribute sides uniform float backfacetolerance", "Attribute sides uniform integer doubleshaded",
+    "Attribute identifier uniform integer id",
+    "Attribute trace uniform float bias", "Attribute trace uniform integer maxdiffusedepth",
+    "Attribute trace uniform integer maxspeculardepth", "Attribute trace uniform integer displacements",
+    "Attribute trace uniform integer samplemotion", "Attribute trace uniform float importancethreshold",
+    "Attribute trace uniform integer decimationrate",
+    "Attribute shade uniform string strategy", "Attribute shade uniform string transmissionhitmode",
+    "Attribute shade uniform string diffusehitmode", "Attribute shade uniform string specularhitmode",
+    "Attribute shade uniform string camerahitmode", "Attribute shade uniform float relativeshadingrate",
+    "Attribute shade uniform string frequency", "Attribute shade uniform integer resetst",
+    "Attribute irradiance uniform float maxerror", "Attribute irradiance uniform float maxpixeldist",
+    "Attribute irradiance uniform string handle", "Attribute irradiance uniform string filemode",
+    "Attribute photon uniform string shadingmodel", "Attribute photon uniform integer estimator",
+    "Attribute photon uniform string causticmap", "Attribute photon uniform string globalmap",
+    "Attribute render uniform string casts_shadows", "Attribute render uniform integer truedisplacement",
+    "Attribute stochastic uniform integer sigma", "Attribute stochastic uniform integer pointfalloff",
+    // Hider parameters of PRMan's hidden and raytrace hiders.
+    "Hider * uniform integer mpcache", "Hider * uniform integer mpmemory", "Hider * uniform string mpcachedir",
+    "Hider * uniform integer samplemotion", "Hider * uniform integer subpixel",
+    "Hider * uniform integer extrememotiondof", "Hider * uniform integer sigma", "Hider * uniform float sigmablur",
+    "Hider * uniform float[4] aperture", "Hider * uniform float dofaspect", "Hider * uniform string pixelfiltermode",
+    "Hider * uniform float occlusionbound", "Hider * uniform integer maxvpdepth", "Hider * uniform integer emit",
+    "Hider * uniform integer incremental", "Hider * uniform integer maxsamples",
+    "Hider * uniform string integrationmode", "Hider * uniform string samplemode",
+    "Hider * uniform integer progressive",
+};
+
 bool storageByName(std::string_view w, StorageClass* out) {
     static const std::pair<const char*, StorageClass> k[] = {
         {"constant", StorageClass::Constant}, {"uniform", StorageClass::Uniform},
@@ -174,6 +223,19 @@ bool Declarations::resolve(std::string_view token, ParamDecl* out, std::string* 
     *error = fmt::format("parameter \"{}\" is not declared (use Declare or an inline declaration "
                          "such as \"uniform float {}\")", token, token);
     return false;
+}
+
+std::vector<ParamDecl> Declarations::forClass(std::string_view request, std::string_view cls, std::string_view name) {
+    std::vector<ParamDecl> out;
+    for (std::string_view entry : kByClass) {
+        size_t a = entry.find(' '), b = entry.find(' ', a + 1);
+        std::string_view req = entry.substr(0, a), c = entry.substr(a + 1, b - a - 1);
+        if (req != request || (c != cls && c != "*")) continue;
+        ParamDecl d;
+        std::string why;
+        if (parse(entry.substr(b + 1), true, &d, &why) && d.name == name) out.push_back(std::move(d));
+    }
+    return out;
 }
 
 }  // namespace umbra::ri

@@ -33,7 +33,7 @@ std::string notFinite(std::string_view word) {
 }
 }  // namespace
 
-Lexer::Lexer(std::string_view text) : m_text(text) {}
+Lexer::Lexer(std::string_view text, int firstLine) : m_text(text), m_line(firstLine) {}
 
 Token Lexer::makeError(int line, int column, std::string message) {
     m_scratch = std::move(message);
@@ -65,6 +65,7 @@ Token Lexer::next() {
     Token t;
     t.line = m_line;
     t.column = static_cast<int>(m_pos - m_lineStart) + 1;
+    t.offset = m_pos;
     if (m_pos >= n) return t;
 
     unsigned char c = static_cast<unsigned char>(s[m_pos]);

@@ -160,6 +160,16 @@ const RequestSpec kRequests[] = {
     {"version", "f", "version", false, UMBRA_H(t.version(a.f(), l))},
     {"Declare", "ss", "name declaration", false, nullptr},
     {"ReadArchive", "s", "filename", true, nullptr},
+    {"ArchiveBegin", "s", "name", true, nullptr},
+    {"ArchiveEnd", "", "", false, nullptr},
+    {"IfBegin", "s", "condition", false, nullptr},
+    {"ElseIf", "s", "condition", false, nullptr},
+    {"Else", "", "", false, nullptr},
+    {"IfEnd", "", "", false, nullptr},
+    {"System", "s", "command", false, UMBRA_H(t.system(a.s(), l))},
+    {"Resource", "ss", "handle type", true, UMBRA_H(std::string h = a.s(); std::string ty = a.s(); t.resource(h, ty, std::move(p), l))},
+    {"ResourceBegin", "", "", false, UMBRA_H(t.resourceBegin(l))},
+    {"ResourceEnd", "", "", false, UMBRA_H(t.resourceEnd(l))},
     {"ErrorHandler", "s", "handler", false, UMBRA_H(t.errorHandler(a.s(), l))},
     {"FrameBegin", "i", "frame", false, UMBRA_H(t.frameBegin(a.i(), l))},
     {"FrameEnd", "", "", false, UMBRA_H(t.frameEnd(l))},
@@ -189,6 +199,7 @@ const RequestSpec kRequests[] = {
     {"CoordinateSystem", "s", "name", false, UMBRA_H(t.coordinateSystem(a.s(), l))},
     {"ScopedCoordinateSystem", "s", "name", false, UMBRA_H(t.scopedCoordinateSystem(a.s(), l))},
     {"CoordSysTransform", "s", "name", false, UMBRA_H(t.coordSysTransform(a.s(), l))},
+    {"Camera", "s", "name", true, UMBRA_H(t.camera(a.s(), std::move(p), l))},
 
     {"Option", "s", "name", true, UMBRA_H(t.option(a.s(), std::move(p), l))},
     {"Format", "iif", "xresolution yresolution pixelaspectratio", false,
@@ -240,6 +251,7 @@ const RequestSpec kRequests[] = {
      UMBRA_H(std::array<float, 6> v; for (float& x : v) x = a.f(); t.detail(v, l))},
     {"DetailRange", "ffff", "minvisible lowertransition uppertransition maxvisible", false,
      UMBRA_H(std::array<float, 4> v; for (float& x : v) x = a.f(); t.detailRange(v, l))},
+    {"GeometricRepresentation", "s", "type", false, UMBRA_H(t.geometricRepresentation(a.s(), l))},
     {"GeometricApproximation", "sf", "type value", false,
      UMBRA_H(std::string ty = a.s(); t.geometricApproximation(ty, a.f(), l))},
     {"Surface", "s", "name", true, UMBRA_H(t.surface(a.s(), std::move(p), l))},
@@ -407,8 +419,9 @@ bool gunzip(std::string_view bytes, std::string* out, std::string* error) {
 class StreamParser {
 public:
     StreamParser(Parser& parser, std::string_view text, std::shared_ptr<const std::string> file,
-                 std::string directory, int depth)
-        : m_parser(parser), m_lex(text), m_file(std::move(file)), m_directory(std::move(directory)), m_depth(depth) {}
+                 std::string directory, int depth, int firstLine = 1)
+        : m_parser(parser), m_text(text), m_lex(text, firstLine), m_file(std::move(file)),
+          m_directory(std::move(directory)), m_depth(depth) {}
 
     bool run() {
         Diagnostics& diag = m_parser.m_diag;
@@ -426,6 +439,11 @@ public:
             }
             request();
         }
+        if (m_recordDepth > 0)
+            diag.error(m_recordLoc, "ArchiveBegin: no matching ArchiveEnd before the end of {} (archive \"{}\" "
+                       "is not recorded)", *m_file, m_recordName);
+        for (size_t k = m_ifs.size(); k-- > 0;)
+            diag.error(m_ifs[k].loc, "IfBegin: no matching IfEnd before the end of {}", *m_file);
         if (m_depth == 0) m_parser.m_target.endOfInput(loc(m_tok.line, m_tok.column));
         return diag.errorCount() == errorsAtStart;
     }
@@ -436,6 +454,7 @@ private:
 
     template <typename... Args>
     void error(int line, int column, std::string_view request, fmt::format_string<Args...> f, Args&&... args) {
+        if (m_quiet) return;
         m_parser.m_diag.error(loc(line, column), "{}: {}", request, fmt::format(f, std::forward<Args>(args)...));
     }
 
@@ -467,7 +486,25 @@ private:
     void request() {
         std::string name(m_tok.text);
         int line = m_tok.line, column = m_tok.column;
+        const size_t offset = m_tok.offset;
         advance();
+        if (m_recordDepth > 0) {
+            // Inside ArchiveBegin/ArchiveEnd: kept as text, checked when read.
+            m_quiet = true;
+            collectValues(name);
+            m_quiet = false;
+            if (name == "ArchiveBegin")
+                ++m_recordDepth;
+            else if (name == "ArchiveEnd" && --m_recordDepth == 0)
+                finishRecording(offset);
+            return;
+        }
+        const bool ifRequest = name == "IfBegin" || name == "ElseIf" || name == "Else" || name == "IfEnd";
+        if (skipping() && !ifRequest) {
+            // A branch not taken: its requests are read past, not run.
+            collectValues(name);
+            return;
+        }
         const RequestSpec* spec = findRequest(name);
         bool ok = collectValues(name);
         if (!spec) {
@@ -485,7 +522,11 @@ private:
             return;
         }
         ParamList params;
-        if (spec->params) buildParams(name, used, params);
+        if (spec->params) {
+            std::string_view rn = spec->name;
+            const bool classed = rn == "Option" || rn == "Attribute" || rn == "Hider";
+            buildParams(name, classed && !args.empty() ? args[0].str : std::string(), used, params);
+        }
         FileLoc where = loc(line, column);
         if (!spec->handler) {
             special(*spec, args, std::move(params), where);
@@ -785,9 +826,30 @@ private:
         return true;
     }
 
+    /// Requests whose parameters other renderers give meanings umbra may
+    /// not know (renderer-specific options, attributes, hider and display
+    /// settings): an undeclared name, or a value that does not fit its
+    /// declaration, is read as its values say with one warning per name,
+    /// never an error (docs/rib.md, "Lenient parameters").
+    static bool isLenientRequest(std::string_view request) {
+        return request == "Option" || request == "Attribute" || request == "Hider" || request == "Display" ||
+               request == "DisplayChannel" || request == "Camera" || request == "Resource" ||
+               request == "ArchiveBegin";
+    }
+
+    /// "uniform float" for "uniform float name": a declaration without its name.
+    static std::string typeText(const ParamDecl& d) {
+        std::string s = d.str();
+        return s.size() > d.name.size() ? s.substr(0, s.size() - d.name.size() - 1) : s;
+    }
+
     // params: ( "name" value )*
-    void buildParams(std::string_view request, size_t first, ParamList& params) {
+    // `cls` is the Option/Attribute class or the Hider type (else empty).
+    void buildParams(std::string_view request, const std::string& cls, size_t first, ParamList& params) {
         const Declarations& decls = m_parser.m_decls;
+        const bool lenient = isLenientRequest(request);
+        // "Attribute \"dice\"" in lenient messages; the request alone otherwise.
+        const std::string where = cls.empty() ? std::string(request) : fmt::format("{} \"{}\"", request, cls);
         for (size_t i = first; i < m_values.size();) {
             Value& nameValue = m_values[i];
             if (nameValue.kind != Value::String) {
@@ -802,26 +864,85 @@ private:
             }
             Value& v = m_values[i + 1];
             i += 2;
-            Param p;
+            const std::string& token = nameValue.str;
+            const bool inlineDecl = token.find_first_of(" \t") != std::string::npos;
+            // The declaration in force (Declare, inline or standard), then
+            // the ones other renderers give the name in this class.
+            std::vector<ParamDecl> candidates;
             std::string why;
-            if (!decls.resolve(nameValue.str, &p.decl, &why)) {
-                if (!isShaderRequest(request) || !inferDeclaration(nameValue.str, v, &p.decl)) {
+            ParamDecl declared;
+            const bool resolved = decls.resolve(token, &declared, &why);
+            if (resolved) candidates.push_back(declared);
+            if (lenient && !inlineDecl)
+                for (ParamDecl& d : Declarations::forClass(request, cls, token)) candidates.push_back(std::move(d));
+            bool undeclared = false;
+            if (candidates.empty()) {
+                ParamDecl d;
+                if (lenient && !inlineDecl && inferDeclaration(token, v, &d)) {
+                    d.inferred = false;
+                    candidates.push_back(std::move(d));
+                    undeclared = true;
+                } else if (!isShaderRequest(request) || !inferDeclaration(token, v, &d)) {
                     error(nameValue.line, nameValue.column, request, "{}", why);
                     continue;
+                } else {
+                    candidates.push_back(std::move(d));
                 }
             }
-            p.loc = loc(nameValue.line, nameValue.column);
-            if (convert(request, nameValue, v, p)) params.add(std::move(p));
+            const FileLoc at = loc(nameValue.line, nameValue.column);
+            const std::string onceKey = fmt::format("param:{}:{}:{}", request, cls, candidates[0].name);
+            if (undeclared && cls != "user")
+                m_parser.m_diag.warningOnce(onceKey, at, "{}: parameter \"{}\" is not declared; read as \"{}\" (umbra "
+                                            "does not use it)", where, candidates[0].name, typeText(candidates[0]));
+            if (!lenient) {
+                Param p;
+                p.decl = candidates[0];
+                p.loc = at;
+                if (convert(request, nameValue, v, p, &why))
+                    params.add(std::move(p));
+                else
+                    error(nameValue.line, nameValue.column, request, "{}", why);
+                continue;
+            }
+            // Lenient: the first declaration the values fit; else what the
+            // values say, with one warning for the name.
+            bool done = false;
+            std::string firstWhy;
+            for (const ParamDecl& d : candidates) {
+                Value copy = v;
+                Param p;
+                p.decl = d;
+                p.loc = at;
+                if (convert(request, nameValue, copy, p, &why)) {
+                    params.add(std::move(p));
+                    done = true;
+                    break;
+                }
+                if (firstWhy.empty()) firstWhy = why;
+            }
+            if (done) continue;
+            Param p;
+            p.loc = at;
+            const bool inferred = inferDeclaration(candidates[0].name, v, &p.decl);
+            p.decl.inferred = false;
+            if (!inferred || !convert(request, nameValue, v, p, &why)) {
+                error(nameValue.line, nameValue.column, request, "{}", firstWhy);
+                continue;
+            }
+            m_parser.m_diag.warningOnce(onceKey, at, "{}: {}; read as \"{}\"", where, firstWhy, typeText(p.decl));
+            params.add(std::move(p));
         }
     }
 
-    bool convert(std::string_view request, const Value& nameValue, Value& v, Param& p) {
+    /// Fills `p` (whose declaration is set) from the value `v`; false with
+    /// `*why` saying what did not fit.
+    bool convert(std::string_view request, const Value& nameValue, Value& v, Param& p, std::string* why) {
         const ParamDecl& d = p.decl;
         size_t count = 0;
-        auto fail = [&](std::string_view what) {
-            error(nameValue.line, nameValue.column, request, "parameter \"{}\" ({} {}{}) expects {}, got {}", d.name,
-                  storageClassName(d.storage), paramTypeName(d.type),
-                  d.arraySize != 1 ? fmt::format("[{}]", d.arraySize) : std::string(), what, describe(v));
+        auto fail = [&](std::string_view what, std::string got = {}) {
+            *why = fmt::format("parameter \"{}\" ({} {}{}) expects {}, got {}", d.name, storageClassName(d.storage),
+                               paramTypeName(d.type), d.arraySize != 1 ? fmt::format("[{}]", d.arraySize) : std::string(),
+                               what, got.empty() ? describe(v) : got);
             return false;
         };
         if (d.type == ParamType::String) {
@@ -846,7 +967,7 @@ private:
             } else {
                 p.ints.resize(count);
                 for (size_t k = 0; k < count; ++k) {
-                    if (!integral(v.nums[k])) return fail("integers");
+                    if (!integral(v.nums[k])) return fail("integers", numberText(v.nums[k]));
                     p.ints[k] = static_cast<int>(v.nums[k]);
                 }
             }
@@ -855,17 +976,17 @@ private:
         std::string type = fmt::format("{} {}{}", storageClassName(d.storage), paramTypeName(d.type),
                                        d.arraySize != 1 ? fmt::format("[{}]", d.arraySize) : std::string());
         if (count == 0) {
-            error(nameValue.line, nameValue.column, request, "parameter \"{}\" ({}) has no values", d.name, type);
+            *why = fmt::format("parameter \"{}\" ({}) has no values", d.name, type);
             return false;
         }
         if (d.storage == StorageClass::Constant && count != per) {
-            error(nameValue.line, nameValue.column, request, "parameter \"{}\" ({}) expects {} value{}, got {}",
-                  d.name, type, per, per == 1 ? "" : "s", count);
+            *why = fmt::format("parameter \"{}\" ({}) expects {} value{}, got {}", d.name, type, per,
+                               per == 1 ? "" : "s", count);
             return false;
         }
         if (count % per != 0) {
-            error(nameValue.line, nameValue.column, request,
-                  "parameter \"{}\" ({}) expects a multiple of {} values, got {}", d.name, type, per, count);
+            *why = fmt::format("parameter \"{}\" ({}) expects a multiple of {} values, got {}", d.name, type, per,
+                               count);
             return false;
         }
         return true;
@@ -890,16 +1011,110 @@ private:
             m_parser.m_target.declare(d, where);
         } else if (name == "ReadArchive") {
             m_parser.readArchive(args[0].str, where, m_directory, m_depth);
+        } else if (name == "ArchiveBegin") {
+            if (args[0].str.empty()) {
+                m_parser.m_diag.error(where, "ArchiveBegin: expected a non-empty archive name");
+                m_recordName.clear();
+            } else {
+                m_recordName = args[0].str;
+            }
+            // The body starts at the next token (or the end).
+            m_recordDepth = 1;
+            m_recordLoc = where;
+            m_recordStart = m_tok.offset;
+            m_recordLine = m_tok.line;
+        } else if (name == "ArchiveEnd") {
+            m_parser.m_diag.error(where, "ArchiveEnd: no matching ArchiveBegin (ignored)");
+        } else if (name == "IfBegin") {
+            IfState s;
+            s.loc = where;
+            s.parentActive = !skipping();
+            if (s.parentActive) s.active = s.taken = condition("IfBegin", args[0].str, where);
+            m_ifs.push_back(s);
+        } else if (name == "ElseIf" || name == "Else" || name == "IfEnd") {
+            if (m_ifs.empty()) {
+                m_parser.m_diag.error(where, "{}: no matching IfBegin (ignored)", name);
+                return;
+            }
+            IfState& s = m_ifs.back();
+            if (name == "IfEnd") {
+                m_ifs.pop_back();
+                return;
+            }
+            if (s.elseLoc.file) {
+                m_parser.m_diag.error(where, "{}: after the Else at {} of the IfBegin at {} (ignored)", name,
+                                      s.elseLoc.str(), s.loc.str());
+                return;
+            }
+            if (name == "Else") {
+                s.elseLoc = where;
+                s.active = s.parentActive && !s.taken;
+                s.taken = true;
+            } else {
+                s.active = s.parentActive && !s.taken && condition("ElseIf", args[0].str, where);
+                s.taken = s.taken || s.active;
+            }
         }
     }
 
+    /// One open IfBegin: whether the block it is in runs, whether one of
+    /// its branches has run, whether the current branch runs.
+    struct IfState {
+        FileLoc loc, elseLoc;
+        bool parentActive = true, taken = false, active = false;
+    };
+    bool skipping() const { return !m_ifs.empty() && !m_ifs.back().active; }
+
+    /// Evaluates an IfBegin/ElseIf condition against the target's values;
+    /// a malformed one is reported and false.
+    bool condition(std::string_view request, const std::string& expr, const FileLoc& where) {
+        Target& target = m_parser.m_target;
+        ExprLookup lookup = [&](const std::string& n, ExprValue* v) { return target.conditionValue(n, v); };
+        bool result = false;
+        std::string why;
+        std::vector<std::string> undefined;
+        if (!evaluateCondition(expr, lookup, &result, &why, &undefined)) {
+            m_parser.m_diag.error(where, "{}: bad condition \"{}\": {} (taken as false)", request, expr, why);
+            return false;
+        }
+        for (const std::string& u : undefined)
+            m_parser.m_diag.warningOnce("if-undefined:" + u, where, "{}: \"${}\" is not defined (taken as the "
+                                        "empty string)", request, u);
+        return result;
+    }
+
+    /// ArchiveEnd at byte `endOffset` closes the recorded archive.
+    void finishRecording(size_t endOffset) {
+        if (m_recordName.empty()) return;
+        Parser::InlineArchive a;
+        // From the start of the body's line, columns before it blanked, so
+        // messages on replay give the body's own lines and columns.
+        size_t lineStart = m_text.rfind('\n', m_recordStart == 0 ? 0 : m_recordStart - 1);
+        lineStart = lineStart == std::string_view::npos || m_recordStart == 0 ? 0 : lineStart + 1;
+        if (lineStart > m_recordStart) lineStart = m_recordStart;
+        a.text.assign(m_recordStart - lineStart, ' ');
+        a.text.append(m_text.substr(m_recordStart, endOffset - m_recordStart));
+        a.file = m_file;
+        a.firstLine = m_recordLine;
+        a.directory = m_directory;
+        m_parser.m_inlineArchives[m_recordName] = std::move(a);
+    }
+
     Parser& m_parser;
+    std::string_view m_text;
     Lexer m_lex;
     Token m_tok;
     std::shared_ptr<const std::string> m_file;
     std::string m_directory;
     int m_depth;
     std::vector<Value> m_values;
+    std::vector<IfState> m_ifs;
+    bool m_quiet = false;  // while recording an inline archive
+    int m_recordDepth = 0;  // > 0 while recording: ArchiveBegin nesting
+    std::string m_recordName;
+    FileLoc m_recordLoc;
+    size_t m_recordStart = 0;
+    int m_recordLine = 1;
 };
 
 Parser::Parser(Target& target, Diagnostics& diag) : m_target(target), m_diag(diag) {}
@@ -938,6 +1153,13 @@ bool Parser::readArchive(const std::string& name, const FileLoc& loc, const std:
         m_diag.error(loc, "ReadArchive: archives nested more than {} deep (does \"{}\" read itself?)",
                      kMaxArchiveDepth, name);
         return false;
+    }
+    // An ArchiveBegin/ArchiveEnd archive of that name comes before files.
+    if (auto it = m_inlineArchives.find(name); it != m_inlineArchives.end()) {
+        if (!m_target.readArchive(name, loc)) return false;
+        const InlineArchive a = it->second;  // a copy: the body may redefine it
+        StreamParser p(*this, a.text, a.file, a.directory, depth + 1, a.firstLine);
+        return p.run();
     }
     // Candidates: an absolute name as is; otherwise beside the including
     // file, then on the archive search path. The display name keeps the

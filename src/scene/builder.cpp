@@ -9,13 +9,13 @@ namespace umbra::scene {
 namespace {
 
 const char* beginName(int kind) {
-    static const char* k[] = {"FrameBegin", "WorldBegin", "AttributeBegin", "TransformBegin", "SolidBegin",
-                              "ObjectBegin", "MotionBegin"};
+    static const char* k[] = {"FrameBegin",  "WorldBegin",  "AttributeBegin", "TransformBegin",
+                              "SolidBegin",  "ObjectBegin", "MotionBegin",    "ResourceBegin"};
     return k[kind];
 }
 const char* endName(int kind) {
-    static const char* k[] = {"FrameEnd", "WorldEnd", "AttributeEnd", "TransformEnd", "SolidEnd", "ObjectEnd",
-                              "MotionEnd"};
+    static const char* k[] = {"FrameEnd", "WorldEnd", "AttributeEnd", "TransformEnd",
+                              "SolidEnd", "ObjectEnd", "MotionEnd",   "ResourceEnd"};
     return k[kind];
 }
 
@@ -258,6 +258,7 @@ void Builder::frameEnd(const FileLoc& loc) {
     }
     m_options = *b.savedOptions;
     m_cameraSpaces = *b.savedSpaces;
+    m_namedCameras.clear();
     m_state = b.saved;
     m_frame = -1;
     m_objectHandle.clear();
@@ -288,6 +289,11 @@ void Builder::worldBegin(const FileLoc& loc) {
     m_world->coordinateSystems["camera"] = worldFromCamera;
     for (const auto& [name, cameraFromNamed] : m_cameraSpaces)
         m_world->coordinateSystems[name] = worldFromCamera * cameraFromNamed;
+    for (const auto& [name, namedCameraFromWorld] : m_namedCameras) {
+        bool invertible = true;
+        Mat4 worldFromNamed = namedCameraFromWorld.inverse(&invertible);
+        if (invertible) m_world->coordinateSystems[name] = worldFromNamed;
+    }
     m_lightHandles.clear();
     m_state.transform = Mat4::identity();
     for (const PreWorldLight& l : m_preWorldLights) {
@@ -495,6 +501,118 @@ void Builder::scopedCoordinateSystem(const std::string& name, const FileLoc& loc
     coordinateSystem(name, loc);
 }
 
+void Builder::camera(const std::string& name, ri::ParamList params, const FileLoc& loc) {
+    // RenderMan 14: names the camera the options describe so far. umbra
+    // renders one camera; the name is that camera's coordinate system.
+    if (!optionsAllowed("Camera", loc)) return;
+    m_namedCameras[name] = m_state.transform;
+}
+
+void Builder::resource(const std::string& handle, const std::string& type, ri::ParamList params,
+                       const FileLoc& loc) {
+    if (type != "attributes") {
+        unsupported("resource:" + type, loc,
+                    fmt::format("Resource: type \"{}\" is not supported (only \"attributes\"; ignored)", type));
+        return;
+    }
+    const std::string op = params.getString("operation", "");
+    const std::string subset = params.getString("subset", "all");
+    if (op == "save") {
+        m_resources[handle] = m_state;
+        return;
+    }
+    if (op != "restore") {
+        m_diag.error(loc, "Resource: \"operation\" must be \"save\" or \"restore\", got \"{}\" (ignored)", op);
+        return;
+    }
+    auto it = m_resources.find(handle);
+    if (it == m_resources.end()) {
+        m_diag.error(loc, "Resource: no attributes saved as \"{}\" (expected a Resource \"{}\" \"attributes\" "
+                     "\"operation\" \"save\" first; ignored)", handle, handle);
+        return;
+    }
+    const State& saved = it->second;
+    if (subset == "all") {
+        m_state = saved;
+        return;
+    }
+    // The subsets of PRMan's attribute state; the transform belongs to "all".
+    const Attributes& from = *saved.attrs;
+    if (subset == "shading") {
+        Attributes& a = mutableAttributes();
+        a.surface = from.surface, a.displacement = from.displacement, a.atmosphere = from.atmosphere;
+        a.color = from.color, a.opacity = from.opacity, a.lights = from.lights, a.matte = from.matte;
+        a.shadingRate = from.shadingRate, a.smoothShading = from.smoothShading;
+    } else if (subset == "visibility") {
+        Attributes& a = mutableAttributes();
+        a.visibleToCamera = from.visibleToCamera, a.castsShadows = from.castsShadows;
+    } else if (subset == "geometrymodification") {
+        Attributes& a = mutableAttributes();
+        a.displacement = from.displacement, a.displacementBound = from.displacementBound;
+        a.displacementBoundSpace = from.displacementBoundSpace;
+    } else {
+        unsupported("resource-subset:" + subset, loc,
+                    fmt::format("Resource: subset \"{}\" is not known (expected \"all\", \"shading\", "
+                                "\"visibility\" or \"geometrymodification\"); everything is restored", subset));
+        m_state = saved;
+    }
+}
+
+void Builder::resourceBegin(const FileLoc& loc) {
+    push(Block::Resource, loc);
+    m_blocks.back().savedResources = std::make_shared<std::map<std::string, State>>(m_resources);
+}
+
+void Builder::resourceEnd(const FileLoc& loc) {
+    OpenBlock b;
+    if (pop(Block::Resource, "ResourceEnd", loc, &b)) m_resources = *b.savedResources;
+}
+
+void Builder::geometricRepresentation(const std::string& type, const FileLoc& loc) {
+    if (type == "primitive") return;
+    unsupported("GeometricRepresentation:" + type, loc,
+                fmt::format("GeometricRepresentation: \"{}\" is not supported; surfaces are drawn as primitives",
+                            type));
+}
+
+void Builder::system(const std::string& command, const FileLoc& loc) {
+    m_diag.warning(loc, "System: running commands is not supported (ignored)");
+}
+
+bool Builder::conditionValue(const std::string& name, ri::ExprValue* out) const {
+    auto fromParam = [&](const ri::Param& p) {
+        *out = ri::ExprValue{};
+        if (p.decl.type == ri::ParamType::String) {
+            out->isString = true;
+            out->str = p.stringAt(0);
+        } else {
+            out->num = !p.ints.empty() ? double(p.ints[0]) : double(p.floatAt(0));
+        }
+        return true;
+    };
+    auto attribute = [&](const std::string& key) {
+        if (key == "identifier:name") {
+            *out = ri::ExprValue{true, 0, m_state.attrs->name};
+            return true;
+        }
+        auto it = m_state.attrs->user.find(key);
+        return it != m_state.attrs->user.end() && fromParam(it->second);
+    };
+    auto option = [&](const std::string& key) {
+        auto it = m_options.user.find(key);
+        return it != m_options.user.end() && fromParam(it->second);
+    };
+    if (name == "Frame") {
+        *out = ri::ExprValue{false, double(m_frame), ""};
+        return m_frame >= 0;
+    }
+    if (name.rfind("Attribute:", 0) == 0) return attribute(name.substr(10));
+    if (name.rfind("Option:", 0) == 0) return option(name.substr(7));
+    // "$user:pass", or "$pass" for "user:pass": an attribute, else an option.
+    const std::string key = name.find(':') == std::string::npos ? "user:" + name : name;
+    return attribute(key) || option(key);
+}
+
 void Builder::coordSysTransform(const std::string& name, const FileLoc& loc) {
     if (m_world) {
         auto it = m_world->coordinateSystems.find(name);
@@ -694,13 +812,14 @@ void Builder::pixelSamples(float xs, float ys, const FileLoc& loc) {
 
 void Builder::pixelFilter(const std::string& name, float xwidth, float ywidth, const FileLoc& loc) {
     if (!optionsAllowed("PixelFilter", loc)) return;
-    static const char* kFilters[] = {"box", "triangle", "gaussian", "catmull-rom", "sinc", "mitchell",
-                                     "blackman-harris"};
-    std::string n = name == "catmullrom" ? "catmull-rom" : name;
+    static const char* kFilters[] = {"box",  "triangle", "gaussian", "catmull-rom", "sinc", "mitchell",
+                                     "separable-catmull-rom", "blackman-harris", "disk", "bessel"};
+    // PRMan's "lanczos" is sinc(x) sinc(x / radius): umbra's windowed sinc.
+    std::string n = name == "catmullrom" ? "catmull-rom" : name == "lanczos" ? "sinc" : name;
     if (std::find_if(std::begin(kFilters), std::end(kFilters), [&](const char* f) { return n == f; }) ==
         std::end(kFilters)) {
         m_diag.error(loc, "PixelFilter: unknown filter \"{}\" (expected box, triangle, gaussian, catmull-rom, sinc, "
-                     "mitchell or blackman-harris)", name);
+                     "lanczos, mitchell, separable-catmull-rom, blackman-harris, disk or bessel)", name);
         return;
     }
     if (!(xwidth > 0 && ywidth > 0)) {
@@ -751,8 +870,11 @@ void Builder::quantize(const std::string& type, float one, float qmin, float qma
     } else if (type == "z") {
         m_options.zQuantizeOne = one, m_options.zQuantizeMin = qmin;
         m_options.zQuantizeMax = qmax, m_options.zQuantizeDither = dither;
+    } else if (!type.empty()) {
+        // RenderMan 13+: the quantization of the output called `type`.
+        m_options.namedQuantize[type] = {one, qmin, qmax, dither};
     } else {
-        m_diag.error(loc, "Quantize: unknown type \"{}\" (expected \"rgba\" or \"z\")", type);
+        m_diag.error(loc, "Quantize: expected a type (\"rgba\", \"z\" or an output's name)");
     }
 }
 
@@ -804,6 +926,14 @@ void Builder::hider(const std::string& name, ri::ParamList params, const FileLoc
 }
 
 void Builder::colorSamples(const std::vector<float>& nRGB, const std::vector<float>& RGBn, const FileLoc& loc) {
+    // Exporters write the identity (RGB as RGB): that is what umbra does.
+    auto identity3 = [](const std::vector<float>& m) {
+        if (m.size() != 9) return false;
+        for (int i = 0; i < 9; ++i)
+            if (m[size_t(i)] != (i % 4 == 0 ? 1.0f : 0.0f)) return false;
+        return true;
+    };
+    if (identity3(nRGB) && identity3(RGBn)) return;
     unsupported("ColorSamples", loc, "ColorSamples: only RGB colour is supported (ignored)");
 }
 
@@ -832,6 +962,14 @@ void Builder::attribute(const std::string& name, ri::ParamList params, const Fil
             bool casts = p.decl.type == ri::ParamType::String ? p.stringAt(0) != "transparent"
                                                               : params.getInt(pn, 1) != 0;
             mutableAttributes().castsShadows = casts;
+        } else if (name == "dice" && pn == "binary") {
+            mutableAttributes().binaryDice = params.getInt(pn, 0) != 0;
+            mutableAttributes().user[name + ":" + pn] = p;
+        } else if (name == "render" && pn == "casts_shadows" && p.decl.type == ri::ParamType::String) {
+            // BMRT's spelling: "none" casts no shadows; "opaque", "Os" and
+            // "shade" all cast one (umbra's depth maps are opaque).
+            mutableAttributes().castsShadows = p.stringAt(0) != "none";
+            mutableAttributes().user[name + ":" + pn] = p;
         } else if (name == "umbra" && !umbraValueValid("Attribute", p, m_diag)) {
             continue;
         } else {

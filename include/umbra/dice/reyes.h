@@ -55,6 +55,11 @@ struct DiceParams {
     /// sphere into at least 8 x 4 micropolygons instead of a 1 x 1 grid
     /// that covers nothing. 0 turns the floor off.
     float maxTurn = kPi / 4;
+    /// Attribute "dice" "binary": every grid's nu and nv are powers of two
+    /// (PRMan's binary dicing), so grids that share an edge after splits
+    /// place the same vertices along it. A grid whose rounded-up counts
+    /// exceed gridSize is split instead.
+    bool binary = false;
 };
 
 /// The three outcomes of the REYES loop for one primitive.

@@ -15,7 +15,7 @@
 namespace umbra::film {
 
 /// The RenderMan pixel filter shapes (see PixelFilter).
-enum class FilterKind { Box, Triangle, Gaussian, CatmullRom, Sinc };
+enum class FilterKind { Box, Triangle, Gaussian, CatmullRom, Sinc, Mitchell, SeparableCatmullRom, BlackmanHarris, Disk, Bessel };
 
 /// One RenderMan pixel filter with its x and y widths, plus lookup tables for
 /// the renderer's hot path (each image sample is weighted for every pixel
@@ -31,11 +31,21 @@ enum class FilterKind { Box, Triangle, Gaussian, CatmullRom, Sinc };
 ///  - sinc:       sinc(x) sinc(x/rx) * (same in y), rx = xwidth/2: the spec's
 ///                separable sinc windowed by a Lanczos window so it falls to 0
 ///                at the support's edge instead of being truncated
-/// All but catmull-rom are separable: w(x, y) = wx(x) * wy(y).
+///  - mitchell:   Mitchell-Netravali B = C = 1/3 cubic of 2x' (times the
+///                same in y), PRMan's RiMitchellFilter
+///  - separable-catmull-rom: the B = 0, C = 1/2 cubic of 2x' (times y)
+///  - blackman-harris: 0.35875 + 0.48829 cos(pi x') + 0.14128 cos(2 pi x')
+///                + 0.01168 cos(3 pi x') (times y), PRMan's window
+///  - disk:       1 inside the ellipse x'^2 + y'^2 <= 1
+///  - bessel:     2 J1(pi r) / (pi r), r = |(x, y)| in pixels, inside the
+///                same ellipse (Aqsis and Pixie's RiBesselFilter shape)
+/// All but catmull-rom, disk and bessel are separable:
+/// w(x, y) = wx(x) * wy(y).
 class PixelFilter {
 public:
     /// By RenderMan name: "box", "triangle", "gaussian", "catmull-rom",
-    /// "sinc" (also the Ri function names "RiGaussianFilter" etc.). Widths
+    /// "sinc", "mitchell", "separable-catmull-rom", "blackman-harris",
+    /// "disk", "bessel" (also the Ri function names "RiGaussianFilter" etc.). Widths
     /// must be positive. Unknown names give nullopt; the caller reports.
     static std::optional<PixelFilter> create(std::string_view name, float xwidth, float ywidth);
     PixelFilter(FilterKind kind, float xwidth, float ywidth);

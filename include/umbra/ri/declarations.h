@@ -9,6 +9,7 @@
 #include <string>
 #include <string_view>
 #include <unordered_map>
+#include <vector>
 
 namespace umbra::ri {
 
@@ -33,6 +34,14 @@ public:
     /// contains a space, otherwise a table lookup. False with `*error` set
     /// when the inline declaration is malformed or the name is undeclared.
     bool resolve(std::string_view token, ParamDecl* out, std::string* error) const;
+
+    /// The declarations RenderMan renderers (PRMan, Aqsis, Pixie) give the
+    /// parameter `name` of `Option`/`Attribute` class `cls`, or of a
+    /// `Hider` of type `cls`, e.g. Attribute "dice" "binary": uniform
+    /// integer. A name may have several ("visibility" "transmission" is an
+    /// integer, or a string in older RIBs); empty when umbra knows none.
+    /// `request` is "Option", "Attribute" or "Hider".
+    static std::vector<ParamDecl> forClass(std::string_view request, std::string_view cls, std::string_view name);
 
 private:
     std::unordered_map<std::string, ParamDecl> m_table;

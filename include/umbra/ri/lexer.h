@@ -29,6 +29,7 @@ struct Token {
     std::string_view text;
     double number = 0;
     bool isInt = false;  // written without '.', exponent, and fits in int
+    size_t offset = 0;   // byte offset of the token's first character in the input
 };
 
 /// Splits RIB text into tokens without allocating per token. Numbers are
@@ -39,8 +40,9 @@ struct Token {
 /// every value ends up in a float, where it would silently become infinity.
 class Lexer {
 public:
-    /// `text` must outlive the lexer.
-    explicit Lexer(std::string_view text);
+    /// `text` must outlive the lexer; its first line is numbered `firstLine`
+    /// (an inline archive replayed from the middle of its file).
+    explicit Lexer(std::string_view text, int firstLine = 1);
     Token next();
 
 private:

@@ -9,6 +9,8 @@
 #include "umbra/ri/target.h"
 #include "umbra/util/error.h"
 
+#include <map>
+#include <memory>
 #include <string>
 #include <string_view>
 
@@ -38,6 +40,15 @@ public:
 
 private:
     friend class StreamParser;
+    /// An `ArchiveBegin "name"` ... `ArchiveEnd` body (RenderMan 13+),
+    /// kept as text and parsed again by each `ReadArchive "name"`.
+    struct InlineArchive {
+        std::string text;                         // from the body's line start, earlier columns blanked
+        std::shared_ptr<const std::string> file;  // where it was written, for messages
+        int firstLine = 1;
+        std::string directory;                    // for ReadArchive requests inside it
+    };
+
     bool parseBytes(std::string_view bytes, const std::string& name, const std::string& directory, int depth,
                     const FileLoc* includedFrom);
     bool readArchive(const std::string& name, const FileLoc& loc, const std::string& directory, int depth);
@@ -45,6 +56,7 @@ private:
     Target& m_target;
     Diagnostics& m_diag;
     Declarations m_decls;
+    std::map<std::string, InlineArchive> m_inlineArchives;
 };
 
 /// Convenience wrappers around a fresh Parser.

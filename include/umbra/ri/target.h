@@ -4,6 +4,7 @@
 // request's source location. Like pbrt-v4's ParserTarget, the parser never
 // builds scene or renderer objects; scene::Builder is the main Target.
 
+#include "umbra/ri/expression.h"
 #include "umbra/ri/param_list.h"
 #include "umbra/util/error.h"
 #include "umbra/util/math.h"
@@ -55,6 +56,10 @@ public:
     virtual std::vector<std::string> archiveSearchPath() const { return {}; }
     /// After the last request of the top-level input (not of archives).
     virtual void endOfInput(const FileLoc& loc) {}
+    /// The value an `IfBegin`/`ElseIf` reference names ("user:pass",
+    /// "Option:user:pass", "Attribute:identifier:name", "Frame"); false
+    /// when it names nothing.
+    virtual bool conditionValue(const std::string& name, ExprValue* out) const { return false; }
 
     virtual void version(float v, const FileLoc& loc) { unhandled("version", loc); }
     virtual void declare(const ParamDecl& decl, const FileLoc& loc) { unhandled("Declare", loc); }
@@ -97,6 +102,17 @@ public:
     virtual void coordinateSystem(const std::string& name, const FileLoc& loc) { unhandled("CoordinateSystem", loc); }
     virtual void scopedCoordinateSystem(const std::string& name, const FileLoc& loc) { unhandled("ScopedCoordinateSystem", loc); }
     virtual void coordSysTransform(const std::string& name, const FileLoc& loc) { unhandled("CoordSysTransform", loc); }
+    /// RenderMan 14's `Camera "name"`: the current camera transform, named.
+    virtual void camera(const std::string& name, ParamList params, const FileLoc& loc) { unhandled("Camera", loc); }
+
+    // RenderMan 13's named attribute states: `Resource "handle" "attributes"
+    // "string operation" "save"|"restore"`, scoped by ResourceBegin/End.
+    virtual void resource(const std::string& handle, const std::string& type, ParamList params, const FileLoc& loc) { unhandled("Resource", loc); }
+    virtual void resourceBegin(const FileLoc& loc) { unhandled("ResourceBegin", loc); }
+    virtual void resourceEnd(const FileLoc& loc) { unhandled("ResourceEnd", loc); }
+    virtual void geometricRepresentation(const std::string& type, const FileLoc& loc) { unhandled("GeometricRepresentation", loc); }
+    /// `System "command"`: never run.
+    virtual void system(const std::string& command, const FileLoc& loc) { unhandled("System", loc); }
 
     // Options.
     virtual void option(const std::string& name, ParamList params, const FileLoc& loc) { unhandled("Option", loc); }

@@ -57,6 +57,7 @@ public:
     void unhandled(std::string_view request, const FileLoc& loc) override;
     std::vector<std::string> archiveSearchPath() const override;
     void endOfInput(const FileLoc& loc) override;
+    bool conditionValue(const std::string& name, ri::ExprValue* out) const override;
 
     void version(float v, const FileLoc& loc) override;
     void declare(const ri::ParamDecl& decl, const FileLoc& loc) override;
@@ -90,6 +91,13 @@ public:
     void coordinateSystem(const std::string& name, const FileLoc& loc) override;
     void scopedCoordinateSystem(const std::string& name, const FileLoc& loc) override;
     void coordSysTransform(const std::string& name, const FileLoc& loc) override;
+    void camera(const std::string& name, ri::ParamList params, const FileLoc& loc) override;
+    void resource(const std::string& handle, const std::string& type, ri::ParamList params,
+                  const FileLoc& loc) override;
+    void resourceBegin(const FileLoc& loc) override;
+    void resourceEnd(const FileLoc& loc) override;
+    void geometricRepresentation(const std::string& type, const FileLoc& loc) override;
+    void system(const std::string& command, const FileLoc& loc) override;
 
     void option(const std::string& name, ri::ParamList params, const FileLoc& loc) override;
     void format(int xres, int yres, float pixelAspect, const FileLoc& loc) override;
@@ -159,7 +167,7 @@ public:
                     const FileLoc& loc) override;
 
 private:
-    enum class Block { Frame, World, Attribute, Transform, Solid, Object, Motion };
+    enum class Block { Frame, World, Attribute, Transform, Solid, Object, Motion, Resource };
     /// The part of the graphics state AttributeBegin saves.
     struct State {
         std::shared_ptr<Attributes> attrs;
@@ -171,6 +179,7 @@ private:
         State saved;
         std::shared_ptr<Options> savedOptions;                  // Frame only
         std::shared_ptr<std::map<std::string, Mat4>> savedSpaces;  // Frame only
+        std::shared_ptr<std::map<std::string, State>> savedResources;  // Resource only
     };
     /// A primitive inside ObjectBegin/ObjectEnd, relative to the object's
     /// coordinate system (the transform at ObjectBegin).
@@ -210,6 +219,12 @@ private:
     std::unique_ptr<WorldRecord> m_world;
     int m_frame = -1;
     std::map<std::string, Mat4> m_cameraSpaces;  // named before WorldBegin: cameraFromNamed
+    /// `Camera "name"`: the current transform when it was given, that
+    /// camera's cameraFromWorld; at WorldBegin the named space is its camera
+    /// space.
+    std::map<std::string, Mat4> m_namedCameras;
+    /// `Resource "name" "attributes"` saved states, scoped by ResourceBegin/End.
+    std::map<std::string, State> m_resources;
     std::map<std::string, int> m_lightHandles;   // handle -> index into m_world->lights
     /// Lights given before WorldBegin (as the RenderMan Companion writes
     /// them), in camera-relative shader space; each world of the frame

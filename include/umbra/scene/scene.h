@@ -11,6 +11,7 @@
 #include "umbra/util/error.h"
 #include "umbra/util/math.h"
 
+#include <array>
 #include <map>
 #include <memory>
 #include <string>
@@ -82,6 +83,8 @@ struct Attributes {
     // depth-map passes (Reeves' ground plane).
     bool visibleToCamera = true;
     bool castsShadows = true;
+    /// Attribute "dice" "binary": grids diced into powers of two.
+    bool binaryDice = false;
     /// Every other `Attribute "class" "name" value` by "class:name", for the
     /// attribute() shadeop and for modules' own attributes ("umbra:...").
     std::map<std::string, ri::Param> user;
@@ -148,6 +151,9 @@ struct Options {
     // Quantize "rgba" one min max dither; (0,0,0,0) means floating point.
     float quantizeOne = 255, quantizeMin = 0, quantizeMax = 255, quantizeDither = 0.5f;
     float zQuantizeOne = 0, zQuantizeMin = 0, zQuantizeMax = 0, zQuantizeDither = 0;
+    /// `Quantize "name" one min max dither` for any other name (RenderMan
+    /// 13+): one min max dither of the display whose mode is that AOV.
+    std::map<std::string, std::array<float, 4>> namedQuantize;
     std::vector<DisplayRecord> displays;
     /// DisplayChannel declarations (name: "varying color myaov"; no driver).
     std::vector<DisplayRecord> displayChannels;

@@ -387,3 +387,28 @@ TEST(Dice, HugeShadingRateStillDicesACurvedSurfaceIntoSeveralMicropolygons) {
     EXPECT_LE(r.nu * r.nv, 16);
     EXPECT_GE(r.nu * r.nv, 12);
 }
+
+TEST(Dice, BinaryDicingGivesPowersOfTwo) {
+    // Attribute "dice" "binary": the same sphere, every grid's counts a
+    // power of two and never finer than the plain dicing asked for.
+    DiceParams p = perspective(Mat4::translate({0.5f, 0, 6}));
+    p.shadingRate = 2;
+    p.gridSize = 64;
+    auto counts = [&](bool binary) {
+        p.binary = binary;
+        std::vector<std::pair<int, int>> out;
+        runReyes([] { std::vector<PrimitivePtr> v; v.push_back(make("Sphere", {1, -1, 1, 360})); return v; }(), p,
+                 nullptr, [&](const Primitive&, const DiceResult& r) { out.emplace_back(r.nu, r.nv); });
+        return out;
+    };
+    const auto plain = counts(false), binary = counts(true);
+    ASSERT_FALSE(binary.empty());
+    bool anyNotPow2 = false;
+    for (auto [nu, nv] : plain) anyNotPow2 = anyNotPow2 || (nu & (nu - 1)) != 0 || (nv & (nv - 1)) != 0;
+    EXPECT_TRUE(anyNotPow2);  // else this test could not fail
+    for (auto [nu, nv] : binary) {
+        EXPECT_EQ(nu & (nu - 1), 0) << nu;
+        EXPECT_EQ(nv & (nv - 1), 0) << nv;
+        EXPECT_LE(nu * nv, p.gridSize);
+    }
+}

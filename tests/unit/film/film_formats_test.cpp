@@ -408,3 +408,24 @@ TEST(FilmFormats, EmptyCropWindowIsAnError) {
                   "\": the crop window selects no pixels (expected a window covering at least one pixel centre)");
     EXPECT_TRUE(fs::is_empty(dir));
 }
+
+TEST(FilmFormats, NamedQuantizeAppliesToItsOutput) {
+    // `Quantize "diff" 0 0 0 0` (RenderMan 13+): the "diff" output is
+    // floating point while the rgba default (8 bits) stays for the rest.
+    fs::path dir = freshDir("namedquantize");
+    const float crop[4] = {0, 1, 0, 1};
+    std::vector<film::AovChannel> aovs = {{"diff", 3}, {"spec", 3}};
+    Film f = knownFilm(8, 4, crop, aovs);
+    scene::Options o;
+    o.namedQuantize["diff"] = {0, 0, 0, 0};
+    QuietDiagnostics diag;
+    ASSERT_TRUE(f.writeDisplay(display(dir / "diff.tif", "tiff", "color diff"), o, {}, diag));
+    ASSERT_TRUE(f.writeDisplay(display(dir / "spec.tif", "tiff", "color spec"), o, {}, diag));
+    EXPECT_EQ(diag.errorCount(), 0);
+    EXPECT_EQ(readBack(dir / "diff.tif").spec.format, OIIO::TypeDesc::FLOAT);
+    EXPECT_EQ(readBack(dir / "spec.tif").spec.format, OIIO::TypeDesc::UINT8);
+    // 16 bits for "spec" by name.
+    o.namedQuantize["spec"] = {65535, 0, 65535, 0};
+    ASSERT_TRUE(f.writeDisplay(display(dir / "spec16.tif", "tiff", "color spec"), o, {}, diag));
+    EXPECT_EQ(readBack(dir / "spec16.tif").spec.format, OIIO::TypeDesc::UINT16);
+}
