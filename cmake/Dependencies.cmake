@@ -11,6 +11,8 @@ find_package(OpenImageIO CONFIG REQUIRED)
 # libdeflate has no CMake package in Debian 12, only a pkg-config file.
 find_package(PkgConfig REQUIRED)
 pkg_check_modules(LIBDEFLATE REQUIRED IMPORTED_TARGET libdeflate)
+# match() in shaders: a linear-time regular expression engine.
+pkg_check_modules(RE2 REQUIRED IMPORTED_TARGET re2)
 
 # Debian's OpenImageIO target names /usr/include/opencv4, which is not
 # installed; the generate step fails unless that path is removed.

@@ -10,13 +10,15 @@
 
 #include <algorithm>
 #include <cstring>
-#include <regex>
+#include <re2/re2.h>
 
 namespace umbra::shading {
 
 namespace {
 
-
+/// Bounds of what string built-ins make (docs/rib.md, "Limits").
+constexpr size_t kMaxStringBytes = size_t(1) << 20;
+constexpr long kMaxFormatWidth = 256;
 
 template <class F> void forActive(const Exec& x, bool varying, F&& f) {
     if (!varying) f(0);
@@ -284,6 +286,27 @@ std::string formatString(Exec& x, Args& A, int first, int i) {
         if (k >= f.size()) break;
         char c = f[k];
         std::string flags = f.substr(b, k - b);
+        // Field widths and precisions are bounded: "%999999999d" would pad
+        // a gigabyte (snprintf computes it all before cutting).
+        std::string bounded;
+        for (size_t p = 0; p < flags.size();) {
+            if (flags[p] >= '0' && flags[p] <= '9' && (flags[p] != '0' || (p > 0 && flags[p - 1] == '.'))) {
+                size_t q = p;
+                while (q < flags.size() && flags[q] >= '0' && flags[q] <= '9') ++q;
+                long v = std::strtol(flags.substr(p, q - p).c_str(), nullptr, 10);
+                if (q - p > 3 || v > kMaxFormatWidth) {
+                    x.ctx->system->diagnostics().warningOnce("shading:format:" + x.cs->name, FileLoc::inFile(x.cs->fileName, A.in.loc.line, A.in.loc.col),
+                                                             "shader '{}': a format width or precision above {} is cut to it",
+                                                             x.cs->name, kMaxFormatWidth);
+                    v = kMaxFormatWidth;
+                }
+                bounded += std::to_string(v);
+                p = q;
+            } else {
+                bounded += flags[p++];
+            }
+        }
+        flags = bounded;
         if (c == '%') {
             out += '%';
             continue;
@@ -294,7 +317,7 @@ std::string formatString(Exec& x, Args& A, int first, int i) {
         }
         int r = A.reg(arg++);
         Ty t = x.cs->regs[size_t(r)].ty;
-        char buf[128];
+        char buf[2 * kMaxFormatWidth + 64];  // width and precision at most kMaxFormatWidth each
         auto fmtF = [&](float v, char conv) {
             std::string spec = flags + conv;
             std::snprintf(buf, sizeof buf, spec.c_str(), double(v));
@@ -1022,9 +1045,17 @@ void execCall(Exec& x, const Instr& in) {
         map(x, dst, [](const M16& m, float angle, const Vec3& axis) { return mulM(toRsl(Mat4::rotate(degrees(angle), axis)), m); }, A.m(0), A.f(1), A.v(2));
         break;
     case Bi::Concat: {
+        // Strings are bounded (kMaxStringBytes): doubling a string 40 times
+        // would take terabytes.
         std::string s;
         for (int k = 0; k < in.nargs; ++k) s += A.s(k);
-        x.strs[size_t(dst)][0] = s;
+        if (s.size() > kMaxStringBytes) {
+            x.ctx->system->diagnostics().warningOnce("shading:concat:" + x.cs->name, FileLoc::inFile(x.cs->fileName, in.loc.line, in.loc.col),
+                                                     "shader '{}': concat() made a string longer than {} bytes; cut "
+                                                     "to that length", x.cs->name, kMaxStringBytes);
+            s.resize(kMaxStringBytes);
+        }
+        x.strs[size_t(dst)][0] = std::move(s);
         break;
     }
     case Bi::Format: x.strs[size_t(dst)][0] = formatString(x, A, 0, x.active.empty() ? 0 : x.active[0]); break;
@@ -1035,14 +1066,19 @@ void execCall(Exec& x, const Instr& in) {
         break;
     }
     case Bi::Match: {
+        // RE2 matches in time linear in the subject: a pattern such as
+        // "(a*)*b" cannot backtrack for ever. POSIX extended syntax, as the
+        // RI spec asks of match().
         float r = 0;
-        try {
-            std::regex re(A.s(0), std::regex::extended);
-            r = std::regex_search(A.s(1), re) ? 1.f : 0.f;
-        } catch (const std::regex_error&) {
+        RE2::Options opt;
+        opt.set_posix_syntax(true);
+        opt.set_log_errors(false);
+        RE2 re(A.s(0), opt);
+        if (re.ok())
+            r = RE2::PartialMatch(A.s(1), re) ? 1.f : 0.f;
+        else
             x.ctx->system->diagnostics().warningOnce("shading:regex:" + A.s(0), FileLoc::inFile(x.cs->fileName, in.loc.line, in.loc.col),
-                                                     "invalid regular expression '{}' in match()", A.s(0));
-        }
+                                                     "invalid regular expression '{}' in match(): {}", A.s(0), re.error());
         setResult(x, in, r);
         break;
     }

@@ -6,6 +6,7 @@
 #include "umbra/shading/shading_system.h"
 
 #include <cstdint>
+#include <atomic>
 #include <memory>
 #include <string>
 #include <vector>

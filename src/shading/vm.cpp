@@ -13,7 +13,12 @@ namespace umbra::shading {
 void execCall(Exec& x, const Instr& in);  // shadeops.cpp
 
 namespace {
-constexpr int64_t kMaxLoopIterations = int64_t(1) << 20;
+// The loop budget of one shader run on one grid: iterations of all its
+// loops, scaled to the grid (2^21 point-iterations, at least 2^12
+// iterations), so a loop that never ends costs a few milliseconds a grid.
+// It depends on nothing but the grid: images stay deterministic.
+constexpr int64_t kLoopPointIterations = int64_t(1) << 21;
+constexpr int64_t kMinLoopIterations = int64_t(1) << 12;
 }  // namespace
 
 namespace {
@@ -349,7 +354,8 @@ void Exec::run() {
     int pc = 0, end = int(cs->code.size());
     // A shader whose loop never ends would hang the render: after this many
     // iterations of all its loops, loops are ended with a warning.
-    int64_t loopBudget = kMaxLoopIterations;
+    const int64_t loopBudgetAtStart = std::max(kMinLoopIterations, kLoopPointIterations / std::max<int64_t>(1, n));
+    int64_t loopBudget = loopBudgetAtStart;
     while (pc < end) {
         const Instr& in = code[pc];
         if (active.empty()) {
@@ -498,8 +504,9 @@ void Exec::run() {
             bool any = false;
             if (--loopBudget < 0) {
                 ctx->system->diagnostics().warningOnce("shading:loop:" + cs->name, FileLoc::inFile(cs->fileName, in.loc.line, in.loc.col),
-                                                       "shader '{}': loops ran more than {} iterations on one grid; stopped",
-                                                       cs->name, kMaxLoopIterations);
+                                                       "shader '{}': loops ran more than {} iterations on a grid of {} "
+                                                       "points; stopped (every grid stops its loops there)",
+                                                       cs->name, loopBudgetAtStart, n);
                 c = nullptr;
             }
             for (int i = 0; i < n; ++i) {

@@ -59,7 +59,14 @@ ChildRun renderInChild(const ScratchDir& dir, const std::string& name, const std
     if (pid == 0) {
         rlimit as{kAddressSpace, kAddressSpace};
         rlimit cpu{kCpuSeconds, kCpuSeconds};
+        // Sanitizers reserve terabytes of shadow address space, so under
+        // them the memory bound is theirs to check (the umbra they run is
+        // the sanitized build too); the CPU bound still holds.
+#if !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__)
         setrlimit(RLIMIT_AS, &as);
+#else
+        (void)as;
+#endif
         setrlimit(RLIMIT_CPU, &cpu);
         const int fd = open(logPath.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
         if (fd >= 0) {
@@ -103,7 +110,73 @@ double coverage(const std::string& path) {
 
 bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
+/// A 64 x 48 frame of a sphere shaded by `body`, a surface shader written
+/// to the scratch folder.
+std::string shaderFrame(const ScratchDir& dir, const std::string& body) {
+    std::ofstream(dir.file("probe.sl")) << "surface probe() {\n" << body << "\n}\n";
+    return fmt::format(R"(Option "searchpath" "shader" ["{}:&"]
+Display "{}" "openexr" "rgba" "string type" "float"
+Format 64 48 1
+Projection "perspective" "fov" 40
+Translate 0 0 3
+WorldBegin
+Surface "probe"
+Sphere 1 -1 1 360
+WorldEnd
+)", dir.file(""), dir.file("out.exr"));
+}
+
 }  // namespace
+
+TEST(Limits, ShaderStringsAndFormatsAreBounded) {
+    // concat(s, s) forty times would be a terabyte; a format width of a
+    // billion pads a gigabyte. Both are cut with one located warning.
+    ScratchDir dir("limits-strings");
+    const ChildRun concat = renderInChild(
+        dir, "concat.rib",
+        shaderFrame(dir, "string s = \"ab\"; float i; for (i = 0; i < 40; i += 1) s = concat(s, s);\n"
+                         "Ci = match(\"^(ab)+$\", s); Oi = 1;"));
+    ASSERT_TRUE(concat.exited && concat.status == 0) << concat.describe();
+    EXPECT_TRUE(contains(concat.messages, "probe.sl:2:59: warning: shader 'probe': concat() made a string longer "
+                                          "than 1048576 bytes; cut to that length"))
+        << concat.messages;
+    EXPECT_GT(coverage(dir.file("out.exr")), 100.0);
+    const ChildRun format = renderInChild(
+        dir, "format.rib",
+        shaderFrame(dir, "string s = format(\"%999999999d\", 1); Ci = match(\"1$\", s); Oi = 1;"));
+    ASSERT_TRUE(format.exited && format.status == 0) << format.describe();
+    EXPECT_TRUE(contains(format.messages, "warning: shader 'probe': a format width or precision above 256 is cut to it"))
+        << format.messages;
+    // The padded number still ends in 1: match() finds it, Ci = 1.
+    Image img;
+    ASSERT_TRUE(test::readImage(dir.file("out.exr"), &img));
+    EXPECT_GT(img.channelSum(0), 100.0);
+}
+
+TEST(Limits, MatchTakesLinearTimeOnPatternsThatBacktrack) {
+    // "(a*)*b" against a's without a b backtracks exponentially in engines
+    // that backtrack; match() is linear. The CPU limit would kill a hang.
+    ScratchDir dir("limits-regex");
+    const ChildRun run = renderInChild(
+        dir, "regex.rib",
+        shaderFrame(dir, "string s = \"aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaac\";\n"
+                         "Ci = 1 - match(\"(a*)*b\", s); Oi = 1;"));
+    ASSERT_TRUE(run.exited && run.status == 0) << run.describe();
+    Image img;
+    ASSERT_TRUE(test::readImage(dir.file("out.exr"), &img));
+    EXPECT_GT(img.channelSum(0), 100.0);  // no match: Ci = 1 where the sphere is
+}
+
+TEST(Limits, ALoopThatNeverEndsIsStoppedPerGridWithOneWarning) {
+    ScratchDir dir("limits-loop");
+    const ChildRun run =
+        renderInChild(dir, "loop.rib", shaderFrame(dir, "float i = 0; while (1) { i += 1; } Ci = 1; Oi = 1;"));
+    ASSERT_TRUE(run.exited && run.status == 0) << run.describe();
+    EXPECT_TRUE(contains(run.messages, "probe.sl:2:14: warning: shader 'probe': loops ran more than")) << run.messages;
+    size_t first = run.messages.find("loops ran more than");
+    EXPECT_EQ(run.messages.find("loops ran more than", first + 1), std::string::npos) << "one warning";
+    EXPECT_GT(coverage(dir.file("out.exr")), 100.0);
+}
 
 TEST(Limits, QuadricSweepsOfAHugeAngleAreClampedToOneTurn) {
     // thetamax 1e30 left u * thetamax no precision, so splitting never made
