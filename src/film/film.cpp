@@ -592,7 +592,16 @@ bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Option
     image.compression = compression;
     if (compressionLevel > 0) image.compressionLevel = compressionLevel;
 
-    // Write under a temporary name in the same directory, then rename.
+    // Write under a temporary name in the same directory, then rename; a
+    // link is written through, a directory or special file refused.
+    {
+        std::string resolved, why;
+        if (!resolveOutputPath(path, &resolved, &why)) {
+            diag.error(display.loc, "display \"{}\": cannot write \"{}\": {}", display.name, path, why);
+            return false;
+        }
+        path = resolved;
+    }
     fs::path target(path);
     fs::path tmp = target.parent_path() / fmt::format(".{}.umbra-tmp-{}", target.filename().string(), ::getpid());
     std::error_code ec;

@@ -757,12 +757,16 @@ int renderFiles(const std::vector<std::string>& files, const RenderSettings& set
             break;
         }
     }
-    if (!statsPath.empty()) {
-        std::string tmp = statsPath + ".tmp";
+    std::string statsTarget, statsWhy;
+    if (!statsPath.empty() && !resolveOutputPath(statsPath, &statsTarget, &statsWhy)) {
+        diag.error(FileLoc::inFile(statsPath), "--stats: cannot write the statistics file: {}", statsWhy);
+        ok = false;
+    } else if (!statsPath.empty()) {
+        std::string tmp = statsTarget + ".tmp";
         std::ofstream out(tmp);
         out << renderer.statistics().dump(2) << "\n";
         out.close();
-        if (!out || !moveIntoPlace(tmp, statsPath)) {
+        if (!out || !moveIntoPlace(tmp, statsTarget)) {
             diag.error(FileLoc::inFile(statsPath), "--stats: cannot write the statistics file");
             std::remove(tmp.c_str());
             ok = false;

@@ -343,7 +343,12 @@ void writeMapFile(const std::string& path, const std::vector<const PreparedMap*>
 /// Runs `write` on `path + ".tmp"` and renames the result into place; no
 /// partial file survives a failure.
 template <typename Write>
-bool writeAtomically(const std::string& path, const char* what, Diagnostics& diag, const FileLoc& loc, Write write) {
+bool writeAtomically(const std::string& named, const char* what, Diagnostics& diag, const FileLoc& loc, Write write) {
+    std::string path, why;
+    if (!resolveOutputPath(named, &path, &why)) {
+        diag.error(loc, "cannot write {} \"{}\": {}", what, named, why);
+        return false;
+    }
     const std::string tmp = path + ".tmp";
     try {
         write(tmp);

@@ -49,12 +49,14 @@ template <typename T> T byteSwap(T v) {
     return v;
 }
 
-bool writeZFileImpl(const std::string& path, const DepthImage& image, std::string& why) {
+bool writeZFileImpl(const std::string& named, const DepthImage& image, std::string& why) {
     if (image.width <= 0 || image.height <= 0 || image.width > 32767 || image.height > 32767 ||
         image.z.size() != size_t(image.width) * image.height) {
         why = "expected an image of 1..32767 x 1..32767 depths";
         return false;
     }
+    std::string path;
+    if (!resolveOutputPath(named, &path, &why)) return false;
     const std::string tmp = path + ".tmp";
     {
         std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
