@@ -15,6 +15,7 @@
 #include "umbra/util/error.h"
 
 #include "apps/commands.h"
+#include "umbra/util/interrupt.h"
 
 #include <CLI/CLI.hpp>
 
@@ -97,7 +98,12 @@ int main(int argc, char** argv) {
     // shadowmapsize) ends here: the outputs are written to temporary names
     // and renamed, so none is left half-written.
     try {
-        if (*render) return umbra::render::renderFiles(ribFiles, settings, statsPath, diag);
+        if (*render) {
+            umbra::installInterruptHandlers();
+            int status = umbra::render::renderFiles(ribFiles, settings, statsPath, diag);
+            // Stopped by a signal: the shell's convention, 128 + its number.
+            return umbra::interrupted() ? 128 + umbra::interruptSignal() : status;
+        }
         if (*slc) return umbra::apps::compileShaders(slcFiles, slcIncludes, listing, diag);
         if (*info) return umbra::apps::describeMap(mapPath, json, diag);
         if (*txmake) return umbra::apps::txmake(tx, diag);

@@ -1,6 +1,7 @@
 #include "umbra/hider/bucket_scheduler.h"
 
 #include "umbra/util/cpu_time.h"
+#include "umbra/util/interrupt.h"
 #include "umbra/util/rng.h"
 
 #include <tbb/enumerable_thread_specific.h>
@@ -287,6 +288,7 @@ SchedulerStats BucketScheduler::render(const std::vector<geometry::PrimitivePtr>
         std::vector<Frame::Deferred> deferred;
         std::vector<Node*> ancestors;
         for (int b; (b = next++) < bucketCount;) {
+            if (interrupted()) break;  // the pass's film is then not written
             int bx = b % frame.bucketsX, by = b / frame.bucketsX;
             int x0 = film.x0() + bx * bw, y0 = film.y0() + by * bh;
             int x1 = std::min(x0 + bw, film.x1()), y1 = std::min(y0 + bh, film.y1());

@@ -1,6 +1,7 @@
 #include "umbra/render/renderer.h"
 #include "umbra/util/cpu_time.h"
 #include "umbra/util/file.h"
+#include "umbra/util/interrupt.h"
 #include "umbra/util/search_path.h"
 
 #include "render/frame.h"
@@ -508,8 +509,13 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
         return ok;
     };
     // Output converts rows in parallel: on no more threads than --threads.
+    // An interrupted frame is not written: its film is incomplete.
     bool wrote = false;
-    arena->execute([&] { wrote = film.write(displays, options, meta, diag, depthWriter); });
+    if (interrupted())
+        diag.error(options.loc, "frame {}: interrupted by signal {}; its images were not written",
+                   world.frameNumber, interruptSignal());
+    else
+        arena->execute([&] { wrote = film.write(displays, options, meta, diag, depthWriter); });
     // The frame is done when its maps' files are; a failed write (reported
     // by the writer, naming the file) fails the frame.
     Stopwatch waitClock;
@@ -675,8 +681,10 @@ LightMap Renderer::Impl::makeLightMap(FrameState& frame, LightMapJob& job,
         written = write.get_future().share();
         made.map = ShadowMap::fromImage(*image, path, written, diag, loc, tileCache, &everyTileCached);
     }
-    if (!made.map) {
+    if (!made.map || interrupted()) {
+        // An interrupted pass made an incomplete map: no file is written.
         made.failed = true;
+        made.map.reset();
         return made;
     }
     // In the background only when the frame may use more than one thread:

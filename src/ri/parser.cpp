@@ -1,4 +1,5 @@
 #include "umbra/ri/parser.h"
+#include "umbra/util/interrupt.h"
 
 #include "umbra/ri/lexer.h"
 
@@ -428,7 +429,7 @@ public:
         int errorsAtStart = diag.errorCount();
         advance();
         while (m_tok.kind != TokenKind::End) {
-            if (diag.aborted()) return false;
+            if (diag.aborted() || interrupted()) return false;
             if (diag.errorCount() - errorsAtStart >= Parser::kMaxErrorsPerStream) {
                 diag.error(loc(m_tok.line, m_tok.column), "RIB: too many errors; skipping the rest of {}", *m_file);
                 return false;

@@ -16,7 +16,10 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
+#include <csignal>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -260,4 +263,58 @@ TEST(Limits, HugeShadingRateDicesBlockyButPresent) {
     const auto& counts = coarseStats["frames"][0]["passes"][0]["counts"];
     EXPECT_GE(counts["micropolygons"].get<uint64_t>(), 32u);
     EXPECT_LE(counts["micropolygons"].get<uint64_t>(), 64u);  // coarse: far fewer than the ~1000 pixels at rate 1
+}
+
+TEST(Limits, SigtermStopsTheRenderWritesNoImageAndLeavesNoTemporaries) {
+    // A frame far longer than the test: the signal is sent once the render
+    // reports progress, so the handlers are in place; how soon the render
+    // stops is the renderer's (the scheduler checks between buckets), and
+    // the CPU limit would catch one that never stops.
+    ScratchDir dir("limits-sigterm");
+    const std::string rib = dir.file("long.rib");
+    std::ofstream(rib) << fmt::format(R"(Format 2000 1500 1
+PixelSamples 8 8
+Display "{}" "file" "rgb"
+Projection "perspective" "fov" 40
+Translate 0 0 4
+WorldBegin
+Surface "plastic"
+Displacement "bumpy" "Km" [0.01]
+Sphere 1 -1 1 360
+WorldEnd
+)",
+                                      dir.file("long.tif"));
+    const std::string logPath = dir.file("long.log");
+    const pid_t pid = fork();
+    if (pid == 0) {
+        rlimit cpu{kCpuSeconds, kCpuSeconds};
+        setrlimit(RLIMIT_CPU, &cpu);
+        const int fd = open(logPath.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        if (fd >= 0) {
+            dup2(fd, 1);
+            dup2(fd, 2);
+        }
+        setenv("UMBRA_SHADER_PATH", UMBRA_SOURCE_DIR "/shaders_dsl", 1);
+        execl(UMBRA_APP, "umbra", "render", "--progress", "--threads", "2", rib.c_str(), static_cast<char*>(nullptr));
+        _exit(127);
+    }
+    ASSERT_GT(pid, 0);
+    // Wait (in 20 ms steps, 6000 at most) for the first progress line.
+    bool started = false;
+    for (int k = 0; k < 6000 && !started; ++k) {
+        started = contains(readText(logPath), "buckets");
+        if (!started) usleep(20000);
+    }
+    ASSERT_TRUE(started) << readText(logPath);
+    kill(pid, SIGTERM);
+    int status = 0;
+    ASSERT_EQ(waitpid(pid, &status, 0), pid);
+    ASSERT_TRUE(WIFEXITED(status)) << "killed by signal " << WTERMSIG(status);
+    EXPECT_EQ(WEXITSTATUS(status), 128 + SIGTERM);
+    EXPECT_TRUE(contains(readText(logPath), "interrupted by signal 15; its images were not written")) << readText(logPath);
+    // No image, no temporary: only the scene and the log are left.
+    std::vector<std::string> left;
+    for (const auto& e : std::filesystem::directory_iterator(dir.file(""))) left.push_back(e.path().filename().string());
+    std::sort(left.begin(), left.end());
+    EXPECT_EQ(left, (std::vector<std::string>{"long.log", "long.rib"}));
 }
