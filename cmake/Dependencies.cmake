@@ -24,6 +24,18 @@ foreach(prop INTERFACE_INCLUDE_DIRECTORIES INTERFACE_SYSTEM_INCLUDE_DIRECTORIES)
   endif()
 endforeach()
 
+# OpenSubdiv: Debian's libosd-dev installs a CMake config naming static
+# libraries it does not ship, and no pkg-config file; find the header and
+# the CPU library directly and wrap them in an imported target.
+find_path(OPENSUBDIV_INCLUDE_DIR opensubdiv/far/topologyRefiner.h REQUIRED)
+find_library(OPENSUBDIV_CPU_LIBRARY osdCPU REQUIRED)
+if(NOT TARGET OpenSubdiv::osdCPU)
+  add_library(OpenSubdiv::osdCPU UNKNOWN IMPORTED)
+  set_target_properties(OpenSubdiv::osdCPU PROPERTIES
+    IMPORTED_LOCATION "${OPENSUBDIV_CPU_LIBRARY}"
+    INTERFACE_INCLUDE_DIRECTORIES "${OPENSUBDIV_INCLUDE_DIR}")
+endif()
+
 if(UMBRA_TESTS)
   find_package(GTest REQUIRED)
 endif()

@@ -6,7 +6,7 @@ packages=(
   cmake ninja-build g++ pkg-config python3
   libopenimageio-dev openimageio-tools libopenexr-dev libtbb-dev
   libcli11-dev nlohmann-json3-dev libfmt-dev zlib1g-dev libdeflate-dev libtiff-dev libpng-dev
-  libgtest-dev libbenchmark-dev libembree-dev libre2-dev
+  libgtest-dev libbenchmark-dev libembree-dev libre2-dev libosd-dev
   clang libclang-rt-14-dev
 )
 missing=()

@@ -2,6 +2,7 @@
 #include "umbra/geometry/polygon.h"
 #include "umbra/geometry/primitive.h"
 #include "umbra/geometry/quadric.h"
+#include "umbra/geometry/subdivision.h"
 
 #include <numeric>
 
@@ -269,6 +270,8 @@ std::vector<PrimitivePtr> makePrimitives(std::shared_ptr<const scene::PrimitiveR
         makePolygons(record, diag, out);
     else if (t == "Patch" || t == "PatchMesh")
         makePatches(record, diag, out);
+    else if (t == "SubdivisionMesh")
+        makeSubdivisionMesh(record, diag, out);
     else
         diag.warningOnce("geometry:unsupported:" + t, record->loc, "{}: primitive type not supported yet; ignored", t);
     return out;

@@ -1,0 +1,563 @@
+#include "umbra/geometry/subdivision.h"
+
+#include <opensubdiv/bfr/refinerSurfaceFactory.h>
+#include <opensubdiv/bfr/surface.h>
+#include <opensubdiv/bfr/surfaceFactoryCache.h>
+#include <opensubdiv/far/topologyDescriptor.h>
+#include <opensubdiv/far/topologyRefinerFactory.h>
+
+#include <algorithm>
+#include <cmath>
+#include <mutex>
+#include <shared_mutex>
+
+namespace umbra::geometry {
+
+namespace osd = OpenSubdiv;
+
+using SurfaceCache = osd::Bfr::SurfaceFactoryCacheThreaded<std::shared_mutex, std::shared_lock<std::shared_mutex>,
+                                                           std::unique_lock<std::shared_mutex>>;
+using SurfaceFactory = osd::Bfr::RefinerSurfaceFactory<SurfaceCache>;
+using Surface = osd::Bfr::Surface<float>;
+
+constexpr int kApproxSmooth = 4;
+
+/// One face-varying primitive variable as an OpenSubdiv face-varying
+/// channel: the record's per-corner values welded where a vertex's corners
+/// carry equal values (so texture coordinates are smooth across edges that
+/// share them), and each face corner's index into the welded values.
+struct FVarChannelData {
+    int var = 0;                     // into SurfaceData::vars
+    int components = 1;
+    std::vector<float> values;       // welded, `components` floats each
+    std::vector<int> valueIndices;   // one per face corner
+};
+
+struct SubdivMeshData {
+    std::shared_ptr<const SurfaceData> sd;
+    std::vector<float> points;                 // 3 floats per vertex (Pw divided)
+    std::vector<int> faceCornerStart;          // per face; one extra entry
+    std::vector<FVarChannelData> fvar;
+    std::vector<int> channelOfVar;             // per SurfaceData var: its channel, or -1
+    bool loop = false;
+    std::unique_ptr<osd::Far::TopologyRefiner> refiner;
+    std::unique_ptr<SurfaceFactory> factory;
+
+    Vec3 point(int v) const { return {points[size_t(v) * 3], points[size_t(v) * 3 + 1], points[size_t(v) * 3 + 2]}; }
+};
+
+struct SubdivFaceSurfaces {
+    Surface vertex, varying;
+    std::vector<Surface> fvar;           // per channel
+    std::vector<float> patchPoints;      // of P, 3 floats each
+    Bound3 hull;                         // of patchPoints
+};
+
+namespace {
+
+using RecordPtr = std::shared_ptr<const scene::PrimitiveRecord>;
+
+std::shared_ptr<const SubdivFaceSurfaces> makeFaceSurfaces(const SubdivMeshData& m, int face) {
+    auto s = std::make_shared<SubdivFaceSurfaces>();
+    if (!m.factory->InitVertexSurface<float>(face, &s->vertex)) return nullptr;  // a hole, or no limit surface
+    m.factory->InitVaryingSurface<float>(face, &s->varying);
+    s->fvar.resize(m.fvar.size());
+    for (size_t c = 0; c < m.fvar.size(); ++c) m.factory->InitFaceVaryingSurface<float>(face, &s->fvar[c], int(c));
+    s->patchPoints.resize(size_t(s->vertex.GetNumPatchPoints()) * 3);
+    s->vertex.PreparePatchPoints(m.points.data(), 3, s->patchPoints.data(), 3);
+    for (size_t k = 0; k + 2 < s->patchPoints.size(); k += 3)
+        s->hull.extend(Vec3(s->patchPoints[k], s->patchPoints[k + 1], s->patchPoints[k + 2]));
+    return s;
+}
+
+// Appends the pieces of base face `face`: one SubdivFace, N sub-faces of
+// an N-gon being made when it splits; nothing for a hole.
+void appendFace(const RecordPtr& rec, const std::shared_ptr<const SubdivMeshData>& mesh, int face,
+                std::vector<PrimitivePtr>& out) {
+    auto surfaces = makeFaceSurfaces(*mesh, face);
+    if (!surfaces) return;
+    out.push_back(std::make_unique<SubdivFace>(rec, mesh, std::move(surfaces), face, -1, ParamRange{}));
+}
+
+Vec3 cross3(const float a[3], const float b[3]) {
+    return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+
+}  // namespace
+
+SubdivMesh::SubdivMesh(RecordPtr record, std::shared_ptr<const SubdivMeshData> mesh, int firstFace, int endFace)
+    : Primitive(std::move(record)), m_mesh(std::move(mesh)), m_first(firstFace), m_end(endFace) {
+    // The limit surface of a face lies in the convex hull of the points
+    // that influence it, which are among the vertices of the faces around
+    // its corners (its one-ring).
+    const osd::Far::TopologyLevel& level = m_mesh->refiner->GetLevel(0);
+    for (int f = m_first; f < m_end; ++f) {
+        const auto fv = level.GetFaceVertices(f);
+        for (int k = 0; k < fv.size(); ++k) {
+            const auto ring = level.GetVertexFaces(fv[k]);
+            for (int r = 0; r < ring.size(); ++r) {
+                const auto rv = level.GetFaceVertices(ring[r]);
+                for (int q = 0; q < rv.size(); ++q) m_bound.extend(m_mesh->point(rv[q]));
+            }
+        }
+    }
+}
+
+void SubdivMesh::split(bool, std::vector<PrimitivePtr>& out) const {
+    if (m_end - m_first > 1) {
+        const int mid = m_first + (m_end - m_first) / 2;
+        out.push_back(std::make_unique<SubdivMesh>(recordPtr(), m_mesh, m_first, mid));
+        out.push_back(std::make_unique<SubdivMesh>(recordPtr(), m_mesh, mid, m_end));
+        return;
+    }
+    appendFace(recordPtr(), m_mesh, m_first, out);
+}
+
+Grid SubdivMesh::dice(int, int) const {
+    UMBRA_CHECK(false, "SubdivMesh::dice called on a mesh that must be split first ({})", record().type);
+    return {};
+}
+
+SubdivFace::SubdivFace(RecordPtr record, std::shared_ptr<const SubdivMeshData> mesh,
+                       std::shared_ptr<const SubdivFaceSurfaces> surfaces, int face, int subFace,
+                       const ParamRange& range)
+    : Primitive(std::move(record)), m_mesh(std::move(mesh)), m_surfaces(std::move(surfaces)), m_face(face),
+      m_subFace(subFace), m_range(range) {
+    m_bound = m_surfaces->hull;
+    const bool whole = range.u0 == 0 && range.v0 == 0 && range.u1 == 1 && range.v1 == 1;
+    if (whole || !diceable()) return;
+    // A part of a face: the limit points of a 9 x 9 lattice of the range,
+    // padded by the largest step between neighbours (a curve between two
+    // samples strays from their bound by a fraction of their distance
+    // unless it turns sharply), clipped to the hull bound that always holds.
+    constexpr int n = 8;
+    std::vector<Vec3> P;
+    dicePositions(n, n, P);
+    Bound3 b;
+    float step = 0;
+    for (int j = 0; j <= n; ++j)
+        for (int i = 0; i <= n; ++i) {
+            const Vec3& p = P[size_t(j * (n + 1) + i)];
+            b.extend(p);
+            if (i < n) step = std::max(step, length(P[size_t(j * (n + 1) + i + 1)] - p));
+            if (j < n) step = std::max(step, length(P[size_t((j + 1) * (n + 1) + i)] - p));
+        }
+    const Vec3 pad(step);
+    m_bound = Bound3(vmax(b.min - pad, m_bound.min), vmin(b.max + pad, m_bound.max));
+}
+
+bool SubdivFace::diceable() const {
+    return m_subFace >= 0 || !m_surfaces->vertex.GetParameterization().HasSubFaces();
+}
+
+void SubdivFace::split(bool splitU, std::vector<PrimitivePtr>& out) const {
+    if (!diceable()) {
+        const int n = m_surfaces->vertex.GetFaceSize();
+        for (int k = 0; k < n; ++k)
+            out.push_back(std::make_unique<SubdivFace>(recordPtr(), m_mesh, m_surfaces, m_face, k, ParamRange{}));
+        return;
+    }
+    for (int h = 0; h < 2; ++h)
+        out.push_back(
+            std::make_unique<SubdivFace>(recordPtr(), m_mesh, m_surfaces, m_face, m_subFace, m_range.half(splitU, h)));
+}
+
+void SubdivFace::faceCoord(float u, float v, float uv[2]) const {
+    if (m_subFace >= 0) {
+        const float st[2] = {u, v};
+        m_surfaces->vertex.GetParameterization().ConvertNormalizedSubFaceToCoord(m_subFace, st, uv);
+    } else if (m_mesh->loop) {
+        // The unit square onto the triangle u, v >= 0, u + v <= 1, its edge
+        // v = 1 collapsed onto the corner (0, 1); orientation is kept.
+        uv[0] = u * (1 - v);
+        uv[1] = v;
+    } else {
+        uv[0] = u;
+        uv[1] = v;
+    }
+}
+
+Vec3 SubdivFace::evaluate(float u, float v, Vec3* dPdu, Vec3* dPdv) const {
+    float uv[2], P[3], Du[3], Dv[3];
+    faceCoord(u, v, uv);
+    const Surface& s = m_surfaces->vertex;
+    s.Evaluate(uv, m_surfaces->patchPoints.data(), 3, P, Du, Dv);
+    if (m_mesh->loop && m_subFace < 0) {
+        // Chain rule through faceCoord: d/du = (1 - v) d/da, d/dv = -u d/da + d/db.
+        for (int k = 0; k < 3; ++k) {
+            const float a = Du[k], b = Dv[k];
+            Du[k] = (1 - v) * a;
+            Dv[k] = b - u * a;
+        }
+    }
+    if (dPdu) *dPdu = Vec3(Du[0], Du[1], Du[2]);
+    if (dPdv) *dPdv = Vec3(Dv[0], Dv[1], Dv[2]);
+    return {P[0], P[1], P[2]};
+}
+
+void SubdivFace::dicePositions(int nu, int nv, std::vector<Vec3>& P) const {
+    thread_local std::vector<float> a, b;
+    m_range.steps(nu, nv, a, b);
+    P.resize(size_t(nu + 1) * size_t(nv + 1));
+    const Surface& s = m_surfaces->vertex;
+    size_t k = 0;
+    for (float v : b)
+        for (float u : a) {
+            float uv[2];
+            faceCoord(u, v, uv);
+            s.Evaluate(uv, m_surfaces->patchPoints.data(), 3, &P[k++].x);
+        }
+}
+
+Grid SubdivFace::dice(int nu, int nv) const {
+    Grid g;
+    std::vector<float> a, b;
+    initGrid(g, nu, nv, m_range, ParamMap{}, a, b);
+    const size_t n = g.P.size();
+    const SubdivMeshData& m = *m_mesh;
+    const SurfaceData& sd = *m.sd;
+    const SubdivFaceSurfaces& fs = *m_surfaces;
+
+    // Limit positions and a normal from the limit derivatives, kept only
+    // when it is defined everywhere on the grid.
+    std::vector<Vec3> N(n);
+    bool normalsOk = true;
+    size_t k = 0;
+    for (float v : b)
+        for (float u : a) {
+            Vec3 du, dv;
+            g.P[k] = evaluate(u, v, &du, &dv);
+            const float d[3] = {du.x, du.y, du.z}, e[3] = {dv.x, dv.y, dv.z};
+            const Vec3 c = cross3(d, e);
+            const float len = length(c);
+            if (!(len > 1e-12f * std::max(1.0f, length(du) * length(dv)))) normalsOk = false;
+            N[k++] = normalsOk ? c / len : Vec3(0.0f);
+        }
+
+    // Every other variable goes through one limit stencil per vertex and
+    // class, applied to the record's data.
+    thread_local std::vector<float> stencil;
+    auto applyClass = [&](const Surface& s, const float* data, int comps, int stride, float* out, int outStride) {
+        stencil.resize(size_t(std::max(s.GetNumControlPoints(), 1)));
+        size_t q = 0;
+        for (float v : b)
+            for (float u : a) {
+                float uv[2];
+                faceCoord(u, v, uv);
+                s.EvaluateStencil(uv, stencil.data());
+                s.ApplyStencilFromMesh(stencil.data(), data, Surface::PointDescriptor(comps, stride),
+                                       out + q * size_t(outStride));
+                ++q;
+            }
+    };
+    // ApplyStencilFromMesh needs every value of a point contiguous, so a
+    // strided variable ("s" from "st") is read with its stride.
+    for (size_t vi = 0; vi < sd.vars.size(); ++vi) {
+        const PrimVar& v = sd.vars[vi];
+        const Surface* surf = nullptr;
+        const float* data = v.data + v.offset;
+        int stride = v.stride;
+        switch (v.storage) {
+        case ri::StorageClass::Vertex: surf = &fs.vertex; break;
+        case ri::StorageClass::Varying: surf = &fs.varying; break;
+        case ri::StorageClass::FaceVarying:
+        case ri::StorageClass::FaceVertex: {
+            const int c = m.channelOfVar[vi];
+            surf = &fs.fvar[size_t(c)];
+            data = m.fvar[size_t(c)].values.data();
+            stride = v.components;
+            break;
+        }
+        default: break;
+        }
+        if (v.isNormal) {
+            g.N.resize(n);
+            if (surf) {
+                applyClass(*surf, data, 3, stride, &g.N[0].x, 3);
+            } else {
+                const float* c = v.at(v.storage == ri::StorageClass::Uniform ? size_t(m_face) : 0);
+                std::fill(g.N.begin(), g.N.end(), Vec3(c[0], c[1], c[2]));
+            }
+            continue;
+        }
+        if (surf) {
+            GridVar& gv = addGridVar(g, v, true);
+            applyClass(*surf, data, v.components, stride, gv.data.data(), v.components);
+        } else {
+            GridVar& gv = addGridVar(g, v, false);
+            const float* c = v.at(v.storage == ri::StorageClass::Uniform ? size_t(m_face) : 0);
+            std::copy(c, c + v.components, gv.data.begin());
+        }
+    }
+    if (g.N.empty() && normalsOk) {
+        g.N = std::move(N);
+        g.ownNormals = true;
+    }
+
+    auto addDefault = [&](const char* name, const std::vector<float>& src) {
+        GridVar& gv = g.vars.emplace_back();
+        gv.name = name;
+        gv.data = src;
+    };
+    if (!sd.hasS) addDefault("s", g.u);
+    if (!sd.hasT) addDefault("t", g.v);
+    auto addColor = [&](const char* name, const Color& c) {
+        GridVar& gv = g.vars.emplace_back();
+        gv.name = name;
+        gv.type = ri::ParamType::Color;
+        gv.components = 3;
+        gv.perVertex = false;
+        gv.data = {c.x, c.y, c.z};
+    };
+    if (!sd.hasCs) addColor("Cs", sd.defaultCs);
+    if (!sd.hasOs) addColor("Os", sd.defaultOs);
+    return g;
+}
+
+namespace {
+
+// The tags of a SubdivisionMesh record turned into Sdc options and
+// descriptor arrays.
+struct Tags {
+    osd::Sdc::Options options;
+    std::vector<int> creasePairs;
+    std::vector<float> creaseWeights;
+    std::vector<int> corners;
+    std::vector<float> cornerWeights;
+    std::vector<int> holes;
+};
+
+bool readTags(const scene::PrimitiveRecord& rec, int nfaces, long npoints, Tags& t, Diagnostics& diag) {
+    using Opt = osd::Sdc::Options;
+    // RenderMan's default: no boundary interpolation (boundary faces have no
+    // limit surface and are not drawn).
+    t.options.SetVtxBoundaryInterpolation(Opt::VTX_BOUNDARY_NONE);
+    t.options.SetFVarLinearInterpolation(Opt::FVAR_LINEAR_CORNERS_ONLY);
+    const size_t ntags = rec.stringArgs.size() - 1;
+    if (ntags == 0) return true;
+    if (rec.intArrays.size() < 3) {
+        diag.error(rec.loc, "SubdivisionMesh: {} tags but no nargs", ntags);
+        return false;
+    }
+    const std::vector<int>& nargs = rec.intArrays[2];
+    static const std::vector<int> kNone;
+    const std::vector<int>& ints = rec.intArrays.size() > 3 ? rec.intArrays[3] : kNone;
+    const std::vector<float>& floats = rec.floatArgs;
+    if (nargs.size() != 2 * ntags) {
+        diag.error(rec.loc, "SubdivisionMesh: nargs has {} values, expected {} (an integer and a float count per tag)",
+                   nargs.size(), 2 * ntags);
+        return false;
+    }
+    size_t ip = 0, fp = 0;
+    for (size_t k = 0; k < ntags; ++k) {
+        const std::string& name = rec.stringArgs[k + 1];
+        const int ni = nargs[2 * k], nf = nargs[2 * k + 1];
+        if (ni < 0 || nf < 0 || ip + size_t(ni) > ints.size() || fp + size_t(nf) > floats.size()) {
+            diag.error(rec.loc, "SubdivisionMesh: tag \"{}\" asks for {} integers and {} floats, more than given", name,
+                       ni, nf);
+            return false;
+        }
+        const int* iv = ints.data() + ip;
+        const float* fv = floats.data() + fp;
+        ip += size_t(ni);
+        fp += size_t(nf);
+        auto badVertex = [&](int c) {
+            for (int q = 0; q < c; ++q)
+                if (iv[q] < 0 || iv[q] >= npoints) {
+                    diag.error(rec.loc, "SubdivisionMesh: tag \"{}\" names vertex {}, outside 0..{}", name, iv[q],
+                               npoints - 1);
+                    return true;
+                }
+            return false;
+        };
+        if (name == "interpolateboundary") {
+            const int mode = ni > 0 ? iv[0] : 1;
+            if (mode == 0) t.options.SetVtxBoundaryInterpolation(Opt::VTX_BOUNDARY_NONE);
+            else if (mode == 1) t.options.SetVtxBoundaryInterpolation(Opt::VTX_BOUNDARY_EDGE_AND_CORNER);
+            else if (mode == 2) t.options.SetVtxBoundaryInterpolation(Opt::VTX_BOUNDARY_EDGE_ONLY);
+            else diag.warning(rec.loc, "SubdivisionMesh: interpolateboundary {} unknown (expected 0, 1 or 2); ignored", mode);
+        } else if (name == "facevaryinginterpolateboundary") {
+            // The integer codes of OpenSubdiv's own RIB shape reader.
+            static const Opt::FVarLinearInterpolation kModes[] = {
+                Opt::FVAR_LINEAR_NONE,          Opt::FVAR_LINEAR_CORNERS_ONLY, Opt::FVAR_LINEAR_CORNERS_PLUS1,
+                Opt::FVAR_LINEAR_CORNERS_PLUS2, Opt::FVAR_LINEAR_BOUNDARIES,   Opt::FVAR_LINEAR_ALL};
+            const int mode = ni > 0 ? iv[0] : 1;
+            if (mode >= 0 && mode <= 5) t.options.SetFVarLinearInterpolation(kModes[mode]);
+            else
+                diag.warning(rec.loc, "SubdivisionMesh: facevaryinginterpolateboundary {} unknown (expected 0 to 5); ignored",
+                             mode);
+        } else if (name == "crease") {
+            if (ni < 2 || (nf != 1 && nf != ni - 1)) {
+                diag.error(rec.loc, "SubdivisionMesh: crease expects 2 or more vertices and 1 sharpness (or one per "
+                                    "edge), got {} and {}", ni, nf);
+                return false;
+            }
+            if (badVertex(ni)) return false;
+            for (int q = 0; q + 1 < ni; ++q) {
+                t.creasePairs.push_back(iv[q]);
+                t.creasePairs.push_back(iv[q + 1]);
+                t.creaseWeights.push_back(nf == 1 ? fv[0] : fv[q]);
+            }
+        } else if (name == "corner") {
+            if (ni < 1 || (nf != 1 && nf != ni)) {
+                diag.error(rec.loc, "SubdivisionMesh: corner expects vertices and 1 sharpness (or one per vertex), "
+                                    "got {} and {}", ni, nf);
+                return false;
+            }
+            if (badVertex(ni)) return false;
+            for (int q = 0; q < ni; ++q) {
+                t.corners.push_back(iv[q]);
+                t.cornerWeights.push_back(nf == 1 ? fv[0] : fv[q]);
+            }
+        } else if (name == "hole") {
+            for (int q = 0; q < ni; ++q) {
+                if (iv[q] < 0 || iv[q] >= nfaces) {
+                    diag.error(rec.loc, "SubdivisionMesh: hole names face {}, outside 0..{}", iv[q], nfaces - 1);
+                    return false;
+                }
+                t.holes.push_back(iv[q]);
+            }
+        } else {
+            std::string key = "subdiv:tag:";
+            key += name;
+            diag.warningOnce(key, rec.loc, "SubdivisionMesh: tag \"{}\" not supported; ignored", name);
+        }
+    }
+    return true;
+}
+
+// Welds the per-corner values of a face-varying variable: corners of one
+// vertex with bit-identical values share a value index.
+FVarChannelData weld(const PrimVar& v, int var, const std::vector<int>& vertices, long npoints) {
+    FVarChannelData c;
+    c.var = var;
+    c.components = v.components;
+    c.valueIndices.resize(vertices.size());
+    std::vector<std::vector<int>> atVertex(static_cast<size_t>(npoints));
+    for (size_t corner = 0; corner < vertices.size(); ++corner) {
+        const float* x = v.at(corner);
+        auto& list = atVertex[size_t(vertices[corner])];
+        int found = -1;
+        for (int idx : list)
+            if (std::equal(x, x + v.components, c.values.begin() + long(idx) * v.components)) {
+                found = idx;
+                break;
+            }
+        if (found < 0) {
+            found = int(c.values.size() / size_t(v.components));
+            c.values.insert(c.values.end(), x, x + v.components);
+            list.push_back(found);
+        }
+        c.valueIndices[corner] = found;
+    }
+    return c;
+}
+
+}  // namespace
+
+void makeSubdivisionMesh(const RecordPtr& rec, Diagnostics& diag, std::vector<PrimitivePtr>& out) {
+    const auto& arrays = rec->intArrays;
+    if (rec->stringArgs.empty() || arrays.size() < 2) {
+        diag.error(rec->loc, "SubdivisionMesh: expected a scheme, nvertices and vertices");
+        return;
+    }
+    const std::string& scheme = rec->stringArgs[0];
+    osd::Sdc::SchemeType type;
+    if (scheme == "catmull-clark") type = osd::Sdc::SCHEME_CATMARK;
+    else if (scheme == "loop") type = osd::Sdc::SCHEME_LOOP;
+    else if (scheme == "bilinear") type = osd::Sdc::SCHEME_BILINEAR;
+    else {
+        diag.error(rec->loc, "SubdivisionMesh: scheme \"{}\" unknown (expected \"catmull-clark\", \"loop\" or \"bilinear\")",
+                   scheme);
+        return;
+    }
+    const std::vector<int>& nverts = arrays[0];
+    const std::vector<int>& verts = arrays[1];
+    auto mesh = std::make_shared<SubdivMeshData>();
+    mesh->loop = type == osd::Sdc::SCHEME_LOOP;
+    long total = 0;
+    mesh->faceCornerStart.push_back(0);
+    for (size_t f = 0; f < nverts.size(); ++f) {
+        if (nverts[f] < 3) {
+            diag.error(rec->loc, "SubdivisionMesh: face {} has {} vertices, expected at least 3", f, nverts[f]);
+            return;
+        }
+        if (mesh->loop && nverts[f] != 3) {
+            diag.error(rec->loc, "SubdivisionMesh: \"loop\" needs triangles; face {} has {} vertices", f, nverts[f]);
+            return;
+        }
+        total += nverts[f];
+        mesh->faceCornerStart.push_back(int(total));
+    }
+    if (nverts.empty() || long(verts.size()) != total) {
+        diag.error(rec->loc, "SubdivisionMesh: vertices has {} indices, expected {} (the sum of nvertices)",
+                   verts.size(), total);
+        return;
+    }
+    long npoints = 0;
+    for (size_t k = 0; k < verts.size(); ++k) {
+        if (verts[k] < 0) {
+            diag.error(rec->loc, "SubdivisionMesh: vertex index {} at position {} is negative", verts[k], k);
+            return;
+        }
+        npoints = std::max(npoints, long(verts[k]) + 1);
+    }
+    ClassCounts counts;
+    counts.uniform = nverts.size();
+    counts.varying = counts.vertex = size_t(npoints);
+    counts.varyingWhat = counts.vertexWhat = "one per vertex";
+    counts.faceVarying = size_t(total);
+    counts.faceVaryingWhat = "one per face corner";
+    auto sd = readSurfaceData(*rec, counts, true, diag);
+    if (!sd) return;
+    Tags tags;
+    if (!readTags(*rec, int(nverts.size()), npoints, tags, diag)) return;
+
+    mesh->sd = sd;
+    mesh->points.resize(size_t(npoints) * 3);
+    for (long k = 0; k < npoints; ++k) {
+        const Vec3 p = sd->point(size_t(k));
+        std::copy(&p.x, &p.x + 3, mesh->points.begin() + k * 3);
+    }
+    mesh->channelOfVar.assign(sd->vars.size(), -1);
+    for (size_t vi = 0; vi < sd->vars.size(); ++vi) {
+        const PrimVar& v = sd->vars[vi];
+        if (v.storage != ri::StorageClass::FaceVarying && v.storage != ri::StorageClass::FaceVertex) continue;
+        mesh->channelOfVar[vi] = int(mesh->fvar.size());
+        mesh->fvar.push_back(weld(v, int(vi), verts, npoints));
+    }
+    std::vector<osd::Far::TopologyDescriptor::FVarChannel> channels(mesh->fvar.size());
+    for (size_t c = 0; c < channels.size(); ++c) {
+        channels[c].numValues = int(mesh->fvar[c].values.size() / size_t(mesh->fvar[c].components));
+        channels[c].valueIndices = mesh->fvar[c].valueIndices.data();
+    }
+
+    osd::Far::TopologyDescriptor desc;
+    desc.numVertices = int(npoints);
+    desc.numFaces = int(nverts.size());
+    desc.numVertsPerFace = nverts.data();
+    desc.vertIndicesPerFace = verts.data();
+    desc.numCreases = int(tags.creaseWeights.size());
+    desc.creaseVertexIndexPairs = tags.creasePairs.data();
+    desc.creaseWeights = tags.creaseWeights.data();
+    desc.numCorners = int(tags.corners.size());
+    desc.cornerVertexIndices = tags.corners.data();
+    desc.cornerWeights = tags.cornerWeights.data();
+    desc.numHoles = int(tags.holes.size());
+    desc.holeIndices = tags.holes.data();
+    desc.numFVarChannels = int(channels.size());
+    desc.fvarChannels = channels.data();
+    using Factory = osd::Far::TopologyRefinerFactory<osd::Far::TopologyDescriptor>;
+    mesh->refiner.reset(Factory::Create(desc, Factory::Options(type, tags.options)));
+    if (!mesh->refiner) {
+        diag.error(rec->loc, "SubdivisionMesh: OpenSubdiv rejects the mesh's topology");
+        return;
+    }
+    SurfaceFactory::Options factoryOptions;
+    factoryOptions.SetApproxLevelSmooth(kApproxSmooth);
+    mesh->factory = std::make_unique<SurfaceFactory>(*mesh->refiner, factoryOptions);
+    const int nfaces = int(nverts.size());
+    out.push_back(std::make_unique<SubdivMesh>(rec, std::move(mesh), 0, nfaces));
+}
+
+}  // namespace umbra::geometry
