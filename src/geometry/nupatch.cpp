@@ -68,8 +68,8 @@ void bernstein(int n, float t, float* B) {
 
 // Evaluates a Bezier net of `comps` floats per point ((dv+1) rows of du+1)
 // over the parameters a (columns) x b (rows), row after row into `out`.
-void evalBezierGrid(const float* c, int comps, int du, int dv, const std::vector<float>& a,
-                    const std::vector<float>& b, float* out) {
+void evalBezierGrid(const float* c, int comps, int du, int dv, const std::vector<float>& a, const std::vector<float>& b,
+                    float* out) {
     thread_local std::vector<float> Bu, R;
     float Bv[32];
     Bu.resize(a.size() * size_t(du + 1));
@@ -95,8 +95,10 @@ void evalBezierGrid(const float* c, int comps, int du, int dv, const std::vector
 }
 
 void divideW(const float* h, int dim, Vec3* out) {
-    if (dim == 4) *out = Vec3(h[0], h[1], h[2]) / h[3];
-    else *out = Vec3(h[0], h[1], h[2]);
+    if (dim == 4)
+        *out = Vec3(h[0], h[1], h[2]) / h[3];
+    else
+        *out = Vec3(h[0], h[1], h[2]);
 }
 
 const SurfaceData& orEmpty(const std::shared_ptr<const SurfaceData>& sd) {
@@ -108,9 +110,19 @@ const SurfaceData& orEmpty(const std::shared_ptr<const SurfaceData>& sd) {
 
 NuPatch::NuPatch(std::shared_ptr<const scene::PrimitiveRecord> record, std::shared_ptr<const SurfaceData> data,
                  std::shared_ptr<const BezierSpan> span, const CornerRefs& refs, const ParamRange& range,
-                 const ParamMap& map)
-    : Primitive(std::move(record)), m_data(std::move(data)), m_span(std::move(span)), m_refs(refs), m_range(range),
-      m_map(map) {}
+                 const ParamMap& map, std::shared_ptr<const TrimRegion> trim)
+    : Primitive(std::move(record)),
+      m_data(std::move(data)),
+      m_span(std::move(span)),
+      m_refs(refs),
+      m_range(range),
+      m_map(map),
+      m_trim(std::move(trim)) {
+    if (m_trim)
+        m_cover =
+            m_trim->classify(m_map.uOffset + m_map.uScale * m_range.u0, m_map.uOffset + m_map.uScale * m_range.u1,
+                             m_map.vOffset + m_map.vScale * m_range.v0, m_map.vOffset + m_map.vScale * m_range.v1);
+}
 
 Vec3 NuPatch::evaluate(float a, float b) const {
     float h[4];
@@ -139,8 +151,10 @@ Bound3 NuPatch::bound() const {
             double h[4] = {0, 0, 0, 0};
             for (int l = 0; l < nv1; ++l)
                 for (int c = 0; c < 4; ++c) h[c] += Sv[size_t(j * nv1 + l)] * T[size_t((l * nu1 + i) * 4 + c)];
-            if (m_span->posDim == 4 && h[3] != 0) bnd.extend(Vec3(float(h[0] / h[3]), float(h[1] / h[3]), float(h[2] / h[3])));
-            else bnd.extend(Vec3(float(h[0]), float(h[1]), float(h[2])));
+            if (m_span->posDim == 4 && h[3] != 0)
+                bnd.extend(Vec3(float(h[0] / h[3]), float(h[1] / h[3]), float(h[2] / h[3])));
+            else
+                bnd.extend(Vec3(float(h[0]), float(h[1]), float(h[2])));
         }
     // Float rounding in the conversions: pad by a relative epsilon.
     const Vec3 d = bnd.diagonal();
@@ -154,8 +168,8 @@ Bound3 NuPatch::bound() const {
 
 void NuPatch::split(bool splitU, std::vector<PrimitivePtr>& out) const {
     for (int k = 0; k < 2; ++k)
-        out.push_back(
-            std::make_unique<NuPatch>(recordPtr(), m_data, m_span, m_refs, m_range.half(splitU, k == 1), m_map));
+        out.push_back(std::make_unique<NuPatch>(recordPtr(), m_data, m_span, m_refs, m_range.half(splitU, k == 1),
+                                                m_map, m_trim));
 }
 
 Grid NuPatch::dice(int nu, int nv) const {
@@ -223,8 +237,8 @@ std::vector<float> spanNet(int nu, int p, int q, int iu, int iv, const std::vect
 }
 
 // Checks one direction's knots and range; true when usable.
-bool checkKnots(const scene::PrimitiveRecord& rec, const char* dir, int n, int order, const float* knots,
-                float tmin, float tmax, Diagnostics& diag) {
+bool checkKnots(const scene::PrimitiveRecord& rec, const char* dir, int n, int order, const float* knots, float tmin,
+                float tmax, Diagnostics& diag) {
     const int p = order - 1;
     for (int k = 0; k + 1 < n + order; ++k)
         if (!(knots[k] <= knots[k + 1])) {
@@ -238,8 +252,8 @@ bool checkKnots(const scene::PrimitiveRecord& rec, const char* dir, int n, int o
         return false;
     }
     if (!(tmin < tmax) || tmin < knots[p] || tmax > knots[n]) {
-        diag.error(rec.loc, "NuPatch: {0}min {0}max are {1} {2}, expected {0}min < {0}max within [{3}, {4}]", dir,
-                   tmin, tmax, knots[p], knots[n]);
+        diag.error(rec.loc, "NuPatch: {0}min {0}max are {1} {2}, expected {0}min < {0}max within [{3}, {4}]", dir, tmin,
+                   tmax, knots[p], knots[n]);
         return false;
     }
     return true;
@@ -258,15 +272,18 @@ void makeNuPatches(std::shared_ptr<const scene::PrimitiveRecord> rec, Diagnostic
     constexpr int kMaxOrder = 31;
     for (auto [n, order, dir] : {std::tuple{nu, uorder, "u"}, std::tuple{nv, vorder, "v"}}) {
         if (order < 1 || order > kMaxOrder || n < order) {
-            diag.error(rec->loc, "NuPatch: n{0} {0}order are {1} {2}, expected 1 <= {0}order <= {3} and n{0} >= {0}order",
-                       dir, n, order, kMaxOrder);
+            diag.error(rec->loc,
+                       "NuPatch: n{0} {0}order are {1} {2}, expected 1 <= {0}order <= {3} and n{0} >= {0}order", dir, n,
+                       order, kMaxOrder);
             return;
         }
     }
     const size_t expected = size_t(nu + uorder + 2 + nv + vorder + 2);
     if (rec->floatArgs.size() != expected) {
-        diag.error(rec->loc, "NuPatch: expected {} + {} uknot values, umin umax, {} + {} vknot values, vmin vmax ({} "
-                   "floats), got {}", nu, uorder, nv, vorder, expected, rec->floatArgs.size());
+        diag.error(rec->loc,
+                   "NuPatch: expected {} + {} uknot values, umin umax, {} + {} vknot values, vmin vmax ({} "
+                   "floats), got {}",
+                   nu, uorder, nv, vorder, expected, rec->floatArgs.size());
         return;
     }
     const float* uk = rec->floatArgs.data();
@@ -290,11 +307,12 @@ void makeNuPatches(std::shared_ptr<const scene::PrimitiveRecord> rec, Diagnostic
     if (sd->posDim == 4)
         for (size_t k = 0; k < sd->posCount; ++k)
             if (!(sd->pos[k * 4 + 3] > 0)) {
-                diag.error(rec->loc, "NuPatch: \"Pw\" weight of control point {} is {}, expected a positive weight",
-                           k, sd->pos[k * 4 + 3]);
+                diag.error(rec->loc, "NuPatch: \"Pw\" weight of control point {} is {}, expected a positive weight", k,
+                           sd->pos[k * 4 + 3]);
                 return;
             }
 
+    const auto trim = rec->attributes ? trimRegionOf(*rec->attributes) : nullptr;
     std::vector<std::vector<double>> Eu(static_cast<size_t>(segU)), Ev(static_cast<size_t>(segV));
     for (int s = 0; s < segU; ++s)
         if (uk[p + s] < uk[p + s + 1]) extraction(uk, p, p + s, Eu[size_t(s)]);
@@ -321,9 +339,8 @@ void makeNuPatches(std::shared_ptr<const scene::PrimitiveRecord> rec, Diagnostic
             for (size_t vi = 0; vi < sd->vars.size(); ++vi) {
                 const PrimVar& var = sd->vars[vi];
                 if (var.storage != ri::StorageClass::Vertex) continue;
-                span->vertexVars.push_back({int(vi), spanNet(nu, p, q, p + su, q + sv, Eu[size_t(su)],
-                                                             Ev[size_t(sv)], var.components,
-                                                             [&](size_t k) { return var.at(k); })});
+                span->vertexVars.push_back({int(vi), spanNet(nu, p, q, p + su, q + sv, Eu[size_t(su)], Ev[size_t(sv)],
+                                                             var.components, [&](size_t k) { return var.at(k); })});
             }
             CornerRefs refs;
             for (int c = 0; c < 4; ++c) {
@@ -334,7 +351,7 @@ void makeNuPatches(std::shared_ptr<const scene::PrimitiveRecord> rec, Diagnostic
             const ParamRange range{(a0 - u0) / (u1 - u0), (a1 - u0) / (u1 - u0), (c0 - v0) / (v1 - v0),
                                    (c1 - v0) / (v1 - v0)};
             const ParamMap map{u0, u1 - u0, v0, v1 - v0};
-            out.push_back(std::make_unique<NuPatch>(rec, sd, std::move(span), refs, range, map));
+            out.push_back(std::make_unique<NuPatch>(rec, sd, std::move(span), refs, range, map, trim));
         }
     }
 }

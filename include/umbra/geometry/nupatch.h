@@ -23,6 +23,7 @@
 
 #include "umbra/geometry/primitive.h"
 #include "umbra/geometry/primvars.h"
+#include "umbra/geometry/trim.h"
 
 namespace umbra::geometry {
 
@@ -34,8 +35,8 @@ struct BezierSpan {
     /// (degV+1) rows of (degU+1) homogeneous points (4 floats), u fastest.
     std::vector<float> pos;
     struct Var {
-        int index;              // into SurfaceData::vars
-        std::vector<float> c;   // (degV+1)(degU+1) values of `components` floats, u fastest
+        int index;             // into SurfaceData::vars
+        std::vector<float> c;  // (degV+1)(degU+1) values of `components` floats, u fastest
     };
     std::vector<Var> vertexVars;
 };
@@ -45,13 +46,18 @@ class NuPatch final : public Primitive {
 public:
     NuPatch(std::shared_ptr<const scene::PrimitiveRecord> record, std::shared_ptr<const SurfaceData> data,
             std::shared_ptr<const BezierSpan> span, const CornerRefs& refs, const ParamRange& range,
-            const ParamMap& map);
+            const ParamMap& map, std::shared_ptr<const TrimRegion> trim = nullptr);
 
     /// The hull of the Bezier control points of this piece's sub-range.
     Bound3 bound() const override;
     void split(bool splitU, std::vector<PrimitivePtr>& out) const override;
     Grid dice(int nu, int nv) const override;
     void dicePositions(int nu, int nv, std::vector<Vec3>& P) const override;
+    /// The trim curves, unless they miss this piece.
+    std::shared_ptr<const TrimRegion> trimRegion() const override {
+        return m_cover == TrimRegion::Cover::Mixed ? m_trim : nullptr;
+    }
+    bool trimmedAway() const override { return m_cover == TrimRegion::Cover::Removed; }
 
     /// Object-space point at corner-domain (a, b) of the span.
     Vec3 evaluate(float a, float b) const;
@@ -64,6 +70,8 @@ private:
     CornerRefs m_refs;
     ParamRange m_range;
     ParamMap m_map;
+    std::shared_ptr<const TrimRegion> m_trim;
+    TrimRegion::Cover m_cover = TrimRegion::Cover::Kept;
 };
 
 /// Validates a NuPatch record and appends one NuPatch per span that meets

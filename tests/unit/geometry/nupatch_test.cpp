@@ -92,8 +92,9 @@ TEST(NuPatch, BezierKnotsEqualBicubicPatch) {
         const std::vector<float> G = randomNet(7 + uint32_t(dim), 4, 4, dim);
         const std::vector<float> knots = {0, 0, 0, 0, 1, 1, 1, 1};
         auto nu = make(nuRecord(4, 4, knots, 0, 1, 4, 4, knots, 0, 1, G, dim == 4));
-        auto patchRec = record("Patch", {}, {dim == 4 ? floatParam("Pw", ri::ParamType::HPoint, G, ri::StorageClass::Vertex)
-                                                      : pointParam(G)});
+        auto patchRec =
+            record("Patch", {},
+                   {dim == 4 ? floatParam("Pw", ri::ParamType::HPoint, G, ri::StorageClass::Vertex) : pointParam(G)});
         patchRec->stringArgs = {"bicubic"};
         auto patch = make(patchRec);
         ASSERT_EQ(nu.size(), 1u);
