@@ -212,3 +212,29 @@ TEST(NuPatch, MalformedRecordsAreReported) {
     rec->floatArgs.pop_back();
     EXPECT_TRUE(make(rec, 1).empty());
 }
+
+TEST(NuPatch, VertexVariablesFollowTheBSplineBasis) {
+    // A vertex-class colour on a rational order-3 x order-2 patch: the
+    // polynomial B-spline combination of the control values (not divided
+    // by the weights, as for Patch).
+    const int nu = 5, nv = 3;
+    const std::vector<float> uk = {0, 0, 0, 1, 2, 3, 3, 3}, vk = {0, 0, 0.5f, 1, 1};
+    const std::vector<float> G = randomNet(21, nu, nv, 4);
+    std::vector<float> c, cx;
+    for (int k = 0; k < nu * nv; ++k) {
+        c.insert(c.end(), {float(k), float(k * k) * 0.1f, 1.0f - float(k)});
+        cx.insert(cx.end(), {float(k), float(k * k) * 0.1f, 1.0f - float(k), 1.0f});
+    }
+    auto prims = make(nuRecord(nu, 3, uk, 0, 3, nv, 2, vk, 0, 1, G, true,
+                               {floatParam("Cs", ri::ParamType::Color, c, ri::StorageClass::Vertex)}));
+    ASSERT_EQ(prims.size(), 6u);
+    for (const auto& p : prims) {
+        const Grid g = p->dice(3, 2);
+        const GridVar* cs = g.find("Cs");
+        ASSERT_TRUE(cs);
+        for (int i = 0; i < g.vertexCount(); ++i) {
+            const Vec3 r = reference(nu, 3, uk, nv, 2, vk, cx, 4, g.u[size_t(i)], g.v[size_t(i)]);
+            for (int k = 0; k < 3; ++k) EXPECT_NEAR(cs->at(i)[k], (&r.x)[k], 1e-4f * (1 + std::abs((&r.x)[k])));
+        }
+    }
+}
