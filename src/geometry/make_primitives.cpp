@@ -1,3 +1,4 @@
+#include "umbra/geometry/nupatch.h"
 #include "umbra/geometry/patch.h"
 #include "umbra/geometry/polygon.h"
 #include "umbra/geometry/primitive.h"
@@ -272,6 +273,8 @@ std::vector<PrimitivePtr> makePrimitives(std::shared_ptr<const scene::PrimitiveR
         makePatches(record, diag, out);
     else if (t == "SubdivisionMesh")
         makeSubdivisionMesh(record, diag, out);
+    else if (t == "NuPatch")
+        makeNuPatches(record, diag, out);
     else
         diag.warningOnce("geometry:unsupported:" + t, record->loc, "{}: primitive type not supported yet; ignored", t);
     return out;

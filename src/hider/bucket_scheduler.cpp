@@ -27,6 +27,8 @@ MicroGrid ShadedGrid::view() const {
     g.aovCount = aovFloats;
     g.matte = matte;
     g.culled = culled.empty() ? nullptr : culled.data();
+    g.trim = trim && !uv.empty() ? trim.get() : nullptr;
+    g.uv = g.trim ? uv.data() : nullptr;
     g.id = id;
     g.ownSecondLayer = ownSecondLayer;
     return g;

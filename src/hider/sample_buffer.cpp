@@ -315,6 +315,20 @@ void SampleBuffer::sample(const MicroGrid& g) {
     }
 }
 
+int SampleBuffer::trimKept(const MicroGrid& g, const Tri& t, const float b1[4], const float b2[4], int lanes) {
+    const float* a = g.uv + 2 * t.i0;
+    const float* b = g.uv + 2 * t.i1;
+    const float* c = g.uv + 2 * t.i2;
+    int kept = 0;
+    for (int k = 0; k < 4; ++k) {
+        if (!(lanes & (1 << k))) continue;
+        const float u = a[0] + b1[k] * (b[0] - a[0]) + b2[k] * (c[0] - a[0]);
+        const float v = a[1] + b1[k] * (b[1] - a[1]) + b2[k] * (c[1] - a[1]);
+        if (g.trim->keeps(u, v)) kept |= 1 << k;
+    }
+    return kept;
+}
+
 inline bool SampleBuffer::takeNearest(size_t s, float z, uint64_t gid, uint32_t sub) {
     if (!keyLess(z, gid, sub, m_z[s], m_id[s], m_sub[s])) return false;
     m_z[s] = z;
@@ -386,6 +400,14 @@ void SampleBuffer::rasterizeQuad(const MicroGrid& g, const HitContext& ctx, int 
                 // Hits behind what the sample holds, or clipped, change
                 // nothing; record() decides ties by the full key.
                 hits &= laneMask((z <= useful) & (z >= m_cfg.nearClip) & (z <= m_cfg.farClip));
+                if (g.trim && hits) {
+                    float w1[4], w2[4];
+                    for (int k = 0; k < 4; ++k) {
+                        w1[k] = b1[k];
+                        w2[k] = b2[k];
+                    }
+                    hits &= trimKept(g, *t, w1, w2, hits);
+                }
                 while (hits) {
                     const int k = __builtin_ctz(unsigned(hits));
                     // A depth pass of one layer keeps the nearest hit: inline,

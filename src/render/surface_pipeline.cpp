@@ -74,7 +74,7 @@ Bound3 SurfacePipeline::rasterBound(const geometry::Primitive& prim) {
     // A primitive this pass never draws (Attribute "visibility") has no
     // bound, so it is culled whole instead of being split to grid size
     // first: a ground plane left out of a depth map costs nothing there.
-    if (!takesPart(prim.attributes())) return {};
+    if (!takesPart(prim.attributes()) || prim.trimmedAway()) return {};
     dice::DiceParams p = diceParams(prim);
     Bound3 ob = prim.bound();
     if (dice::outsideView(dice::cameraBound(ob, p), p)) return {};
@@ -161,6 +161,15 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
     }
     if (!anyInFront) return false;
 
+    out.trim = prim.trimRegion();
+    out.uv.clear();
+    if (out.trim) {
+        out.uv.resize(size_t(n) * 2);
+        for (int i = 0; i < n; ++i) {
+            out.uv[size_t(2 * i)] = g.u[size_t(i)];
+            out.uv[size_t(2 * i + 1)] = g.v[size_t(i)];
+        }
+    }
     out.culled.clear();
     if (attrs.sides == 1 && m_pass.cull != Pass::Cull::None && !cullFacing(P, flip, out)) return false;
 

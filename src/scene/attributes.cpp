@@ -39,6 +39,8 @@ Attributes instanceAttributes(const Attributes& instance, const Attributes& atBe
     take(a.solid, atBegin.solid, defined.solid);
     take(a.visibleToCamera, atBegin.visibleToCamera, defined.visibleToCamera);
     take(a.castsShadows, atBegin.castsShadows, defined.castsShadows);
+    take(a.trimCurves, atBegin.trimCurves, defined.trimCurves);
+    take(a.binaryDice, atBegin.binaryDice, defined.binaryDice);
     // A user attribute set inside the definition comes from a request there:
     // its location tells it from the one the definition inherited.
     for (const auto& [key, p] : defined.user) {

@@ -21,7 +21,7 @@ const char* endName(int kind) {
 
 // Geometry requests the renderer does not draw yet: parsed and validated,
 // reported once, and left out of the world.
-constexpr const char* kUnsupportedGeometry[] = {"NuPatch", "Points", "Curves", "Blobby", "Procedural", "Geometry"};
+constexpr const char* kUnsupportedGeometry[] = {"Points", "Curves", "Blobby", "Procedural", "Geometry"};
 
 /// The numeric settings of Option (and Attribute) "umbra": the range each
 /// must lie in. Out of range, they would make a depth pass of no pixels, or
@@ -1186,7 +1186,59 @@ void Builder::illuminate(const std::string& handle, bool on, const FileLoc& loc)
 }
 
 void Builder::trimCurve(const ri::RequestArgs& args, const FileLoc& loc) {
-    unsupported("TrimCurve", loc, "TrimCurve: trim curves are not supported (ignored)");
+    // Arguments: ncurves order n as integer arrays; knot min max u v w
+    // flattened into floats, split here by the counts.
+    if (args.intArrays.size() != 3) {
+        m_diag.error(loc, "TrimCurve: expected 3 integer arrays (ncurves order n), got {}", args.intArrays.size());
+        return;
+    }
+    auto rec = std::make_shared<TrimCurveRecord>();
+    rec->ncurves = args.intArrays[0];
+    rec->order = args.intArrays[1];
+    rec->n = args.intArrays[2];
+    rec->loc = loc;
+    long curves = 0;
+    for (size_t l = 0; l < rec->ncurves.size(); ++l) {
+        if (rec->ncurves[l] < 1) {
+            m_diag.error(loc, "TrimCurve: loop {} has {} curves, expected at least 1", l, rec->ncurves[l]);
+            return;
+        }
+        curves += rec->ncurves[l];
+    }
+    if (long(rec->order.size()) != curves || long(rec->n.size()) != curves) {
+        m_diag.error(loc, "TrimCurve: order and n need one value per curve ({}), got {} and {}", curves,
+                     rec->order.size(), rec->n.size());
+        return;
+    }
+    size_t knots = 0, points = 0;
+    for (long c = 0; c < curves; ++c) {
+        const int order = rec->order[size_t(c)], n = rec->n[size_t(c)];
+        if (order < 1 || order > 31 || n < order) {
+            m_diag.error(loc, "TrimCurve: curve {} has order {} and n {}, expected 1 <= order <= 31 and n >= order", c,
+                         order, n);
+            return;
+        }
+        knots += size_t(n + order);
+        points += size_t(n);
+    }
+    const size_t expected = knots + 2 * size_t(curves) + 3 * points;
+    if (args.floats.size() != expected) {
+        m_diag.error(loc, "TrimCurve: expected {} floats ({} knots, min and max per curve, u v w per point), got {}",
+                     expected, knots, args.floats.size());
+        return;
+    }
+    auto take = [it = args.floats.begin()](std::vector<float>& into, size_t count) mutable {
+        into.assign(it, it + long(count));
+        it += long(count);
+    };
+    take(rec->knot, knots);
+    take(rec->min, size_t(curves));
+    take(rec->max, size_t(curves));
+    take(rec->u, points);
+    take(rec->v, points);
+    take(rec->w, points);
+    // No loops: no trimming from here on.
+    mutableAttributes().trimCurves = curves > 0 ? std::move(rec) : nullptr;
 }
 
 void Builder::primitive(const std::string& type, ri::RequestArgs args, ri::ParamList params, const FileLoc& loc) {

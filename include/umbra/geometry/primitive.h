@@ -13,6 +13,7 @@
 namespace umbra::geometry {
 
 class Primitive;
+class TrimRegion;
 using PrimitivePtr = std::unique_ptr<Primitive>;
 
 /// A surface that can be bounded, split into smaller surfaces of the same
@@ -47,6 +48,12 @@ public:
     /// the same outline and, under perspective too, the same depths as any
     /// finer grid, so a depth pass need not dice it finely.
     virtual bool flatQuad() const { return false; }
+    /// What the hider removes of this surface sample by sample, tested at
+    /// the grid's (u, v) interpolated across each micropolygon (a NuPatch's
+    /// trim curves, geometry/trim.h); null: nothing.
+    virtual std::shared_ptr<const TrimRegion> trimRegion() const { return nullptr; }
+    /// True when trimming removes all of this piece, so it can be culled.
+    virtual bool trimmedAway() const { return false; }
 
     const scene::PrimitiveRecord& record() const { return *m_record; }
     const std::shared_ptr<const scene::PrimitiveRecord>& recordPtr() const { return m_record; }

@@ -42,6 +42,8 @@ struct ShadedGrid {
     int aovFloats = 0;
     bool matte = false;
     std::vector<uint8_t> culled;  // per micropolygon, non-zero to skip; empty: none
+    std::shared_ptr<const geometry::TrimRegion> trim;  // see MicroGrid; null: none
+    std::vector<float> uv;    // per vertex (u, v) when trimmed
     uint64_t id = 0;
     bool ownSecondLayer = false;  // see MicroGrid
     Bound3 bound;             // of P

@@ -23,6 +23,7 @@
 // (sx, sy) is stratum column sx = px * xs + i, row sy = py * ys + j, so the
 // samples a micropolygon's bound overlaps form a rectangle of indices.
 
+#include "umbra/geometry/trim.h"
 #include "umbra/util/math.h"
 
 #include <cstdint>
@@ -72,6 +73,11 @@ struct MicroGrid {
     /// culling of solids' light-facing surfaces. Null: nothing culled.
     const uint8_t* culled = nullptr;
     uint64_t id = 0;            // stable identity (same on every run) for deterministic ties
+    /// Trimming: a sample is dropped where `trim` does not keep the (u, v)
+    /// interpolated (linearly in raster space, as depth is) from `uv`, two
+    /// floats per vertex. Null: nothing trimmed.
+    const geometry::TrimRegion* trim = nullptr;
+    const float* uv = nullptr;
     /// Depth mode: an open, two-sided surface that is its own second layer
     /// (Wang & Molnar 1994 §3.3: a solid of no thickness), so a second-depth
     /// map stores it where nothing else is nearer.
@@ -191,6 +197,9 @@ private:
     /// planes), barycentric weights b1, b2 of t's second and third vertices.
     /// True if it changed a depth the occlusion bound is made of.
     bool record(const MicroGrid& g, const HitContext& ctx, const Tri& t, size_t s, float z, float b1, float b2);
+    /// The lanes (bits of `lanes`) whose sample, at barycentric weights
+    /// b1[k], b2[k] of t, the grid's trim region keeps.
+    static int trimKept(const MicroGrid& g, const Tri& t, const float b1[4], const float b2[4], int lanes);
     /// A depth pass's nearest hit: keeps depth z of grid gid, triangle sub
     /// at sample s when nearer by the full key; true if kept.
     bool takeNearest(size_t s, float z, uint64_t gid, uint32_t sub);

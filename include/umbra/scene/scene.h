@@ -47,6 +47,18 @@ struct Basis {
 /// The attribute state a primitive carries (immutable once a primitive
 /// references it; the builder copies on write). A new field must also be
 /// merged by instanceAttributes() (src/scene/attributes.cpp).
+/// The loops of a TrimCurve request (RI spec 3.2 §5.4) as given: NURBS
+/// curves in the (u, v) parameter space of the NuPatches that follow it
+/// in the attribute block. Loop l is curves ncurves[0] + ... of the
+/// flattened arrays; curve c has order[c], n[c] points (u, v, w: homogeneous,
+/// u and v already multiplied by w) and n[c] + order[c] knots, drawn over
+/// [min[c], max[c]].
+struct TrimCurveRecord {
+    std::vector<int> ncurves, order, n;
+    std::vector<float> knot, min, max, u, v, w;
+    FileLoc loc;
+};
+
 struct Attributes {
     Color color{1, 1, 1};
     Color opacity{1, 1, 1};
@@ -85,6 +97,8 @@ struct Attributes {
     bool castsShadows = true;
     /// Attribute "dice" "binary": grids diced into powers of two.
     bool binaryDice = false;
+    /// The current TrimCurve (null: none); it applies to NuPatch only.
+    std::shared_ptr<const TrimCurveRecord> trimCurves;
     /// Every other `Attribute "class" "name" value` by "class:name", for the
     /// attribute() shadeop and for modules' own attributes ("umbra:...").
     std::map<std::string, ri::Param> user;

@@ -307,6 +307,43 @@ TEST(Builder, UnsupportedRequestsWarnOnce) {
     expectNear(p[0].worldFromObject.point({}), {1, 1, 0});
 }
 
+TEST(Builder, TrimCurveAppliesUntilAttributeEnd) {
+    // Two loops: a square of one linear curve, a second of two curves.
+    auto r = run(
+        "WorldBegin AttributeBegin "
+        "TrimCurve [1 2] [2 2 2] [0 0 1 2 3 4 4  0 0 1 1  0 0 1 1] [0 0 0] [4 1 1] [5 2 2] "
+        "[0 1 1 0 0  0 1  1 0] [0 0 1 1 0  0 0  0 1] [1 1 1 1 1  1 1  1 1] "
+        "NuPatch 2 2 [0 0 1 1] 0 1 2 2 [0 0 1 1] 0 1 \"P\" [0 0 0 1 0 0 0 1 0 1 1 0] "
+        "AttributeEnd "
+        "NuPatch 2 2 [0 0 1 1] 0 1 2 2 [0 0 1 1] 0 1 \"P\" [0 0 0 1 0 0 0 1 0 1 1 0] WorldEnd");
+    EXPECT_TRUE(r->messages().empty()) << r->messages().at(0);
+    ASSERT_EQ(r->sink.worlds.size(), 1u);
+    const auto& prims = r->sink.worlds[0].primitives;
+    ASSERT_EQ(prims.size(), 2u);
+    const auto& trim = prims[0].attributes->trimCurves;
+    ASSERT_TRUE(trim);
+    EXPECT_EQ(trim->ncurves, (std::vector<int>{1, 2}));
+    EXPECT_EQ(trim->order, (std::vector<int>{2, 2, 2}));
+    EXPECT_EQ(trim->n, (std::vector<int>{5, 2, 2}));
+    EXPECT_EQ(trim->knot.size(), 15u);
+    EXPECT_EQ(trim->max, (std::vector<float>{4, 1, 1}));
+    EXPECT_EQ(trim->u.size(), 9u);
+    EXPECT_EQ(trim->w.size(), 9u);
+    EXPECT_EQ(trim->v[2], 1.0f);
+    EXPECT_FALSE(prims[1].attributes->trimCurves);
+}
+
+TEST(Builder, MalformedTrimCurvesAreReportedAndLeaveTheTrimAsItWas) {
+    auto r = run("WorldBegin TrimCurve [1] [2] [0 0 1] [0] [1] [2] [0 1] [0 1] [1 1] "  // a knot short
+                 "TrimCurve [1] [3] [0 0 0 1 1] [0] [1] [2] [0 1] [0 1] [1 1] "       // n < order
+                 "Sphere 1 -1 1 360 WorldEnd");
+    const auto msgs = r->messages();
+    ASSERT_EQ(msgs.size(), 2u);
+    EXPECT_NE(msgs[0].find("TrimCurve: expected 12 floats"), std::string::npos) << msgs[0];
+    EXPECT_NE(msgs[1].find("order 3 and n 2"), std::string::npos) << msgs[1];
+    EXPECT_FALSE(r->sink.worlds.at(0).primitives.at(0).attributes->trimCurves);
+}
+
 }  // namespace
 }  // namespace umbra::scene
 
