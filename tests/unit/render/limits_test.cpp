@@ -318,3 +318,22 @@ WorldEnd
     std::sort(left.begin(), left.end());
     EXPECT_EQ(left, (std::vector<std::string>{"long.log", "long.rib"}));
 }
+
+TEST(ExitStatus, ZeroWhenRenderedAsAskedNonZeroWhenSomethingAskedForWasNotDone) {
+    // docs/compatibility.md, "Exit status": warnings keep 0, an unfound
+    // shader (drawn with the default surface) does not.
+    ScratchDir dir("exit-status");
+    const ChildRun lenient = renderInChild(
+        dir, "lenient.rib",
+        frame(dir.file("a.exr"), "Option \"render\" \"integer minshadowbias\" [0.01]",
+              "Attribute \"identifier\" \"shadinggroup\" [\"g\"] Sphere 1 -1 1 360"));
+    ASSERT_TRUE(lenient.exited) << lenient.describe();
+    EXPECT_EQ(lenient.status, 0) << lenient.describe();
+    EXPECT_TRUE(contains(lenient.messages, "warning")) << lenient.messages;
+    const ChildRun missing =
+        renderInChild(dir, "missing.rib", frame(dir.file("b.exr"), "", "Surface \"nosuchshader\" Sphere 1 -1 1 360"));
+    ASSERT_TRUE(missing.exited) << missing.describe();
+    EXPECT_EQ(missing.status, 1) << missing.describe();
+    EXPECT_TRUE(contains(missing.messages, "cannot find shader 'nosuchshader'")) << missing.messages;
+    EXPECT_GT(coverage(dir.file("b.exr")), 100.0);  // still drawn, with the default surface
+}
