@@ -53,6 +53,7 @@ for f in build-fuzz/bin/fuzz_*; do
   work=$(mktemp -d)
   case "$(basename "$f")" in
     fuzz_rib) find scenes tests/rib_errors -name '*.rib' -size -64k -exec cp {} "$work"/ \; ;;
+    fuzz_render) cp tests/fuzz/render_corpus/*.rib "$work"/ ;;
     fuzz_slc) cp shaders_dsl/*.sl tests/unit/shading/errors/*.sl "$work"/ ;;
   esac
   log="$work.log"
