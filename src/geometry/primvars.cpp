@@ -255,6 +255,10 @@ void interpolateVars(const SurfaceData& sd, const CornerRefs& refs, const std::v
             std::copy(c, c + v.components, gv.data.begin());
         }
     }
+    addDefaultVars(sd, g);
+}
+
+void addDefaultVars(const SurfaceData& sd, Grid& g) {
     auto addDefault = [&](const char* name, const std::vector<float>& src) {
         GridVar& gv = g.vars.emplace_back();
         gv.name = name;

@@ -15,6 +15,8 @@
 
 using namespace umbra;
 using umbra::test::Image;
+using umbra::test::maxAbsDiff;
+using umbra::test::meanAbsDiff;
 using umbra::test::ScratchDir;
 
 namespace {
@@ -60,14 +62,6 @@ Image renderAndRead(const std::string& rib, const std::string& image) {
     Image img;
     EXPECT_TRUE(test::readImage(image, &img)) << image;
     return img;
-}
-
-double maxAbsDiff(const Image& a, const Image& b, int channels) {
-    double d = 0;
-    for (int y = 0; y < a.height; ++y)
-        for (int x = 0; x < a.width; ++x)
-            for (int c = 0; c < channels; ++c) d = std::max(d, double(std::fabs(a.at(x, y, c) - b.at(x, y, c))));
-    return d;
 }
 
 }  // namespace

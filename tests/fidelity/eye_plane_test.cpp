@@ -15,6 +15,8 @@
 
 using namespace umbra;
 using umbra::test::Image;
+using umbra::test::maxAbsDiff;
+using umbra::test::meanAbsDiff;
 using umbra::test::ScratchDir;
 
 namespace {

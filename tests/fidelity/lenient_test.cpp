@@ -14,6 +14,8 @@
 
 using namespace umbra;
 using umbra::test::Image;
+using umbra::test::maxAbsDiff;
+using umbra::test::meanAbsDiff;
 using umbra::test::ScratchDir;
 
 namespace {
@@ -32,13 +34,6 @@ Rendered renderScene(const std::string& rib, const std::string& imagePath) {
     r.warnings = diag.warningCount();
     EXPECT_TRUE(test::readImage(imagePath, &r.image)) << imagePath;
     return r;
-}
-
-double meanAbsDiff(const Image& a, const Image& b) {
-    if (a.pixels.size() != b.pixels.size()) return 1e9;
-    double d = 0;
-    for (size_t i = 0; i < a.pixels.size(); ++i) d += std::fabs(a.pixels[i] - b.pixels[i]);
-    return d / double(a.pixels.size());
 }
 
 }  // namespace

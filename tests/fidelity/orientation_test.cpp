@@ -18,6 +18,8 @@
 
 using namespace umbra;
 using umbra::test::Image;
+using umbra::test::maxAbsDiff;
+using umbra::test::meanAbsDiff;
 using umbra::test::ScratchDir;
 
 namespace {
@@ -273,12 +275,6 @@ Image renderTo(const ScratchDir& dir, const std::string& rib, int threads = 0, i
     Image img;
     EXPECT_TRUE(test::readImage(dir.file("sphere.tif"), &img));
     return img;
-}
-
-double meanAbsDiff(const Image& a, const Image& b) {
-    double d = 0;
-    for (size_t i = 0; i < a.pixels.size(); ++i) d += std::fabs(a.pixels[i] - b.pixels[i]);
-    return d / double(a.pixels.size());
 }
 
 }  // namespace

@@ -8,6 +8,8 @@
 
 #include <OpenImageIO/imageio.h>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -26,6 +28,25 @@ struct Image {
         return s;
     }
 };
+
+/// Mean |a - b| over every channel of every pixel; huge when the sizes
+/// differ, so a comparison of mismatched images cannot pass.
+inline double meanAbsDiff(const Image& a, const Image& b) {
+    if (a.pixels.size() != b.pixels.size() || a.pixels.empty()) return 1e9;
+    double d = 0;
+    for (size_t i = 0; i < a.pixels.size(); ++i) d += std::fabs(double(a.pixels[i]) - double(b.pixels[i]));
+    return d / double(a.pixels.size());
+}
+
+/// Largest |a - b| over the first `channels` channels.
+inline double maxAbsDiff(const Image& a, const Image& b, int channels) {
+    if (a.width != b.width || a.height != b.height) return 1e9;
+    double d = 0;
+    for (int y = 0; y < a.height; ++y)
+        for (int x = 0; x < a.width; ++x)
+            for (int c = 0; c < channels; ++c) d = std::max(d, std::fabs(double(a.at(x, y, c)) - double(b.at(x, y, c))));
+    return d;
+}
 
 inline bool readImage(const std::string& path, Image* out) {
     auto in = OIIO::ImageInput::open(path);

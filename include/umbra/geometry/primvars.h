@@ -144,6 +144,9 @@ void initGrid(Grid& g, int nu, int nv, const ParamRange& range, const ParamMap& 
 /// into Grid::N, and default s, t (= grid u, v), Cs and Os.
 void interpolateVars(const SurfaceData& sd, const CornerRefs& refs, const std::vector<float>& a,
                      const std::vector<float>& b, bool skipVertex, Grid& g);
+/// The variables a grid gets when its primitive gives none: s and t from
+/// u and v, Cs and Os from the attributes (SurfaceData's defaults).
+void addDefaultVars(const SurfaceData& sd, Grid& g);
 
 /// Appends a per-vertex variable to `g` and returns its storage.
 GridVar& addGridVar(Grid& g, const PrimVar& v, bool perVertex);
