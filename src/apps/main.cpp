@@ -2,6 +2,7 @@
 //
 //   umbra render SCENE.rib [MORE.rib ...] [--threads N] [--progress]
 //                [--stats FILE.json] [--bucket-size N] [--quiet] [--no-shadows]
+//                [--frames SPEC] [--resume]
 //   umbra SCENE.rib ...                      (same as `umbra render`)
 //   umbra slc [--listing] [-I DIR] FILE.sl ... (compile shaders, report errors)
 //   umbra info [--json] MAP                  (depth-map storage figures)
@@ -13,6 +14,7 @@
 #include "umbra/render/make_files.h"
 #include "umbra/render/renderer.h"
 #include "umbra/util/error.h"
+#include "umbra/util/frame_set.h"
 
 #include "apps/commands.h"
 #include "umbra/util/interrupt.h"
@@ -48,7 +50,19 @@ int main(int argc, char** argv) {
     render->add_option("--bucket-size", settings.bucketSize, "Bucket size in pixels (default 16)")->check(CLI::Range(1, 4096));
     render->add_flag("--quiet", settings.quiet, "Print errors only");
     render->add_flag("--no-shadows", settings.noShadows, "Turn every depth pass and shadow() lookup off");
-    render->add_flag("--skip-existing", settings.skipExisting, "Do not re-render frames whose outputs exist");
+    render->add_flag("--resume,--skip-existing", settings.resume,
+                     "Skip frames whose every Display file is a complete image (truncated ones are rendered again)");
+    std::string framesSpec;
+    render->add_option("--frames", framesSpec,
+                       "FrameBegin numbers to render: 1-100, 1-100x5 (every 5th), 3,7,12, 1-10,20,30-40x2; "
+                       "a file name with #### or %04d is one RIB per frame")
+        ->check(CLI::Validator(
+            [](std::string& spec) {
+                umbra::FrameSet frames;
+                std::string error;
+                return umbra::FrameSet::parse(spec, &frames, &error) ? std::string() : error;
+            },
+            "SPEC"));
 
     std::vector<std::string> slcFiles;
     std::vector<std::string> slcIncludes;
@@ -90,6 +104,13 @@ int main(int argc, char** argv) {
         app.parse(int(cargs.size()), cargs.data());
     } catch (const CLI::ParseError& e) {
         return app.exit(e);
+    }
+
+    if (*render && !framesSpec.empty()) {
+        umbra::FrameSet frames;
+        std::string error;
+        umbra::FrameSet::parse(framesSpec, &frames, &error);  // checked above
+        settings.frames = frames;
     }
 
     umbra::Diagnostics diag;

@@ -124,6 +124,17 @@ std::optional<Format> formatOfExtension(const std::string& path) {
     return std::nullopt;
 }
 
+}  // namespace
+
+std::string displayFilePath(const scene::DisplayRecord& display) {
+    const std::string driver = lower(display.driver);
+    for (const char* d : {"zfile", "shadow", "tiff", "openexr", "exr", "png", "file"})
+        if (driver == d) return display.name;
+    return formatOfExtension(display.name) ? display.name : display.name + ".tif";
+}
+
+namespace {
+
 /// One output channel: where its value comes from and how it is encoded.
 struct ChannelSource {
     enum Kind { R, G, B, A, Z, Aov } kind;
@@ -302,9 +313,8 @@ bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Option
         // A window ("framebuffer", "it", "x11", ...) or a driver umbra does
         // not have: one unusable Display must not cost the frame, so the
         // image goes to a file as the "file" driver would write it.
-        std::optional<Format> f = formatOfExtension(path);
-        if (!f) path += ".tif";
-        format = f.value_or(Format::Tiff);
+        path = displayFilePath(display);
+        format = formatOfExtension(path).value_or(Format::Tiff);
         diag.warningOnce("display-driver:" + driver, display.loc,
                          "display driver \"{}\": {}; writing \"{}\" instead", display.driver,
                          driver == "framebuffer" || driver == "it" || driver == "x11" || driver == "windows"

@@ -1,6 +1,7 @@
 #include "umbra/render/renderer.h"
 #include "umbra/util/cpu_time.h"
 #include "umbra/util/file.h"
+#include "umbra/util/frame_set.h"
 #include "umbra/util/interrupt.h"
 #include "umbra/util/search_path.h"
 
@@ -19,6 +20,7 @@
 #include "umbra/util/rng.h"
 
 #include <fmt/chrono.h>
+#include <fmt/ranges.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 #include <tbb/task_group.h>
@@ -28,6 +30,7 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <ctime>
@@ -240,7 +243,32 @@ nlohmann::json Renderer::statistics() const {
     return {{"umbra_version", "0.1.0"}, {"frames", m_impl->frames}};
 }
 
-void Renderer::renderWorld(const scene::WorldRecord& world) { m_impl->renderWorld(world, m_failed); }
+void Renderer::renderWorld(const scene::WorldRecord& world) {
+    // An unselected frame was parsed (its options scoped as usual) but
+    // costs nothing more: no depth pass, no camera pass, no file.
+    if (!selected(world.frameNumber)) return;
+    const int before = m_failed;
+    m_impl->renderWorld(world, m_failed);
+    noteFailure(m_fileFrame >= 0 ? m_fileFrame : world.frameNumber, before);
+}
+
+void Renderer::frameBegin(int frameNumber, const FileLoc&) { m_frame = frameNumber; }
+void Renderer::frameEnd(const FileLoc&) { m_frame = -1; }
+
+bool Renderer::selected(int frameNumber) const {
+    const auto& frames = m_impl->settings.frames;
+    return m_fileFrame >= 0 || frameNumber < 0 || !frames || frames->contains(frameNumber);
+}
+
+void Renderer::addFailedFrame(int frameNumber) {
+    ++m_failed;
+    noteFailure(frameNumber, m_failed - 1);
+}
+
+void Renderer::noteFailure(int frame, int before) {
+    if (m_failed > before && std::find(m_failedNumbers.begin(), m_failedNumbers.end(), frame) == m_failedNumbers.end())
+        m_failedNumbers.push_back(frame);
+}
 
 void Renderer::prepare(scene::Builder& builder, const std::string& ribFile) const {
     // Shaders and textures named in a scene are looked for in the current
@@ -257,7 +285,11 @@ void Renderer::prepare(scene::Builder& builder, const std::string& ribFile) cons
 }
 
 void Renderer::make(const scene::MakeRecord& make) {
+    // A Make request inside an unselected frame is that frame's work.
+    if (m_fileFrame < 0 && m_frame >= 0 && !selected(m_frame)) return;
+    const int before = m_failed;
     if (!makeFile(make, m_impl->diag)) ++m_failed;
+    noteFailure(m_fileFrame >= 0 ? m_fileFrame : m_frame, before);
     // A map made again under a name already read is read again.
     if (make.request == "MakeShadow") m_impl->maps->invalidate(make.output);
 }
@@ -362,12 +394,23 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     const scene::Options& options = world.options;
     const int errorsBefore = diag.errorCount();
 
-    // Frames whose outputs all exist are skipped on request (farm restarts).
-    if (settings.skipExisting && !options.displays.empty()) {
-        bool all = true;
-        for (const auto& d : options.displays) all = all && std::filesystem::exists(d.name);
-        if (all) {
-            if (!settings.quiet) fmt::print(stderr, "umbra: frame {} exists, skipped\n", world.frameNumber);
+    // --resume (farm restarts): a frame whose every output is a complete
+    // image is not rendered again. A file cut short (a killed copy, a full
+    // disk) makes the frame render again.
+    if (settings.resume && !options.displays.empty()) {
+        bool complete = true;
+        for (const auto& d : options.displays) {
+            const std::string path = film::displayFilePath(d);
+            std::string why;
+            if (film::imageFileComplete(path, &why)) continue;
+            complete = false;
+            if (why != "missing")
+                diag.warning(d.loc, "--resume: frame {}: \"{}\" is not a complete image ({}); rendering the frame again",
+                             world.frameNumber, path, why);
+            break;
+        }
+        if (complete) {
+            if (!settings.quiet) fmt::print(stderr, "umbra: frame {} is complete, skipped\n", world.frameNumber);
             frames.push_back({{"frame", world.frameNumber}, {"skipped", true}});
             return;
         }
@@ -756,14 +799,51 @@ int renderFiles(const std::vector<std::string>& files, const RenderSettings& set
     const RenderSettings& settings = settingsIn;
     Renderer renderer(settings, diag);
     bool ok = true;
-    for (const auto& file : files) {
+    // Reads one RIB file; `frame` >= 0 when it is that frame's own file.
+    auto read = [&](const std::string& file, int frame) {
         scene::Builder builder(renderer, diag);
         renderer.prepare(builder, file);
+        if (frame >= 0) builder.setDefaultFrame(frame);
+        renderer.setFileFrame(frame);
         if (!ri::parseFile(file, builder, diag)) ok = false;
+        renderer.setFileFrame(-1);
+    };
+    for (const auto& file : files) {
+        if (file != "-" && hasFramePattern(file) && !std::filesystem::exists(file)) {
+            // shot.####.rib: one file per selected frame.
+            if (!settings.frames) {
+                diag.error(FileLoc::inFile(file),
+                           "\"{}\" names one RIB file per frame: give the frames with --frames (e.g. --frames 1-100)",
+                           file);
+                ok = false;
+                continue;
+            }
+            for (int n : settings.frames->numbers()) {
+                const std::string path = expandFramePattern(file, n);
+                if (!std::ifstream(path)) {
+                    diag.error(FileLoc::inFile(path), "frame {}: cannot open \"{}\" (from \"{}\")", n, path, file);
+                    renderer.addFailedFrame(n);
+                    ok = false;
+                    continue;
+                }
+                read(path, n);
+                if (diag.aborted() || interrupted()) break;
+            }
+        } else {
+            read(file, -1);
+        }
         if (diag.aborted()) {
             ok = false;
             break;
         }
+    }
+    if (settings.frames && renderer.statistics()["frames"].empty() && renderer.failedFrames() == 0)
+        diag.warning(FileLoc{}, "--frames: no frame of the input was selected");
+    if (const std::vector<int>& failed = renderer.failedFrameNumbers(); !failed.empty()) {
+        std::vector<std::string> names;
+        for (int f : failed) names.push_back(f >= 0 ? std::to_string(f) : "(outside FrameBegin)");
+        fmt::print(stderr, "umbra: {} {} failed: {}\n", failed.size(), failed.size() == 1 ? "frame" : "frames",
+                   fmt::join(names, ", "));
     }
     std::string statsTarget, statsWhy;
     if (!statsPath.empty() && !resolveOutputPath(statsPath, &statsTarget, &statsWhy)) {

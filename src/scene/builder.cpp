@@ -1,4 +1,5 @@
 #include "umbra/scene/builder.h"
+#include "umbra/util/frame_set.h"
 #include "umbra/util/search_path.h"
 
 #include <algorithm>
@@ -259,7 +260,7 @@ void Builder::frameEnd(const FileLoc& loc) {
     m_cameraSpaces = *b.savedSpaces;
     m_namedCameras.clear();
     m_state = b.saved;
-    m_frame = -1;
+    m_frame = m_defaultFrame;
     m_objectHandle.clear();
     m_preWorldLights.clear();
     m_sink.frameEnd(loc);
@@ -280,6 +281,10 @@ void Builder::worldBegin(const FileLoc& loc) {
     m_world = std::make_unique<WorldRecord>();
     m_world->frameNumber = m_frame;
     m_world->options = m_options;
+    // Display "out.####.tif" in frame 12 writes out.0012.tif (also %04d).
+    if (m_frame >= 0)
+        for (DisplayRecord& d : m_world->options.displays)
+            if (hasFramePattern(d.name)) d.name = expandFramePattern(d.name, m_frame);
     m_world->loc = loc;
     bool ok = true;
     Mat4 worldFromCamera = m_options.cameraFromWorld.inverse(&ok);

@@ -181,4 +181,15 @@ private:
     std::vector<float> m_z, m_z2;
 };
 
+/// The file `display` is written to: its name, with ".tif" appended for a
+/// window or unknown driver when the name has no image extension (such a
+/// display goes to a file, as the "file" driver would write it).
+std::string displayFilePath(const scene::DisplayRecord& display);
+
+/// True when `path` is a complete image umbra can have written: a TIFF,
+/// OpenEXR (any parts, scanline or tiled), PNG or zfile whose header and
+/// every pixel read back. Otherwise false, with `*why` saying what is
+/// wrong ("missing", a truncated strip, ...). For `--resume`.
+bool imageFileComplete(const std::string& path, std::string* why = nullptr);
+
 }  // namespace umbra::film

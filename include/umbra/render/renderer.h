@@ -7,11 +7,13 @@
 #include "umbra/scene/builder.h"
 #include "umbra/scene/scene.h"
 #include "umbra/util/error.h"
+#include "umbra/util/frame_set.h"
 
 #include <nlohmann/json.hpp>
 
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -24,7 +26,13 @@ struct RenderSettings {
     bool progress = false;      // live progress on stderr
     bool quiet = false;         // no statistics summary
     bool noShadows = false;     // every shadow() lookup and depth pass off (Reeves' Table 1 baseline)
-    bool skipExisting = false;  // frames whose outputs all exist are not rendered
+    /// `--resume`: frames whose every Display file is a complete image
+    /// (film::imageFileComplete) are not rendered again.
+    bool resume = false;
+    /// `--frames`: the FrameBegin numbers to render; unset: all. Worlds
+    /// outside FrameBegin/FrameEnd have no number and are always rendered
+    /// (docs/frames.md).
+    std::optional<FrameSet> frames;
     /// The default shader and texture directories, what '@' stands for in
     /// RIB search paths. Empty: $UMBRA_SHADER_PATH / $UMBRA_TEXTURE_PATH, or
     /// the standard shaders (umbra/util/search_path.h).
@@ -45,20 +53,45 @@ public:
 
     void renderWorld(const scene::WorldRecord& world) override;
     void make(const scene::MakeRecord& make) override;
+    void frameBegin(int frameNumber, const FileLoc& loc) override;
+    void frameEnd(const FileLoc& loc) override;
+
+    /// Whether a world of frame `frameNumber` (-1: outside any frame) is to
+    /// be rendered under the settings' `frames`.
+    bool selected(int frameNumber) const;
+    /// Records that frame `frameNumber` failed without reaching the
+    /// renderer (e.g. its RIB file of a `#` pattern could not be read).
+    void addFailedFrame(int frameNumber);
+    /// While `frame` >= 0, the RIB being read is that frame's own file (a
+    /// `#` pattern's): all its worlds and Make requests belong to it and are
+    /// rendered whatever their FrameBegin numbers.
+    void setFileFrame(int frame) { m_fileFrame = frame; }
 
     /// Statistics of every frame rendered so far (docs/statistics.md).
     nlohmann::json statistics() const;
     /// Number of worlds that failed to render (a non-zero exit).
     int failedFrames() const { return m_failed; }
+    /// The numbers of the frames that failed, in render order, each once
+    /// (-1: a world outside any frame; a failed Make request counts as a
+    /// failure of the frame it is in).
+    const std::vector<int>& failedFrameNumbers() const { return m_failedNumbers; }
 
 private:
     struct Impl;
     std::unique_ptr<Impl> m_impl;
     int m_failed = 0;
+    std::vector<int> m_failedNumbers;
+    int m_frame = -1;      // the open FrameBegin's number; -1 outside frames
+    int m_fileFrame = -1;  // setFileFrame
+    /// Noted on the failure list of `frame` when m_failed went past `before`.
+    void noteFailure(int frame, int before);
 };
 
-/// Parses and renders RIB files in order, as `umbra render` does. Returns
-/// the process exit code: 0 on success, 1 on any error.
+/// Parses and renders RIB files in order, as `umbra render` does. A file
+/// name with a frame pattern (`shot.####.rib`, `shot.%04d.rib`) stands for
+/// one file per frame of `settings.frames`, which it then requires. A failed
+/// frame does not stop the others; a summary line names the failed frames.
+/// Returns the process exit code: 0 on success, 1 on any error.
 int renderFiles(const std::vector<std::string>& files, const RenderSettings& settings,
                 const std::string& statsPath, Diagnostics& diag);
 

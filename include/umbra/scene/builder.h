@@ -47,6 +47,11 @@ public:
     /// Sets search path `kind` as Option "searchpath" does ('&', '@' expanded).
     void setSearchPath(const std::string& kind, const std::string& spec);
 
+    /// The frame number of worlds outside FrameBegin/FrameEnd (-1 by
+    /// default: none). `umbra shot.####.rib --frames 1-3` gives each file's
+    /// worlds the number it was named by.
+    void setDefaultFrame(int frame) { m_defaultFrame = m_frame = frame; }
+
     /// Current state, for tests and tools.
     const Options& options() const { return m_options; }
     const Attributes& attributes() const { return *m_state.attrs; }
@@ -218,6 +223,7 @@ private:
     std::vector<OpenBlock> m_blocks;
     std::unique_ptr<WorldRecord> m_world;
     int m_frame = -1;
+    int m_defaultFrame = -1;
     std::map<std::string, Mat4> m_cameraSpaces;  // named before WorldBegin: cameraFromNamed
     /// `Camera "name"`: the current transform when it was given, that
     /// camera's cameraFromWorld; at WorldBegin the named space is its camera
