@@ -187,6 +187,14 @@ DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, co
         res.decision = Decision::Split;
         return res;
     }
+    int fixedU = 0, fixedV = 0;
+    if (prim.fixedCounts(&fixedU, &fixedV)) {
+        const bool fits = float(fixedU) * float(fixedV) <= float(std::max(p.gridSize, 1));
+        res.decision = fits ? Decision::Dice : Decision::Split;
+        res.nu = fits ? fixedU : 0;
+        res.nv = fits ? fixedV : 0;
+        return res;
+    }
 
     // Measure on the primitive itself: dice a small test lattice, project it
     // and take the longest raster extent along u and along v.

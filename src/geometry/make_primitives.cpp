@@ -1,3 +1,4 @@
+#include "umbra/geometry/curves.h"
 #include "umbra/geometry/nupatch.h"
 #include "umbra/geometry/patch.h"
 #include "umbra/geometry/polygon.h"
@@ -275,6 +276,10 @@ std::vector<PrimitivePtr> makePrimitives(std::shared_ptr<const scene::PrimitiveR
         makeSubdivisionMesh(record, diag, out);
     else if (t == "NuPatch")
         makeNuPatches(record, diag, out);
+    else if (t == "Curves")
+        makeCurves(record, diag, out);
+    else if (t == "Points")
+        makePoints(record, diag, out);
     else
         diag.warningOnce("geometry:unsupported:" + t, record->loc, "{}: primitive type not supported yet; ignored", t);
     return out;

@@ -31,6 +31,7 @@ MicroGrid ShadedGrid::view() const {
     g.uv = g.trim ? uv.data() : nullptr;
     g.id = id;
     g.ownSecondLayer = ownSecondLayer;
+    g.discs = discs;
     return g;
 }
 

@@ -300,6 +300,7 @@ void SampleBuffer::sample(const MicroGrid& g) {
         const uint8_t* culledRow = g.culled ? g.culled + j * g.nu : nullptr;
         for (int i = 0; i < g.nu; ++i) {
             if (culledRow && culledRow[i]) continue;
+            if (g.discs && (i & 1)) continue;
             const Vec3 &a = row0[i], &b = row0[i + 1], &c = row1[i], &d = row1[i + 1];
             float minx = std::min(std::min(a.x, b.x), std::min(c.x, d.x));
             float maxx = std::max(std::max(a.x, b.x), std::max(c.x, d.x));
@@ -366,6 +367,20 @@ void SampleBuffer::rasterizeQuad(const MicroGrid& g, const HitContext& ctx, int 
     const int sy1 = std::min(m_sh - 1, floorToInt(maxy * float(ys)) - m_sy0);
     if (sx0 > sx1 || sy0 > sy1) return;
 
+    // A point's disc: the sample must also lie within it (MicroGrid::discs).
+    float discX = 0, discY = 0, discR2 = 0;
+    if (g.discs) {
+        const Vec3 &a = g.P[v00], &b = g.P[v10], &c = g.P[v01], &d = g.P[v11];
+        discX = 0.25f * (a.x + b.x + c.x + d.x);
+        discY = 0.25f * (a.y + b.y + c.y + d.y);
+        auto dist = [](float x0, float y0, float x1, float y1) { return std::hypot(x1 - x0, y1 - y0); };
+        // Midpoints of the u edges (a-c, b-d) and the v edges (a-b, c-d).
+        const float across = dist(0.5f * (a.x + c.x), 0.5f * (a.y + c.y), 0.5f * (b.x + d.x), 0.5f * (b.y + d.y));
+        const float along = dist(0.5f * (a.x + b.x), 0.5f * (a.y + b.y), 0.5f * (c.x + d.x), 0.5f * (c.y + d.y));
+        const float r = 0.25f * (across + along);
+        discR2 = r * r;
+    }
+
     // Four samples of a row at a time (positions are padded so the last
     // group may read past the end); lanes past sx1 are masked off.
     bool wrote = false;
@@ -400,6 +415,10 @@ void SampleBuffer::rasterizeQuad(const MicroGrid& g, const HitContext& ctx, int 
                 // Hits behind what the sample holds, or clipped, change
                 // nothing; record() decides ties by the full key.
                 hits &= laneMask((z <= useful) & (z >= m_cfg.nearClip) & (z <= m_cfg.farClip));
+                if (g.discs && hits) {
+                    const F4 dx = x - discX, dy = y - discY;
+                    hits &= laneMask(dx * dx + dy * dy <= discR2);
+                }
                 if (g.trim && hits) {
                     float w1[4], w2[4];
                     for (int k = 0; k < 4; ++k) {

@@ -100,9 +100,14 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
     const scene::Attributes& attrs = *rec.attributes;
     if (!takesPart(attrs)) return false;
 
-    geometry::Grid g = prim.dice(nu, nv);
     Mat4 c = cameraFromObject(prim);
-    g.transform(c, c.inverse());
+    const Mat4 objectFromCamera = c.inverse();
+    geometry::ViewContext view;
+    view.orthographic = !cam.perspective;
+    view.eye = objectFromCamera.point({0, 0, 0});
+    view.towardEye = normalize(objectFromCamera.vector({0, 0, -1}));
+    geometry::Grid g = prim.diceInView(nu, nv, view);
+    g.transform(c, objectFromCamera);
     // The family's own normals are outward; an inside-out primitive's point
     // in. User-supplied normals are used as given.
     if (g.ownNormals && attrs.insideOut)
@@ -145,6 +150,7 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
     out.nv = nv;
     out.id = id;
     out.matte = attrs.matte;
+    out.discs = g.discs;
     out.P.resize(size_t(n));
     out.bound = Bound3();
     bool anyInFront = false;

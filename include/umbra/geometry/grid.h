@@ -44,6 +44,10 @@ struct Grid {
     std::vector<float> u, v;            // surface parameters of each vertex
     float du = 0, dv = 0;               // parametric spacing between vertices
     std::vector<GridVar> vars;          // s, t, Cs, Os, user primitive variables
+    /// Points (geometry/curves.h): micropolygon (2k, 0) is point k's
+    /// square, drawn as its inscribed disc; odd columns join neighbouring
+    /// points and are never drawn.
+    bool discs = false;
 
     int vertexCount() const { return (nu + 1) * (nv + 1); }
     int index(int i, int j) const { return j * (nu + 1) + i; }

@@ -16,6 +16,18 @@ class Primitive;
 class TrimRegion;
 using PrimitivePtr = std::unique_ptr<Primitive>;
 
+/// Where the pass's eye is, in a primitive's object space: what the
+/// camera-facing families (curves' ribbons, points' discs) turn towards.
+/// The renderer makes one per grid from cameraFromObject, so a depth pass
+/// turns them towards its light, as its camera.
+struct ViewContext {
+    bool orthographic = true;
+    Vec3 eye{0, 0, 0};         // perspective: the eye point
+    Vec3 towardEye{0, 0, -1};  // orthographic: unit direction towards the eye
+    /// From a point of the surface towards the eye (not normalized).
+    Vec3 toward(const Vec3& p) const { return orthographic ? towardEye : eye - p; }
+};
+
 /// A surface that can be bounded, split into smaller surfaces of the same
 /// kind, and diced into a grid. Everything is in the primitive's object
 /// space; the record says where that is (worldFromObject) and what
@@ -39,6 +51,15 @@ public:
     /// space, with every primitive variable interpolated onto it and s, t
     /// always present (defaulting to u, v as RenderMan does).
     virtual Grid dice(int nu, int nv) const = 0;
+    /// dice() for a pass whose eye is at `view`: what the renderer calls.
+    /// Families whose shape depends on the eye (camera-facing ribbons and
+    /// discs) override it; their dice() uses a default view looking down
+    /// +z. bound() must hold for every view.
+    virtual Grid diceInView(int nu, int nv, const ViewContext& view) const { return dice(nu, nv); }
+    /// True when the family fixes its own grid counts (points: one
+    /// micropolygon per point): the REYES loop dices at (*nu, *nv) when
+    /// they fit a grid, and splits otherwise.
+    virtual bool fixedCounts(int* nu, int* nv) const { return false; }
     /// Only the positions of dice(nu, nv), in the same order: what the
     /// dicing decision needs to measure a primitive's size on screen.
     /// Families override it to skip primitive variables.

@@ -46,6 +46,7 @@ struct ShadedGrid {
     std::vector<float> uv;    // per vertex (u, v) when trimmed
     uint64_t id = 0;
     bool ownSecondLayer = false;  // see MicroGrid
+    bool discs = false;       // see MicroGrid
     Bound3 bound;             // of P
 
     MicroGrid view() const;

@@ -82,6 +82,11 @@ struct MicroGrid {
     /// (Wang & Molnar 1994 §3.3: a solid of no thickness), so a second-depth
     /// map stores it where nothing else is nearer.
     bool ownSecondLayer = false;
+    /// Points (Grid::discs): only even micropolygons along u are drawn,
+    /// each as the disc inscribed in it: centred on its corners' mean,
+    /// radius a quarter of the sum of the distances between the midpoints
+    /// of opposite edges (exact for a square).
+    bool discs = false;
 };
 
 /// What a SampleBuffer records: the camera pass or a light's depth pass.

@@ -297,11 +297,11 @@ TEST(Builder, CoordinateSystems) {
 TEST(Builder, UnsupportedRequestsWarnOnce) {
     auto r = run("WorldBegin MotionBegin [0 1] Translate 1 0 0 Translate 2 0 0 MotionEnd\n"
                  "MotionBegin [0 1] Translate 0 1 0 Translate 0 2 0 MotionEnd Sphere 1 -1 1 360\n"
-                 "Points \"P\" [0 0 0] Points \"P\" [0 0 0] WorldEnd");
+                 "Blobby 0 [] [] [] Blobby 0 [] [] [] WorldEnd");
     EXPECT_EQ(r->messages(), (std::vector<std::string>{
         "s.rib:1:12: warning: MotionBegin: motion blur is not supported; only the first request of each motion "
         "block is used",
-        "s.rib:3:1: warning: Points: not supported by the renderer (parsed and skipped)"}));
+        "s.rib:3:1: warning: Blobby: not supported by the renderer (parsed and skipped)"}));
     const auto& p = r->sink.worlds.at(0).primitives;
     ASSERT_EQ(p.size(), 1u);
     expectNear(p[0].worldFromObject.point({}), {1, 1, 0});

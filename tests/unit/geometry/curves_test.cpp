@@ -1,0 +1,95 @@
+// Curve segments diced against closed forms: a cubic Bezier's centreline,
+// a periodic curve's closure, and the ribbon's orientation towards the eye.
+
+#include "geometry_test_util.h"
+
+#include "umbra/geometry/curves.h"
+
+#include <gtest/gtest.h>
+
+using namespace umbra;
+using namespace umbra::geometry;
+
+namespace {
+
+std::shared_ptr<scene::PrimitiveRecord> curves(const std::string& type, const std::string& wrap,
+                                               std::vector<int> nverts, std::vector<float> P, float width) {
+    auto r = testutil::record("Curves", {}, {testutil::pointParam(std::move(P)),
+                                              testutil::floatParam("constantwidth", ri::ParamType::Float, {width},
+                                                                   ri::StorageClass::Constant)});
+    r->type = "Curves";
+    r->stringArgs = {type, wrap};
+    r->intArrays = {std::move(nverts)};
+    return r;
+}
+
+Vec3 bezier(const Vec3 p[4], float t) {
+    const float s = 1 - t;
+    return p[0] * (s * s * s) + p[1] * (3 * s * s * t) + p[2] * (3 * s * t * t) + p[3] * (t * t * t);
+}
+
+TEST(CurveSegment, CubicBezierCentrelineMatchesTheFormula) {
+    const Vec3 c[4] = {{0, 0, 0}, {1, 2, 0}, {2, -2, 1}, {3, 0, 0}};
+    auto rec = curves("cubic", "nonperiodic", {4}, {0, 0, 0, 1, 2, 0, 2, -2, 1, 3, 0, 0}, 0.1f);
+    Diagnostics diag;
+    auto prims = makePrimitives(rec, diag);
+    ASSERT_EQ(prims.size(), 1u);
+    ViewContext view;
+    view.orthographic = false;
+    view.eye = {1.5f, 0, -10};
+    const int nu = 16;
+    Grid g = prims[0]->diceInView(nu, 1, view);
+    ASSERT_EQ(g.vertexCount(), 2 * (nu + 1));
+    for (int i = 0; i <= nu; ++i) {
+        const Vec3 a = g.P[size_t(g.index(i, 0))], b = g.P[size_t(g.index(i, 1))];
+        const Vec3 want = bezier(c, float(i) / float(nu));
+        EXPECT_LT(length((a + b) * 0.5f - want), 1e-5f) << i;
+        EXPECT_NEAR(length(b - a), 0.1f, 1e-5f) << i;
+        // The outward side (dPdu x dPdv) faces the eye.
+        if (i < nu) {
+            const Vec3 n = cross(g.P[size_t(g.index(i + 1, 0))] - a, b - a);
+            EXPECT_GT(dot(n, view.eye - a), 0) << i;
+        }
+    }
+    // The bound holds the ribbon.
+    const Bound3 bd = prims[0]->bound();
+    for (const Vec3& p : g.P) {
+        EXPECT_GE(p.x, bd.min.x);
+        EXPECT_LE(p.x, bd.max.x);
+        EXPECT_GE(p.y, bd.min.y);
+        EXPECT_LE(p.y, bd.max.y);
+    }
+}
+
+TEST(CurveSegment, PeriodicCurveCloses) {
+    // Periodic B-spline over 5 control points: 5 segments, the last ending
+    // where the first starts.
+    auto rec = curves("cubic", "periodic", {5}, {1, 0, 0, 0, 1, 0, -1, 0, 0, 0, -1, 0, 0.5f, -0.5f, 0}, 0.01f);
+    rec->attributes = std::make_shared<scene::Attributes>();
+    auto attrs = std::make_shared<scene::Attributes>(*rec->attributes);
+    attrs->vBasis = scene::Basis::bspline();
+    attrs->vBasis.step = 1;
+    rec->attributes = attrs;
+    Diagnostics diag;
+    auto prims = makePrimitives(rec, diag);
+    ASSERT_EQ(prims.size(), 5u);
+    auto* first = dynamic_cast<CurveSegment*>(prims.front().get());
+    auto* last = dynamic_cast<CurveSegment*>(prims.back().get());
+    ASSERT_TRUE(first && last);
+    EXPECT_LT(length(first->centre(0) - last->centre(1)), 1e-6f);
+    for (size_t k = 0; k + 1 < prims.size(); ++k) {
+        auto* a = dynamic_cast<CurveSegment*>(prims[k].get());
+        auto* b = dynamic_cast<CurveSegment*>(prims[k + 1].get());
+        EXPECT_LT(length(a->centre(1) - b->centre(0)), 1e-6f) << k;
+    }
+}
+
+TEST(CurveSegment, BadVertexCountIsAnError) {
+    auto rec = curves("cubic", "nonperiodic", {5}, std::vector<float>(15, 0.0f), 0.1f);
+    Diagnostics diag;
+    diag.setRecord(true);
+    EXPECT_TRUE(makePrimitives(rec, diag).empty());
+    EXPECT_EQ(diag.errorCount(), 1);
+}
+
+}  // namespace

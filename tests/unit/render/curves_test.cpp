@@ -1,0 +1,174 @@
+// Curves and Points end to end: covered areas against closed forms, a
+// mirrored camera, and shadows into an automatic depth map.
+
+#include "support/render_harness.h"
+
+#include <gtest/gtest.h>
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+using namespace umbra;
+using umbra::test::Image;
+using umbra::test::ScratchDir;
+
+namespace {
+
+constexpr int kRes = 256;  // pixels across the [-2, 2]^2 view: 64 pixels per unit
+
+/// An orthographic view of [-2,2]^2 looking down +z, box filter 1x1 so
+/// each pixel's alpha is the fraction of its samples covered.
+std::string orthoFrame(const std::string& out, const std::string& world, const std::string& camera = "") {
+    return fmt::format(R"(
+Display "{}" "openexr" "rgba" "string type" "float"
+Format {} {} 1
+ScreenWindow -2 2 -2 2
+Projection "orthographic"
+PixelSamples 8 8
+PixelFilter "box" 1 1
+ShadingRate 1
+{}
+WorldBegin
+{}
+WorldEnd
+)", out, kRes, kRes, camera.empty() ? "Translate 0 0 5" : camera, world);
+}
+
+double coveredPixels(const std::string& rib, const ScratchDir& dir) {
+    Diagnostics diag;
+    diag.setRecord(true);
+    test::renderRib(rib, diag);
+    EXPECT_EQ(diag.errorCount(), 0);
+    Image img;
+    EXPECT_TRUE(test::readImage(dir.file("out.exr"), &img));
+    return img.channelSum(3);
+}
+
+/// Twelve straight horizontal linear curves of length 3 and widths from
+/// 0.004 (a quarter pixel) to 0.1 units, slanted a little so they cross
+/// sample rows and columns at every phase.
+std::string lineField(double* expectedPixels) {
+    std::string world;
+    double area = 0;
+    for (int k = 0; k < 12; ++k) {
+        const float y = -1.7f + 0.3f * float(k), w = 0.004f + 0.0087f * float(k);
+        world += fmt::format("Curves \"linear\" [2] \"nonperiodic\" \"P\" [-1.5 {} 0 1.5 {} 0] \"constantwidth\" [{}]\n",
+                             y, y + 0.05f, w);
+        area += std::sqrt(9.0 + 0.05 * 0.05) * w;
+    }
+    *expectedPixels = area * 64.0 * 64.0;
+    return world;
+}
+
+TEST(Curves, StraightFieldCoversLengthTimesWidth) {
+    ScratchDir dir("curves-field");
+    double expected = 0;
+    const std::string world = lineField(&expected);
+    const double got = coveredPixels(orthoFrame(dir.file("out.exr"), world), dir);
+    EXPECT_NEAR(got / expected, 1.0, 0.01) << got << " vs " << expected;
+}
+
+TEST(Curves, MirroredCameraGivesTheSameCoverage) {
+    ScratchDir dir("curves-mirror");
+    double expected = 0;
+    const std::string world = "Sides 1\n" + lineField(&expected);
+    const double plain = coveredPixels(orthoFrame(dir.file("out.exr"), world), dir);
+    const double mirrored = coveredPixels(orthoFrame(dir.file("out.exr"), world, "Scale 1 1 -1\nTranslate 0 0 -5"), dir);
+    EXPECT_NEAR(plain / expected, 1.0, 0.01);
+    EXPECT_NEAR(mirrored / plain, 1.0, 1e-3);
+}
+
+TEST(Curves, PeriodicCubicCircleCoversItsAnnulus) {
+    // A periodic B-spline through 8 points of a circle of radius 1.2 is
+    // nearly a circle (radius about 1.2 * 0.95); width 0.05 around it: an
+    // annulus of area 2 pi r w, closed (no gap at the seam).
+    ScratchDir dir("curves-periodic");
+    std::string pts;
+    for (int k = 0; k < 8; ++k)
+        pts += fmt::format("{} {} 0 ", 1.2 * std::cos(k * M_PI / 4), 1.2 * std::sin(k * M_PI / 4));
+    const std::string world =
+        "Basis \"bspline\" 1 \"bspline\" 1\nCurves \"cubic\" [8] \"periodic\" \"P\" [" + pts + "] \"constantwidth\" [0.05]";
+    const double got = coveredPixels(orthoFrame(dir.file("out.exr"), world), dir);
+    // A uniform cubic B-spline of a regular octagon of radius R passes at
+    // R (4 + 2 cos 45deg) / 6 = 0.902 R at the knots and 0.901 R mid-span.
+    const double r = 1.2 * (4 + 2 * std::cos(M_PI / 4)) / 6;
+    const double expected = 2 * M_PI * r * 0.05 * 64 * 64;
+    EXPECT_NEAR(got / expected, 1.0, 0.03) << got << " vs " << expected;
+}
+
+TEST(Points, DiscsCoverPiRSquared) {
+    ScratchDir dir("points-discs");
+    std::string pts;
+    const int n = 36;
+    for (int k = 0; k < n; ++k) pts += fmt::format("{} {} 0 ", -1.5 + 0.55 * (k % 6) + 0.013 * k, -1.5 + 0.55 * (k / 6));
+    const float width = 0.3f;  // radius 9.6 pixels
+    const std::string world = fmt::format("Points \"P\" [{}] \"constantwidth\" [{}]", pts, width);
+    const double got = coveredPixels(orthoFrame(dir.file("out.exr"), world), dir);
+    const double r = 0.5 * width * 64;
+    const double expected = n * M_PI * r * r;
+    EXPECT_NEAR(got / expected, 1.0, 0.005) << got << " vs " << expected;
+}
+
+TEST(Points, PerspectiveMirroredCameraSameCoverage) {
+    // Mirrored in x: the picture mirrors, one-sided discs and ribbons still face the camera.
+    ScratchDir dir("points-mirror");
+    const std::string frame = R"(
+Display "{}" "openexr" "rgba" "string type" "float"
+Format 128 128 1
+Projection "perspective" "fov" [40]
+PixelSamples 4 4
+PixelFilter "box" 1 1
+{}
+Translate 0 0 5
+WorldBegin
+Sides 1
+Points "P" [-1 -1 0 1 1 0 0.5 -1 1] "width" [0.4 0.3 0.5]
+Curves "cubic" [4] "nonperiodic" "P" [-1.5 0 0  -0.5 1 1  0.5 -1 -1  1.5 0 0] "width" [0.1 0.2]
+WorldEnd
+)";
+    const double a = coveredPixels(fmt::format(fmt::runtime(frame), dir.file("out.exr"), ""), dir);
+    const double b = coveredPixels(fmt::format(fmt::runtime(frame), dir.file("out.exr"), "Scale -1 1 1"), dir);
+    EXPECT_GT(a, 100);
+    EXPECT_NEAR(b / a, 1.0, 0.01);
+}
+
+TEST(CurvesAndPoints, CastShadowsIntoAnAutomaticMap) {
+    // A distant light straight down; a floor at z = 1 behind a field of
+    // curves and discs at z = 0: the floor's darkened area is the casters'.
+    ScratchDir dir("curves-shadow");
+    double expected = 0;
+    std::string casters = lineField(&expected);
+    casters += "Points \"P\" [-1 -1.85 0 1 1.85 0] \"constantwidth\" [0.2]\n";
+    expected += 2 * M_PI * 0.1 * 0.1 * 64 * 64;
+    const std::string world = fmt::format(R"(
+LightSource "shadowdistant" 1 "from" [0 0 -10] "to" [0 0 0] "shadowname" ["auto"] "intensity" [1]
+AttributeBegin
+  Attribute "visibility" "camera" [0]
+  Surface "constant"
+  {}
+AttributeEnd
+AttributeBegin
+  Surface "matte" "Kd" [1] "Ka" [0]
+  Polygon "P" [-2 -2 1  2 -2 1  2 2 1  -2 2 1]
+AttributeEnd
+)", casters);
+    const std::string rib = "Option \"umbra\" \"shadowmapsize\" [1024]\n" + orthoFrame(dir.file("out.exr"), world);
+    Diagnostics diag;
+    diag.setRecord(true);
+    test::renderRib(rib, diag);
+    EXPECT_EQ(diag.errorCount(), 0);
+    Image img;
+    ASSERT_TRUE(test::readImage(dir.file("out.exr"), &img));
+    double lit = 0, maxLit = 0;
+    for (int y = 0; y < img.height; ++y)
+        for (int x = 0; x < img.width; ++x) {
+            lit += img.at(x, y, 0);
+            maxLit = std::max(maxLit, double(img.at(x, y, 0)));
+        }
+    ASSERT_GT(maxLit, 0.1);
+    const double dark = double(img.width) * img.height - lit / maxLit;
+    EXPECT_NEAR(dark / expected, 1.0, 0.15) << dark << " vs " << expected;
+}
+
+}  // namespace
