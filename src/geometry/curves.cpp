@@ -300,23 +300,7 @@ Grid PointGroup::diceInView(int, int, const ViewContext& view) const {
             std::copy(s, s + v.components, gv.data.begin() + long(vi) * v.components);
         }
     }
-    auto addDefault = [&](const char* name, const std::vector<float>& src) {
-        GridVar& gv = g.vars.emplace_back();
-        gv.name = name;
-        gv.data = src;
-    };
-    if (!sd.hasS) addDefault("s", g.u);
-    if (!sd.hasT) addDefault("t", g.v);
-    auto addColor = [&](const char* name, const Color& c) {
-        GridVar& gv = g.vars.emplace_back();
-        gv.name = name;
-        gv.type = ri::ParamType::Color;
-        gv.components = 3;
-        gv.perVertex = false;
-        gv.data = {c.x, c.y, c.z};
-    };
-    if (!sd.hasCs) addColor("Cs", sd.defaultCs);
-    if (!sd.hasOs) addColor("Os", sd.defaultOs);
+    addDefaultVars(sd, g);
     return g;
 }
 

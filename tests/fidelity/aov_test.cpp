@@ -56,11 +56,9 @@ Image renderAndRead(const std::string& rib, const std::string& image) {
     Diagnostics diag;
     diag.setQuiet(true);
     int failed = 0;
-    test::renderRib(rib, diag, 0, 0, &failed);
+    Image img = test::renderImage(rib, image, diag, 0, 0, &failed);
     EXPECT_EQ(diag.errorCount(), 0);
     EXPECT_EQ(failed, 0);
-    Image img;
-    EXPECT_TRUE(test::readImage(image, &img)) << image;
     return img;
 }
 

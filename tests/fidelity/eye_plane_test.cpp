@@ -78,10 +78,7 @@ Surface "constant"
 WorldEnd
 )",
                                   options, kWidth, kHeight, image, kFov, world);
-    test::renderRib(rib, diag);
-    Image img;
-    EXPECT_TRUE(test::readImage(image, &img));
-    return img;
+    return test::renderImage(rib, image, diag);
 }
 
 }  // namespace

@@ -34,10 +34,7 @@ LightSource "distantlight" 2 "from" [-1 1 -1] "to" [0 0 0]
 WorldEnd
 )",
                                   image, world);
-    test::renderRib(rib, diag);
-    Image img;
-    EXPECT_TRUE(test::readImage(image, &img));
-    return img;
+    return test::renderImage(rib, image, diag);
 }
 
 }  // namespace

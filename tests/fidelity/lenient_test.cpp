@@ -29,10 +29,9 @@ Rendered renderScene(const std::string& rib, const std::string& imagePath) {
     Diagnostics diag;
     diag.setQuiet(true);
     Rendered r;
-    test::renderRib(rib, diag, 0, 0, &r.failedFrames);
+    r.image = test::renderImage(rib, imagePath, diag, 0, 0, &r.failedFrames);
     r.errors = diag.errorCount();
     r.warnings = diag.warningCount();
-    EXPECT_TRUE(test::readImage(imagePath, &r.image)) << imagePath;
     return r;
 }
 

@@ -150,10 +150,8 @@ WorldEnd
                                       orientation, sides, prims);
         Diagnostics diag;
         diag.setQuiet(true);
-        test::renderRib(rib, diag, threads, bucket);
+        Image img = test::renderImage(rib, image, diag, threads, bucket);
         EXPECT_EQ(diag.errorCount(), 0) << rib;
-        Image img;
-        EXPECT_TRUE(test::readImage(image, &img));
         return img;
     }
 
@@ -270,10 +268,8 @@ WorldEnd
 Image renderTo(const ScratchDir& dir, const std::string& rib, int threads = 0, int bucket = 0) {
     Diagnostics diag;
     diag.setQuiet(true);
-    test::renderRib(rib, diag, threads, bucket);
+    Image img = test::renderImage(rib, dir.file("sphere.tif"), diag, threads, bucket);
     EXPECT_EQ(diag.errorCount(), 0);
-    Image img;
-    EXPECT_TRUE(test::readImage(dir.file("sphere.tif"), &img));
     return img;
 }
 

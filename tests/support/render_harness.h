@@ -8,6 +8,8 @@
 
 #include <OpenImageIO/imageio.h>
 
+#include <gtest/gtest.h>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -92,6 +94,16 @@ inline nlohmann::json renderRib(const std::string& rib, Diagnostics& diag, int t
     ri::parseString(rib, "test.rib", builder, diag);
     if (failedFrames) *failedFrames = renderer.failedFrames();
     return renderer.statistics();
+}
+
+/// Renders RIB text whose Display writes `imagePath` and reads that image
+/// back (an empty image, with a test failure, if there is none).
+inline Image renderImage(const std::string& rib, const std::string& imagePath, Diagnostics& diag, int threads = 0,
+                         int bucketSize = 0, int* failedFrames = nullptr) {
+    renderRib(rib, diag, threads, bucketSize, failedFrames);
+    Image img;
+    EXPECT_TRUE(readImage(imagePath, &img)) << imagePath;
+    return img;
 }
 
 }  // namespace umbra::test
