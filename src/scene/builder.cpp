@@ -122,8 +122,13 @@ bool Builder::requireWorld(const std::string& request, const FileLoc& loc) {
 }
 
 bool Builder::skipMotionSample() {
-    if (m_blocks.empty() || m_blocks.back().kind != Block::Motion) return false;
-    return ++m_motionRequests > 1;
+    if (!m_motion || m_blocks.empty() || m_blocks.back().kind != Block::Motion) return false;
+    return ++m_motion->requests > 1;
+}
+
+void Builder::setTransform(const Mat4& m) {
+    m_state.transform = m;
+    m_state.motion.reset();
 }
 
 void Builder::push(Block kind, const FileLoc& loc) {
@@ -277,6 +282,7 @@ void Builder::worldBegin(const FileLoc& loc) {
     }
     push(Block::World, loc);
     m_options.cameraFromWorld = m_state.transform;
+    m_options.cameraMotion = m_state.motion;
     if (!m_options.loc.file) m_options.loc = loc;
     m_world = std::make_unique<WorldRecord>();
     m_world->frameNumber = m_frame;
@@ -299,7 +305,7 @@ void Builder::worldBegin(const FileLoc& loc) {
         if (invertible) m_world->coordinateSystems[name] = worldFromNamed;
     }
     m_lightHandles.clear();
-    m_state.transform = Mat4::identity();
+    setTransform(Mat4::identity());
     for (const PreWorldLight& l : m_preWorldLights) {
         const size_t first = m_world->lights.size();
         if (l.area)
@@ -335,7 +341,10 @@ void Builder::transformBegin(const FileLoc& loc) { push(Block::Transform, loc); 
 
 void Builder::transformEnd(const FileLoc& loc) {
     OpenBlock b;
-    if (pop(Block::Transform, "TransformEnd", loc, &b)) m_state.transform = b.saved.transform;
+    if (pop(Block::Transform, "TransformEnd", loc, &b)) {
+        m_state.transform = b.saved.transform;
+        m_state.motion = b.saved.motion;
+    }
 }
 
 void Builder::solidBegin(const std::string& operation, const FileLoc& loc) {
@@ -395,6 +404,11 @@ void Builder::objectInstance(const std::string& handle, const FileLoc& loc) {
     for (const ObjectPrim& op : it->second) {
         PrimitiveRecord r = op.record;
         r.worldFromObject = m_state.transform * op.objectFromPrim;
+        if (m_state.motion) {
+            auto moving = std::make_shared<MotionTransform>(*m_state.motion);
+            moving->postMultiply(op.objectFromPrim);
+            r.worldFromObjectMotion = std::move(moving);
+        }
         if (op.record.attributes == op.atBegin) {
             r.attributes = m_state.attrs;
         } else {
@@ -407,31 +421,105 @@ void Builder::objectInstance(const std::string& handle, const FileLoc& loc) {
 }
 
 void Builder::motionBegin(const std::vector<float>& times, const FileLoc& loc) {
-    unsupported("motion", loc, "MotionBegin: motion blur is not supported; only the first request of each motion "
-                "block is used");
+    if (m_motion) {
+        m_diag.error(loc, "MotionBegin: already inside the motion block begun at {} (motion blocks do not nest; "
+                     "ignored)", m_motion->loc.str());
+        return;
+    }
+    bool ascending = !times.empty();
+    for (size_t k = 1; k < times.size(); ++k) ascending &= times[k] > times[k - 1];
     push(Block::Motion, loc);
-    m_motionRequests = 0;
+    m_motion = std::make_unique<MotionBlock>();
+    m_motion->loc = loc;
+    if (!ascending) {
+        m_diag.error(loc, "MotionBegin: expected one or more times in increasing order (the block is not blurred; "
+                     "its first request is used)");
+        return;
+    }
+    m_motion->times = times;
 }
 
 void Builder::motionEnd(const FileLoc& loc) {
     OpenBlock b;
+    if (!m_motion) {
+        pop(Block::Motion, "MotionEnd", loc, &b);  // reports the missing MotionBegin
+        return;
+    }
     pop(Block::Motion, "MotionEnd", loc, &b);
+    std::unique_ptr<MotionBlock> block = std::move(m_motion);
+    const size_t n = block->times.size();
+    auto countMismatch = [&](const char* what, size_t got) {
+        m_diag.error(loc, "MotionEnd: the block begun at {} has {} times but {} {} (RI spec: one request per "
+                     "time); {}", block->loc.str(), n, got, what,
+                     got > n ? "the extra ones are ignored" : "the last is held for the missing times");
+    };
+    if (!block->transforms.empty()) {
+        std::vector<Mat4> keys = block->transforms;
+        if (keys.size() != n && n > 0) countMismatch("transforms", keys.size());
+        keys.resize(std::max<size_t>(n, 1), keys.back());
+        auto moving = std::make_shared<MotionTransform>(block->absolute ? MotionTransform()
+                                                        : m_state.motion ? *m_state.motion
+                                                                         : MotionTransform(m_state.transform));
+        moving->postMultiplyMoving(block->times, keys);
+        const Options& o = m_world ? m_world->options : m_options;
+        const float open = o.shutter[0] + o.shutterOffset;
+        m_state.transform = moving->at(open);
+        m_state.motion = moving->moving() ? std::move(moving) : nullptr;
+    }
+    if (!block->shapes.empty()) {
+        std::vector<PrimitiveRecord>& shapes = block->shapes;
+        if (shapes.size() != n && n > 0) countMismatch("primitives", shapes.size());
+        PrimitiveRecord first = std::move(shapes[0]);
+        // Every shape must be the same primitive with other values.
+        bool same = true;
+        for (size_t k = 1; k < shapes.size() && k < n && same; ++k) {
+            const PrimitiveRecord& r = shapes[k];
+            same = r.type == first.type && r.intArgs == first.intArgs && r.intArrays == first.intArrays &&
+                   r.stringArgs == first.stringArgs && r.floatArgs.size() == first.floatArgs.size();
+            if (!same)
+                m_diag.error(r.loc, "{}: a motion block's primitives must have the same type and topology as its "
+                             "first ({} at {}); the block renders the first, unblurred", r.type, first.type,
+                             first.loc.str());
+        }
+        if (same && n > 1) {
+            for (size_t k = 1; k < n; ++k) first.shapes.push_back(k < shapes.size() ? shapes[k] : shapes.back());
+            for (PrimitiveRecord& r : first.shapes) r.shapes.clear();
+            first.shapeTimes = block->times;
+        }
+        emitPrimitive(std::move(first));
+    }
 }
 
-void Builder::concat(const Mat4& m) {
-    if (skipMotionSample()) return;
+void Builder::concat(const Mat4& m, bool absolute) {
+    if (m_motion && !m_blocks.empty() && m_blocks.back().kind == Block::Motion) {
+        ++m_motion->requests;
+        if (!m_motion->shapes.empty()) {
+            m_diag.warningOnce("motion:mixed", m_motion->loc, "MotionBegin: a block mixing primitives and "
+                               "transforms blurs the primitives only");
+            return;
+        }
+        if (!m_motion->times.empty()) {
+            m_motion->transforms.push_back(m);
+            m_motion->absolute |= absolute;
+            return;
+        }
+        if (m_motion->requests > 1) return;  // a malformed block: its first request only
+    }
+    if (absolute) {
+        setTransform(m);
+        return;
+    }
     m_state.transform = m_state.transform * m;
+    if (m_state.motion) {
+        auto moved = std::make_shared<MotionTransform>(*m_state.motion);
+        moved->postMultiply(m);
+        m_state.motion = std::move(moved);
+    }
 }
 
-void Builder::identity(const FileLoc& loc) {
-    if (skipMotionSample()) return;
-    m_state.transform = Mat4::identity();
-}
+void Builder::identity(const FileLoc& loc) { concat(Mat4::identity(), true); }
 
-void Builder::transform(const Mat4& m, const FileLoc& loc) {
-    if (skipMotionSample()) return;
-    m_state.transform = m;
-}
+void Builder::transform(const Mat4& m, const FileLoc& loc) { concat(m, true); }
 
 void Builder::concatTransform(const Mat4& m, const FileLoc& loc) { concat(m); }
 void Builder::translate(const Vec3& d, const FileLoc& loc) { concat(Mat4::translate(d)); }
@@ -621,17 +709,17 @@ void Builder::coordSysTransform(const std::string& name, const FileLoc& loc) {
     if (m_world) {
         auto it = m_world->coordinateSystems.find(name);
         if (it != m_world->coordinateSystems.end()) {
-            m_state.transform = it->second;
+            setTransform(it->second);
             return;
         }
     } else {
         if (name == "camera") {
-            m_state.transform = Mat4::identity();
+            setTransform(Mat4::identity());
             return;
         }
         auto it = m_cameraSpaces.find(name);
         if (it != m_cameraSpaces.end()) {
-            m_state.transform = it->second;
+            setTransform(it->second);
             return;
         }
     }
@@ -680,6 +768,17 @@ void Builder::option(const std::string& name, ri::ParamList params, const FileLo
                 continue;
             }
             m_options.archiveReads = v;
+        } else if (name == "shutter" && pn == "offset") {
+            m_options.shutterOffset = params.getFloat(pn, 0.0f);
+        } else if (name == "shutter" && (pn == "opening" || pn == "shutteropening")) {
+            const float a = p.floats.size() >= 2 ? p.floats[0] : -1, b = p.floats.size() >= 2 ? p.floats[1] : -1;
+            if (!(a >= 0 && a <= b && b <= 1)) {
+                m_diag.error(p.loc, "Option: shutter \"{}\" expects two fractions 0 <= a <= b <= 1 of the shutter "
+                             "interval (ignored)", pn);
+                continue;
+            }
+            m_options.shutterOpening[0] = a;
+            m_options.shutterOpening[1] = b;
         } else if (name == "statistics" && pn == "endofframe") {
             m_options.statisticsEndOfFrame = params.getInt(pn, 0) != 0;
         } else if (name == "umbra" && !umbraValueValid("Option", p, m_diag)) {
@@ -758,7 +857,7 @@ void Builder::projection(const std::string& name, ri::ParamList params, const Fi
     params.reportUnused(m_diag, "Projection");
     // RI spec: the current transform is cleared after Projection, so
     // camera transforms follow it.
-    m_state.transform = Mat4::identity();
+    setTransform(Mat4::identity());
 }
 
 void Builder::clipping(float nearZ, float farZ, const FileLoc& loc) {
@@ -777,7 +876,19 @@ void Builder::clippingPlane(const Vec3& point, const Vec3& normal, const FileLoc
 
 void Builder::depthOfField(const std::vector<float>& args, const FileLoc& loc) {
     if (!optionsAllowed("DepthOfField", loc)) return;
-    if (!args.empty()) unsupported("DepthOfField", loc, "DepthOfField: depth of field is not supported (ignored)");
+    if (args.empty()) {  // the pinhole camera again
+        m_options.fstop = kInfinity;
+        return;
+    }
+    const float fstop = args[0], focalLength = args[1], focalDistance = args[2];
+    if (!(fstop > 0) || !(focalLength > 0) || !(focalDistance > 0)) {
+        m_diag.error(loc, "DepthOfField: expected fstop, focallength and focaldistance > 0, got {} {} {} (ignored)",
+                     fstop, focalLength, focalDistance);
+        return;
+    }
+    m_options.fstop = fstop;
+    m_options.focalLength = focalLength;
+    m_options.focalDistance = focalDistance;
 }
 
 void Builder::shutter(float open, float close, const FileLoc& loc) {
@@ -1253,7 +1364,6 @@ void Builder::primitive(const std::string& type, ri::RequestArgs args, ri::Param
             unsupported(type, loc, fmt::format("{}: not supported by the renderer (parsed and skipped)", type));
             return;
         }
-    if (skipMotionSample()) return;
     PrimitiveRecord r;
     r.type = type;
     r.floatArgs = std::move(args.floats);
@@ -1262,14 +1372,38 @@ void Builder::primitive(const std::string& type, ri::RequestArgs args, ri::Param
     r.intArrays = std::move(args.intArrays);
     r.params = std::move(params);
     r.loc = loc;
+    if (m_motion && !m_blocks.empty() && m_blocks.back().kind == Block::Motion) {
+        // Deformation blur: the block's primitives are one primitive's shapes.
+        if (++m_motion->requests > 1 && m_motion->shapes.empty()) {
+            m_diag.warningOnce("motion:mixed", m_motion->loc, "MotionBegin: a block mixing primitives and "
+                               "transforms blurs the transforms only");
+            return;
+        }
+        if (m_motion->times.empty() && m_motion->requests > 1) return;
+        placeRecord(r);
+        m_motion->shapes.push_back(std::move(r));
+        return;
+    }
+    placeRecord(r);
+    emitPrimitive(std::move(r));
+}
+
+void Builder::placeRecord(PrimitiveRecord& r) const {
+    r.worldFromObject = m_state.transform;
+    r.worldFromObjectMotion = m_state.motion;
+    r.attributes = m_state.attrs;
+}
+
+void Builder::emitPrimitive(PrimitiveRecord r) {
     if (!m_objectHandle.empty()) {
-        r.attributes = m_state.attrs;
-        ObjectPrim op{std::move(r), m_objectFromCurrentAtBegin * m_state.transform, m_objectAttributesAtBegin};
+        // Inside a definition the record is relative to the object's space;
+        // an instance supplies the rest (and its own motion).
+        Mat4 objectFromPrim = m_objectFromCurrentAtBegin * r.worldFromObject;
+        r.worldFromObjectMotion.reset();
+        ObjectPrim op{std::move(r), objectFromPrim, m_objectAttributesAtBegin};
         m_objects[m_objectHandle].push_back(std::move(op));
         return;
     }
-    r.worldFromObject = m_state.transform;
-    r.attributes = m_state.attrs;
     m_world->primitives.push_back(std::move(r));
 }
 

@@ -176,7 +176,20 @@ private:
     /// The part of the graphics state AttributeBegin saves.
     struct State {
         std::shared_ptr<Attributes> attrs;
-        Mat4 transform;
+        Mat4 transform;  // at the shutter's opening
+        /// The current transform over the shutter when a motion block moved
+        /// it; null: `transform` is all of it.
+        std::shared_ptr<const MotionTransform> motion;
+    };
+    /// What an open MotionBegin block has collected: one transform or one
+    /// primitive per time.
+    struct MotionBlock {
+        std::vector<float> times;
+        FileLoc loc;
+        std::vector<Mat4> transforms;   // each request's own matrix
+        bool absolute = false;          // Transform/Identity requests: they replace the current transform
+        std::vector<PrimitiveRecord> shapes;
+        int requests = 0;               // every request seen in the block
     };
     struct OpenBlock {
         Block kind;
@@ -202,8 +215,18 @@ private:
     /// is kept for the world.
     bool lightAllowed(const char* request, const std::string& name, const std::string& handle,
                       const ri::ParamList& params, const FileLoc& loc);
+    /// Inside a motion block, true for every request after the block's
+    /// first (for requests that are not blurred: only the first counts).
     bool skipMotionSample();
-    void concat(const Mat4& m);
+    /// The current transform becomes `m`, not moving.
+    void setTransform(const Mat4& m);
+    /// Composes a transform request; inside a motion block, collects it.
+    void concat(const Mat4& m, bool absolute = false);
+    /// The record of a primitive request, with the current transform and
+    /// attributes (and its motion).
+    void placeRecord(PrimitiveRecord& r) const;
+    /// Adds a finished primitive record to the world or the object being defined.
+    void emitPrimitive(PrimitiveRecord r);
     bool currentIsLeft(const Mat4& transform) const;
     void push(Block kind, const FileLoc& loc);
     /// Pops the innermost block of `kind`; reports and returns false when it
@@ -248,7 +271,7 @@ private:
     std::string m_objectHandle;                  // non-empty while defining an object
     std::shared_ptr<const Attributes> m_objectAttributesAtBegin;
     Mat4 m_objectFromCurrentAtBegin;
-    int m_motionRequests = 0;
+    std::unique_ptr<MotionBlock> m_motion;  // the open motion block, if any
     int m_archiveReads = 0;              // ReadArchive requests of the current frame (or before the first)
     bool m_archiveBudgetReported = false;
     std::map<std::string, std::string> m_defaultSearchPaths;

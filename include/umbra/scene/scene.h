@@ -10,6 +10,7 @@
 #include "umbra/ri/target.h"
 #include "umbra/util/error.h"
 #include "umbra/util/math.h"
+#include "umbra/util/motion.h"
 
 #include <array>
 #include <map>
@@ -122,9 +123,20 @@ struct PrimitiveRecord {
     /// than one (PointsGeneralPolygons: nloops, nverts, verts).
     std::vector<std::vector<int>> intArrays;
     ri::ParamList params;
+    /// The transform at the shutter's opening (all of it unless moving).
     Mat4 worldFromObject;
+    /// Transform motion blur (MotionBegin around transforms): the
+    /// transform over the shutter; null when it does not move.
+    std::shared_ptr<const MotionTransform> worldFromObjectMotion;
+    /// Deformation blur (MotionBegin around the primitive itself): the
+    /// times of its shapes, ascending, and shapes 1.. as records of the same
+    /// type and topology (shape 0 is this record). Empty: one shape.
+    std::vector<float> shapeTimes;
+    std::vector<PrimitiveRecord> shapes;
     std::shared_ptr<const Attributes> attributes;
     FileLoc loc;
+
+    bool moving() const { return (worldFromObjectMotion && worldFromObjectMotion->moving()) || !shapes.empty(); }
 };
 
 /// A light source or area light, with its transform.
@@ -184,11 +196,26 @@ struct Options {
     int archiveReads = ri::kDefaultArchiveReads;
     std::map<std::string, std::string> searchPaths;  // "shader", "texture", "archive", "resource"
     bool statisticsEndOfFrame = false;
+    /// Shutter open close; Option "shutter" "offset" is added to both
+    /// (PRMan's: motion times stay those of the scene, the shutter moves).
     float shutter[2] = {0, 0};
+    float shutterOffset = 0;
+    /// How the shutter opens and closes (Option "shutter" "opening" [a b],
+    /// PRMan's "shutteropening"): fully open from a to b (fractions of the
+    /// interval), ramping linearly before and after; [0 1]: a box.
+    float shutterOpening[2] = {0, 1};
+    /// DepthOfField fstop focallength focaldistance; an infinite fstop is
+    /// the pinhole camera (the default, and DepthOfField with no
+    /// arguments). The lens radius is focallength / (2 fstop), in camera
+    /// units, as focaldistance is.
+    float fstop = kInfinity, focalLength = 0, focalDistance = 0;
     /// Every other `Option "class" "name" value` by "class:name".
     std::map<std::string, ri::Param> user;
 
-    Mat4 cameraFromWorld;                     // the transform at WorldBegin
+    Mat4 cameraFromWorld;                     // the transform at WorldBegin (at the shutter's opening)
+    /// A moving camera (MotionBegin around camera transforms): cameraFromWorld
+    /// over the shutter; null when it does not move.
+    std::shared_ptr<const MotionTransform> cameraMotion;
     FileLoc loc;                              // where the frame's options began
 };
 

@@ -295,16 +295,76 @@ TEST(Builder, CoordinateSystems) {
 }
 
 TEST(Builder, UnsupportedRequestsWarnOnce) {
-    auto r = run("WorldBegin MotionBegin [0 1] Translate 1 0 0 Translate 2 0 0 MotionEnd\n"
-                 "MotionBegin [0 1] Translate 0 1 0 Translate 0 2 0 MotionEnd Sphere 1 -1 1 360\n"
-                 "Blobby 0 [] [] [] Blobby 0 [] [] [] WorldEnd");
+    auto r = run("WorldBegin Sphere 1 -1 1 360\n\nBlobby 0 [] [] [] Blobby 0 [] [] [] WorldEnd");
     EXPECT_EQ(r->messages(), (std::vector<std::string>{
-        "s.rib:1:12: warning: MotionBegin: motion blur is not supported; only the first request of each motion "
-        "block is used",
         "s.rib:3:1: warning: Blobby: not supported by the renderer (parsed and skipped)"}));
+    ASSERT_EQ(r->sink.worlds.at(0).primitives.size(), 1u);
+}
+
+TEST(Builder, MotionBlocksAroundTransformsMoveTheCurrentTransform) {
+    auto r = run("Shutter 0 1 WorldBegin MotionBegin [0 1] Translate 1 0 0 Translate 2 0 0 MotionEnd\n"
+                 "MotionBegin [0 1] Translate 0 1 0 Translate 0 2 0 MotionEnd Translate 0 0 3 Sphere 1 -1 1 360\n"
+                 "WorldEnd");
+    EXPECT_TRUE(r->messages().empty()) << r->messages()[0];
     const auto& p = r->sink.worlds.at(0).primitives;
     ASSERT_EQ(p.size(), 1u);
-    expectNear(p[0].worldFromObject.point({}), {1, 1, 0});
+    ASSERT_TRUE(p[0].worldFromObjectMotion);
+    EXPECT_TRUE(p[0].moving());
+    expectNear(p[0].worldFromObject.point({}), {1, 1, 3});  // at the shutter's opening
+    expectNear(p[0].worldFromObjectMotion->at(0.5f).point({}), {1.5f, 1.5f, 3});
+    expectNear(p[0].worldFromObjectMotion->at(1).point({}), {2, 2, 3});
+    EXPECT_EQ(p[0].worldFromObjectMotion->keyTimes(), (std::vector<float>{0, 1}));
+}
+
+TEST(Builder, MotionBlocksAroundPrimitivesAreShapes) {
+    auto r = run("WorldBegin MotionBegin [0 0.5 1] Sphere 1 -1 1 360 Sphere 2 -2 2 360 Sphere 3 -3 3 360 MotionEnd\n"
+                 "Sphere 1 -1 1 360 WorldEnd");
+    EXPECT_TRUE(r->messages().empty());
+    const auto& p = r->sink.worlds.at(0).primitives;
+    ASSERT_EQ(p.size(), 2u);
+    EXPECT_EQ(p[0].shapeTimes, (std::vector<float>{0, 0.5f, 1}));
+    ASSERT_EQ(p[0].shapes.size(), 2u);
+    EXPECT_EQ(p[0].floatArgs[0], 1.0f);
+    EXPECT_EQ(p[0].shapes[1].floatArgs[0], 3.0f);
+    EXPECT_FALSE(p[1].moving());
+}
+
+TEST(Builder, MalformedMotionBlocksAreReported) {
+    auto r = run("WorldBegin\nMotionBegin [0 1] Translate 1 0 0 MotionEnd\n"
+                 "MotionBegin [0 1] Sphere 1 -1 1 360 Disk 0 1 360 MotionEnd\n"
+                 "MotionBegin [1 0] Translate 1 0 0 Translate 2 0 0 MotionEnd\n"
+                 "MotionBegin [0 1] MotionBegin [0 1] MotionEnd\nWorldEnd");
+    const auto m = r->messages();
+    ASSERT_GE(m.size(), 4u);
+    EXPECT_EQ(m[0].rfind("s.rib:2:35: error: MotionEnd: the block begun at s.rib:2:1 has 2 times but 1 transforms", 0), 0u)
+        << m[0];
+    EXPECT_EQ(m[1].rfind("s.rib:3:37: error: Disk: a motion block's primitives must have the same type", 0), 0u) << m[1];
+    EXPECT_EQ(m[2].rfind("s.rib:4:1: error: MotionBegin: expected one or more times in increasing order", 0), 0u)
+        << m[2];
+    EXPECT_EQ(m[3].rfind("s.rib:5:19: error: MotionBegin: already inside the motion block begun at s.rib:5:1", 0), 0u)
+        << m[3];
+    // The malformed shapes render unblurred.
+    const auto& p = r->sink.worlds.at(0).primitives;
+    ASSERT_EQ(p.size(), 1u);
+    EXPECT_TRUE(p[0].shapes.empty());
+}
+
+TEST(Builder, CameraMotionAndDepthOfFieldAreOptions) {
+    auto r = run("Shutter 0.5 1.5 Option \"shutter\" \"offset\" [1] DepthOfField 2.8 0.05 4\n"
+                 "MotionBegin [1.5 2.5] Translate 0 0 5 Translate 1 0 5 MotionEnd WorldBegin WorldEnd\n"
+                 "DepthOfField 0 1 1 DepthOfField");
+    const Options& o = r->sink.worlds.at(0).options;
+    EXPECT_EQ(o.shutterOffset, 1.0f);
+    EXPECT_EQ(o.fstop, 2.8f);
+    EXPECT_EQ(o.focalLength, 0.05f);
+    EXPECT_EQ(o.focalDistance, 4.0f);
+    ASSERT_TRUE(o.cameraMotion);
+    expectNear(o.cameraMotion->at(2.0f).point({}), {0.5f, 0, 5});
+    expectNear(o.cameraFromWorld.point({}), {0, 0, 5});  // at the opening, 0.5 + 1
+    const auto m = r->messages();
+    ASSERT_EQ(m.size(), 1u);
+    EXPECT_EQ(m[0].rfind("s.rib:3:1: error: DepthOfField: expected fstop, focallength and focaldistance > 0", 0), 0u)
+        << m[0];
 }
 
 TEST(Builder, TrimCurveAppliesUntilAttributeEnd) {
