@@ -41,7 +41,10 @@ bool outsideView(const Bound3& cb, const DiceParams& p) {
 }
 
 Bound3 rasterBound(const Bound3& objectBound, const DiceParams& p) {
-    const Bound3 cb = cameraBound(objectBound, p);
+    return rasterBoundOfCamera(cameraBound(objectBound, p), p);
+}
+
+Bound3 rasterBoundOfCamera(const Bound3& cb, const DiceParams& p) {
     if (cb.empty()) return cb;
     Bound3 r;
     if (!p.orthographic && cb.min.z < eyePlaneZ(p)) {
@@ -152,7 +155,7 @@ void turningCounts(const Vec3* Q, int n, float maxTurn, float* countU, float* co
 DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, const DiceParams& p, int eyeSplits,
                   Diagnostics* diag) {
     DiceResult res;
-    const Bound3 cb = cameraBound(objectBound, p);
+    const Bound3 cb = p.sweep.empty() ? cameraBound(objectBound, p) : p.sweep;
     if (outsideView(cb, p)) return res;  // Cull
 
     if (!p.orthographic && cb.min.z < eyePlaneZ(p)) {

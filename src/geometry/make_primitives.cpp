@@ -1,4 +1,5 @@
 #include "umbra/geometry/curves.h"
+#include "umbra/geometry/deforming.h"
 #include "umbra/geometry/nupatch.h"
 #include "umbra/geometry/patch.h"
 #include "umbra/geometry/polygon.h"
@@ -261,7 +262,43 @@ void makePatches(const RecordPtr& rec, Diagnostics& diag, std::vector<PrimitiveP
 
 }  // namespace
 
+namespace {
+
+std::vector<PrimitivePtr> makeShape(std::shared_ptr<const scene::PrimitiveRecord> record, Diagnostics& diag);
+
+/// A deforming primitive (MotionBegin around it): one primitive per shape,
+/// paired up. Shapes whose requests make a different number of primitives
+/// than the first are malformed: the first shape renders alone.
+std::vector<PrimitivePtr> makeDeforming(const RecordPtr& record, Diagnostics& diag) {
+    std::vector<std::vector<PrimitivePtr>> shapes;
+    shapes.push_back(makeShape(record, diag));
+    for (const scene::PrimitiveRecord& s : record->shapes) {
+        shapes.push_back(makeShape(std::make_shared<const scene::PrimitiveRecord>(s), diag));
+        if (shapes.back().size() != shapes[0].size()) {
+            diag.error(s.loc, "{}: this motion shape makes {} primitives where the first makes {} (the primitive "
+                       "renders unblurred)", s.type, shapes.back().size(), shapes[0].size());
+            return std::move(shapes[0]);
+        }
+    }
+    std::vector<PrimitivePtr> out;
+    for (size_t i = 0; i < shapes[0].size(); ++i) {
+        std::vector<PrimitivePtr> keyed;
+        for (auto& s : shapes) keyed.push_back(std::move(s[i]));
+        out.push_back(std::make_unique<DeformingPrimitive>(std::move(keyed)));
+    }
+    return out;
+}
+
+}  // namespace
+
 std::vector<PrimitivePtr> makePrimitives(std::shared_ptr<const scene::PrimitiveRecord> record, Diagnostics& diag) {
+    if (record && !record->shapes.empty()) return makeDeforming(record, diag);
+    return makeShape(std::move(record), diag);
+}
+
+namespace {
+
+std::vector<PrimitivePtr> makeShape(std::shared_ptr<const scene::PrimitiveRecord> record, Diagnostics& diag) {
     std::vector<PrimitivePtr> out;
     if (!record) return out;
     const std::string& t = record->type;
@@ -284,5 +321,7 @@ std::vector<PrimitivePtr> makePrimitives(std::shared_ptr<const scene::PrimitiveR
         diag.warningOnce("geometry:unsupported:" + t, record->loc, "{}: primitive type not supported yet; ignored", t);
     return out;
 }
+
+}  // namespace
 
 }  // namespace umbra::geometry

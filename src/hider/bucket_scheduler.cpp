@@ -32,6 +32,10 @@ MicroGrid ShadedGrid::view() const {
     g.id = id;
     g.ownSecondLayer = ownSecondLayer;
     g.discs = discs;
+    if (keyTimes.size() > 1) {
+        g.keyCount = int(keyTimes.size());
+        g.keyTimes = keyTimes.data();
+    }
     return g;
 }
 
@@ -44,6 +48,9 @@ void SchedulerStats::add(const SchedulerStats& o) {
     micropolygons += o.micropolygons;
     buckets += o.buckets;
     peakGridsAlive = std::max(peakGridsAlive, o.peakGridsAlive);
+    blur.micropolygons += o.blur.micropolygons;
+    blur.sampleTests += o.blur.sampleTests;
+    blur.sampleHits += o.blur.sampleHits;
     workerCpuSeconds += o.workerCpuSeconds;
 }
 
@@ -317,6 +324,7 @@ SchedulerStats BucketScheduler::render(const std::vector<geometry::PrimitivePtr>
             if (m_settings.progress) m_settings.progress(d, bucketCount);
         }
         stats.workerCpuSeconds = threadCpuSeconds() - cpu0;
+        stats.blur = buffer.blurStats();
         std::lock_guard<std::mutex> lock(statsMutex);
         total.add(stats);
     }, tbb::simple_partitioner());

@@ -141,6 +141,27 @@ Vec2 SampleBuffer::samplePosition(int px, int py, int s, int xs, int ys, bool ji
             placeInStratum(float(py) + o.y, py * ys + s / xs, ys)};
 }
 
+namespace {
+
+PatternSettings patternSettings(const SampleBufferConfig& c) {
+    PatternSettings p{c.xSamples, c.ySamples, c.jitter, c.frameSeed};
+    p.times = c.motion;
+    p.opening[0] = c.shutterOpening[0];
+    p.opening[1] = c.shutterOpening[1];
+    p.lens = c.lens;
+    return p;
+}
+
+}  // namespace
+
+float SampleBuffer::sampleTime(int px, int py, int s, const SampleBufferConfig& c) {
+    return hider::sampleTime(positiveMod(px, kPatternPeriod), positiveMod(py, kPatternPeriod), s, patternSettings(c));
+}
+
+Vec2 SampleBuffer::sampleLens(int px, int py, int s, const SampleBufferConfig& c) {
+    return hider::sampleLens(positiveMod(px, kPatternPeriod), positiveMod(py, kPatternPeriod), s, patternSettings(c));
+}
+
 void SampleBuffer::reset(const SampleBufferConfig& c) {
     UMBRA_CHECK(c.x1 > c.x0 && c.y1 > c.y0, "empty bucket [{},{})x[{},{})", c.x0, c.x1, c.y0, c.y1);
     UMBRA_CHECK(c.xSamples >= 1 && c.ySamples >= 1 && c.margin >= 0 && c.aovCount >= 0, "bad sample buffer settings");
@@ -164,7 +185,7 @@ void SampleBuffer::reset(const SampleBufferConfig& c) {
     m_py.resize(n + 3);
     // Positions as samplePosition(): pixel + tabulated offset, kept inside
     // the stratum (rounding of the sum rarely needs it; checking is cheap).
-    m_pattern->prepare(PatternSettings{xs, ys, c.jitter, c.frameSeed});
+    m_pattern->prepare(patternSettings(c));
     const int columns = m_pattern->columns(), rows = m_pattern->rows();
     const float fxs = float(xs), fys = float(ys);
     m_columnPixel.resize(size_t(m_sw));
@@ -202,6 +223,23 @@ void SampleBuffer::reset(const SampleBufferConfig& c) {
             y[sx] = placeInStratum(y[sx], gy, ys);
         }
     }
+    // Times and lens positions, copied from the pattern's tables likewise.
+    m_time.resize(c.motion ? n : 0);
+    m_lensX.resize(c.lens ? n : 0);
+    m_lensY.resize(c.lens ? n : 0);
+    if (c.motion || c.lens)
+        for (int sy = 0; sy < m_sh; ++sy) {
+            const int ty = positiveMod(m_sy0 + sy, rows);
+            for (int sx = 0; sx < m_sw; ++sx) {
+                const int tx = positiveMod(m_sx0 + sx, columns);
+                const size_t k = size_t(sy) * size_t(m_sw) + size_t(sx);
+                if (c.motion) m_time[k] = m_pattern->timeRow(ty)[tx];
+                if (c.lens) {
+                    m_lensX[k] = m_pattern->lensXRow(ty)[tx];
+                    m_lensY[k] = m_pattern->lensYRow(ty)[tx];
+                }
+            }
+        }
     // Only the depths (and fragment lists) need clearing: a sample's id,
     // colour, alpha and AOVs are read only once its depth is finite, and
     // every write of a finite depth writes them too. That keeps the reset
@@ -259,6 +297,10 @@ void SampleBuffer::sample(const MicroGrid& g) {
     if (g.nu <= 0 || g.nv <= 0 || !g.P) return;
     UMBRA_CHECK(!g.aov || g.aovCount == m_cfg.aovCount, "grid has {} AOV floats, the buffer {}", g.aovCount,
                 m_cfg.aovCount);
+    if (g.keyCount > 1 || m_cfg.lens) {
+        sampleBlurred(g);
+        return;
+    }
     const int nu1 = g.nu + 1;
     const int nverts = nu1 * (g.nv + 1);
     const float nearZ = m_cfg.nearClip, farZ = m_cfg.farClip;
@@ -437,6 +479,214 @@ void SampleBuffer::rasterizeQuad(const MicroGrid& g, const HitContext& ctx, int 
                         wrote |= record(g, ctx, *t, s + size_t(k), z[k], b1[k], b2[k]);
                     hits &= hits - 1;
                 }
+            }
+        }
+    }
+    if (wrote) markDirty(sx0, sy0, sx1, sy1);
+}
+
+namespace {
+
+/// Edge's scalar twin for the blurred path: the same canonical direction,
+/// the same arithmetic, so a micropolygon that does not move (an in-focus
+/// surface under a lens) covers exactly the samples the static path gives.
+struct ScalarEdge {
+    float bx, by, dx, dy;
+    bool inclusive;
+    void setup(float ux, float uy, float vx, float vy) {
+        const bool canonical = uy < vy || (uy == vy && ux < vx);
+        const float sign = canonical ? 1.0f : -1.0f;
+        bx = canonical ? ux : vx;
+        by = canonical ? uy : vy;
+        dx = sign * ((canonical ? vx : ux) - bx);
+        dy = sign * ((canonical ? vy : uy) - by);
+        inclusive = canonical;
+    }
+    float eval(float x, float y) const { return dx * (y - by) - dy * (x - bx); }
+    bool inside(float e) const { return e > 0.0f || (e == 0.0f && inclusive); }
+};
+
+/// A micropolygon corner at one sample's time and lens position.
+struct Corner {
+    float x, y, d;  // raster x, y; z, or 1/z under perspective
+};
+
+}  // namespace
+
+void SampleBuffer::sampleBlurred(const MicroGrid& g) {
+    const int nverts = g.vertexCount();
+    const int keys = std::max(1, g.keyCount);
+    const float nearZ = m_cfg.nearClip, farZ = m_cfg.farClip;
+    const bool lens = m_cfg.lens && m_cfg.perspective;
+    // The grid's bound over every key, widened by its largest circle of
+    // confusion under a lens.
+    float gx0 = kInfinity, gy0 = kInfinity, gz0 = kInfinity, gx1 = -kInfinity, gy1 = -kInfinity, gz1 = -kInfinity;
+    float coc = 0;
+    for (int k = 0; k < nverts * keys; ++k) {
+        const Vec3& p = g.P[k];
+        gx0 = std::min(gx0, p.x);
+        gx1 = std::max(gx1, p.x);
+        gy0 = std::min(gy0, p.y);
+        gy1 = std::max(gy1, p.y);
+        gz0 = std::min(gz0, p.z);
+        gz1 = std::max(gz1, p.z);
+        if (lens && p.z > 0) coc = std::max(coc, std::abs(m_cfg.inverseFocalDistance - 1.0f / p.z));
+    }
+    const float padX = coc * std::abs(m_cfg.lensScaleX), padY = coc * std::abs(m_cfg.lensScaleY);
+    if (!(gx1 + padX >= m_fx0 && gx0 - padX < m_fx1 && gy1 + padY >= m_fy0 && gy0 - padY < m_fy1 && gz1 >= nearZ &&
+          gz0 <= farZ))
+        return;
+
+    HitContext ctx;
+    ctx.depthMode = m_cfg.mode == HiderMode::Depth;
+    ctx.gridOpaque = true;
+    if (g.Oi && !ctx.depthMode)
+        for (int k = 0; k < nverts && ctx.gridOpaque; ++k) ctx.gridOpaque = opaqueColor(g.Oi[k]);
+    ctx.farthestUseful = ctx.depthMode && m_cfg.depthLayers > 1 ? m_z2.data() : m_z.data();
+    ctx.inverseDepth = nullptr;
+    if (m_cfg.perspective) {
+        m_inverseDepth.resize(size_t(nverts) * size_t(keys));
+        for (int k = 0; k < nverts * keys; ++k) {
+            const float z = g.P[k].z;
+            m_inverseDepth[size_t(k)] = z > 0 && z < kInfinity ? 1.0f / z : std::numeric_limits<float>::quiet_NaN();
+        }
+        ctx.inverseDepth = m_inverseDepth.data();
+    }
+    for (int j = 0; j < g.nv; ++j)
+        for (int i = 0; i < g.nu; ++i) {
+            if (g.culled && g.culled[j * g.nu + i]) continue;
+            if (g.discs && (i & 1)) continue;
+            rasterizeBlurred(g, ctx, i, j);
+        }
+}
+
+void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, int i, int j) {
+    const int nverts = g.vertexCount();
+    const int keys = std::max(1, g.keyCount);
+    const int nu1 = g.nu + 1;
+    const int corner[4] = {j * nu1 + i, j * nu1 + i + 1, (j + 1) * nu1 + i, (j + 1) * nu1 + i + 1};  // 00 10 01 11
+    const bool lens = m_cfg.lens && m_cfg.perspective;
+    float minx = kInfinity, miny = kInfinity, maxx = -kInfinity, maxy = -kInfinity, minz = kInfinity,
+          maxz = -kInfinity, coc = 0;
+    for (int k = 0; k < keys; ++k)
+        for (int c : corner) {
+            const Vec3& p = g.P[size_t(k) * size_t(nverts) + size_t(c)];
+            minx = std::min(minx, p.x);
+            maxx = std::max(maxx, p.x);
+            miny = std::min(miny, p.y);
+            maxy = std::max(maxy, p.y);
+            minz = std::min(minz, p.z);
+            maxz = std::max(maxz, p.z);
+            if (lens) coc = std::max(coc, std::abs(m_cfg.inverseFocalDistance - 1.0f / p.z));
+        }
+    // The lens moves a corner by at most its circle of confusion; between
+    // keys a corner stays inside the keys' bound (and 1/z between theirs).
+    const float padX = coc * std::abs(m_cfg.lensScaleX), padY = coc * std::abs(m_cfg.lensScaleY);
+    minx -= padX;
+    maxx += padX;
+    miny -= padY;
+    maxy += padY;
+    // NaN coordinates fail these tests and are skipped.
+    if (!(maxx >= m_fx0 && minx < m_fx1 && maxy >= m_fy0 && miny < m_fy1)) return;
+    if (!(maxz >= m_cfg.nearClip && minz <= m_cfg.farClip)) return;
+    float nearest = minz - 1e-4f * std::max(std::abs(minz), std::abs(maxz));
+    if (!(nearest >= -kInfinity)) nearest = -kInfinity;
+
+    const int xs = m_cfg.xSamples, ys = m_cfg.ySamples;
+    minx = std::max(minx, m_fx0);
+    maxx = std::min(maxx, m_fx1);
+    miny = std::max(miny, m_fy0);
+    maxy = std::min(maxy, m_fy1);
+    const int sx0 = std::max(0, floorToInt(minx * float(xs)) - m_sx0);
+    const int sx1 = std::min(m_sw - 1, floorToInt(maxx * float(xs)) - m_sx0);
+    const int sy0 = std::max(0, floorToInt(miny * float(ys)) - m_sy0);
+    const int sy1 = std::min(m_sh - 1, floorToInt(maxy * float(ys)) - m_sy0);
+    if (sx0 > sx1 || sy0 > sy1) return;
+    ++m_blur.micropolygons;
+
+    const uint32_t mp = uint32_t(j * g.nu + i);
+    const bool nearestOnly = ctx.depthMode && m_cfg.depthLayers == 1;
+    const float* depthOf = ctx.inverseDepth;
+    auto depthAt = [&](size_t v) { return depthOf ? depthOf[v] : g.P[v].z; };
+    bool wrote = false;
+    for (int sy = sy0; sy <= sy1; ++sy) {
+        const size_t row = size_t(sy) * size_t(m_sw);
+        for (int sx = sx0; sx <= sx1; ++sx) {
+            const size_t s = row + size_t(sx);
+            const float useful = ctx.farthestUseful[s];
+            if (!(useful >= nearest)) continue;
+            ++m_blur.sampleTests;
+            // The corners at this sample's time: between keys k and k + 1.
+            Corner q[4];
+            int k = 0;
+            float f = 0;
+            if (keys > 1) {
+                const float t = m_time.empty() ? 0.0f : m_time[s];
+                while (k + 2 < keys && t >= g.keyTimes[k + 1]) ++k;
+                const float span = g.keyTimes[k + 1] - g.keyTimes[k];
+                f = span > 0 ? std::clamp((t - g.keyTimes[k]) / span, 0.0f, 1.0f) : 0.0f;
+            }
+            for (int c = 0; c < 4; ++c) {
+                const size_t v0 = size_t(k) * size_t(nverts) + size_t(corner[c]);
+                const Vec3& a = g.P[v0];
+                q[c] = {a.x, a.y, depthAt(v0)};
+                if (keys > 1) {
+                    const size_t v1 = v0 + size_t(nverts);
+                    const Vec3& b = g.P[v1];
+                    q[c].x += f * (b.x - a.x);
+                    q[c].y += f * (b.y - a.y);
+                    q[c].d += f * (depthAt(v1) - q[c].d);
+                }
+                if (lens) {
+                    const float blur = m_cfg.inverseFocalDistance - q[c].d;  // d is 1/z
+                    q[c].x += m_lensX[s] * m_cfg.lensScaleX * blur;
+                    q[c].y += m_lensY[s] * m_cfg.lensScaleY * blur;
+                }
+            }
+            const float x = m_px[s], y = m_py[s];
+            if (g.discs) {
+                const float cx = 0.25f * (q[0].x + q[1].x + q[2].x + q[3].x);
+                const float cy = 0.25f * (q[0].y + q[1].y + q[2].y + q[3].y);
+                auto dist = [](float x0, float y0, float x1, float y1) { return std::hypot(x1 - x0, y1 - y0); };
+                const float across = dist(0.5f * (q[0].x + q[2].x), 0.5f * (q[0].y + q[2].y),
+                                          0.5f * (q[1].x + q[3].x), 0.5f * (q[1].y + q[3].y));
+                const float along = dist(0.5f * (q[0].x + q[1].x), 0.5f * (q[0].y + q[1].y),
+                                         0.5f * (q[2].x + q[3].x), 0.5f * (q[2].y + q[3].y));
+                const float r = 0.25f * (across + along);
+                if ((x - cx) * (x - cx) + (y - cy) * (y - cy) > r * r) continue;
+            }
+            // The two triangles (00, 10, 11) and (00, 11, 01), as Tri::setup.
+            static constexpr int kHalves[2][3] = {{0, 1, 3}, {0, 3, 2}};
+            for (int h = 0; h < 2; ++h) {
+                int a = kHalves[h][0], b = kHalves[h][1], c = kHalves[h][2];
+                const float area = (q[b].x - q[a].x) * (q[c].y - q[a].y) - (q[b].y - q[a].y) * (q[c].x - q[a].x);
+                const float invArea = 1.0f / std::fabs(area);
+                if (!(area != 0.0f && std::isfinite(area) && std::isfinite(invArea))) continue;
+                if (area < 0) std::swap(b, c);
+                ScalarEdge e0, e1, e2;
+                e0.setup(q[b].x, q[b].y, q[c].x, q[c].y);
+                e1.setup(q[c].x, q[c].y, q[a].x, q[a].y);
+                e2.setup(q[a].x, q[a].y, q[b].x, q[b].y);
+                const float w0 = e0.eval(x, y), w1 = e1.eval(x, y), w2 = e2.eval(x, y);
+                if (!(e0.inside(w0) && e1.inside(w1) && e2.inside(w2))) continue;
+                const float b1 = w1 * invArea, b2 = w2 * invArea;
+                const float d = q[a].d + b1 * (q[b].d - q[a].d) + b2 * (q[c].d - q[a].d);
+                const float z = depthOf ? 1.0f / d : d;
+                if (!(z <= useful && z >= m_cfg.nearClip && z <= m_cfg.farClip)) continue;
+                Tri t;
+                t.i0 = corner[a];
+                t.i1 = corner[b];
+                t.i2 = corner[c];
+                t.sub = 2 * mp + uint32_t(h);
+                if (g.trim) {
+                    const float w1s[4] = {b1, 0, 0, 0}, w2s[4] = {b2, 0, 0, 0};
+                    if (!trimKept(g, t, w1s, w2s, 1)) continue;
+                }
+                ++m_blur.sampleHits;
+                if (nearestOnly)
+                    wrote |= takeNearest(s, z, g.id, t.sub);
+                else
+                    wrote |= record(g, ctx, t, s, z, b1, b2);
             }
         }
     }

@@ -4,7 +4,9 @@
 #include "umbra/util/error.h"
 #include "umbra/util/rng.h"
 
+#include <algorithm>
 #include <cmath>
+#include <numeric>
 
 namespace umbra::hider {
 
@@ -27,6 +29,95 @@ Vec2 SamplePattern::offset(int ux, int uy, int s, const PatternSettings& p) {
     return {placeInStratum((float(i) + jx) / float(xs), i, xs), placeInStratum((float(j) + jy) / float(ys), j, ys)};
 }
 
+namespace {
+
+/// The ranks of [0, n) in a hashed permutation: rank[i] is the position
+/// item i takes when the items are ordered by their hashes (ties by index).
+void hashedRanks(int n, uint32_t key, std::vector<int>& rank) {
+    std::vector<std::pair<uint32_t, int>> order(static_cast<size_t>(n));
+    for (int k = 0; k < n; ++k) order[size_t(k)] = {hashKeys(key, uint32_t(k)), k};
+    std::sort(order.begin(), order.end());
+    rank.resize(size_t(n));
+    for (int k = 0; k < n; ++k) rank[size_t(order[size_t(k)].second)] = k;
+}
+
+uint32_t timePixelKey(int ux, int uy, const PatternSettings& p) {
+    return hashKeys(p.frameSeed ^ 0x2545f491u, uint32_t(ux), uint32_t(uy));
+}
+uint32_t lensPixelKey(int ux, int uy, const PatternSettings& p) {
+    return hashKeys(p.frameSeed ^ 0x85ebca6bu, uint32_t(ux), uint32_t(uy));
+}
+
+/// The fine time stratum of pattern pixel (ux, uy) within its tile.
+int tileRank(int ux, int uy, const PatternSettings& p) {
+    std::vector<int> rank;
+    hashedRanks(kTimeTile * kTimeTile,
+                hashKeys(p.frameSeed ^ 0x9e3779b9u, uint32_t(ux / kTimeTile), uint32_t(uy / kTimeTile)), rank);
+    return rank[size_t((ux % kTimeTile) + kTimeTile * (uy % kTimeTile))];
+}
+
+/// sampleTime() given the pixel's coarse stratum of s and its tile rank.
+float timeOf(int s, int coarse, int fine, uint32_t pixelKey, const PatternSettings& p) {
+    const int n = p.xSamples * p.ySamples;
+    const float j = p.jitter ? hashToUnit(hashKeys(pixelKey, uint32_t(s), 0x7f4a7c15u)) : 0.5f;
+    const float strata = float(n * kTimeTile * kTimeTile);
+    const float u = std::min((float(coarse * kTimeTile * kTimeTile + fine) + j) / strata, 0x1.fffffep-1f);
+    return std::min(shutterWarp(u, p.opening[0], p.opening[1]), 0x1.fffffep-1f);
+}
+
+/// sampleLens() given the lens stratum of s.
+Vec2 lensOf(int s, int stratum, uint32_t pixelKey, const PatternSettings& p) {
+    const int xs = p.xSamples, ys = p.ySamples;
+    float jx = 0.5f, jy = 0.5f;
+    if (p.jitter) {
+        const uint32_t h = hashKeys(pixelKey, uint32_t(s), 0xc2b2ae35u);
+        jx = hashToUnit(h);
+        jy = hashToUnit(hash32(h ^ 0x27d4eb2fu));
+    }
+    // The square [-1, 1]^2, then Shirley & Chiu's concentric map.
+    const float a = 2.0f * (float(stratum % xs) + jx) / float(xs) - 1.0f;
+    const float b = 2.0f * (float(stratum / xs) + jy) / float(ys) - 1.0f;
+    if (a == 0 && b == 0) return {0, 0};
+    float r, phi;
+    if (std::abs(a) > std::abs(b)) {
+        r = a;
+        phi = (kPi / 4) * (b / a);
+    } else {
+        r = b;
+        phi = kPi / 2 - (kPi / 4) * (a / b);
+    }
+    return {r * std::cos(phi), r * std::sin(phi)};
+}
+
+}  // namespace
+
+float shutterWarp(float u, float a, float b) {
+    if (a <= 0 && b >= 1) return u;
+    // Density: rising on [0, a], flat on [a, b], falling on [b, 1]; its
+    // area is (b - a) + (a + 1 - b) / 2 with a flat height of 1.
+    const float area = (b - a) + 0.5f * (a + (1 - b));
+    const float target = u * area;
+    const float rise = 0.5f * a;
+    if (target < rise) return a > 0 ? std::sqrt(2.0f * a * target) : 0.0f;
+    if (target < rise + (b - a)) return a + (target - rise);
+    const float tail = area - target;  // area left under the falling ramp
+    return 1.0f - (1 - b > 0 ? std::sqrt(2.0f * (1 - b) * tail) : 0.0f);
+}
+
+float sampleTime(int ux, int uy, int s, const PatternSettings& p) {
+    std::vector<int> rank;
+    const uint32_t key = timePixelKey(ux, uy, p);
+    hashedRanks(p.xSamples * p.ySamples, key, rank);
+    return timeOf(s, rank[size_t(s)], tileRank(ux, uy, p), key, p);
+}
+
+Vec2 sampleLens(int ux, int uy, int s, const PatternSettings& p) {
+    std::vector<int> rank;
+    const uint32_t key = lensPixelKey(ux, uy, p);
+    hashedRanks(p.xSamples * p.ySamples, key, rank);
+    return lensOf(s, rank[size_t(s)], key, p);
+}
+
 void SamplePattern::prepare(const PatternSettings& settings) {
     if (m_built && settings == m_settings) return;
     UMBRA_CHECK(settings.xSamples >= 1 && settings.ySamples >= 1, "bad sample pattern {} x {}", settings.xSamples,
@@ -39,14 +130,32 @@ void SamplePattern::prepare(const PatternSettings& settings) {
     m_rows = kPatternPeriod * ys;
     m_x.resize(size_t(m_columns) * size_t(m_rows));
     m_y.resize(m_x.size());
+    m_time.assign(settings.times ? m_x.size() : 0, 0.0f);
+    m_lensX.assign(settings.lens ? m_x.size() : 0, 0.0f);
+    m_lensY.assign(settings.lens ? m_x.size() : 0, 0.0f);
+    std::vector<int> timeRank, lensRank;
     for (int uy = 0; uy < kPatternPeriod; ++uy)
-        for (int ux = 0; ux < kPatternPeriod; ++ux)
+        for (int ux = 0; ux < kPatternPeriod; ++ux) {
+            const uint32_t timeKey = timePixelKey(ux, uy, settings), lensKey = lensPixelKey(ux, uy, settings);
+            int fine = 0;
+            if (settings.times) {
+                hashedRanks(xs * ys, timeKey, timeRank);
+                fine = tileRank(ux, uy, settings);
+            }
+            if (settings.lens) hashedRanks(xs * ys, lensKey, lensRank);
             for (int s = 0; s < xs * ys; ++s) {
                 const Vec2 o = offset(ux, uy, s, settings);
                 const size_t k = size_t(uy * ys + s / xs) * size_t(m_columns) + size_t(ux * xs + s % xs);
                 m_x[k] = o.x;
                 m_y[k] = o.y;
+                if (settings.times) m_time[k] = timeOf(s, timeRank[size_t(s)], fine, timeKey, settings);
+                if (settings.lens) {
+                    const Vec2 l = lensOf(s, lensRank[size_t(s)], lensKey, settings);
+                    m_lensX[k] = l.x;
+                    m_lensY[k] = l.y;
+                }
             }
+        }
 }
 
 void PatternFilterWeights::prepare(const SamplePattern& pattern, const film::PixelFilter& filter) {

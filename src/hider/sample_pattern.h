@@ -52,10 +52,34 @@ struct PatternSettings {
     int xSamples = 1, ySamples = 1;
     bool jitter = true;
     uint32_t frameSeed = 0;
+    bool times = false;                  // tabulate each sample's time (motion blur)
+    float opening[2] = {0, 1};           // the shutter's shape (scene::Options::shutterOpening)
+    bool lens = false;                   // tabulate each sample's lens position (depth of field)
     bool operator==(const PatternSettings& o) const {
-        return xSamples == o.xSamples && ySamples == o.ySamples && jitter == o.jitter && frameSeed == o.frameSeed;
+        return xSamples == o.xSamples && ySamples == o.ySamples && jitter == o.jitter && frameSeed == o.frameSeed &&
+               times == o.times && opening[0] == o.opening[0] && opening[1] == o.opening[1] && lens == o.lens;
     }
 };
+
+
+/// A time drawn uniformly in [0, 1) mapped through the shutter's shape:
+/// fully open from a to b, opening and closing linearly before and after
+/// (the inverse of the trapezoid's distribution).
+float shutterWarp(float u, float a, float b);
+
+/// The time, in [0, 1), of sample s of pattern pixel (ux, uy). Stratified
+/// twice: a pixel's n samples take one each of n strata in a hashed order
+/// (so time is independent of the sample's place in the pixel), and the
+/// kTimeTile^2 pixels of a tile take one each of the n * kTimeTile^2 finer
+/// strata inside (so a depth map of one sample a pixel still sees every
+/// time across a few texels, which is what percentage-closer filtering
+/// averages over).
+float sampleTime(int ux, int uy, int s, const PatternSettings& settings);
+/// The lens position of sample s of pattern pixel (ux, uy) on the unit
+/// disc: strata of an xs x ys grid over the square, taken in a hashed order
+/// independent of the time's, mapped onto the disc by Shirley & Chiu's
+/// concentric map (which keeps strata compact).
+Vec2 sampleLens(int ux, int uy, int s, const PatternSettings& settings);
 
 /// The offsets inside their pixel of one period of samples.
 class SamplePattern {
@@ -77,6 +101,10 @@ public:
     /// Offsets of the samples of pattern stratum row ty, by column tx.
     const float* xRow(int ty) const { return &m_x[size_t(ty) * size_t(m_columns)]; }
     const float* yRow(int ty) const { return &m_y[size_t(ty) * size_t(m_columns)]; }
+    /// Times and lens positions in the same layout, when the settings ask.
+    const float* timeRow(int ty) const { return &m_time[size_t(ty) * size_t(m_columns)]; }
+    const float* lensXRow(int ty) const { return &m_lensX[size_t(ty) * size_t(m_columns)]; }
+    const float* lensYRow(int ty) const { return &m_lensY[size_t(ty) * size_t(m_columns)]; }
 
 private:
     PatternSettings m_settings;
@@ -84,6 +112,7 @@ private:
     uint64_t m_generation = 0;
     int m_columns = 0, m_rows = 0;
     std::vector<float> m_x, m_y;
+    std::vector<float> m_time, m_lensX, m_lensY;
 };
 
 /// A separable pixel filter's weights for every sample of a pattern, and

@@ -57,6 +57,15 @@ struct Pass {
     /// second layer, as Wang & Molnar §3.3 treat them, so they cast shadows
     /// (docs/shadows.md).
     bool openSurfacesAreOwnSecondLayer = false;
+    /// The camera pass of a moving camera: cameraFromWorld over the
+    /// shutter (camera.cameraFromWorld is its value at the opening).
+    std::shared_ptr<const MotionTransform> cameraMotion;
+    /// The camera pass's thin lens (DepthOfField): radius in camera units
+    /// and focal distance; radius 0 is a pinhole.
+    float lensRadius = 0, focalDistance = 1;
+    /// A depth pass of a blurred frame whose casters move: its map's texels
+    /// are time-interleaved over tiles this wide (DepthImage::timeTile).
+    int timeTile = 0;
 };
 
 /// Everything the per-grid code needs about the current world.
@@ -69,6 +78,18 @@ struct FrameState {
     std::vector<int> aovComponents;
     bool noShadows = false;
     std::atomic<uint64_t> shadingNanoseconds{0};
+    /// The shutter in scene time (Shutter plus Option "shutter" "offset");
+    /// motion blur when it stays open (close > open).
+    float shutterOpen = 0, shutterClose = 0;
+    bool motionBlur() const { return shutterClose > shutterOpen; }
+    /// Some shadow caster moves (transform or deformation blur) in a
+    /// blurred frame: depth maps are then time-interleaved.
+    bool castersMove = false;
+    /// Blur statistics: raster bound areas of the moving or defocused grids,
+    /// at the shutter's opening without the lens (still) and over the
+    /// shutter with the circle of confusion (blurred), in pixels, summed.
+    std::atomic<uint64_t> blurredGrids{0};
+    std::atomic<uint64_t> stillBoundPixels{0}, blurredBoundPixels{0};
     /// Every primitive of the world, for the exact ray-traced shadows of
     /// shadow("raytrace", ...), built on first use.
     const std::vector<geometry::PrimitivePtr>* primitives = nullptr;

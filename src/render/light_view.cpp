@@ -89,9 +89,19 @@ std::optional<Pass> lightPass(const LightGeometry& light, const std::vector<geom
         // Orthographic along the light, fitted to everything that casts.
         Mat4 rotation = lookAt({0, 0, 0}, light.to - light.from);
         Bound3 b;
-        for (const auto& p : prims)
-            if (p->attributes().castsShadows)
-                b.extend(transformBound(rotation * p->record().worldFromObject, p->bound()));
+        for (const auto& p : prims) {
+            if (!p->attributes().castsShadows) continue;
+            const scene::PrimitiveRecord& rec = p->record();
+            b.extend(transformBound(rotation * rec.worldFromObject, p->bound()));
+            // A moving caster: everywhere its keys take it, arcs included.
+            if (!rec.worldFromObjectMotion) continue;
+            const std::vector<float> keys = rec.worldFromObjectMotion->keyTimes();
+            for (size_t k = 0; k < keys.size(); ++k)
+                for (int i = 0; i < (k + 1 < keys.size() ? 8 : 1); ++i) {
+                    const float t = k + 1 < keys.size() ? keys[k] + (keys[k + 1] - keys[k]) * float(i) / 8 : keys[k];
+                    b.extend(transformBound(rotation * rec.worldFromObjectMotion->at(t), p->bound()));
+                }
+        }
         if (b.empty()) return std::nullopt;
         Vec3 c = (b.min + b.max) * 0.5f;
         float half = 0.51f * std::max(b.max.x - b.min.x, b.max.y - b.min.y) + 1e-4f;
@@ -146,6 +156,7 @@ DepthImage depthImageOf(const film::Film& film, const Pass& pass, DepthFilter fi
     image.projection = camera.perspective ? Projection::Perspective : Projection::Orthographic;
     image.filter = filter;
     image.dualOffset = dualOffset;
+    image.timeTile = pass.timeTile;
     // Row by row, with the filter's rule chosen once (a switch per pixel
     // cost more than the copy).
     auto convert = [&](auto layer) {

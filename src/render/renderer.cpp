@@ -72,7 +72,10 @@ std::string nowDateTime() {
 nlohmann::json schedulerJson(const hider::SchedulerStats& s) {
     return {{"primitives", s.primitives}, {"culled", s.culled},     {"occlusion_culled", s.occlusionCulled},
             {"splits", s.splits},         {"grids", s.grids},       {"micropolygons", s.micropolygons},
-            {"buckets", s.buckets},       {"peak_grids_alive", s.peakGridsAlive}};
+            {"buckets", s.buckets},       {"peak_grids_alive", s.peakGridsAlive},
+            {"blur", {{"micropolygons", s.blur.micropolygons},
+                      {"sample_tests", s.blur.sampleTests},
+                      {"sample_hits", s.blur.sampleHits}}}};
 }
 
 /// The frame's displays with modes that name a DisplayChannel replaced by
@@ -344,6 +347,18 @@ PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const st
     ss.sampling.nearClip = pass.camera.nearClip;
     ss.sampling.perspective = pass.camera.perspective;
     ss.sampling.farClip = pass.camera.farClip;
+    // Every pass of a blurred frame gives its samples times: moving casters
+    // blur their depth maps' texels too (docs/motion.md).
+    ss.sampling.motion = frame.motionBlur();
+    ss.sampling.shutterOpening[0] = options.shutterOpening[0];
+    ss.sampling.shutterOpening[1] = options.shutterOpening[1];
+    if (pass.lensRadius > 0 && pass.camera.perspective) {
+        ss.sampling.lens = true;
+        const float perUnit = pass.lensRadius / pass.camera.tanHalfFov;
+        ss.sampling.lensScaleX = perUnit * pass.camera.rasterScaleX();
+        ss.sampling.lensScaleY = -perUnit * pass.camera.rasterScaleY();  // raster y runs down
+        ss.sampling.inverseFocalDistance = 1.0f / pass.focalDistance;
+    }
     if (pass.depthOnly) ss.filterMargin = 0;  // depths are per-pixel minima, never filtered
     if (pass.depthOnly) {
         // Depth maps, automatic or from a light-view RIB: one regular sample
@@ -442,6 +457,8 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     FrameState frame;
     frame.world = &world;
     frame.frameSeed = hash32(uint32_t(world.frameNumber + 1));
+    frame.shutterOpen = options.shutter[0] + options.shutterOffset;
+    frame.shutterClose = options.shutter[1] + options.shutterOffset;
     frame.shading = shading.get();
     frame.noShadows = settings.noShadows;
     services->setFrame(&frame);
@@ -455,6 +472,8 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
 
     prepareAttributes(prims, frame);
     frame.primitives = &prims;
+    for (const auto& p : prims)
+        frame.castersMove |= frame.motionBlur() && p->attributes().castsShadows && p->record().moving();
 
     // First pass: a depth map for every light whose shadowname is "auto".
     // The maps are planned in the lights' order, then rendered side by side:
@@ -514,10 +533,24 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     Pass pass;
     pass.name = "camera";
     pass.camera = hider::Camera::fromOptions(options);
+    if (frame.motionBlur() && options.cameraMotion && options.cameraMotion->moving()) {
+        pass.cameraMotion = options.cameraMotion;
+        pass.camera.cameraFromWorld = options.cameraMotion->at(frame.shutterOpen);
+    }
+    if (std::isfinite(options.fstop) && options.fstop > 0 && options.focalDistance > 0) {
+        if (pass.camera.perspective) {
+            pass.lensRadius = options.focalLength / (2.0f * options.fstop);
+            pass.focalDistance = options.focalDistance;
+        } else {
+            diag.warningOnce("dof:orthographic", options.loc,
+                             "DepthOfField: an orthographic camera has no lens; the image is sharp");
+        }
+    }
     const std::vector<scene::DisplayRecord> displays = withDisplayChannels(options);
     bool depthFrame = !displays.empty();
     for (const auto& d : displays) depthFrame = depthFrame && d.mode == "z";
     pass.depthOnly = depthFrame;
+    if (depthFrame && frame.motionBlur() && (frame.castersMove || pass.cameraMotion)) pass.timeTile = hider::kTimeTile;
     if (depthFrame) {
         pass.cull = depthCullOf(options, options.loc);
         pass.openSurfacesAreOwnSecondLayer = depthFilterOf(options, options.loc) == DepthFilter::Second;
@@ -603,6 +636,15 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
           {"map_file_cpu_seconds", double(mapFileCpuNanoseconds.load()) * 1e-9},
           {"background_map_writes", backgroundMapWrites},
           {"tile_cache", tileCacheJson(tileCache->stats())}}},
+        {"motion_blur",
+         {{"shutter", {frame.shutterOpen, frame.shutterClose}},
+          {"depth_of_field", pass.lensRadius > 0},
+          {"blurred_grids", frame.blurredGrids.load()},
+          {"still_bound_pixels", frame.stillBoundPixels.load()},
+          {"blurred_bound_pixels", frame.blurredBoundPixels.load()},
+          {"bound_growth", frame.stillBoundPixels.load() > 0
+                               ? double(frame.blurredBoundPixels.load()) / double(frame.stillBoundPixels.load())
+                               : 1.0}}},
         {"errors", diag.errorCount() - errorsBefore},
     };
     frames.push_back(f);
@@ -668,6 +710,7 @@ std::optional<LightMapJob> Renderer::Impl::planLightMap(FrameState& frame, const
         pass.openSurfacesAreOwnSecondLayer = filter == DepthFilter::Second;
         pass.minShadingRate = depthRate;
         pass.flatness = depthRate > 0 ? kDepthFlatness : 0;
+        pass.timeTile = frame.motionBlur() && frame.castersMove ? hider::kTimeTile : 0;
     }
     // The map is written beside the first image, named after it and the light.
     std::filesystem::path base(options.displays.empty() ? std::string("umbra") : options.displays[0].name);

@@ -29,8 +29,82 @@ SurfacePipeline::SurfacePipeline(FrameState& frame, const Pass& pass, Services& 
     m_eyeZ = dice::eyePlaneZ(eye);
 }
 
+namespace {
+
+/// The most one chord of a moving piece's path may turn: a sixteenth of a
+/// half turn keeps a point on a circle within 0.5% of its radius.
+constexpr float kMaxChordTurn = kPi / 16;
+/// Placement times per piece at most (memory: a position array each).
+constexpr size_t kMaxPlacementTimes = 33;
+
+}  // namespace
+
 Mat4 SurfacePipeline::cameraFromObject(const geometry::Primitive& prim) const {
-    return m_pass.camera.cameraFromWorld * prim.record().worldFromObject;
+    const scene::PrimitiveRecord& rec = prim.record();
+    if (m_pass.cameraMotion || rec.worldFromObjectMotion) return cameraFromObjectAt(rec, m_frame.shutterOpen);
+    return m_pass.camera.cameraFromWorld * rec.worldFromObject;
+}
+
+Mat4 SurfacePipeline::cameraFromObjectAt(const scene::PrimitiveRecord& rec, float t) const {
+    const Mat4 cameraFromWorld = m_pass.cameraMotion ? m_pass.cameraMotion->at(t) : m_pass.camera.cameraFromWorld;
+    const Mat4 worldFromObject = rec.worldFromObjectMotion ? rec.worldFromObjectMotion->at(t) : rec.worldFromObject;
+    return cameraFromWorld * worldFromObject;
+}
+
+void SurfacePipeline::placementTimes(const geometry::Primitive& prim, std::vector<float>& times) const {
+    const float open = m_frame.shutterOpen, close = m_frame.shutterClose;
+    const scene::PrimitiveRecord& rec = prim.record();
+    times.assign(1, open);
+    const bool moves = rec.worldFromObjectMotion || m_pass.cameraMotion || prim.shapeCount() > 1;
+    if (!m_frame.motionBlur() || !moves) return;
+    std::vector<float> keys;
+    if (rec.worldFromObjectMotion) keys = rec.worldFromObjectMotion->keyTimes();
+    if (m_pass.cameraMotion)
+        for (float t : m_pass.cameraMotion->keyTimes()) keys.push_back(t);
+    if (prim.shapeCount() > 1) keys.insert(keys.end(), rec.shapeTimes.begin(), rec.shapeTimes.end());
+    std::sort(keys.begin(), keys.end());
+    keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+    for (float t : keys)
+        if (t > open && t < close) times.push_back(t);
+    times.push_back(close);
+    // Chords along turning paths.
+    std::vector<float> fine{times[0]};
+    for (size_t k = 1; k < times.size(); ++k) {
+        const float a = times[k - 1], b = times[k];
+        float turn = 0;
+        if (rec.worldFromObjectMotion) turn = rec.worldFromObjectMotion->turnBetween(a, b);
+        if (m_pass.cameraMotion) turn = std::max(turn, m_pass.cameraMotion->turnBetween(a, b));
+        const int pieces = std::clamp(int(std::ceil(turn / kMaxChordTurn)), 1, 8);
+        for (int i = 1; i < pieces; ++i) fine.push_back(a + (b - a) * float(i) / float(pieces));
+        fine.push_back(b);
+    }
+    if (fine.size() > kMaxPlacementTimes) {  // keep the ends, thin the rest evenly
+        std::vector<float> thinned;
+        for (size_t i = 0; i < kMaxPlacementTimes; ++i)
+            thinned.push_back(fine[(i * (fine.size() - 1)) / (kMaxPlacementTimes - 1)]);
+        fine = std::move(thinned);
+    }
+    times = std::move(fine);
+}
+
+Bound3 SurfacePipeline::sweptBound(const geometry::Primitive& prim, const dice::DiceParams& p,
+                                   const std::vector<float>& times) const {
+    const Bound3 ob = prim.bound();
+    Bound3 b;
+    dice::DiceParams at = p;
+    for (float t : times) {
+        at.cameraFromObject = cameraFromObjectAt(prim.record(), t);
+        const Bound3 cb = dice::cameraBound(ob, at);
+        if (!cb.empty()) b.extend(cb);
+    }
+    return b;
+}
+
+float SurfacePipeline::confusionRadius(float z) const {
+    const hider::Camera& cam = m_pass.camera;
+    if (!(m_pass.lensRadius > 0) || !cam.perspective) return 0;
+    const float scale = std::max(cam.rasterScaleX(), cam.rasterScaleY()) / cam.tanHalfFov;
+    return m_pass.lensRadius * scale * std::abs(1.0f / m_pass.focalDistance - 1.0f / z);
 }
 
 dice::DiceParams SurfacePipeline::diceParams(const geometry::Primitive& prim) const {
@@ -63,6 +137,42 @@ dice::DiceParams SurfacePipeline::diceParams(const geometry::Primitive& prim) co
         float scale = std::max({length(c.vector({1, 0, 0})), length(c.vector({0, 1, 0})), length(c.vector({0, 0, 1}))});
         p.displacementBound = attrs.displacementBound * scale;
     }
+    thread_local std::vector<float> times;
+    placementTimes(prim, times);
+    const bool lens = m_pass.lensRadius > 0 && cam.perspective;
+    if (times.size() > 1 || lens) {
+        const Bound3 cb = times.size() > 1 ? sweptBound(prim, p, times) : dice::cameraBound(prim.bound(), p);
+        if (times.size() > 1) p.sweep = cb;
+        // What blurs into the image from outside it is not culled: the
+        // window grows by the bound's largest circle of confusion, and a
+        // grid's shading rate by "motionfactor" for fast or defocused
+        // pieces (PRMan's rule: rate x motionfactor x blur / 16 pixels).
+        float blur = 0;
+        if (lens && !cb.empty() && cb.max.z > m_eyeZ) {
+            blur = std::max(confusionRadius(std::max(cb.min.z, m_eyeZ)), confusionRadius(cb.max.z));
+            if (cb.min.z <= m_eyeZ) blur = kInfinity;
+            for (int i = 0; i < 4; ++i) p.rasterWindow[i] += (i & 1) ? blur : -blur;
+        }
+        const auto mf = attrs.user.find("GeometricApproximation:motionfactor");
+        const float motionFactor = mf != attrs.user.end() && !mf->second.floats.empty() ? mf->second.floats[0] : 0.0f;
+        if (motionFactor > 0 && !cb.empty() && cb.min.z > m_eyeZ) {
+            // The blur length: the path of the bound's centre on screen,
+            // plus the circle of confusion's diameter.
+            float path = 0;
+            Vec3 prev;
+            dice::DiceParams at = p;
+            const Bound3 ob = prim.bound();
+            for (size_t k = 0; k < times.size(); ++k) {
+                at.cameraFromObject = cameraFromObjectAt(prim.record(), times[k]);
+                const Bound3 rb = dice::rasterBound(ob, at);
+                const Vec3 centre = (rb.min + rb.max) * 0.5f;
+                if (k > 0) path += std::hypot(centre.x - prev.x, centre.y - prev.y);
+                prev = centre;
+            }
+            const float length = path + 2.0f * std::min(blur, 1e6f);
+            if (std::isfinite(length)) p.shadingRate *= std::max(1.0f, motionFactor * length / 16.0f);
+        }
+    }
     return p;
 }
 
@@ -76,9 +186,17 @@ Bound3 SurfacePipeline::rasterBound(const geometry::Primitive& prim) {
     // first: a ground plane left out of a depth map costs nothing there.
     if (!takesPart(prim.attributes()) || prim.trimmedAway()) return {};
     dice::DiceParams p = diceParams(prim);
-    Bound3 ob = prim.bound();
-    if (dice::outsideView(dice::cameraBound(ob, p), p)) return {};
-    return dice::rasterBound(ob, p);
+    const Bound3 cb = p.sweep.empty() ? dice::cameraBound(prim.bound(), p) : p.sweep;
+    if (dice::outsideView(cb, p)) return {};
+    Bound3 r = dice::rasterBoundOfCamera(cb, p);
+    if (m_pass.lensRadius > 0 && m_pass.camera.perspective && std::isfinite(r.min.x)) {
+        const float blur = std::max(confusionRadius(std::max(cb.min.z, m_eyeZ)), confusionRadius(cb.max.z));
+        r.min.x -= blur;
+        r.min.y -= blur;
+        r.max.x += blur;
+        r.max.y += blur;
+    }
+    return r;
 }
 
 hider::GeometryPipeline::Plan SurfacePipeline::plan(const geometry::Primitive& prim, int eyeSplits) {
@@ -107,11 +225,44 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
     view.eye = objectFromCamera.point({0, 0, 0});
     view.towardEye = normalize(objectFromCamera.vector({0, 0, -1}));
     geometry::Grid g = prim.diceInView(nu, nv, view);
+
+    // Motion blur: the piece's object-space positions at each placement
+    // time (its shapes interpolated linearly between their times), and the
+    // grid shaded once with those at the shutter's opening.
+    thread_local std::vector<float> times;
+    placementTimes(prim, times);
+    const size_t keys = times.size();
+    const int n = (nu + 1) * (nv + 1);
+    thread_local std::vector<std::vector<Vec3>> shapes;
+    thread_local std::vector<Vec3> objectAt;  // keys x n object-space positions
+    if (keys > 1) {
+        const int shapeCount = prim.shapeCount();
+        shapes.resize(size_t(shapeCount));
+        shapes[0] = g.P;
+        for (int k = 1; k < shapeCount; ++k) prim.diceShape(k, nu, nv, view, shapes[size_t(k)]);
+        objectAt.resize(keys * size_t(n));
+        for (size_t k = 0; k < keys; ++k) {
+            Vec3* dst = &objectAt[k * size_t(n)];
+            if (shapeCount == 1 || rec.shapeTimes.size() != size_t(shapeCount)) {
+                std::copy(g.P.begin(), g.P.end(), dst);
+                continue;
+            }
+            const std::vector<float>& st = rec.shapeTimes;
+            const float t = std::clamp(times[k], st.front(), st.back());
+            size_t a = size_t(std::upper_bound(st.begin(), st.end(), t) - st.begin());
+            a = a == 0 ? 0 : std::min(a - 1, st.size() - 2);
+            const float span = st[a + 1] - st[a];
+            const float f = span > 0 ? std::clamp((t - st[a]) / span, 0.0f, 1.0f) : 0.0f;
+            const std::vector<Vec3>&p0 = shapes[a], &p1 = shapes[a + 1];
+            for (int i = 0; i < n; ++i) dst[i] = p0[size_t(i)] + (p1[size_t(i)] - p0[size_t(i)]) * f;
+        }
+        std::copy(objectAt.begin(), objectAt.begin() + n, g.P.begin());
+    }
     g.transform(c, objectFromCamera);
     // The family's own normals are outward; an inside-out primitive's point
     // in. User-supplied normals are used as given.
     if (g.ownNormals && attrs.insideOut)
-        for (Vec3& n : g.N) n = -n;
+        for (Vec3& nrm : g.N) nrm = -nrm;
 
     const PreparedAttributes& pa = m_frame.attributes.at(&attrs);
     const bool flip = normalsFlip(attrs, c);
@@ -145,27 +296,52 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
     }
     const std::vector<Vec3>& P = *positions;
 
-    const int n = (nu + 1) * (nv + 1);
+    // Camera-space positions at every placement time: key 0 is the shaded
+    // grid; later keys move the surface, and carry its displacement along
+    // (turned as the piece turns).
+    thread_local std::vector<Vec3> cameraAt;
+    const std::vector<Vec3>* keyed = &P;
+    if (keys > 1) {
+        cameraAt.resize(keys * size_t(n));
+        std::copy(P.begin(), P.begin() + n, cameraAt.begin());
+        for (size_t k = 1; k < keys; ++k) {
+            const Mat4 ck = cameraFromObjectAt(rec, times[k]);
+            const Mat4 turn = ck * objectFromCamera;  // camera at the opening -> camera at time k
+            const Vec3* src = &objectAt[k * size_t(n)];
+            Vec3* dst = &cameraAt[k * size_t(n)];
+            for (int i = 0; i < n; ++i) dst[i] = ck.point(src[i]) + turn.vector(P[size_t(i)] - g.P[size_t(i)]);
+        }
+        keyed = &cameraAt;
+    }
+
     out.nu = nu;
     out.nv = nv;
     out.id = id;
     out.matte = attrs.matte;
     out.discs = g.discs;
-    out.P.resize(size_t(n));
+    out.P.resize(size_t(n) * keys);
+    out.keyTimes.clear();
+    if (keys > 1) {
+        const float span = m_frame.shutterClose - m_frame.shutterOpen;
+        for (float t : times) out.keyTimes.push_back(std::clamp((t - m_frame.shutterOpen) / span, 0.0f, 1.0f));
+        out.keyTimes.front() = 0.0f;
+        out.keyTimes.back() = 1.0f;
+    }
     out.bound = Bound3();
     bool anyInFront = false;
-    for (int i = 0; i < n; ++i) {
-        const Vec3& p = P[size_t(i)];
+    for (size_t i = 0; i < size_t(n) * keys; ++i) {
+        const Vec3& p = (*keyed)[i];
         if (cam.perspective && p.z < m_eyeZ) {
-            // Displaced behind the eye: keep it out of the image.
-            out.P[size_t(i)] = {0, 0, -kInfinity};
+            // Displaced (or moved) behind the eye: keep it out of the image.
+            out.P[i] = {0, 0, -kInfinity};
             continue;
         }
-        out.P[size_t(i)] = cam.rasterOf(p);
-        out.bound.extend(out.P[size_t(i)]);
+        out.P[i] = cam.rasterOf(p);
+        out.bound.extend(out.P[i]);
         anyInFront = true;
     }
     if (!anyInFront) return false;
+    if (keys > 1 || m_pass.lensRadius > 0) noteBlur(out);
 
     out.trim = prim.trimRegion();
     out.uv.clear();
@@ -177,7 +353,7 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
         }
     }
     out.culled.clear();
-    if (attrs.sides == 1 && m_pass.cull != Pass::Cull::None && !cullFacing(P, flip, out)) return false;
+    if (attrs.sides == 1 && m_pass.cull != Pass::Cull::None && !cullFacing(*keyed, keys, flip, out)) return false;
 
     out.ownSecondLayer = m_pass.depthOnly && m_pass.openSurfacesAreOwnSecondLayer && attrs.sides == 2;
     if (m_pass.depthOnly) {
@@ -192,30 +368,56 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
     return true;
 }
 
-bool SurfacePipeline::cullFacing(const std::vector<Vec3>& P, bool flip, hider::ShadedGrid& out) const {
+void SurfacePipeline::noteBlur(const hider::ShadedGrid& out) const {
+    // The grid's raster bound at the opening, and over every key with the
+    // circle of confusion: what blur costs the hider in area to search.
+    const int n = (out.nu + 1) * (out.nv + 1);
+    Bound3 still, blurred;
+    for (int i = 0; i < n; ++i)
+        if (out.P[size_t(i)].z > -kInfinity) still.extend(out.P[size_t(i)]);
+    for (const Vec3& p : out.P)
+        if (p.z > -kInfinity) {
+            const float r = confusionRadius(p.z);
+            blurred.extend(Vec3(p.x - r, p.y - r, p.z));
+            blurred.extend(Vec3(p.x + r, p.y + r, p.z));
+        }
+    auto area = [](const Bound3& b) {
+        return b.empty() ? 0.0 : double(b.max.x - b.min.x + 1) * double(b.max.y - b.min.y + 1);
+    };
+    m_frame.blurredGrids.fetch_add(1, std::memory_order_relaxed);
+    m_frame.stillBoundPixels.fetch_add(uint64_t(std::min(area(still), 1e15)), std::memory_order_relaxed);
+    m_frame.blurredBoundPixels.fetch_add(uint64_t(std::min(area(blurred), 1e15)), std::memory_order_relaxed);
+}
+
+bool SurfacePipeline::cullFacing(const std::vector<Vec3>& keyed, size_t keys, bool flip,
+                                 hider::ShadedGrid& out) const {
     // A micropolygon faces the eye when its outward normal points at it:
-    // dPdu x dPdv in camera space, negated when normalsFlip() says so.
+    // dPdu x dPdv in camera space, negated when normalsFlip() says so. A
+    // moving one is dropped only when it is culled at every key.
     const int nu = out.nu, nv = out.nv, nu1 = nu + 1;
+    const size_t verts = size_t(nu1) * size_t(nv + 1);
     const bool perspective = m_pass.camera.perspective;
     const bool dropFront = m_pass.cull == Pass::Cull::Front;
-    out.culled.assign(size_t(nu) * size_t(nv), 0);
+    out.culled.assign(size_t(nu) * size_t(nv), 1);
     bool anyKept = false;
-    for (int j = 0; j < nv; ++j)
-        for (int i = 0; i < nu; ++i) {
-            // The cross of the diagonals, (a+b) x (b-a) = 2 a x b, stays
-            // right where one edge collapses (a sphere's pole).
-            const Vec3& a = P[size_t(j * nu1 + i)];
-            const Vec3& d = P[size_t((j + 1) * nu1 + i + 1)];
-            Vec3 n = cross(d - a, P[size_t((j + 1) * nu1 + i)] - P[size_t(j * nu1 + i + 1)]);
-            Vec3 centre = (a + d) * 0.5f;
-            float toward = perspective ? dot(n, centre) : n.z;  // > 0: faces away (unflipped)
-            bool front = flip ? toward > 0 : toward < 0;
-            bool drop = dropFront ? front : !front;
-            out.culled[size_t(j * nu + i)] = drop ? 1 : 0;
-            anyKept |= !drop;
-        }
-    if (!anyKept) return false;
-    return true;
+    for (size_t k = 0; k < keys; ++k) {
+        const Vec3* P = keyed.data() + k * verts;
+        for (int j = 0; j < nv; ++j)
+            for (int i = 0; i < nu; ++i) {
+                // The cross of the diagonals, (a+b) x (b-a) = 2 a x b, stays
+                // right where one edge collapses (a sphere's pole).
+                const Vec3& a = P[size_t(j * nu1 + i)];
+                const Vec3& d = P[size_t((j + 1) * nu1 + i + 1)];
+                Vec3 n = cross(d - a, P[size_t((j + 1) * nu1 + i)] - P[size_t(j * nu1 + i + 1)]);
+                Vec3 centre = (a + d) * 0.5f;
+                float toward = perspective ? dot(n, centre) : n.z;  // > 0: faces away (unflipped)
+                bool front = flip ? toward > 0 : toward < 0;
+                bool drop = dropFront ? front : !front;
+                if (!drop) out.culled[size_t(j * nu + i)] = 0;
+                anyKept |= !drop;
+            }
+    }
+    return anyKept;
 }
 
 void SurfacePipeline::fillAovs(const shading::ShadingGrid& sg, hider::ShadedGrid& out) const {

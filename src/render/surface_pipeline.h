@@ -32,14 +32,31 @@ private:
     /// Whether this pass draws primitives of these attributes: a depth
     /// pass its shadow casters, the camera what the camera sees.
     bool takesPart(const scene::Attributes& attrs) const;
-    /// cameraFromObject of a primitive in this pass.
+    /// cameraFromObject of a primitive in this pass, at the shutter's opening.
     Mat4 cameraFromObject(const geometry::Primitive& prim) const;
+    /// ... and at scene time t.
+    Mat4 cameraFromObjectAt(const scene::PrimitiveRecord& rec, float t) const;
+    /// The scene times at which the hider places a piece (motion blur): the
+    /// shutter's opening and closing and every key in between, with more
+    /// keys where one interval turns far (its path is then followed by
+    /// chords of at most kMaxChordTurn). Only the opening when the piece
+    /// does not move in this pass.
+    void placementTimes(const geometry::Primitive& prim, std::vector<float>& times) const;
+    /// The piece's camera-space bound over the placement times (padded by
+    /// the displacement bound as dice::cameraBound pads).
+    Bound3 sweptBound(const geometry::Primitive& prim, const dice::DiceParams& p,
+                      const std::vector<float>& times) const;
+    /// Raster pixels the thin lens spreads a point at camera depth z over,
+    /// as a radius (0 for a pinhole).
+    float confusionRadius(float z) const;
     /// The dicing parameters of a primitive in this pass.
     dice::DiceParams diceParams(const geometry::Primitive& prim) const;
     void fillAovs(const shading::ShadingGrid& sg, hider::ShadedGrid& out) const;
     /// Marks the micropolygons the pass culls by facing (see Pass::Cull);
     /// false when none is left.
-    bool cullFacing(const std::vector<Vec3>& P, bool flip, hider::ShadedGrid& out) const;
+    bool cullFacing(const std::vector<Vec3>& keyed, size_t keys, bool flip, hider::ShadedGrid& out) const;
+    /// Adds a blurred grid's bound growth to the frame's statistics.
+    void noteBlur(const hider::ShadedGrid& out) const;
 
     FrameState& m_frame;
     const Pass& m_pass;

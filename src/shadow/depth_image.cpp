@@ -163,6 +163,7 @@ bool prepareMap(const DepthImage& image, PreparedMap& out, std::string& why) {
     header.insert(kAttrProjection, Imf::StringAttribute(projectionName(image.projection)));
     header.insert(kAttrDepthFilter, Imf::StringAttribute(depthFilterName(image.filter)));
     header.insert(kAttrDualOffset, Imf::FloatAttribute(image.dualOffset));
+    if (image.timeTile > 0) header.insert(kAttrTimeTile, Imf::IntAttribute(image.timeTile));
     header.insert(kAttrTilesX, Imf::IntAttribute(tilesX));
     header.insert(kAttrTilesY, Imf::IntAttribute(tilesY));
     header.insert(kAttrTileMinZ, Imf::FloatVectorAttribute(tileMin));
@@ -468,6 +469,7 @@ bool readDepthImage(const std::string& path, DepthImage& out, Diagnostics& diag,
         img.projection = m.projection;
         img.filter = m.filter;
         img.dualOffset = m.dualOffset;
+        img.timeTile = m.timeTile;
         out = std::move(img);
         return true;
     } catch (const std::exception& e) {

@@ -24,6 +24,9 @@ inline constexpr const char* kAttrWorldToNDC = "worldToNDC";
 inline constexpr const char* kAttrProjection = "umbra:projection";
 inline constexpr const char* kAttrDepthFilter = "umbra:depthfilter";
 inline constexpr const char* kAttrDualOffset = "umbra:dualoffset";
+/// Motion blur: texels hold their casters at times interleaved over tiles
+/// of this many texels a side (hider/sample_buffer.h kTimeTile); 0: still.
+inline constexpr const char* kAttrTimeTile = "umbra:timetile";
 inline constexpr const char* kAttrTilesX = "umbra:tilesX";
 inline constexpr const char* kAttrTilesY = "umbra:tilesY";
 inline constexpr const char* kAttrTileMinZ = "umbra:tileMinZ";
@@ -57,6 +60,7 @@ struct MapMatrices {
     Projection projection = Projection::Perspective;
     DepthFilter filter = DepthFilter::Min;
     float dualOffset = 0;
+    int timeTile = 0;
 };
 
 /// Reads worldToCamera/worldToNDC (required) and the umbra attributes
@@ -88,6 +92,8 @@ inline bool readMapMatrices(const Imf::Header& header, MapMatrices& out, std::st
         }
     }
     if (auto* a = header.findTypedAttribute<Imf::FloatAttribute>(kAttrDualOffset)) out.dualOffset = a->value();
+    if (auto* a = header.findTypedAttribute<Imf::IntAttribute>(kAttrTimeTile))
+        out.timeTile = std::clamp(a->value(), 0, 64);
     return true;
 }
 

@@ -497,7 +497,9 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
     const bool randomBias = biasLo != biasHi;
     const int samples = std::max(1, params.samples);
     const int minSamples = clamp(params.minSamples, 1, samples);
-    const float minHalf = std::max(0.0f, params.minSize) * 0.5f;
+    // A map of moving casters holds each time in one texel of every time
+    // tile: regions span at least a tile, so each sees the whole shutter.
+    const float minHalf = std::max({0.0f, params.minSize * 0.5f, float(m_timeTile) * 0.5f});
     // Regions larger than this (half-width, texels) gain nothing: clamping
     // keeps the sample arithmetic finite for wild footprints.
     const float maxHalf = 4.0f * float(std::max(m_width, m_height)) + 4.0f;

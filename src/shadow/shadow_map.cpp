@@ -224,6 +224,7 @@ void ShadowMap::setFaces(std::vector<std::shared_ptr<ShadowMap>> faces) {
     m_projection = f0.m_projection;
     m_filter = f0.m_filter;
     m_dualOffset = f0.m_dualOffset;
+    m_timeTile = f0.m_timeTile;
     m_finiteCount = 0;
     for (const auto& f : faces) m_finiteCount += f->m_finiteCount;
     m_faces = std::move(faces);
@@ -293,6 +294,7 @@ bool ShadowMap::initHeader(const Imf::Header& header, int tilesX, int tilesY, st
     m_projection = mm.projection;
     m_filter = mm.filter;
     m_dualOffset = mm.dualOffset;
+    m_timeTile = mm.timeTile;
 
     const Imath::Box2i display = header.displayWindow(), data = header.dataWindow();
     if (display.min.x != 0 || display.min.y != 0) {

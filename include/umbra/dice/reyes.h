@@ -60,6 +60,11 @@ struct DiceParams {
     /// place the same vertices along it. A grid whose rounded-up counts
     /// exceed gridSize is split instead.
     bool binary = false;
+    /// A piece that moves (motion blur): its camera-space bound over the
+    /// whole shutter, padded as cameraBound() pads. Culling and the eye
+    /// plane test it; the dicing rate is measured at the shutter's opening
+    /// (cameraFromObject), where the grid is shaded. Empty: not moving.
+    Bound3 sweep;
 };
 
 /// The three outcomes of the REYES loop for one primitive.
@@ -85,6 +90,9 @@ Bound3 cameraBound(const Bound3& objectBound, const DiceParams& p);
 /// z range. When the bound crosses the eye plane (perspective) x and y are
 /// unbounded (-inf, inf). Empty for an empty input.
 Bound3 rasterBound(const Bound3& objectBound, const DiceParams& p);
+
+/// rasterBound() of a camera-space bound (e.g. DiceParams::sweep).
+Bound3 rasterBoundOfCamera(const Bound3& cameraBound, const DiceParams& p);
 
 /// True when the camera-space bound cannot reach the raster window or the
 /// clipping range: tested against the window's four side planes in camera

@@ -75,6 +75,16 @@ public:
     virtual std::shared_ptr<const TrimRegion> trimRegion() const { return nullptr; }
     /// True when trimming removes all of this piece, so it can be culled.
     virtual bool trimmedAway() const { return false; }
+    /// Deformation blur: how many shapes the surface takes over the shutter
+    /// (a MotionBegin block around the primitive; its record's shapeTimes).
+    /// 1 for a primitive that does not deform.
+    virtual int shapeCount() const { return 1; }
+    /// The positions of shape k (0 .. shapeCount()-1) diced as
+    /// diceInView(nu, nv, view), vertex for vertex; shape 0's are
+    /// diceInView's own. bound() covers every shape.
+    virtual void diceShape(int shape, int nu, int nv, const ViewContext& view, std::vector<Vec3>& P) const {
+        P = diceInView(nu, nv, view).P;
+    }
 
     const scene::PrimitiveRecord& record() const { return *m_record; }
     const std::shared_ptr<const scene::PrimitiveRecord>& recordPtr() const { return m_record; }

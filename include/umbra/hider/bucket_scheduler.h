@@ -36,7 +36,8 @@ namespace umbra::hider {
 /// A diced, shaded grid in raster space, ready to be sampled.
 struct ShadedGrid {
     int nu = 0, nv = 0;
-    std::vector<Vec3> P;      // raster x, raster y (pixels, y down), camera-space z
+    std::vector<Vec3> P;      // raster x, raster y (pixels, y down), camera-space z; keyCount arrays when moving
+    std::vector<float> keyTimes;  // motion blur: see MicroGrid::keyTimes; empty: still
     std::vector<Color> Ci, Oi;
     std::vector<float> aov;   // aovFloats per vertex
     int aovFloats = 0;
@@ -62,6 +63,7 @@ struct SchedulerStats {
     uint64_t micropolygons = 0;
     uint64_t buckets = 0;
     uint64_t peakGridsAlive = 0;   // most shaded grids held at once
+    BlurStats blur;                // the blurred sampling path (motion blur, depth of field)
     /// CPU time of the pass's bucket workers, summed over threads: the
     /// pass's own work, without other threads of the process (such as map
     /// files being written in the background).

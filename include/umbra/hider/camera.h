@@ -47,6 +47,10 @@ struct Camera {
         return s * m_xScale;
     }
 
+    /// Raster pixels per screen unit along x and y (y is flipped by rasterOf).
+    float rasterScaleX() const { return m_xScale; }
+    float rasterScaleY() const { return m_yScale; }
+
     /// Projective matrices for the shading language's named spaces.
     Mat4 screenFromCamera() const;
     Mat4 ndcFromScreen() const;

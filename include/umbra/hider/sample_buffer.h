@@ -43,6 +43,11 @@ namespace umbra::hider {
 /// slower than they do now.
 constexpr int kPatternPeriod = 32;
 
+/// Motion blur's time interleaving: the pixels of each kTimeTile x
+/// kTimeTile tile share out the finer time strata among themselves, so a
+/// depth map of one sample a texel sees the whole shutter over one tile.
+constexpr int kTimeTile = 4;
+
 class SamplePattern;
 class PatternFilterWeights;
 
@@ -87,6 +92,16 @@ struct MicroGrid {
     /// radius a quarter of the sum of the distances between the midpoints
     /// of opposite edges (exact for a square).
     bool discs = false;
+    /// Motion blur: keyCount >= 2 position arrays, P holding them one
+    /// after the other (vertexCount() each), key k at keyTimes[k], fractions
+    /// of the shutter, ascending from 0 to 1. A sample at time t sees each
+    /// vertex interpolated linearly in raster space (and in depth, as 1/z
+    /// under perspective) between the keys around t. Colour, opacity and
+    /// AOVs are those shaded once for the grid.
+    int keyCount = 1;
+    const float* keyTimes = nullptr;
+
+    int vertexCount() const { return (nu + 1) * (nv + 1); }
 };
 
 /// What a SampleBuffer records: the camera pass or a light's depth pass.
@@ -116,6 +131,26 @@ struct SampleBufferConfig {
     /// nearest (z2 stays +infinity) -- the single-layer baseline the
     /// two-layer pass is measured against.
     int depthLayers = 2;
+    /// Motion blur: each sample gets a time in [0, 1), a fraction of the
+    /// shutter (src/hider/sample_pattern.h: sampleTime), at which grids with
+    /// several keys are tested. Needed whenever such grids are sampled.
+    bool motion = false;
+    float shutterOpening[2] = {0, 1};  // the shutter's shape (scene::Options)
+    /// Depth of field (perspective only): each sample gets a position on
+    /// the unit lens disc, and a vertex at depth z is seen displaced by
+    /// lens * lensScale * (inverseFocalDistance - 1/z) raster pixels: the
+    /// thin lens, with lensScale = lens radius * raster pixels per unit of
+    /// x/z (y negated: raster y runs down).
+    bool lens = false;
+    float lensScaleX = 0, lensScaleY = 0;
+    float inverseFocalDistance = 0;
+};
+
+/// Counters of the blurred sampling path (motion blur, depth of field).
+struct BlurStats {
+    uint64_t micropolygons = 0;  // micropolygons sampled per sample (moving, or under a lens)
+    uint64_t sampleTests = 0;    // samples tested against them (each interpolates the micropolygon)
+    uint64_t sampleHits = 0;     // ... of which the micropolygon covered
 };
 
 /// The visible-surface samples of one bucket (see the file comment). One per
@@ -171,6 +206,12 @@ public:
     /// src/hider/sample_pattern.h), and each sample lies strictly inside its
     /// stratum, floor(x * xs) == px * xs + s % xs (likewise in y).
     static Vec2 samplePosition(int px, int py, int s, int xSamples, int ySamples, bool jitter, uint32_t frameSeed);
+    /// The time of that sample (motion blur) and its position on the unit
+    /// lens disc (depth of field), for the buffer's settings `config`.
+    static float sampleTime(int px, int py, int s, const SampleBufferConfig& config);
+    static Vec2 sampleLens(int px, int py, int s, const SampleBufferConfig& config);
+
+    const BlurStats& blurStats() const { return m_blur; }
 
     /// Inspection (tests, statistics). Pixel and sample as samplePosition;
     /// the pixel must lie in the sampled region.
@@ -198,6 +239,10 @@ private:
     /// vertices' nearest and farthest depths).
     void rasterizeQuad(const MicroGrid& g, const HitContext& ctx, int i, int j, float minx, float miny, float maxx,
                        float maxy, float minz, float maxz);
+    /// sample() for a moving grid, or any grid under a lens: each sample
+    /// places the micropolygon's corners at its time and lens position.
+    void sampleBlurred(const MicroGrid& g);
+    void rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, int i, int j);
     /// Records a hit of triangle t at sample s: depth z (within the clipping
     /// planes), barycentric weights b1, b2 of t's second and third vertices.
     /// True if it changed a depth the occlusion bound is made of.
@@ -233,6 +278,9 @@ private:
 
     // Per sample (structure of arrays).
     std::vector<float> m_px, m_py;   // raster position
+    std::vector<float> m_time;       // motion: time in [0, 1)
+    std::vector<float> m_lensX, m_lensY;  // depth of field: position on the unit lens disc
+    BlurStats m_blur;
     std::vector<float> m_columnPixel;  // per region stratum column: its pixel's x (reset scratch)
     std::vector<float> m_z;          // opaque z (colour) or z1 (depth)
     std::vector<uint64_t> m_id;      // key of that hit: grid id ...
@@ -248,7 +296,7 @@ private:
     std::unique_ptr<SamplePattern> m_pattern;          // positions of one period
     std::unique_ptr<PatternFilterWeights> m_weights;   // the film filter's weights over it
 
-    std::vector<float> m_inverseDepth;  // perspective: 1/z per vertex of the grid being sampled
+    std::vector<float> m_inverseDepth;  // perspective: 1/z per vertex (and key) of the grid being sampled
 
     std::vector<Fragment> m_frags;
     std::vector<float> m_fragAov;

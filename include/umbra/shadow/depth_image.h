@@ -59,6 +59,10 @@ struct DepthImage {
     DepthFilter filter = DepthFilter::Min;
     /// Weiskopf & Ertl's offset for the "dual" filter (world units).
     float dualOffset = 0;
+    /// Motion blur: each texel holds its casters at its own time, the
+    /// times interleaved over tiles of timeTile x timeTile texels, so a
+    /// lookup filters over at least one tile (docs/motion.md); 0: still.
+    int timeTile = 0;
 
     DepthImage() = default;
     /// An image of the given size filled with +infinity.

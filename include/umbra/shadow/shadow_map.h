@@ -245,6 +245,7 @@ public:
     Projection projection() const { return m_projection; }
     DepthFilter depthFilter() const { return m_filter; }
     float dualOffset() const { return m_dualOffset; }
+    int timeTile() const { return m_timeTile; }
     bool empty() const { return m_finiteCount == 0; }
     /// Data window (bounding box of finite depths), inclusive raster bounds.
     int dataMinX() const { return m_dx0; }
@@ -419,6 +420,7 @@ private:
     Projection m_projection = Projection::Perspective;
     DepthFilter m_filter = DepthFilter::Min;
     float m_dualOffset = 0;
+    int m_timeTile = 0;  // see DepthImage::timeTile
     uint64_t m_fileBytes = 0;
     /// Virtual sampling: planes go from light camera space to the light's
     /// screen space (raster x, raster y, depth coordinate) by

@@ -1,0 +1,278 @@
+// Motion blur and depth of field against closed forms (issue 18): a
+// translating square's averaged coverage, a rotating bar's, a point
+// defocused to the thin lens's circle of confusion, an in-focus plane that
+// stays sharp, deformation blur against the average of still renders, and
+// the blurred shadow of a moving caster.
+
+#include "support/render_harness.h"
+
+#include "umbra/util/motion.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fmt/format.h>
+
+namespace umbra {
+namespace {
+
+using test::Image;
+using test::ScratchDir;
+
+/// Renders RIB whose Display is "out.tif", written into `dir`.
+Image render(std::string rib, const ScratchDir& dir, int threads = 0, int bucket = 0) {
+    Diagnostics diag;
+    diag.setRecord(true);
+    const std::string out = dir.file("out.tif");
+    rib.replace(rib.find("\"out.tif\""), 9, "\"" + out + "\"");
+    Image img = test::renderImage(rib, out, diag, threads, bucket);
+    EXPECT_EQ(diag.errorCount(), 0) << (diag.recorded().empty() ? "" : diag.recorded()[0].message);
+    return img;
+}
+
+/// An orthographic frame whose raster pixel (x, y) is the unit square at
+/// camera x in [x - w/2, x - w/2 + 1], y downwards from h/2.
+std::string orthoFrame(int w, int h, int samples, const std::string& extra = "") {
+    return fmt::format(
+        "Format {} {} 1\nPixelSamples {} {}\nPixelFilter \"box\" 1 1\nProjection \"orthographic\"\n"
+        "ScreenWindow {} {} {} {}\nQuantize \"rgba\" 0 0 0 0\nDisplay \"out.tif\" \"file\" \"rgba\"\n{}",
+        w, h, samples, samples, -w / 2.0, w / 2.0, -h / 2.0, h / 2.0, extra);
+}
+
+// The average over the shutter of a square [c-4, c+4] moving from c = -10
+// to c = 10 covering the pixel column [x0, x0 + 1]: closed form.
+double slidingCoverage(double x0) {
+    auto overlapIntegral = [](double a) {  // integral over c of max(0, min(a+1, c+4) - max(a, c-4)) dc, c in [-10, 10]
+        double s = 0;
+        const int n = 20000;
+        for (int i = 0; i < n; ++i) {
+            const double c = -10 + 20 * (i + 0.5) / n;
+            s += std::max(0.0, std::min(a + 1, c + 4) - std::max(a, c - 4));
+        }
+        return s / n;
+    };
+    return overlapIntegral(x0);
+}
+
+TEST(MotionBlur, TranslatingSquareLeavesTheAveragedCoverageProfile) {
+    ScratchDir dir("mb-square");
+    const std::string rib = orthoFrame(48, 16, 8, "Shutter 0 1\n") +
+                            "WorldBegin\nSurface \"constant\"\n"
+                            "MotionBegin [0 1]\nTranslate -10 0 0\nTranslate 10 0 0\nMotionEnd\n"
+                            "Polygon \"P\" [-4 -8 5  4 -8 5  4 8 5  -4 8 5]\nWorldEnd\n";
+    Image img = render(rib, dir);
+    ASSERT_EQ(img.width, 48);
+    double worst = 0, total = 0;
+    for (int x = 0; x < 48; ++x) {
+        double column = 0;
+        for (int y = 0; y < 16; ++y) column += img.at(x, y, 3);
+        column /= 16;
+        total += column;
+        worst = std::max(worst, std::abs(column - slidingCoverage(x - 24.0)));
+    }
+    // The swept area is the square's: 8 pixels a row.
+    EXPECT_NEAR(total, 8.0, 0.01 * 8.0);
+    EXPECT_LT(worst, 0.01) << "largest error of a column's averaged coverage";
+}
+
+TEST(MotionBlur, RotatingBarMatchesItsClosedForm) {
+    // A bar of half-width 0.5 (256 samples a pixel) from the centre out to radius 30 turns through
+    // 90 degrees (Rotate keys: the path is the arc, not the chord). A point
+    // at radius r inside the swept quarter is covered while the bar's
+    // angular width 2 asin(0.5 / r) passes over it: a fraction
+    // 2 asin(0.5 / r) / (pi / 2) of the shutter.
+    ScratchDir dir("mb-bar");
+    const std::string rib = orthoFrame(80, 80, 16, "Shutter 0 1\n") +
+                            "WorldBegin\nSurface \"constant\"\n"
+                            "MotionBegin [0 1]\nRotate 0 0 0 1\nRotate 90 0 0 1\nMotionEnd\n"
+                            "Polygon \"P\" [0 -0.5 5  30 -0.5 5  30 0.5 5  0 0.5 5]\nWorldEnd\n";
+    Image img = render(rib, dir);
+    ASSERT_EQ(img.width, 80);
+    // Rings of radius 10..25, angles 20..70 degrees (away from the ends).
+    for (double r0 : {10.0, 15.0, 20.0}) {
+        double sum = 0;
+        int count = 0;
+        for (int y = 0; y < 80; ++y)
+            for (int x = 0; x < 80; ++x) {
+                const double cx = x + 0.5 - 40, cy = 40 - (y + 0.5);
+                const double r = std::hypot(cx, cy), a = std::atan2(cy, cx);
+                if (r < r0 || r >= r0 + 5 || a < 0.35 || a > 1.22) continue;
+                sum += img.at(x, y, 3) / (2 * std::asin(0.5 / r) / (kPi / 2));
+                ++count;
+            }
+        ASSERT_GT(count, 20);
+        EXPECT_NEAR(sum / count, 1.0, 0.03) << "ring at radius " << r0 << ": measured / closed-form coverage";
+    }
+}
+
+TEST(MotionBlur, RotationKeysFollowTheArc) {
+    // Decomposed interpolation: halfway between Rotate 0 and Rotate 90 is Rotate 45.
+    MotionTransform m;
+    m.postMultiplyMoving({0, 1}, {Mat4::rotate(0, {0, 0, 1}), Mat4::rotate(90, {0, 0, 1})});
+    const Mat4 half = m.at(0.5f), expected = Mat4::rotate(45, {0, 0, 1});
+    for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j) EXPECT_NEAR(half.m[i][j], expected.m[i][j], 1e-5) << i << "," << j;
+    // Translation and scale interpolate linearly, and a fixed transform after a
+    // moving one stays outside it: an orbit at radius 2.
+    MotionTransform orbit;
+    orbit.postMultiplyMoving({0, 1}, {Mat4::rotate(0, {0, 0, 1}), Mat4::rotate(90, {0, 0, 1})});
+    orbit.postMultiply(Mat4::translate({2, 0, 0}));
+    const Vec3 p = orbit.at(0.5f).point({0, 0, 0});
+    EXPECT_NEAR(length(p), 2.0f, 1e-5);
+    MotionTransform grow;
+    grow.postMultiplyMoving({0, 2}, {Mat4::scale({1, 1, 1}), Mat4::scale({3, 3, 3})});
+    EXPECT_NEAR(grow.at(1.0f).point({1, 0, 0}).x, 2.0f, 1e-5);
+    EXPECT_NEAR(grow.at(5.0f).point({1, 0, 0}).x, 3.0f, 1e-5);  // held after the last key
+}
+
+/// A perspective frame with a lens; fov 90 over 96 pixels: 48 pixels per unit of x/z.
+std::string lensFrame(const std::string& dof, int samples = 8) {
+    return fmt::format("Format 96 96 1\nPixelSamples {0} {0}\nPixelFilter \"box\" 1 1\n"
+                       "Projection \"perspective\" \"fov\" 90\n{1}\nQuantize \"rgba\" 0 0 0 0\nDisplay \"out.tif\" \"file\" \"rgba\"\n",
+                       samples, dof);
+}
+
+TEST(DepthOfField, APointBlursToTheThinLensCircle) {
+    // fstop 2, focal length 1: lens radius 0.25 camera units. Focused at
+    // 20, a point at depth 2 spreads over radius 0.25 |1/20 - 1/2| in x/z,
+    // times 48 pixels per unit: 5.4 pixels. The "point" is a square of
+    // half-side 0.04 (0.96 pixels; its area on screen is exact, where a
+    // disc this small dices into a polygon).
+    ScratchDir dir("dof-point");
+    const double lensRadius = 0.25, focus = 20, depth = 2, half = 0.04;
+    const double confusion = lensRadius * std::abs(1 / focus - 1 / depth) * 48;  // radius in pixels
+    const double halfPixels = half / depth * 48;
+    const std::string rib = fmt::format(
+        "Format 96 96 1\nPixelSamples 16 16\nPixelFilter \"box\" 1 1\nProjection \"perspective\" \"fov\" 90\n"
+        "DepthOfField 2 1 20\nQuantize \"rgba\" 0 0 0 0\nDisplay \"out.tif\" \"file\" \"rgba\"\n"
+        "WorldBegin\nSurface \"constant\"\nTranslate 0 0 {0}\n"
+        "Polygon \"P\" [-{1} -{1} 0  {1} -{1} 0  {1} {1} 0  -{1} {1} 0]\nWorldEnd\n", depth, half);
+    Image img = render(rib, dir);
+    ASSERT_EQ(img.width, 96);
+    // The image is the square convolved with the circle of confusion and the
+    // one-pixel box filter: mean squared radius R^2/2 + 2 a^2/3 + 1/6.
+    double sum = 0, moment = 0;
+    for (int y = 0; y < 96; ++y)
+        for (int x = 0; x < 96; ++x) {
+            const double a = img.at(x, y, 3), r2 = std::pow(x + 0.5 - 48, 2) + std::pow(y + 0.5 - 48, 2);
+            sum += a;
+            moment += a * r2;
+        }
+    ASSERT_GT(sum, 0);
+    const double measured = std::sqrt(2 * (moment / sum - 2 * halfPixels * halfPixels / 3 - 1.0 / 6));
+    EXPECT_NEAR(2 * measured, 2 * confusion, 1.0) << "diameter of the blurred point, pixels";
+    // Alpha is conserved: the square's own area on screen.
+    const double squarePixels = 4 * halfPixels * halfPixels;
+    EXPECT_NEAR(sum, squarePixels, 0.03 * squarePixels);
+}
+
+TEST(DepthOfField, AnInFocusPlaneStaysSharp) {
+    ScratchDir dir("dof-focus");
+    const std::string world =
+        "WorldBegin\nSurface \"constant\"\nColor [1 0.5 0.25]\nTranslate 0 0 4\n"
+        "Polygon \"P\" [-1 -1 0  1.5 -1 0  1.5 0.7 0  -1 0.7 0]\nWorldEnd\n";
+    Image sharp = render(lensFrame("") + world, dir);
+    Image focused = render(lensFrame("DepthOfField 1.4 0.5 4") + world, dir);
+    ASSERT_EQ(sharp.width, focused.width);
+    EXPECT_EQ(test::maxAbsDiff(sharp, focused, 4), 0.0) << "bit-identical at the focal distance";
+    Image defocused = render(lensFrame("DepthOfField 1.4 0.5 8") + world, dir);
+    EXPECT_GT(test::maxAbsDiff(sharp, defocused, 4), 0.2);
+}
+
+TEST(MotionBlur, DeformationEqualsTheAverageOfStillRenders) {
+    // A bilinear patch whose corners move between two shapes; the blurred
+    // render against the average of 32 still renders at the stratum centres
+    // of the shutter, each with its corners interpolated.
+    ScratchDir dir("mb-deform");
+    const float a[12] = {-8, -6, 5, 6, -6, 5, -6, 6, 5, 8, 6, 5};
+    const float b[12] = {-4, -8, 5, 10, -3, 5, -9, 4, 5, 5, 8, 5};
+    auto patch = [](const float* p) {
+        std::string s = "Patch \"bilinear\" \"P\" [";
+        for (int i = 0; i < 12; ++i) s += fmt::format("{} ", p[i]);
+        return s + "]\n";
+    };
+    const std::string head = orthoFrame(40, 24, 8, "Shutter 0 1\n") + "WorldBegin\nSurface \"constant\"\n";
+    Image blurred = render(head + "MotionBegin [0 1]\n" + patch(a) + patch(b) + "MotionEnd\nWorldEnd\n", dir);
+    const int steps = 32;
+    std::vector<double> average(blurred.pixels.size(), 0.0);
+    for (int k = 0; k < steps; ++k) {
+        const float f = (k + 0.5f) / steps;
+        float p[12];
+        for (int i = 0; i < 12; ++i) p[i] = a[i] + f * (b[i] - a[i]);
+        Image still = render(orthoFrame(40, 24, 8) + "WorldBegin\nSurface \"constant\"\n" + patch(p) + "WorldEnd\n", dir);
+        ASSERT_EQ(still.pixels.size(), average.size());
+        for (size_t i = 0; i < average.size(); ++i) average[i] += still.pixels[i] / steps;
+    }
+    double sumDiff = 0, sumBlur = 0, sumAverage = 0;
+    for (size_t i = 3; i < average.size(); i += 4) {
+        sumDiff += std::abs(blurred.pixels[i] - average[i]);
+        sumBlur += blurred.pixels[i];
+        sumAverage += average[i];
+    }
+    EXPECT_NEAR(sumBlur, sumAverage, 0.01 * sumAverage) << "covered area";
+    EXPECT_LT(sumDiff / (average.size() / 4), 0.02) << "mean per-pixel difference of alpha";
+}
+
+TEST(MotionBlur, SamePixelsForAnyThreadCountAndBucketSize) {
+    ScratchDir dir("mb-determinism");
+    const std::string rib =
+        "Format 96 64 1\nPixelSamples 4 4\nShutter 0 1\nProjection \"perspective\" \"fov\" 40\n"
+        "DepthOfField 4 0.5 6\nDisplay \"out.tif\" \"file\" \"rgba\"\n"
+        "MotionBegin [0 1]\nTranslate 0 0 0\nTranslate 0.3 0 0\nMotionEnd\n"
+        "WorldBegin\nLightSource \"distantlight\" 1\nSurface \"plastic\"\n"
+        "AttributeBegin\nMotionBegin [0 0.5 1]\nTranslate -1 0 6\nTranslate 0 0.5 6\nTranslate 1 0 7\nMotionEnd\n"
+        "Sphere 1 -1 1 360\nAttributeEnd\n"
+        "AttributeBegin\nTranslate 0 0 9\nMotionBegin [0 1]\nRotate 0 0 0 1\nRotate 60 0 0 1\nMotionEnd\n"
+        "Patch \"bilinear\" \"P\" [-3 -2 0 3 -2 0 -3 2 0 3 2 0]\nAttributeEnd\nWorldEnd\n";
+    Image one = render(rib, dir, 1, 16);
+    Image two = render(rib, dir, 2, 8);
+    Image odd = render(rib, dir, 2, 13);
+    EXPECT_EQ(test::maxAbsDiff(one, two, 4), 0.0);
+    EXPECT_EQ(test::maxAbsDiff(one, odd, 4), 0.0);
+}
+
+TEST(MotionBlur, MovingCasterBlursItsShadow) {
+    // A distant light straight down; a 2 x 10 slab 2 units above a floor
+    // moves 8 units along x over the shutter. The floor's time-averaged
+    // shadow is a trapezoid: fully shadowed nowhere (the slab covers a floor
+    // point for 2 of the 8 units: 25% of the time) between x = -2 and 2,
+    // ramping to lit at x = -5 and 5. Depth-map texels are sampled at
+    // interleaved times and percentage-closer filtering averages them.
+    ScratchDir dir("mb-shadow");
+    const std::string rib =
+        "Format 128 32 1\nPixelSamples 4 4\nPixelFilter \"box\" 1 1\nShutter 0 1\nProjection \"orthographic\"\n"
+        "ScreenWindow -8 8 -2 2\nQuantize \"rgba\" 0 0 0 0\nDisplay \"out.tif\" \"file\" \"rgba\"\n"
+        "Rotate -90 1 0 0\nTranslate 0 -10 0\n"  // looking straight down at the floor y = 0
+        "WorldBegin\n"
+        "LightSource \"shadowdistant\" 1 \"from\" [0 10 0] \"to\" [0 0 0] \"shadowname\" \"auto\" "
+        "\"float intensity\" 1\n"
+        "Surface \"matte\"\n"
+        "AttributeBegin\nAttribute \"visibility\" \"camera\" 0\n"
+        "MotionBegin [0 1]\nTranslate -4 0 0\nTranslate 4 0 0\nMotionEnd\n"
+        "Polygon \"P\" [-1 2 -5  1 2 -5  1 2 5  -1 2 5]\nAttributeEnd\n"
+        "Polygon \"P\" [-20 0 -20  -20 0 20  20 0 20  20 0 -20]\nWorldEnd\n";
+    Image img = render(rib, dir);
+    ASSERT_EQ(img.width, 128);
+    auto lit = [](double x) {  // fraction of the shutter a floor point at x is lit
+        const double covered = std::max(0.0, std::min(x + 1, 4.0) - std::max(x - 1, -4.0)) / 8.0;
+        return 1.0 - covered;
+    };
+    double error = 0, worst = 0;
+    std::string profile;
+    for (int x = 0; x < 128; ++x) {
+        double v = 0;
+        for (int y = 8; y < 24; ++y) v += img.at(x, y, 0);
+        v /= 16;
+        const double cx = (x + 0.5) / 8.0 - 8.0;
+        const double e = std::abs(v - lit(cx));
+        profile += fmt::format("{:.2f}/{:.2f} ", v, lit(cx));
+        error += e / 128;
+        worst = std::max(worst, e);
+    }
+    // The unblurred shadow (the slab at the opening) would be off by up to 0.75.
+    EXPECT_LT(error, 0.03) << "mean error of the floor's lit fraction; measured/expected: " << profile;
+    EXPECT_LT(worst, 0.12) << "largest error (the filter's penumbra at the ramps' ends)";
+}
+
+}  // namespace
+}  // namespace umbra
