@@ -62,6 +62,13 @@ struct Stopwatch {
     double cpu() const { return processCpuSeconds() - cpu0; }
 };
 
+/// How messages name a world: "frame 12", or "the world at scene.rib:4:1"
+/// outside FrameBegin/FrameEnd (which has no number, -1 in the statistics).
+std::string frameName(const scene::WorldRecord& world) {
+    if (world.frameNumber >= 0) return fmt::format("frame {}", world.frameNumber);
+    return world.loc.file ? "the world at " + world.loc.str() : std::string("the world");
+}
+
 std::string nowDateTime() {
     std::time_t t = std::time(nullptr);
     std::tm tm{};
@@ -420,12 +427,12 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
             if (film::imageFileComplete(path, &why)) continue;
             complete = false;
             if (why != "missing")
-                diag.warning(d.loc, "--resume: frame {}: \"{}\" is not a complete image ({}); rendering the frame again",
-                             world.frameNumber, path, why);
+                diag.warning(d.loc, "--resume: {}: \"{}\" is not a complete image ({}); rendering it again",
+                             frameName(world), path, why);
             break;
         }
         if (complete) {
-            if (!settings.quiet) fmt::print(stderr, "umbra: frame {} is complete, skipped\n", world.frameNumber);
+            if (!settings.quiet) fmt::print(stderr, "umbra: {} is complete, skipped\n", frameName(world));
             frames.push_back({{"frame", world.frameNumber}, {"skipped", true}});
             return;
         }
@@ -564,7 +571,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
         options, aovs, depthFrame ? depthFilmOf(options, depthFilterOf(options, options.loc)) : film::FilmContent::Colour,
         diag);
     PassResult camera;
-    arena->execute([&] { camera = runPass(frame, pass, prims, film, fmt::format("frame {}", world.frameNumber)); });
+    arena->execute([&] { camera = runPass(frame, pass, prims, film, world.frameNumber >= 0 ? frameName(world) : std::string("image")); });
     if (options.imager && !depthFrame) arena->execute([&] { runImager(frame, pass, *options.imager, film); });
     passes.push_back({{"name", pass.name},
                       {"wall_seconds", camera.wall},
@@ -588,8 +595,8 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     // An interrupted frame is not written: its film is incomplete.
     bool wrote = false;
     if (interrupted())
-        diag.error(options.loc, "frame {}: interrupted by signal {}; its images were not written",
-                   world.frameNumber, interruptSignal());
+        diag.error(options.loc, "{}: interrupted by signal {}; its images were not written", frameName(world),
+                   interruptSignal());
     else
         arena->execute([&] { wrote = film.write(displays, options, meta, diag, depthWriter); });
     // The frame is done when its maps' files are; a failed write (reported
@@ -650,14 +657,14 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     frames.push_back(f);
     if (options.statisticsEndOfFrame && !settings.quiet) {
         fmt::print(stderr,
-                   "umbra: frame {} statistics\n"
+                   "umbra: statistics of {}\n"
                    "  time        {:.3f} s wall ({:.3f} s depth maps, {:.3f} s camera), {:.3f} s cpu, {} threads\n"
                    "  shading     {:.3f} s in shaders ({:.0f}% of cpu)\n"
                    "  geometry    {} primitives, {} splits, {} grids, {} micropolygons ({:.2f} M/s)\n"
                    "  hiding      {} buckets, {} culled, {} occlusion-culled, {} peak grids\n"
                    "  shadows     {} lookups ({} culled lit, {} culled shadowed, {} filtered)\n"
                    "  memory      {:.1f} MiB peak\n",
-                   world.frameNumber, wall, firstPassWall, camera.wall, cpu, f["threads"].get<int>(), shadingSeconds,
+                   frameName(world), wall, firstPassWall, camera.wall, cpu, f["threads"].get<int>(), shadingSeconds,
                    cpu > 0 ? 100 * shadingSeconds / cpu : 0.0, camera.counters.primitives, camera.counters.splits,
                    camera.counters.grids, micropolygons,
                    camera.wall > 0 ? double(camera.counters.micropolygons) / camera.wall * 1e-6 : 0.0,
@@ -712,9 +719,15 @@ std::optional<LightMapJob> Renderer::Impl::planLightMap(FrameState& frame, const
         pass.flatness = depthRate > 0 ? kDepthFlatness : 0;
         pass.timeTile = frame.motionBlur() && frame.castersMove ? hider::kTimeTile : 0;
     }
-    // The map is written beside the first image, named after it and the light.
+    // The map is written beside the first image, named after it and the
+    // light: out.0012.tif's is out.0012.<light>.shd. A first image whose name
+    // does not change from frame to frame gets the frame's number too
+    // (still.tif in frame 12: still.0012.<light>.shd), so frames do not
+    // overwrite each other's maps.
+    const bool numbered = !options.displays.empty() && !options.displays[0].pattern.empty();
     std::filesystem::path base(options.displays.empty() ? std::string("umbra") : options.displays[0].name);
-    std::string frameTag = frame.world->frameNumber >= 0 ? fmt::format(".{:04d}", frame.world->frameNumber) : "";
+    std::string frameTag =
+        frame.world->frameNumber >= 0 && !numbered ? fmt::format(".{:04d}", frame.world->frameNumber) : "";
     job.path = (base.parent_path() / fmt::format("{}{}.{}.shd", base.stem().string(), frameTag, handle)).string();
     return job;
 }

@@ -290,7 +290,10 @@ void Builder::worldBegin(const FileLoc& loc) {
     // Display "out.####.tif" in frame 12 writes out.0012.tif (also %04d).
     if (m_frame >= 0)
         for (DisplayRecord& d : m_world->options.displays)
-            if (hasFramePattern(d.name)) d.name = expandFramePattern(d.name, m_frame);
+            if (hasFramePattern(d.name)) {
+                d.pattern = d.name;
+                d.name = expandFramePattern(d.name, m_frame);
+            }
     m_world->loc = loc;
     bool ok = true;
     Mat4 worldFromCamera = m_options.cameraFromWorld.inverse(&ok);

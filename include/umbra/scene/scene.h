@@ -151,6 +151,9 @@ struct LightRecord {
 /// One `Display` request. The first has no '+'; more add outputs.
 struct DisplayRecord {
     std::string name;        // file name, without a leading '+'
+    /// The name as given when it held a frame pattern ("out.####.tif"; the
+    /// builder put the frame's number in `name`); empty otherwise.
+    std::string pattern;
     std::string driver;      // "file", "tiff", "openexr", "png", "zfile", "shadow", "framebuffer", ...
     std::string mode;        // "rgb", "rgba", "z", "rgbaz", or AOV: "color myaov"
     ri::ParamList params;

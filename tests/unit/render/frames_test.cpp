@@ -247,3 +247,34 @@ TEST(Frames, OneRibPerFrameFromAPattern) {
     EXPECT_NE(run.status, 0);
     EXPECT_NE(run.messages.find("--frames"), std::string::npos) << run.messages;
 }
+
+TEST(Frames, AutomaticMapNamesCarryTheFrameNumberOnce) {
+    ScratchDir dir("frames-mapnames");
+    std::string rib = "Format 32 24 1\n";
+    rib += "FrameBegin 1\n" + frameBody(1, "out.####.tif") + "FrameEnd\n";
+    rib += "FrameBegin 5\n" + frameBody(5, "still.tif") + "FrameEnd\n";
+    writeFile(dir.file("names.rib"), rib);
+    UmbraRun run = runUmbra(dir, {"names.rib"});
+    ASSERT_EQ(run.status, 0) << run.messages;
+    // The Display's pattern already numbers the image: the map is named after it.
+    EXPECT_TRUE(exists(dir, "out.0001.1.shd"));
+    EXPECT_FALSE(exists(dir, "out.0001.0001.1.shd"));
+    // A name without a pattern gets the frame number, so frames keep their own maps.
+    EXPECT_TRUE(exists(dir, "still.0005.1.shd"));
+}
+
+TEST(Frames, MessagesNameWorldsOutsideFramesWithoutMinusOne) {
+    ScratchDir dir("frames-unnumbered");
+    writeFile(dir.file("still.rib"),
+              "Format 32 24 1\n" + frameBody(0, "still.tif", "Option \"statistics\" \"endofframe\" [1]"));
+    UmbraRun run = runUmbra(dir, {"still.rib", "--progress"});
+    ASSERT_EQ(run.status, 0) << run.messages;
+    EXPECT_EQ(run.messages.find("frame -1"), std::string::npos) << run.messages;
+    EXPECT_NE(run.messages.find("statistics of the world at still.rib"), std::string::npos) << run.messages;
+    EXPECT_TRUE(exists(dir, "still.1.shd"));
+    run = runUmbra(dir, {"still.rib", "--resume"});
+    ASSERT_EQ(run.status, 0) << run.messages;
+    EXPECT_EQ(run.messages.find("frame -1"), std::string::npos) << run.messages;
+    EXPECT_NE(run.messages.find("the world at still.rib"), std::string::npos) << run.messages;
+    EXPECT_NE(run.messages.find("is complete, skipped"), std::string::npos) << run.messages;
+}
