@@ -240,6 +240,27 @@ void SampleBuffer::reset(const SampleBufferConfig& c) {
                 }
             }
         }
+    // Motion: which sample of each pixel sees each stratum of the shutter.
+    const int perPixel = xs * ys;
+    m_strataSample.clear();
+    m_strataStart.clear();
+    m_strataEnd.clear();
+    if (c.motion && c.timeStrata && perPixel > 1) {
+        m_strataSample.assign(size_t(perPixel) * size_t(m_rw) * size_t(m_rh), -1);
+        for (int sy = 0; sy < m_sh; ++sy) {
+            const uint16_t* stratum = m_pattern->timeStratumRow(positiveMod(m_sy0 + sy, rows));
+            const size_t pixelRow = size_t(sy / ys) * size_t(m_rw);
+            for (int sx = 0; sx < m_sw; ++sx) {
+                const int k = stratum[positiveMod(m_sx0 + sx, columns)];
+                m_strataSample[size_t(k) * size_t(m_rw) * size_t(m_rh) + pixelRow + size_t(sx / xs)] =
+                    sy * m_sw + sx;
+            }
+        }
+        for (int k = 0; k < perPixel; ++k) {
+            m_strataStart.push_back(m_pattern->stratumStart(k));
+            m_strataEnd.push_back(m_pattern->stratumEnd(k));
+        }
+    }
     // Only the depths (and fragment lists) need clearing: a sample's id,
     // colour, alpha and AOVs are read only once its depth is finite, and
     // every write of a finite depth writes them too. That keeps the reset
@@ -552,6 +573,15 @@ void SampleBuffer::sampleBlurred(const MicroGrid& g) {
         }
         ctx.inverseDepth = m_inverseDepth.data();
     }
+    // Two keys: every corner moves linearly, so the weight of the second
+    // key at the strata's edges is the same for the whole grid.
+    m_strataWeight.clear();
+    if (keys == 2 && !m_strataStart.empty()) {
+        const float span = g.keyTimes[1] - g.keyTimes[0];
+        auto weight = [&](float t) { return span > 0 ? std::clamp((t - g.keyTimes[0]) / span, 0.0f, 1.0f) : 0.0f; };
+        for (size_t k = 0; k < m_strataStart.size(); ++k) m_strataWeight.push_back(weight(m_strataStart[k]));
+        m_strataWeight.push_back(weight(m_strataEnd.back()));
+    }
     for (int j = 0; j < g.nv; ++j)
         for (int i = 0; i < g.nu; ++i) {
             if (g.culled && g.culled[j * g.nu + i]) continue;
@@ -609,12 +639,10 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
     const float* depthOf = ctx.inverseDepth;
     auto depthAt = [&](size_t v) { return depthOf ? depthOf[v] : g.P[v].z; };
     bool wrote = false;
-    for (int sy = sy0; sy <= sy1; ++sy) {
-        const size_t row = size_t(sy) * size_t(m_sw);
-        for (int sx = sx0; sx <= sx1; ++sx) {
-            const size_t s = row + size_t(sx);
+    // One sample, at its own time and lens position.
+    auto testSample = [&](const size_t s) {
             const float useful = ctx.farthestUseful[s];
-            if (!(useful >= nearest)) continue;
+            if (!(useful >= nearest)) return;
             ++m_blur.sampleTests;
             // The corners at this sample's time: between keys k and k + 1.
             Corner q[4];
@@ -653,15 +681,14 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
                 const float along = dist(0.5f * (q[0].x + q[1].x), 0.5f * (q[0].y + q[1].y),
                                          0.5f * (q[2].x + q[3].x), 0.5f * (q[2].y + q[3].y));
                 const float r = 0.25f * (across + along);
-                if ((x - cx) * (x - cx) + (y - cy) * (y - cy) > r * r) continue;
+                if ((x - cx) * (x - cx) + (y - cy) * (y - cy) > r * r) return;
             }
             // The two triangles (00, 10, 11) and (00, 11, 01), as Tri::setup.
             static constexpr int kHalves[2][3] = {{0, 1, 3}, {0, 3, 2}};
             for (int h = 0; h < 2; ++h) {
                 int a = kHalves[h][0], b = kHalves[h][1], c = kHalves[h][2];
                 const float area = (q[b].x - q[a].x) * (q[c].y - q[a].y) - (q[b].y - q[a].y) * (q[c].x - q[a].x);
-                const float invArea = 1.0f / std::fabs(area);
-                if (!(area != 0.0f && std::isfinite(area) && std::isfinite(invArea))) continue;
+                if (!(area != 0.0f && std::isfinite(area))) continue;
                 if (area < 0) std::swap(b, c);
                 ScalarEdge e0, e1, e2;
                 e0.setup(q[b].x, q[b].y, q[c].x, q[c].y);
@@ -669,6 +696,9 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
                 e2.setup(q[a].x, q[a].y, q[b].x, q[b].y);
                 const float w0 = e0.eval(x, y), w1 = e1.eval(x, y), w2 = e2.eval(x, y);
                 if (!(e0.inside(w0) && e1.inside(w1) && e2.inside(w2))) continue;
+                // Divided only for a sample inside (most tests miss).
+                const float invArea = 1.0f / std::fabs(area);
+                if (!std::isfinite(invArea)) continue;
                 const float b1 = w1 * invArea, b2 = w2 * invArea;
                 const float d = q[a].d + b1 * (q[b].d - q[a].d) + b2 * (q[c].d - q[a].d);
                 const float z = depthOf ? 1.0f / d : d;
@@ -688,6 +718,121 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
                 else
                     wrote |= record(g, ctx, t, s, z, b1, b2);
             }
+    };
+
+    if (m_strataSample.empty() || keys < 2) {
+        for (int sy = sy0; sy <= sy1; ++sy)
+            for (int sx = sx0; sx <= sx1; ++sx) testSample(size_t(sy) * size_t(m_sw) + size_t(sx));
+    } else {
+        // Each pixel has one sample in each coarse stratum of the shutter:
+        // bound the micropolygon over the part of the shutter a stratum's
+        // samples see and test only that stratum's samples there. A fast
+        // micropolygon sweeps many pixels over the shutter but only a few
+        // in one stratum, so this tests about 1/n of the samples the whole
+        // swept bound holds (n samples a pixel). Which samples are tested
+        // changes, not how: the pictures are those of testing every one.
+        const int strata = int(m_strataStart.size());
+        const size_t plane = size_t(m_rw) * size_t(m_rh);
+        auto cornerAt = [&](int c, float t, float& x, float& y) {
+            int k = 0;
+            while (k + 2 < keys && t >= g.keyTimes[k + 1]) ++k;
+            const float span = g.keyTimes[k + 1] - g.keyTimes[k];
+            const float f = span > 0 ? std::clamp((t - g.keyTimes[k]) / span, 0.0f, 1.0f) : 0.0f;
+            const Vec3& a = g.P[size_t(k) * size_t(nverts) + size_t(corner[c])];
+            const Vec3& b = g.P[size_t(k + 1) * size_t(nverts) + size_t(corner[c])];
+            x = a.x + f * (b.x - a.x);
+            y = a.y + f * (b.y - a.y);
+        };
+        // Two keys: the corners' bound at weight f lies inside [lo + f *
+        // dlo, hi + f * dhi], lo and hi the least and greatest first-key
+        // coordinate, dlo and dhi those of the motion (exact for a
+        // micropolygon that translates; a deforming one's few ulps more
+        // only cost a test). Strata are consecutive, so each stratum's
+        // bound is that of its first time and the next one's.
+        const bool linear = !m_strataWeight.empty();
+        float lo[2] = {kInfinity, kInfinity}, hi[2] = {-kInfinity, -kInfinity};
+        float dlo[2] = {kInfinity, kInfinity}, dhi[2] = {-kInfinity, -kInfinity};
+        if (linear)
+            for (int c = 0; c < 4; ++c) {
+                const Vec3& a = g.P[size_t(corner[c])];
+                const Vec3& b = g.P[size_t(nverts) + size_t(corner[c])];
+                const float ax[2] = {a.x, a.y}, d[2] = {b.x - a.x, b.y - a.y};
+                for (int axis = 0; axis < 2; ++axis) {
+                    lo[axis] = std::min(lo[axis], ax[axis]);
+                    hi[axis] = std::max(hi[axis], ax[axis]);
+                    dlo[axis] = std::min(dlo[axis], d[axis]);
+                    dhi[axis] = std::max(dhi[axis], d[axis]);
+                }
+            }
+        // Two keys: the weights at which the micropolygon's bound overlaps
+        // this bucket's region (it often crosses a region in a few strata).
+        float fFirst = 0.0f, fLast = 1.0f;
+        if (linear) {
+            const float region0[2] = {m_fx0, m_fy0}, region1[2] = {m_fx1, m_fy1}, pad[2] = {padX, padY};
+            for (int axis = 0; axis < 2; ++axis) {
+                const float margin = 1e-3f + pad[axis] + 1e-5f * std::max({std::abs(lo[axis]), std::abs(hi[axis]),
+                                                                          std::abs(lo[axis] + dlo[axis]),
+                                                                          std::abs(hi[axis] + dhi[axis])});
+                const float r0 = region0[axis] - margin, r1 = region1[axis] + margin;
+                // lo + f * dlo <= r1 and hi + f * dhi >= r0.
+                if (dlo[axis] > 0) fLast = std::min(fLast, (r1 - lo[axis]) / dlo[axis]);
+                if (dlo[axis] < 0) fFirst = std::max(fFirst, (r1 - lo[axis]) / dlo[axis]);
+                if (dhi[axis] > 0) fFirst = std::max(fFirst, (r0 - hi[axis]) / dhi[axis]);
+                if (dhi[axis] < 0) fLast = std::min(fLast, (r0 - hi[axis]) / dhi[axis]);
+            }
+            fFirst -= 1e-4f;
+            fLast += 1e-4f;
+        }
+        for (int k = 0; k < strata; ++k) {
+            const float t0 = m_strataStart[size_t(k)], t1 = m_strataEnd[size_t(k)];
+            if (t0 > t1) continue;
+            if (linear && (m_strataWeight[size_t(k) + 1] < fFirst || m_strataWeight[size_t(k)] > fLast)) continue;
+            float x0 = kInfinity, y0 = kInfinity, x1 = -kInfinity, y1 = -kInfinity;
+            auto include = [&](float x, float y) {
+                x0 = std::min(x0, x);
+                x1 = std::max(x1, x);
+                y0 = std::min(y0, y);
+                y1 = std::max(y1, y);
+            };
+            if (linear) {
+                for (const float f : {m_strataWeight[size_t(k)], m_strataWeight[size_t(k) + 1]}) {
+                    include(lo[0] + f * dlo[0], lo[1] + f * dlo[1]);
+                    include(hi[0] + f * dhi[0], hi[1] + f * dhi[1]);
+                }
+            } else {
+                for (int c = 0; c < 4; ++c) {
+                    float x, y;
+                    cornerAt(c, t0, x, y);
+                    include(x, y);
+                    cornerAt(c, t1, x, y);
+                    include(x, y);
+                    for (int m = 1; m + 1 < keys; ++m)
+                        if (g.keyTimes[m] > t0 && g.keyTimes[m] < t1) {
+                            const Vec3& p = g.P[size_t(m) * size_t(nverts) + size_t(corner[c])];
+                            include(p.x, p.y);
+                        }
+                }
+            }
+            // Interpolation rounds monotonically within a key segment; the
+            // margin covers the last ulps where segments meet, and the lens.
+            const float ex = 1e-5f * std::max(std::abs(x0), std::abs(x1)) + 1e-3f + padX;
+            const float ey = 1e-5f * std::max(std::abs(y0), std::abs(y1)) + 1e-3f + padY;
+            x0 = std::max(x0 - ex, minx);
+            x1 = std::min(x1 + ex, maxx);
+            y0 = std::max(y0 - ey, miny);
+            y1 = std::min(y1 + ey, maxy);
+            if (!(x0 <= x1 && y0 <= y1)) continue;
+            const int px0 = std::max(0, floorToInt(x0) - m_rx0), px1 = std::min(m_rw - 1, floorToInt(x1) - m_rx0);
+            const int py0 = std::max(0, floorToInt(y0) - m_ry0), py1 = std::min(m_rh - 1, floorToInt(y1) - m_ry0);
+            const int32_t* table = &m_strataSample[size_t(k) * plane];
+            for (int py = py0; py <= py1; ++py)
+                for (int px = px0; px <= px1; ++px) {
+                    const int32_t s = table[size_t(py) * size_t(m_rw) + size_t(px)];
+                    if (s < 0) continue;
+                    const float sx = m_px[size_t(s)], sy = m_py[size_t(s)];
+                    if (sx < x0 || sx > x1 || sy < y0 || sy > y1) continue;
+                    testSample(size_t(s));
+                }
         }
     }
     if (wrote) markDirty(sx0, sy0, sx1, sy1);

@@ -131,6 +131,9 @@ void SamplePattern::prepare(const PatternSettings& settings) {
     m_x.resize(size_t(m_columns) * size_t(m_rows));
     m_y.resize(m_x.size());
     m_time.assign(settings.times ? m_x.size() : 0, 0.0f);
+    m_timeStratum.assign(settings.times ? m_x.size() : 0, 0);
+    m_stratumStart.assign(settings.times ? size_t(xs * ys) : 0, 1.0f);
+    m_stratumEnd.assign(settings.times ? size_t(xs * ys) : 0, 0.0f);
     m_lensX.assign(settings.lens ? m_x.size() : 0, 0.0f);
     m_lensY.assign(settings.lens ? m_x.size() : 0, 0.0f);
     std::vector<int> timeRank, lensRank;
@@ -148,7 +151,14 @@ void SamplePattern::prepare(const PatternSettings& settings) {
                 const size_t k = size_t(uy * ys + s / xs) * size_t(m_columns) + size_t(ux * xs + s % xs);
                 m_x[k] = o.x;
                 m_y[k] = o.y;
-                if (settings.times) m_time[k] = timeOf(s, timeRank[size_t(s)], fine, timeKey, settings);
+                if (settings.times) {
+                    const int stratum = timeRank[size_t(s)];
+                    const float t = timeOf(s, stratum, fine, timeKey, settings);
+                    m_time[k] = t;
+                    m_timeStratum[k] = uint16_t(stratum);
+                    m_stratumStart[size_t(stratum)] = std::min(m_stratumStart[size_t(stratum)], t);
+                    m_stratumEnd[size_t(stratum)] = std::max(m_stratumEnd[size_t(stratum)], t);
+                }
                 if (settings.lens) {
                     const Vec2 l = lensOf(s, lensRank[size_t(s)], lensKey, settings);
                     m_lensX[k] = l.x;

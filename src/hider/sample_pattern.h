@@ -105,6 +105,13 @@ public:
     const float* timeRow(int ty) const { return &m_time[size_t(ty) * size_t(m_columns)]; }
     const float* lensXRow(int ty) const { return &m_lensX[size_t(ty) * size_t(m_columns)]; }
     const float* lensYRow(int ty) const { return &m_lensY[size_t(ty) * size_t(m_columns)]; }
+    /// Motion: each sample's coarse time stratum (0 .. xs*ys-1; every pixel
+    /// has one sample in each), and the earliest and latest time that any
+    /// sample of stratum k takes, so a micropolygon can be bounded over
+    /// the part of the shutter a stratum's samples see.
+    const uint16_t* timeStratumRow(int ty) const { return &m_timeStratum[size_t(ty) * size_t(m_columns)]; }
+    float stratumStart(int k) const { return m_stratumStart[size_t(k)]; }
+    float stratumEnd(int k) const { return m_stratumEnd[size_t(k)]; }
 
 private:
     PatternSettings m_settings;
@@ -113,6 +120,8 @@ private:
     int m_columns = 0, m_rows = 0;
     std::vector<float> m_x, m_y;
     std::vector<float> m_time, m_lensX, m_lensY;
+    std::vector<uint16_t> m_timeStratum;
+    std::vector<float> m_stratumStart, m_stratumEnd;
 };
 
 /// A separable pixel filter's weights for every sample of a pattern, and

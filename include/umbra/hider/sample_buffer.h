@@ -136,6 +136,12 @@ struct SampleBufferConfig {
     /// several keys are tested. Needed whenever such grids are sampled.
     bool motion = false;
     float shutterOpening[2] = {0, 1};  // the shutter's shape (scene::Options)
+    /// Motion: test a moving micropolygon only against the samples of each
+    /// coarse time stratum inside its bound over that stratum's times
+    /// (false: every sample of its bound over the whole shutter). The same
+    /// samples are hit either way; false is the reference the test of the
+    /// faster way compares with.
+    bool timeStrata = true;
     /// Depth of field (perspective only): each sample gets a position on
     /// the unit lens disc, and a vertex at depth z is seen displaced by
     /// lens * lensScale * (inverseFocalDistance - 1/z) raster pixels: the
@@ -279,6 +285,13 @@ private:
     // Per sample (structure of arrays).
     std::vector<float> m_px, m_py;   // raster position
     std::vector<float> m_time;       // motion: time in [0, 1)
+    // Motion: the sample of each region pixel in each coarse time stratum,
+    // [stratum][pixel row][pixel column], and each stratum's time range.
+    std::vector<int32_t> m_strataSample;
+    std::vector<float> m_strataStart, m_strataEnd;
+    // Two-key grid being sampled: the interpolation weight of its second
+    // key at each stratum's first time, and at the last one's end.
+    std::vector<float> m_strataWeight;
     std::vector<float> m_lensX, m_lensY;  // depth of field: position on the unit lens disc
     BlurStats m_blur;
     std::vector<float> m_columnPixel;  // per region stratum column: its pixel's x (reset scratch)

@@ -765,3 +765,61 @@ TEST(SampleBuffer, ResolveDoesNotDependOnBucketSizeOrAovs) {
         EXPECT_GT(*std::max_element(reference.begin(), reference.end()), 0.5f);
     }
 }
+
+/// Moving grids hit the same samples at the same depths whether each time
+/// stratum is bounded on its own or the whole swept bound is tested: two
+/// keys (translating and deforming, keys inside and beyond the shutter),
+/// three keys along a bent path, opaque and transparent, both modes.
+TEST(SampleBuffer, TimeStrataHitWhatEverySampleWould) {
+    struct Moving {
+        TestGrid grid;
+        std::vector<float> times;
+    };
+    auto moving = [](const std::vector<float>& times, const std::vector<Vec2>& offsets, float spread, Color oi,
+                     uint64_t id) {
+        Moving m;
+        m.times = times;
+        TestGrid base = flatGrid(2.3f, 3.1f, 7.9f, 8.6f, 4, 3, 2.0f, Color(0.5f), oi, id);
+        m.grid = base;
+        m.grid.P.clear();
+        for (size_t k = 0; k < times.size(); ++k)
+            for (size_t v = 0; v < base.P.size(); ++v) {
+                const Vec3 p = base.P[v];
+                // Each key moves the grid and stretches it by k * spread.
+                m.grid.P.push_back({p.x + offsets[k].x + float(k) * spread * (p.x - 5.0f), p.y + offsets[k].y,
+                                    p.z + 0.25f * float(k)});
+            }
+        return m;
+    };
+    const std::vector<Moving> grids = {
+        moving({0.0f, 1.0f}, {{0, 0}, {13.5f, 4.25f}}, 0.0f, Color(1.0f), 1),
+        moving({0.0f, 1.0f}, {{9, 1}, {-6, 7}}, 0.3f, Color(0.5f), 2),
+        moving({-0.5f, 1.5f}, {{-4, 10}, {20, -6}}, 0.1f, Color(1.0f), 3),
+        moving({0.0f, 0.3f, 1.0f}, {{1, 1}, {12, 2}, {6, 11}}, 0.2f, Color(0.5f), 4),
+    };
+    for (HiderMode mode : {HiderMode::Colour, HiderMode::Depth}) {
+        SampleBuffer strata, every;
+        SampleBufferConfig c = config(0, 0, 16, 16, 1, 4, 4, true, mode);
+        c.motion = true;
+        strata.reset(c);
+        c.timeStrata = false;
+        every.reset(c);
+        for (const Moving& m : grids) {
+            MicroGrid g = m.grid.view();
+            g.keyCount = int(m.times.size());
+            g.keyTimes = m.times.data();
+            strata.sample(g);
+            every.sample(g);
+        }
+        int hit = 0;
+        forEachSample(every, [&](int px, int py, int s) {
+            EXPECT_EQ(strata.depth(px, py, s), every.depth(px, py, s)) << px << "," << py << " sample " << s;
+            if (mode == HiderMode::Colour)
+                EXPECT_EQ(strata.fragmentCount(px, py, s), every.fragmentCount(px, py, s));
+            hit += every.depth(px, py, s) < kInfinity;
+        });
+        EXPECT_GT(hit, 500);  // the grids cover a good part of the bucket
+        EXPECT_EQ(strata.blurStats().sampleHits, every.blurStats().sampleHits);
+        EXPECT_LT(strata.blurStats().sampleTests, every.blurStats().sampleTests / 2);
+    }
+}
