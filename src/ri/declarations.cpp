@@ -58,6 +58,7 @@ constexpr const char* kStandard[] = {
 constexpr const char* kByClass[] = {
     // Options.
     "Option render uniform float minshadowbias", "Option render uniform string bucketorder",
+    "Option shutter uniform float[2] opening", "Option shutter uniform float[2] shutteropening",
     "Option shadow uniform float bias", "Option limits uniform integer brickmemory",
     "Option limits uniform integer geocachememory", "Option limits uniform integer proceduralmemory",
     "Option limits uniform integer deepshadowtiles", "Option limits uniform integer deepshadowmemory",

@@ -601,6 +601,20 @@ void Builder::camera(const std::string& name, ri::ParamList params, const FileLo
     // renders one camera; the name is that camera's coordinate system.
     if (!optionsAllowed("Camera", loc)) return;
     m_namedCameras[name] = m_state.transform;
+    // PRMan's way of shaping the shutter: Camera "world" "float[2] shutteropening" [a b].
+    for (const ri::Param& p : params.params())
+        if (p.decl.name == "shutteropening") setShutterOpening("Camera", p);
+}
+
+void Builder::setShutterOpening(const char* request, const ri::Param& p) {
+    const float a = p.floats.size() == 2 ? p.floats[0] : -1, b = p.floats.size() == 2 ? p.floats[1] : -1;
+    if (!(a >= 0 && a <= b && b <= 1)) {
+        m_diag.error(p.loc, "{} \"{}\" expects two fractions 0 <= a <= b <= 1 of the shutter interval (ignored)",
+                     request, p.decl.name);
+        return;
+    }
+    m_options.shutterOpening[0] = a;
+    m_options.shutterOpening[1] = b;
 }
 
 void Builder::resource(const std::string& handle, const std::string& type, ri::ParamList params,
@@ -774,14 +788,7 @@ void Builder::option(const std::string& name, ri::ParamList params, const FileLo
         } else if (name == "shutter" && pn == "offset") {
             m_options.shutterOffset = params.getFloat(pn, 0.0f);
         } else if (name == "shutter" && (pn == "opening" || pn == "shutteropening")) {
-            const float a = p.floats.size() >= 2 ? p.floats[0] : -1, b = p.floats.size() >= 2 ? p.floats[1] : -1;
-            if (!(a >= 0 && a <= b && b <= 1)) {
-                m_diag.error(p.loc, "Option: shutter \"{}\" expects two fractions 0 <= a <= b <= 1 of the shutter "
-                             "interval (ignored)", pn);
-                continue;
-            }
-            m_options.shutterOpening[0] = a;
-            m_options.shutterOpening[1] = b;
+            setShutterOpening("Option: shutter", p);
         } else if (name == "statistics" && pn == "endofframe") {
             m_options.statisticsEndOfFrame = params.getInt(pn, 0) != 0;
         } else if (name == "umbra" && !umbraValueValid("Option", p, m_diag)) {

@@ -172,6 +172,9 @@ public:
                     const FileLoc& loc) override;
 
 private:
+    /// Option "shutter" "opening" and Camera "shutteropening": the fractions
+    /// of the shutter interval where it is fully open (a ramp on each side).
+    void setShutterOpening(const char* request, const ri::Param& p);
     enum class Block { Frame, World, Attribute, Transform, Solid, Object, Motion, Resource };
     /// The part of the graphics state AttributeBegin saves.
     struct State {

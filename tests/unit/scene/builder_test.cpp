@@ -367,6 +367,24 @@ TEST(Builder, CameraMotionAndDepthOfFieldAreOptions) {
         << m[0];
 }
 
+TEST(Builder, ShutterOpeningTakesBothSpellings) {
+    // Aqsis/umbra's Option and PRMan's Camera parameter shape the same
+    // shutter; a bad pair is an error naming its request.
+    auto r = run("Option \"shutter\" \"opening\" [0.25 0.75] WorldBegin WorldEnd\n"
+                 "Camera \"world\" \"float[2] shutteropening\" [0.1 0.6] WorldBegin WorldEnd\n"
+                 "Camera \"world\" \"float[2] shutteropening\" [0.7 0.2] WorldBegin WorldEnd");
+    ASSERT_EQ(r->sink.worlds.size(), 3u);
+    EXPECT_EQ(r->sink.worlds[0].options.shutterOpening[0], 0.25f);
+    EXPECT_EQ(r->sink.worlds[0].options.shutterOpening[1], 0.75f);
+    EXPECT_EQ(r->sink.worlds[1].options.shutterOpening[0], 0.1f);
+    EXPECT_EQ(r->sink.worlds[1].options.shutterOpening[1], 0.6f);
+    EXPECT_EQ(r->sink.worlds[2].options.shutterOpening[0], 0.1f);  // unchanged
+    const auto m = r->messages();
+    ASSERT_EQ(m.size(), 1u) << m.at(0) << "\n" << m.at(1);
+    EXPECT_NE(m[0].find("s.rib:3:"), std::string::npos) << m[0];
+    EXPECT_NE(m[0].find("Camera \"shutteropening\" expects two fractions"), std::string::npos) << m[0];
+}
+
 TEST(Builder, TrimCurveAppliesUntilAttributeEnd) {
     // Two loops: a square of one linear curve, a second of two curves.
     auto r = run(
