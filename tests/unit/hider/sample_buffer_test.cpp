@@ -823,3 +823,58 @@ TEST(SampleBuffer, TimeStrataHitWhatEverySampleWould) {
         EXPECT_LT(strata.blurStats().sampleTests, every.blurStats().sampleTests / 2);
     }
 }
+
+/// Motion blur's times: each pixel's n samples take one each of n strata
+/// of the shutter (each row and column of them spread over it), the pixels of each kTimeTile x kTimeTile tile take one
+/// each of the n * kTimeTile^2 finer strata between them, and a sample's
+/// time is uncorrelated with its place in the pixel.
+TEST(SampleBuffer, TimesAreStratifiedPerPixelAndPerTile) {
+    SampleBufferConfig c = config(0, 0, 16, 16, 0, 4, 4, true);
+    c.motion = true;
+    const int n = 16, tile = hider::kTimeTile, fine = n * tile * tile;
+    double sumXT = 0, sumX = 0, sumT = 0, sumXX = 0, sumTT = 0;
+    int count = 0;
+    for (int ty = 0; ty < 4; ++ty)
+        for (int tx = 0; tx < 4; ++tx) {
+            std::vector<int> fineHits(size_t(fine), 0);
+            for (int py = ty * tile; py < (ty + 1) * tile; ++py)
+                for (int px = tx * tile; px < (tx + 1) * tile; ++px) {
+                    std::vector<int> coarse(size_t(n), 0);
+                    double pixelMean = 0;
+                    // Each row and each column of the pixel's 4 x 4 samples
+                    // takes one time from each quarter of the shutter.
+                    int rowQuarters[4] = {0, 0, 0, 0}, columnQuarters[4] = {0, 0, 0, 0};
+                    for (int s = 0; s < n; ++s) {
+                        const float t = SampleBuffer::sampleTime(px, py, s, c);
+                        pixelMean += double(t) / n;
+                        rowQuarters[s / 4] |= 1 << int(t * 4);
+                        columnQuarters[s % 4] |= 1 << int(t * 4);
+                        ASSERT_GE(t, 0.0f);
+                        ASSERT_LT(t, 1.0f);
+                        ++coarse[size_t(std::floor(t * float(n)))];
+                        ++fineHits[size_t(std::floor(t * float(fine)))];
+                        const double x = double(s % 4) + 0.5;
+                        sumX += x;
+                        sumT += t;
+                        sumXT += x * t;
+                        sumXX += x * x;
+                        sumTT += double(t) * t;
+                        ++count;
+                    }
+                    for (int k = 0; k < n; ++k) EXPECT_EQ(coarse[size_t(k)], 1) << px << "," << py << " stratum " << k;
+                    // The pixel's samples spread over the fine strata too: their
+                    // mean is the middle of the shutter to within half a fine
+                    // stratum (the jitter's mean is all that is left).
+                    EXPECT_LT(std::abs(pixelMean - 0.5), 0.5 / fine + 1e-6) << px << "," << py;
+                    for (int r = 0; r < 4; ++r) {
+                        EXPECT_EQ(rowQuarters[r], 15) << px << "," << py << " row " << r;
+                        EXPECT_EQ(columnQuarters[r], 15) << px << "," << py << " column " << r;
+                    }
+                }
+            for (int k = 0; k < fine; ++k) EXPECT_EQ(fineHits[size_t(k)], 1) << "tile " << tx << "," << ty << " " << k;
+        }
+    const double cov = sumXT / count - (sumX / count) * (sumT / count);
+    const double sx = std::sqrt(sumXX / count - std::pow(sumX / count, 2));
+    const double st = std::sqrt(sumTT / count - std::pow(sumT / count, 2));
+    EXPECT_LT(std::abs(cov / (sx * st)), 0.1);  // 4096 samples: |r| ~ 0.016 if independent
+}
