@@ -240,26 +240,25 @@ void SampleBuffer::reset(const SampleBufferConfig& c) {
                 }
             }
         }
-    // Motion: which sample of each pixel sees each stratum of the shutter.
+    // Motion and depth of field: which sample of each pixel sees each
+    // stratum of the shutter, and of the lens.
     const int perPixel = xs * ys;
     m_strataSample.clear();
     m_strataStart.clear();
     m_strataEnd.clear();
-    if (c.motion && c.timeStrata && perPixel > 1) {
-        m_strataSample.assign(size_t(perPixel) * size_t(m_rw) * size_t(m_rh), -1);
-        for (int sy = 0; sy < m_sh; ++sy) {
-            const uint16_t* stratum = m_pattern->timeStratumRow(positiveMod(m_sy0 + sy, rows));
-            const size_t pixelRow = size_t(sy / ys) * size_t(m_rw);
-            for (int sx = 0; sx < m_sw; ++sx) {
-                const int k = stratum[positiveMod(m_sx0 + sx, columns)];
-                m_strataSample[size_t(k) * size_t(m_rw) * size_t(m_rh) + pixelRow + size_t(sx / xs)] =
-                    sy * m_sw + sx;
-            }
-        }
+    m_lensStrataSample.clear();
+    m_lensStrataBox.clear();
+    if (c.motion && c.sampleStrata && perPixel > 1) {
+        tabulateStrata(&SamplePattern::timeStratumRow, m_strataSample);
         for (int k = 0; k < perPixel; ++k) {
             m_strataStart.push_back(m_pattern->stratumStart(k));
             m_strataEnd.push_back(m_pattern->stratumEnd(k));
         }
+    }
+    if (c.lens && c.sampleStrata && perPixel > 1) {
+        tabulateStrata(&SamplePattern::lensStratumRow, m_lensStrataSample);
+        for (int k = 0; k < perPixel; ++k)
+            m_lensStrataBox.insert(m_lensStrataBox.end(), m_pattern->lensStratumBox(k), m_pattern->lensStratumBox(k) + 4);
     }
     // Only the depths (and fragment lists) need clearing: a sample's id,
     // colour, alpha and AOVs are read only once its depth is finite, and
@@ -534,6 +533,21 @@ struct Corner {
 
 }  // namespace
 
+void SampleBuffer::tabulateStrata(const uint16_t* (SamplePattern::*row)(int) const,
+                                  std::vector<int32_t>& table) const {
+    const int xs = m_cfg.xSamples, ys = m_cfg.ySamples;
+    const int columns = m_pattern->columns(), rows = m_pattern->rows();
+    const size_t plane = size_t(m_rw) * size_t(m_rh);
+    table.assign(size_t(xs * ys) * plane, -1);
+    for (int sy = 0; sy < m_sh; ++sy) {
+        const uint16_t* stratum = (m_pattern.get()->*row)(positiveMod(m_sy0 + sy, rows));
+        const size_t pixelRow = size_t(sy / ys) * size_t(m_rw);
+        for (int sx = 0; sx < m_sw; ++sx)
+            table[size_t(stratum[positiveMod(m_sx0 + sx, columns)]) * plane + pixelRow + size_t(sx / xs)] =
+                sy * m_sw + sx;
+    }
+}
+
 void SampleBuffer::sampleBlurred(const MicroGrid& g) {
     const int nverts = g.vertexCount();
     const int keys = std::max(1, g.keyCount);
@@ -598,6 +612,7 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
     const bool lens = m_cfg.lens && m_cfg.perspective;
     float minx = kInfinity, miny = kInfinity, maxx = -kInfinity, maxy = -kInfinity, minz = kInfinity,
           maxz = -kInfinity, coc = 0;
+    float blur0 = kInfinity, blur1 = -kInfinity;  // range of 1/focaldistance - 1/z over the corners
     for (int k = 0; k < keys; ++k)
         for (int c : corner) {
             const Vec3& p = g.P[size_t(k) * size_t(nverts) + size_t(c)];
@@ -607,11 +622,17 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
             maxy = std::max(maxy, p.y);
             minz = std::min(minz, p.z);
             maxz = std::max(maxz, p.z);
-            if (lens) coc = std::max(coc, std::abs(m_cfg.inverseFocalDistance - 1.0f / p.z));
+            if (lens) {
+                const float blur = m_cfg.inverseFocalDistance - 1.0f / p.z;
+                coc = std::max(coc, std::abs(blur));
+                blur0 = std::min(blur0, blur);
+                blur1 = std::max(blur1, blur);
+            }
         }
     // The lens moves a corner by at most its circle of confusion; between
     // keys a corner stays inside the keys' bound (and 1/z between theirs).
     const float padX = coc * std::abs(m_cfg.lensScaleX), padY = coc * std::abs(m_cfg.lensScaleY);
+    const float sharpX0 = minx, sharpX1 = maxx, sharpY0 = miny, sharpY1 = maxy;  // before the lens
     minx -= padX;
     maxx += padX;
     miny -= padY;
@@ -720,7 +741,54 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
             }
     };
 
-    if (m_strataSample.empty() || keys < 2) {
+    // The samples of one stratum (one a pixel, from `table`) inside the
+    // raster box [x0, x1] x [y0, y1], clipped to the micropolygon's bound.
+    const size_t plane = size_t(m_rw) * size_t(m_rh);
+    auto visitStratum = [&](const int32_t* table, float x0, float y0, float x1, float y1) {
+        x0 = std::max(x0, minx);
+        x1 = std::min(x1, maxx);
+        y0 = std::max(y0, miny);
+        y1 = std::min(y1, maxy);
+        if (!(x0 <= x1 && y0 <= y1)) return;
+        const int px0 = std::max(0, floorToInt(x0) - m_rx0), px1 = std::min(m_rw - 1, floorToInt(x1) - m_rx0);
+        const int py0 = std::max(0, floorToInt(y0) - m_ry0), py1 = std::min(m_rh - 1, floorToInt(y1) - m_ry0);
+        for (int py = py0; py <= py1; ++py)
+            for (int px = px0; px <= px1; ++px) {
+                const int32_t s = table[size_t(py) * size_t(m_rw) + size_t(px)];
+                if (s < 0) continue;
+                const float sx = m_px[size_t(s)], sy = m_py[size_t(s)];
+                if (sx < x0 || sx > x1 || sy < y0 || sy > y1) continue;
+                testSample(size_t(s));
+            }
+    };
+    const bool lensStrata = lens && keys < 2 && !m_lensStrataSample.empty() && std::isfinite(blur0) &&
+                            std::isfinite(blur1);
+    if (lensStrata) {
+        // Each pixel has one sample in each stratum of the lens: a corner
+        // seen through stratum k moves by lens * scale * blur, the lens
+        // inside the stratum's box and blur in [blur0, blur1], so its
+        // bound there is the sharp bound widened by about the circle of
+        // confusion over the number of strata along an axis, not by all of it.
+        auto range = [](float l0, float l1, float scale, float b0, float b1, float& lo, float& hi) {
+            const float a = l0 * scale, b = l1 * scale;
+            const float p[4] = {a * b0, a * b1, b * b0, b * b1};
+            lo = std::min({p[0], p[1], p[2], p[3]});
+            hi = std::max({p[0], p[1], p[2], p[3]});
+        };
+        const int strata = int(m_lensStrataBox.size() / 4);
+        for (int k = 0; k < strata; ++k) {
+            const float* box = &m_lensStrataBox[4 * size_t(k)];
+            if (box[0] > box[2]) continue;
+            float ox0, ox1, oy0, oy1;
+            range(box[0], box[2], m_cfg.lensScaleX, blur0, blur1, ox0, ox1);
+            range(box[1], box[3], m_cfg.lensScaleY, blur0, blur1, oy0, oy1);
+            // Margins for the ulps of interpolating and scaling per sample.
+            const float ex = 1e-5f * (std::max(std::abs(sharpX0), std::abs(sharpX1)) + std::abs(ox0) + std::abs(ox1)) + 1e-3f;
+            const float ey = 1e-5f * (std::max(std::abs(sharpY0), std::abs(sharpY1)) + std::abs(oy0) + std::abs(oy1)) + 1e-3f;
+            visitStratum(&m_lensStrataSample[size_t(k) * plane], sharpX0 + ox0 - ex, sharpY0 + oy0 - ey,
+                         sharpX1 + ox1 + ex, sharpY1 + oy1 + ey);
+        }
+    } else if (m_strataSample.empty() || keys < 2) {
         for (int sy = sy0; sy <= sy1; ++sy)
             for (int sx = sx0; sx <= sx1; ++sx) testSample(size_t(sy) * size_t(m_sw) + size_t(sx));
     } else {
@@ -732,7 +800,6 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
         // swept bound holds (n samples a pixel). Which samples are tested
         // changes, not how: the pictures are those of testing every one.
         const int strata = int(m_strataStart.size());
-        const size_t plane = size_t(m_rw) * size_t(m_rh);
         auto cornerAt = [&](int c, float t, float& x, float& y) {
             int k = 0;
             while (k + 2 < keys && t >= g.keyTimes[k + 1]) ++k;
@@ -817,22 +884,7 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
             // margin covers the last ulps where segments meet, and the lens.
             const float ex = 1e-5f * std::max(std::abs(x0), std::abs(x1)) + 1e-3f + padX;
             const float ey = 1e-5f * std::max(std::abs(y0), std::abs(y1)) + 1e-3f + padY;
-            x0 = std::max(x0 - ex, minx);
-            x1 = std::min(x1 + ex, maxx);
-            y0 = std::max(y0 - ey, miny);
-            y1 = std::min(y1 + ey, maxy);
-            if (!(x0 <= x1 && y0 <= y1)) continue;
-            const int px0 = std::max(0, floorToInt(x0) - m_rx0), px1 = std::min(m_rw - 1, floorToInt(x1) - m_rx0);
-            const int py0 = std::max(0, floorToInt(y0) - m_ry0), py1 = std::min(m_rh - 1, floorToInt(y1) - m_ry0);
-            const int32_t* table = &m_strataSample[size_t(k) * plane];
-            for (int py = py0; py <= py1; ++py)
-                for (int px = px0; px <= px1; ++px) {
-                    const int32_t s = table[size_t(py) * size_t(m_rw) + size_t(px)];
-                    if (s < 0) continue;
-                    const float sx = m_px[size_t(s)], sy = m_py[size_t(s)];
-                    if (sx < x0 || sx > x1 || sy < y0 || sy > y1) continue;
-                    testSample(size_t(s));
-                }
+            visitStratum(&m_strataSample[size_t(k) * plane], x0 - ex, y0 - ey, x1 + ex, y1 + ey);
         }
     }
     if (wrote) markDirty(sx0, sy0, sx1, sy1);

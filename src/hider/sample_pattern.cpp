@@ -184,6 +184,9 @@ void SamplePattern::prepare(const PatternSettings& settings) {
     m_timeStratum.assign(settings.times ? m_x.size() : 0, 0);
     m_stratumStart.assign(settings.times ? size_t(xs * ys) : 0, 1.0f);
     m_stratumEnd.assign(settings.times ? size_t(xs * ys) : 0, 0.0f);
+    m_lensStratum.assign(settings.lens ? m_x.size() : 0, 0);
+    m_lensBox.clear();
+    for (int k = 0; settings.lens && k < xs * ys; ++k) m_lensBox.insert(m_lensBox.end(), {kInfinity, kInfinity, -kInfinity, -kInfinity});
     m_lensX.assign(settings.lens ? m_x.size() : 0, 0.0f);
     m_lensY.assign(settings.lens ? m_x.size() : 0, 0.0f);
     std::vector<int> timeRank, lensRank;
@@ -210,9 +213,16 @@ void SamplePattern::prepare(const PatternSettings& settings) {
                     m_stratumEnd[size_t(stratum)] = std::max(m_stratumEnd[size_t(stratum)], t);
                 }
                 if (settings.lens) {
-                    const Vec2 l = lensOf(s, lensRank[size_t(s)], lensKey, settings);
+                    const int stratum = lensRank[size_t(s)];
+                    const Vec2 l = lensOf(s, stratum, lensKey, settings);
                     m_lensX[k] = l.x;
                     m_lensY[k] = l.y;
+                    m_lensStratum[k] = uint16_t(stratum);
+                    float* box = &m_lensBox[4 * size_t(stratum)];
+                    box[0] = std::min(box[0], l.x);
+                    box[1] = std::min(box[1], l.y);
+                    box[2] = std::max(box[2], l.x);
+                    box[3] = std::max(box[3], l.y);
                 }
             }
         }

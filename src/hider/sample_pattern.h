@@ -112,6 +112,11 @@ public:
     const uint16_t* timeStratumRow(int ty) const { return &m_timeStratum[size_t(ty) * size_t(m_columns)]; }
     float stratumStart(int k) const { return m_stratumStart[size_t(k)]; }
     float stratumEnd(int k) const { return m_stratumEnd[size_t(k)]; }
+    /// Depth of field likewise: each sample's lens stratum (every pixel has
+    /// one sample in each) and the box of lens positions stratum k takes.
+    const uint16_t* lensStratumRow(int ty) const { return &m_lensStratum[size_t(ty) * size_t(m_columns)]; }
+    /// As x0, y0, x1, y1.
+    const float* lensStratumBox(int k) const { return &m_lensBox[4 * size_t(k)]; }
 
 private:
     PatternSettings m_settings;
@@ -122,6 +127,8 @@ private:
     std::vector<float> m_time, m_lensX, m_lensY;
     std::vector<uint16_t> m_timeStratum;
     std::vector<float> m_stratumStart, m_stratumEnd;
+    std::vector<uint16_t> m_lensStratum;
+    std::vector<float> m_lensBox;
 };
 
 /// A separable pixel filter's weights for every sample of a pattern, and

@@ -136,12 +136,13 @@ struct SampleBufferConfig {
     /// several keys are tested. Needed whenever such grids are sampled.
     bool motion = false;
     float shutterOpening[2] = {0, 1};  // the shutter's shape (scene::Options)
-    /// Motion: test a moving micropolygon only against the samples of each
-    /// coarse time stratum inside its bound over that stratum's times
-    /// (false: every sample of its bound over the whole shutter). The same
-    /// samples are hit either way; false is the reference the test of the
-    /// faster way compares with.
-    bool timeStrata = true;
+    /// Motion and depth of field: test a moving or defocused micropolygon
+    /// only against the samples of each time (or lens) stratum inside its
+    /// bound over that stratum's times (or lens positions); false: every
+    /// sample of its bound over the whole shutter and lens. The same samples
+    /// are hit either way; false is the reference the test of the faster
+    /// way compares with.
+    bool sampleStrata = true;
     /// Depth of field (perspective only): each sample gets a position on
     /// the unit lens disc, and a vertex at depth z is seen displaced by
     /// lens * lensScale * (inverseFocalDistance - 1/z) raster pixels: the
@@ -249,6 +250,8 @@ private:
     /// places the micropolygon's corners at its time and lens position.
     void sampleBlurred(const MicroGrid& g);
     void rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, int i, int j);
+    /// The sample of each region pixel in each stratum, [stratum][row][column].
+    void tabulateStrata(const uint16_t* (SamplePattern::*row)(int) const, std::vector<int32_t>& table) const;
     /// Records a hit of triangle t at sample s: depth z (within the clipping
     /// planes), barycentric weights b1, b2 of t's second and third vertices.
     /// True if it changed a depth the occlusion bound is made of.
@@ -292,6 +295,10 @@ private:
     // Two-key grid being sampled: the interpolation weight of its second
     // key at each stratum's first time, and at the last one's end.
     std::vector<float> m_strataWeight;
+    // Depth of field likewise: the sample of each region pixel in each lens
+    // stratum, and each stratum's box of lens positions (x0, y0, x1, y1).
+    std::vector<int32_t> m_lensStrataSample;
+    std::vector<float> m_lensStrataBox;
     std::vector<float> m_lensX, m_lensY;  // depth of field: position on the unit lens disc
     BlurStats m_blur;
     std::vector<float> m_columnPixel;  // per region stratum column: its pixel's x (reset scratch)

@@ -802,7 +802,7 @@ TEST(SampleBuffer, TimeStrataHitWhatEverySampleWould) {
         SampleBufferConfig c = config(0, 0, 16, 16, 1, 4, 4, true, mode);
         c.motion = true;
         strata.reset(c);
-        c.timeStrata = false;
+        c.sampleStrata = false;
         every.reset(c);
         for (const Moving& m : grids) {
             MicroGrid g = m.grid.view();
@@ -877,4 +877,42 @@ TEST(SampleBuffer, TimesAreStratifiedPerPixelAndPerTile) {
     const double sx = std::sqrt(sumXX / count - std::pow(sumX / count, 2));
     const double st = std::sqrt(sumTT / count - std::pow(sumT / count, 2));
     EXPECT_LT(std::abs(cov / (sx * st)), 0.1);  // 4096 samples: |r| ~ 0.016 if independent
+}
+
+/// Defocused grids likewise: bounding each lens stratum on its own hits the
+/// same samples at the same depths as testing the whole circle of
+/// confusion, for grids in front of, at and behind the focal plane.
+TEST(SampleBuffer, LensStrataHitWhatEverySampleWould) {
+    for (HiderMode mode : {HiderMode::Colour, HiderMode::Depth}) {
+        SampleBuffer strata, every;
+        SampleBufferConfig c = config(0, 0, 16, 16, 1, 4, 4, true, mode);
+        c.perspective = true;
+        c.lens = true;
+        c.lensScaleX = 40.0f;  // raster pixels per unit of (1/focaldistance - 1/z) at the lens's rim
+        c.lensScaleY = -40.0f;
+        c.inverseFocalDistance = 1.0f / 4.0f;
+        strata.reset(c);
+        c.sampleStrata = false;
+        every.reset(c);
+        uint64_t id = 1;
+        for (float z : {2.0f, 3.5f, 4.0f, 6.0f, 20.0f}) {
+            // Tilted in depth, so each grid's corners blur by different amounts.
+            TestGrid g = rectGrid(1.5f + z * 0.3f, 2.5f, 9.0f + z * 0.2f, 11.0f, 3, 4,
+                                  [z](float x, float) { return z + 0.05f * x; }, Color(0.5f),
+                                  Color(id % 2 ? 1.0f : 0.5f), id);
+            ++id;
+            strata.sample(g.view());
+            every.sample(g.view());
+        }
+        int hit = 0;
+        forEachSample(every, [&](int px, int py, int s) {
+            EXPECT_EQ(strata.depth(px, py, s), every.depth(px, py, s)) << px << "," << py << " sample " << s;
+            if (mode == HiderMode::Colour)
+                EXPECT_EQ(strata.fragmentCount(px, py, s), every.fragmentCount(px, py, s));
+            hit += every.depth(px, py, s) < kInfinity;
+        });
+        EXPECT_GT(hit, 1500);
+        EXPECT_EQ(strata.blurStats().sampleHits, every.blurStats().sampleHits);
+        EXPECT_LT(strata.blurStats().sampleTests, every.blurStats().sampleTests / 2);
+    }
 }
