@@ -309,7 +309,7 @@ std::vector<PrimitivePtr> makeShape(std::shared_ptr<const scene::PrimitiveRecord
         makePolygons(record, diag, out);
     else if (t == "Patch" || t == "PatchMesh")
         makePatches(record, diag, out);
-    else if (t == "SubdivisionMesh")
+    else if (t == "SubdivisionMesh" || t == "HierarchicalSubdivisionMesh")
         makeSubdivisionMesh(record, diag, out);
     else if (t == "NuPatch")
         makeNuPatches(record, diag, out);

@@ -313,42 +313,57 @@ struct Tags {
 
 bool readTags(const scene::PrimitiveRecord& rec, int nfaces, long npoints, Tags& t, Diagnostics& diag) {
     using Opt = osd::Sdc::Options;
+    const std::string& what = rec.type;
     // RenderMan's default: no boundary interpolation (boundary faces have no
     // limit surface and are not drawn).
     t.options.SetVtxBoundaryInterpolation(Opt::VTX_BOUNDARY_NONE);
     t.options.SetFVarLinearInterpolation(Opt::FVAR_LINEAR_CORNERS_ONLY);
-    const size_t ntags = rec.stringArgs.size() - 1;
-    if (ntags == 0) return true;
+    // HierarchicalSubdivisionMesh gives three counts per tag (integers,
+    // floats, strings) and its string arguments after the tag names; the
+    // plain request gives two counts and no strings.
+    const bool hierarchical = what == "HierarchicalSubdivisionMesh";
+    const size_t countsPerTag = hierarchical ? 3 : 2;
+    static const std::vector<int> kNone;
+    const std::vector<int>& nargs = rec.intArrays.size() > 2 ? rec.intArrays[2] : kNone;
+    const size_t ntags = hierarchical ? nargs.size() / 3 : rec.stringArgs.size() - 1;
+    if (ntags == 0 && (!hierarchical || nargs.empty())) return true;
     if (rec.intArrays.size() < 3) {
-        diag.error(rec.loc, "SubdivisionMesh: {} tags but no nargs", ntags);
+        diag.error(rec.loc, "{}: {} tags but no nargs", what, ntags);
         return false;
     }
-    const std::vector<int>& nargs = rec.intArrays[2];
-    static const std::vector<int> kNone;
     const std::vector<int>& ints = rec.intArrays.size() > 3 ? rec.intArrays[3] : kNone;
     const std::vector<float>& floats = rec.floatArgs;
-    if (nargs.size() != 2 * ntags) {
-        diag.error(rec.loc, "SubdivisionMesh: nargs has {} values, expected {} (an integer and a float count per tag)",
-                   nargs.size(), 2 * ntags);
+    if (nargs.size() != countsPerTag * ntags || rec.stringArgs.size() < 1 + ntags) {
+        if (hierarchical)
+            diag.error(rec.loc, "{}: nargs has {} values for {} tag names and string arguments, expected three counts "
+                       "per tag (integers, floats, strings)", what, nargs.size(), rec.stringArgs.size() - 1);
+        else
+            diag.error(rec.loc, "{}: nargs has {} values, expected {} (an integer and a float count per tag)", what,
+                       nargs.size(), countsPerTag * ntags);
         return false;
     }
-    size_t ip = 0, fp = 0;
+    const size_t nstrings = rec.stringArgs.size() - 1 - ntags;
+    size_t ip = 0, fp = 0, sp = 0;
+    bool propagateCorners = false;
     for (size_t k = 0; k < ntags; ++k) {
         const std::string& name = rec.stringArgs[k + 1];
-        const int ni = nargs[2 * k], nf = nargs[2 * k + 1];
-        if (ni < 0 || nf < 0 || ip + size_t(ni) > ints.size() || fp + size_t(nf) > floats.size()) {
-            diag.error(rec.loc, "SubdivisionMesh: tag \"{}\" asks for {} integers and {} floats, more than given", name,
-                       ni, nf);
+        const int ni = nargs[countsPerTag * k], nf = nargs[countsPerTag * k + 1];
+        const int ns = hierarchical ? nargs[countsPerTag * k + 2] : 0;
+        if (ni < 0 || nf < 0 || ns < 0 || ip + size_t(ni) > ints.size() || fp + size_t(nf) > floats.size() ||
+            sp + size_t(ns) > nstrings) {
+            diag.error(rec.loc, "{}: tag \"{}\" asks for {} integers, {} floats and {} strings, more than given",
+                       what, name, ni, nf, ns);
             return false;
         }
         const int* iv = ints.data() + ip;
         const float* fv = floats.data() + fp;
         ip += size_t(ni);
         fp += size_t(nf);
+        sp += size_t(ns);
         auto badVertex = [&](int c) {
             for (int q = 0; q < c; ++q)
                 if (iv[q] < 0 || iv[q] >= npoints) {
-                    diag.error(rec.loc, "SubdivisionMesh: tag \"{}\" names vertex {}, outside 0..{}", name, iv[q],
+                    diag.error(rec.loc, "{}: tag \"{}\" names vertex {}, outside 0..{}", what, name, iv[q],
                                npoints - 1);
                     return true;
                 }
@@ -359,7 +374,7 @@ bool readTags(const scene::PrimitiveRecord& rec, int nfaces, long npoints, Tags&
             if (mode == 0) t.options.SetVtxBoundaryInterpolation(Opt::VTX_BOUNDARY_NONE);
             else if (mode == 1) t.options.SetVtxBoundaryInterpolation(Opt::VTX_BOUNDARY_EDGE_AND_CORNER);
             else if (mode == 2) t.options.SetVtxBoundaryInterpolation(Opt::VTX_BOUNDARY_EDGE_ONLY);
-            else diag.warning(rec.loc, "SubdivisionMesh: interpolateboundary {} unknown (expected 0, 1 or 2); ignored", mode);
+            else diag.warning(rec.loc, "{}: interpolateboundary {} unknown (expected 0, 1 or 2); ignored", what, mode);
         } else if (name == "facevaryinginterpolateboundary") {
             // The integer codes of OpenSubdiv's own RIB shape reader.
             static const Opt::FVarLinearInterpolation kModes[] = {
@@ -368,12 +383,12 @@ bool readTags(const scene::PrimitiveRecord& rec, int nfaces, long npoints, Tags&
             const int mode = ni > 0 ? iv[0] : 1;
             if (mode >= 0 && mode <= 5) t.options.SetFVarLinearInterpolation(kModes[mode]);
             else
-                diag.warning(rec.loc, "SubdivisionMesh: facevaryinginterpolateboundary {} unknown (expected 0 to 5); ignored",
+                diag.warning(rec.loc, "{}: facevaryinginterpolateboundary {} unknown (expected 0 to 5); ignored", what,
                              mode);
         } else if (name == "crease") {
             if (ni < 2 || (nf != 1 && nf != ni - 1)) {
-                diag.error(rec.loc, "SubdivisionMesh: crease expects 2 or more vertices and 1 sharpness (or one per "
-                                    "edge), got {} and {}", ni, nf);
+                diag.error(rec.loc, "{}: crease expects 2 or more vertices and 1 sharpness (or one per "
+                                    "edge), got {} and {}", what, ni, nf);
                 return false;
             }
             if (badVertex(ni)) return false;
@@ -384,8 +399,8 @@ bool readTags(const scene::PrimitiveRecord& rec, int nfaces, long npoints, Tags&
             }
         } else if (name == "corner") {
             if (ni < 1 || (nf != 1 && nf != ni)) {
-                diag.error(rec.loc, "SubdivisionMesh: corner expects vertices and 1 sharpness (or one per vertex), "
-                                    "got {} and {}", ni, nf);
+                diag.error(rec.loc, "{}: corner expects vertices and 1 sharpness (or one per vertex), "
+                                    "got {} and {}", what, ni, nf);
                 return false;
             }
             if (badVertex(ni)) return false;
@@ -396,17 +411,27 @@ bool readTags(const scene::PrimitiveRecord& rec, int nfaces, long npoints, Tags&
         } else if (name == "hole") {
             for (int q = 0; q < ni; ++q) {
                 if (iv[q] < 0 || iv[q] >= nfaces) {
-                    diag.error(rec.loc, "SubdivisionMesh: hole names face {}, outside 0..{}", iv[q], nfaces - 1);
+                    diag.error(rec.loc, "{}: hole names face {}, outside 0..{}", what, iv[q], nfaces - 1);
                     return false;
                 }
                 t.holes.push_back(iv[q]);
             }
+        } else if (name == "facevaryingpropagatecorners") {
+            propagateCorners = ni > 0 && iv[0] != 0;
+        } else if (name == "vertexedit" || name == "edgeedit" || name == "faceedit") {
+            diag.warningOnce("subdiv:hierarchical-edit", rec.loc,
+                             "{}: hierarchical edits (\"{}\") are not supported; the mesh is drawn without them", what,
+                             name);
         } else {
             std::string key = "subdiv:tag:";
             key += name;
-            diag.warningOnce(key, rec.loc, "SubdivisionMesh: tag \"{}\" not supported; ignored", name);
+            diag.warningOnce(key, rec.loc, "{}: tag \"{}\" not supported; ignored", what, name);
         }
     }
+    // PRMan's facevaryingpropagatecorners sharpens the corners that the
+    // "corners plus one" rule makes, which is OpenSubdiv's CORNERS_PLUS2.
+    if (propagateCorners && t.options.GetFVarLinearInterpolation() == Opt::FVAR_LINEAR_CORNERS_PLUS1)
+        t.options.SetFVarLinearInterpolation(Opt::FVAR_LINEAR_CORNERS_PLUS2);
     return true;
 }
 
@@ -440,9 +465,10 @@ FVarChannelData weld(const PrimVar& v, int var, const std::vector<int>& vertices
 }  // namespace
 
 void makeSubdivisionMesh(const RecordPtr& rec, Diagnostics& diag, std::vector<PrimitivePtr>& out) {
+    const std::string& what = rec->type;
     const auto& arrays = rec->intArrays;
     if (rec->stringArgs.empty() || arrays.size() < 2) {
-        diag.error(rec->loc, "SubdivisionMesh: expected a scheme, nvertices and vertices");
+        diag.error(rec->loc, "{}: expected a scheme, nvertices and vertices", what);
         return;
     }
     const std::string& scheme = rec->stringArgs[0];
@@ -451,7 +477,7 @@ void makeSubdivisionMesh(const RecordPtr& rec, Diagnostics& diag, std::vector<Pr
     else if (scheme == "loop") type = osd::Sdc::SCHEME_LOOP;
     else if (scheme == "bilinear") type = osd::Sdc::SCHEME_BILINEAR;
     else {
-        diag.error(rec->loc, "SubdivisionMesh: scheme \"{}\" unknown (expected \"catmull-clark\", \"loop\" or \"bilinear\")",
+        diag.error(rec->loc, "{}: scheme \"{}\" unknown (expected \"catmull-clark\", \"loop\" or \"bilinear\")", what,
                    scheme);
         return;
     }
@@ -463,25 +489,25 @@ void makeSubdivisionMesh(const RecordPtr& rec, Diagnostics& diag, std::vector<Pr
     mesh->faceCornerStart.push_back(0);
     for (size_t f = 0; f < nverts.size(); ++f) {
         if (nverts[f] < 3) {
-            diag.error(rec->loc, "SubdivisionMesh: face {} has {} vertices, expected at least 3", f, nverts[f]);
+            diag.error(rec->loc, "{}: face {} has {} vertices, expected at least 3", what, f, nverts[f]);
             return;
         }
         if (mesh->loop && nverts[f] != 3) {
-            diag.error(rec->loc, "SubdivisionMesh: \"loop\" needs triangles; face {} has {} vertices", f, nverts[f]);
+            diag.error(rec->loc, "{}: \"loop\" needs triangles; face {} has {} vertices", what, f, nverts[f]);
             return;
         }
         total += nverts[f];
         mesh->faceCornerStart.push_back(int(total));
     }
     if (nverts.empty() || long(verts.size()) != total) {
-        diag.error(rec->loc, "SubdivisionMesh: vertices has {} indices, expected {} (the sum of nvertices)",
+        diag.error(rec->loc, "{}: vertices has {} indices, expected {} (the sum of nvertices)", what,
                    verts.size(), total);
         return;
     }
     long npoints = 0;
     for (size_t k = 0; k < verts.size(); ++k) {
         if (verts[k] < 0) {
-            diag.error(rec->loc, "SubdivisionMesh: vertex index {} at position {} is negative", verts[k], k);
+            diag.error(rec->loc, "{}: vertex index {} at position {} is negative", what, verts[k], k);
             return;
         }
         npoints = std::max(npoints, long(verts[k]) + 1);
@@ -534,7 +560,7 @@ void makeSubdivisionMesh(const RecordPtr& rec, Diagnostics& diag, std::vector<Pr
     using Factory = osd::Far::TopologyRefinerFactory<osd::Far::TopologyDescriptor>;
     mesh->refiner.reset(Factory::Create(desc, Factory::Options(type, tags.options)));
     if (!mesh->refiner) {
-        diag.error(rec->loc, "SubdivisionMesh: OpenSubdiv rejects the mesh's topology");
+        diag.error(rec->loc, "{}: OpenSubdiv rejects the mesh's topology", what);
         return;
     }
     SurfaceFactory::Options factoryOptions;
