@@ -42,6 +42,11 @@ struct SubdivMeshData {
     bool loop = false;
     std::unique_ptr<osd::Far::TopologyRefiner> refiner;
     std::unique_ptr<SurfaceFactory> factory;
+    /// Per base face: the bound of the vertices of the faces around its
+    /// corners (its one-ring), which holds its limit surface. Made once, so
+    /// that a range's bound is a union of these and the split tree of a
+    /// mesh of F faces costs F log F unions, not F log F one-ring walks.
+    std::vector<Bound3> faceRingBound;
 
     Vec3 point(int v) const { return {points[size_t(v) * 3], points[size_t(v) * 3 + 1], points[size_t(v) * 3 + 2]}; }
 };
@@ -87,20 +92,7 @@ Vec3 cross3(const float a[3], const float b[3]) {
 
 SubdivMesh::SubdivMesh(RecordPtr record, std::shared_ptr<const SubdivMeshData> mesh, int firstFace, int endFace)
     : Primitive(std::move(record)), m_mesh(std::move(mesh)), m_first(firstFace), m_end(endFace) {
-    // The limit surface of a face lies in the convex hull of the points
-    // that influence it, which are among the vertices of the faces around
-    // its corners (its one-ring).
-    const osd::Far::TopologyLevel& level = m_mesh->refiner->GetLevel(0);
-    for (int f = m_first; f < m_end; ++f) {
-        const auto fv = level.GetFaceVertices(f);
-        for (int k = 0; k < fv.size(); ++k) {
-            const auto ring = level.GetVertexFaces(fv[k]);
-            for (int r = 0; r < ring.size(); ++r) {
-                const auto rv = level.GetFaceVertices(ring[r]);
-                for (int q = 0; q < rv.size(); ++q) m_bound.extend(m_mesh->point(rv[q]));
-            }
-        }
-    }
+    for (int f = m_first; f < m_end; ++f) m_bound.extend(m_mesh->faceRingBound[size_t(f)]);
 }
 
 void SubdivMesh::split(bool, std::vector<PrimitivePtr>& out) const {
@@ -562,6 +554,22 @@ void makeSubdivisionMesh(const RecordPtr& rec, Diagnostics& diag, std::vector<Pr
     if (!mesh->refiner) {
         diag.error(rec->loc, "{}: OpenSubdiv rejects the mesh's topology", what);
         return;
+    }
+    // The limit surface of a face lies in the convex hull of the points
+    // that influence it, which are among the vertices of the faces around
+    // its corners (its one-ring).
+    const osd::Far::TopologyLevel& level = mesh->refiner->GetLevel(0);
+    mesh->faceRingBound.resize(nverts.size());
+    for (int f = 0; f < int(nverts.size()); ++f) {
+        Bound3& b = mesh->faceRingBound[size_t(f)];
+        const auto fv = level.GetFaceVertices(f);
+        for (int k = 0; k < fv.size(); ++k) {
+            const auto ring = level.GetVertexFaces(fv[k]);
+            for (int r = 0; r < ring.size(); ++r) {
+                const auto rv = level.GetFaceVertices(ring[r]);
+                for (int q = 0; q < rv.size(); ++q) b.extend(mesh->point(rv[q]));
+            }
+        }
     }
     SurfaceFactory::Options factoryOptions;
     factoryOptions.SetApproxLevelSmooth(kApproxSmooth);
