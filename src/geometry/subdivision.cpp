@@ -21,6 +21,10 @@ using SurfaceFactory = osd::Bfr::RefinerSurfaceFactory<SurfaceCache>;
 using Surface = osd::Bfr::Surface<float>;
 
 constexpr int kApproxSmooth = 4;
+// A range of at most kFlatFaces faces splits into its faces; a larger one
+// into kSplitWays ranges (Morton order makes each a region of space).
+constexpr int kFlatFaces = 64;
+constexpr int kSplitWays = 16;
 
 /// One face-varying primitive variable as an OpenSubdiv face-varying
 /// channel: the record's per-corner values welded where a vertex's corners
@@ -47,6 +51,12 @@ struct SubdivMeshData {
     /// that a range's bound is a union of these and the split tree of a
     /// mesh of F faces costs F log F unions, not F log F one-ring walks.
     std::vector<Bound3> faceRingBound;
+    /// The base faces in Morton order of their one-ring bounds' centres.
+    /// SubdivMesh ranges index this, so halving a range halves a region of
+    /// space: the pieces' bounds stay tight and occlusion culling works as
+    /// it does for separate patches (in the order faces are written, a
+    /// half of a torus is a band all round it).
+    std::vector<int> faceOrder;
 
     Vec3 point(int v) const { return {points[size_t(v) * 3], points[size_t(v) * 3 + 1], points[size_t(v) * 3 + 2]}; }
 };
@@ -92,17 +102,20 @@ Vec3 cross3(const float a[3], const float b[3]) {
 
 SubdivMesh::SubdivMesh(RecordPtr record, std::shared_ptr<const SubdivMeshData> mesh, int firstFace, int endFace)
     : Primitive(std::move(record)), m_mesh(std::move(mesh)), m_first(firstFace), m_end(endFace) {
-    for (int f = m_first; f < m_end; ++f) m_bound.extend(m_mesh->faceRingBound[size_t(f)]);
+    for (int k = m_first; k < m_end; ++k) m_bound.extend(m_mesh->faceRingBound[size_t(m_mesh->faceOrder[size_t(k)])]);
 }
 
 void SubdivMesh::split(bool, std::vector<PrimitivePtr>& out) const {
-    if (m_end - m_first > 1) {
-        const int mid = m_first + (m_end - m_first) / 2;
-        out.push_back(std::make_unique<SubdivMesh>(recordPtr(), m_mesh, m_first, mid));
-        out.push_back(std::make_unique<SubdivMesh>(recordPtr(), m_mesh, mid, m_end));
+    const int count = m_end - m_first;
+    if (count <= kFlatFaces) {
+        for (int k = m_first; k < m_end; ++k) appendFace(recordPtr(), m_mesh, m_mesh->faceOrder[size_t(k)], out);
         return;
     }
-    appendFace(recordPtr(), m_mesh, m_first, out);
+    for (int part = 0; part < kSplitWays; ++part) {
+        const int first = m_first + int(int64_t(count) * part / kSplitWays);
+        const int end = m_first + int(int64_t(count) * (part + 1) / kSplitWays);
+        if (end > first) out.push_back(std::make_unique<SubdivMesh>(recordPtr(), m_mesh, first, end));
+    }
 }
 
 Grid SubdivMesh::dice(int, int) const {
@@ -454,6 +467,35 @@ FVarChannelData weld(const PrimVar& v, int var, const std::vector<int>& vertices
     return c;
 }
 
+// Indices of `bounds` sorted by the Morton code of their centres in the
+// box of all of them (10 bits an axis); ties keep the given order.
+std::vector<int> mortonOrder(const std::vector<Bound3>& bounds) {
+    Bound3 all;
+    for (const Bound3& b : bounds) all.extend(b);
+    const Vec3 size = vmax(all.diagonal(), Vec3(1e-30f));
+    auto spread = [](uint32_t v) {  // 10 bits to every third of 30
+        v = (v | (v << 16)) & 0x030000FFu;
+        v = (v | (v << 8)) & 0x0300F00Fu;
+        v = (v | (v << 4)) & 0x030C30C3u;
+        v = (v | (v << 2)) & 0x09249249u;
+        return v;
+    };
+    auto cell = [](float t) {  // NaN (a point at infinity) goes to cell 0
+        const float x = t * 1024.0f;
+        return x >= 1023.0f ? 1023u : (x >= 0.0f ? uint32_t(x) : 0u);
+    };
+    std::vector<std::pair<uint32_t, int>> keyed(bounds.size());
+    for (size_t f = 0; f < bounds.size(); ++f) {
+        const Vec3 c = (bounds[f].min + bounds[f].max) * 0.5f - all.min;
+        keyed[f] = {spread(cell(c.x / size.x)) | (spread(cell(c.y / size.y)) << 1) | (spread(cell(c.z / size.z)) << 2),
+                    int(f)};
+    }
+    std::stable_sort(keyed.begin(), keyed.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    std::vector<int> order(bounds.size());
+    for (size_t k = 0; k < keyed.size(); ++k) order[k] = keyed[k].second;
+    return order;
+}
+
 }  // namespace
 
 void makeSubdivisionMesh(const RecordPtr& rec, Diagnostics& diag, std::vector<PrimitivePtr>& out) {
@@ -571,6 +613,7 @@ void makeSubdivisionMesh(const RecordPtr& rec, Diagnostics& diag, std::vector<Pr
             }
         }
     }
+    mesh->faceOrder = mortonOrder(mesh->faceRingBound);
     SurfaceFactory::Options factoryOptions;
     factoryOptions.SetApproxLevelSmooth(kApproxSmooth);
     mesh->factory = std::make_unique<SurfaceFactory>(*mesh->refiner, factoryOptions);
