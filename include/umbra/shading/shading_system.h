@@ -50,6 +50,9 @@ public:
     const ShaderParamInfo* param(const std::string& name) const;
     /// Human-readable bytecode listing (`umbra slc --listing`).
     std::string listing() const;
+    /// Whether its results depend on the grid's random seed: it calls
+    /// random(), or shadow() (stochastic bias and sample jitter).
+    bool drawsRandomNumbers() const;
     const CompiledShader& code() const { return *m_code; }
 
 private:
