@@ -274,7 +274,7 @@ Renderer::Renderer(const RenderSettings& settings, Diagnostics& diag)
 Renderer::~Renderer() = default;
 
 nlohmann::json Renderer::statistics() const {
-    return {{"umbra_version", kUmbraVersion}, {"frames", m_impl->frames}};
+    return {{"schema", kStatisticsSchema}, {"umbra_version", kUmbraVersion}, {"frames", m_impl->frames}};
 }
 
 void Renderer::onFrameStatistics(std::function<void(const nlohmann::json&)> sink) {
