@@ -424,7 +424,7 @@ PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const st
     }
     ss.maxEyeSplits = options.eyeSplits;
     Progress progress(settings.progress, label);
-    ss.progress = [&](int done, int total) { progress.update(done, total); };
+    ss.progress = [&](int done, int total, double workDone) { progress.update(done, total, workDone); };
 
     SurfacePipeline pipeline(frame, pass, *services, diag, film);
     hider::BucketScheduler scheduler(ss, pipeline);
