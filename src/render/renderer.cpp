@@ -542,8 +542,11 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
             if (!jobs[i]) continue;
             contents[i] = mapContentOf(frame, world.lights[i], *jobs[i]);
             auto before = reusableMaps.find(handleOf(world.lights[i]));
-            const bool usable = before != reusableMaps.end() && before->second.written.valid() && before->second.written.get();
-            reuseReasons[i] = reuseReason(usable ? &before->second.content : nullptr, contents[i]);
+            if (before != reusableMaps.end() && !(before->second.written.valid() && before->second.written.get())) {
+                reuseReasons[i] = "earlier map not written";
+                continue;
+            }
+            reuseReasons[i] = reuseReason(before != reusableMaps.end() ? &before->second.content : nullptr, contents[i]);
             if (reuseReasons[i] != kSameContent) continue;
             if (!reuseOn) {
                 reuseReasons[i] = "reuse off";
@@ -657,6 +660,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
         DepthImage image = depthImageOf(f, pass, depthFilterOf(options, d.loc), dualOffsetOf(options));
         bool ok = d.driver == "zfile" ? writeZFile(d.name, image, diag, d.loc) : writeDepthMap(d.name, image, diag, d.loc);
         maps->invalidate(d.name);
+        std::erase_if(reusableMaps, [&](const auto& entry) { return entry.second.path == d.name; });
         return ok;
     };
     // Output converts rows in parallel: on no more threads than --threads.
