@@ -212,6 +212,7 @@ TEST(MapReuse, OptionTurnsItOff) {
     writeFile(dir.file("seq.rib"), sequenceRib(std::vector<FrameSetup>(2), "Option \"umbra\" \"reusemaps\" [0]"));
     std::string messages;
     ASSERT_EQ(runUmbra(dir, {"seq.rib", "--stats", "run.jsonl"}, &messages), 0) << messages;
+    EXPECT_EQ(messages.find("reusemaps"), std::string::npos) << messages;  // a declared option
     const auto lines = readLines(dir.file("run.jsonl"));
     ASSERT_EQ(lines.size(), 2u);
     EXPECT_EQ(lines[1]["maps"][0]["reused"], false);
