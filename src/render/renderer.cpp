@@ -903,14 +903,23 @@ MapContent Renderer::Impl::mapContentOf(const FrameState& frame, const scene::Li
     }
     content.settings = settingsHash.value();
     content.view = viewHash.value();
-    // The frame's seed reaches a depth pass through sample times and
-    // through displacement shaders that draw random numbers.
+    // A displacement shader may place points in named coordinate systems:
+    // a displaced caster's shape follows them. The standard spaces are the
+    // depth pass's own (Services::getMatrix), whatever the camera does.
+    Hasher coordinateSystems;
+    for (const auto& [name, m] : frame.world->coordinateSystems)
+        if (name != "world" && name != "camera") coordinateSystems.str(name).matrix(m);
+    // The frame's seed reaches a depth pass through sample times, and
+    // displacement shaders may read other per-frame state (Shader::variesByFrame): such maps are this frame's alone.
     bool seeded = frame.motionBlur();
     for (const auto& rec : frame.world->primitives) {
         if (!rec.attributes || !rec.attributes->castsShadows) continue;
-        content.casters.push_back(casterDigest(rec));
-        if (auto it = frame.attributes.find(rec.attributes.get()); it != frame.attributes.end() && it->second.displacement)
-            seeded |= it->second.displacement->shader().drawsRandomNumbers();
+        Digest caster = casterDigest(rec);
+        if (auto it = frame.attributes.find(rec.attributes.get()); it != frame.attributes.end() && it->second.displacement) {
+            seeded |= it->second.displacement->shader().variesByFrame();
+            caster = Hasher().digest(caster).digest(coordinateSystems.value()).value();
+        }
+        content.casters.push_back(caster);
     }
     if (seeded) content.seed = frame.frameSeed;
     return content;

@@ -81,6 +81,12 @@ constexpr const char* kShaders[][2] = {
      "displacement wobble(float Km = 0.1;) { P += Km * sin(10 * s) * normalize(N); N = calculatenormal(P); }\n"},
     {"grain.sl",
      "displacement grain(float Km = 0.1;) { P += Km * float random() * normalize(N); N = calculatenormal(P); }\n"},
+    {"pulse.sl",
+     "displacement pulse(float Km = 0.1;) { float f = 0; option(\"FrameNumber\", f);\n"
+     "  P += Km * (1 + mod(f, 2)) * normalize(N); N = calculatenormal(P); }\n"},
+    {"anchored.sl",
+     "displacement anchored(float Km = 0.1;) { point a = transform(\"anchor\", P);\n"
+     "  P += Km * sin(4 * xcomp(a)) * normalize(N); N = calculatenormal(P); }\n"},
 };
 
 std::string frameRib(int n, const FrameSetup& f, const std::string& extraOptions = "") {
@@ -235,6 +241,34 @@ TEST(MapReuse, RandomDisplacementFollowsTheFrameSeed) {
     ASSERT_EQ(lines.size(), 2u);
     EXPECT_EQ(lines[1]["maps"][0]["reused"], false);
     EXPECT_EQ(lines[1]["maps"][0]["reason"], "frame seed changed");
+}
+
+TEST(MapReuse, DisplacementReadingTheFrameOrACoordinateSystem) {
+    // A displacement reading the frame number (option()) is this frame's
+    // alone; one placed in a named coordinate system follows it.
+    ScratchDir dir("reuse-frame-state");
+    writeShaders(dir);
+    FrameSetup pulsing;
+    pulsing.wobble = 0.05f;
+    pulsing.displacement = "pulse";
+    FrameSetup anchored = pulsing;
+    anchored.displacement = "anchored";
+    std::string rib = "Format 48 36 1\nPixelSamples 2 2\n" + frameRib(1, pulsing) + frameRib(2, pulsing);
+    auto withAnchor = [&](int n, float x) {
+        std::string text = frameRib(n, anchored);
+        const std::string at = "WorldBegin\n";
+        return text.insert(text.find(at) + at.size(),
+                           fmt::format("  TransformBegin\n    Translate {} 0 0\n    CoordinateSystem \"anchor\"\n  TransformEnd\n", x));
+    };
+    rib += withAnchor(3, 0) + withAnchor(4, 0) + withAnchor(5, 0.5f);
+    writeFile(dir.file("seq.rib"), rib);
+    std::string messages;
+    ASSERT_EQ(runUmbra(dir, {"seq.rib", "--stats", "run.jsonl"}, &messages), 0) << messages;
+    const auto lines = readLines(dir.file("run.jsonl"));
+    ASSERT_EQ(lines.size(), 5u);
+    EXPECT_EQ(lines[1]["maps"][0]["reason"], "frame seed changed");
+    EXPECT_EQ(lines[3]["maps"][0]["reason"], "same content");
+    EXPECT_EQ(lines[4]["maps"][0]["reason"], "caster changed");
 }
 
 TEST(MapReuse, CasterDigestFollowsWhatADepthPassReads) {
