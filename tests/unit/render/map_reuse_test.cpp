@@ -212,6 +212,41 @@ TEST(MapReuse, DecidedFromContentAndNeverChangesAPixel) {
     }
 }
 
+TEST(MapReuse, CubeAndDistantMapsToo) {
+    // A point light's six faces and a distant light's map fitted to the
+    // casters' bound are reused alike, with the same pixels.
+    std::string rib = "Format 48 36 1\nPixelSamples 2 2\n";
+    for (int n = 1; n <= 3; ++n) {
+        std::string frame = frameRib(n, FrameSetup{});
+        const std::string spot = frame.substr(frame.find("  LightSource"), frame.find("\n", frame.find("  LightSource")) -
+                                                                                frame.find("  LightSource") + 1);
+        frame.replace(frame.find(spot), spot.size(),
+                      fmt::format("  LightSource \"shadowpoint\" \"bulb\" \"from\" [0.5 2.5 0.3] \"intensity\" [6] "
+                                  "\"shadowname\" [\"auto\"]\n"
+                                  "  LightSource \"shadowdistant\" \"sun\" \"from\" [0 0 0] \"to\" [{} -1 0.2] "
+                                  "\"intensity\" [0.5] \"shadowname\" [\"auto\"]\n",
+                                  n == 3 ? 0.4 : 0.3));
+        rib += frame;
+    }
+    ScratchDir on("reuse-cube-on"), off("reuse-cube-off");
+    std::string messages;
+    for (const ScratchDir* dir : {&on, &off}) writeFile(dir->file("seq.rib"), rib);
+    ASSERT_EQ(runUmbra(on, {"seq.rib", "--stats", "run.jsonl"}, &messages), 0) << messages;
+    ASSERT_EQ(runUmbra(off, {"seq.rib", "--no-map-reuse"}, &messages), 0) << messages;
+    const auto lines = readLines(on.file("run.jsonl"));
+    ASSERT_EQ(lines.size(), 3u);
+    ASSERT_EQ(lines[1]["maps"].size(), 2u);
+    EXPECT_EQ(lines[1]["maps"][0]["reused"], true);  // the cube map
+    EXPECT_EQ(lines[1]["maps"][1]["reused"], true);
+    EXPECT_EQ(lines[1]["passes"].size(), 1u);
+    EXPECT_EQ(lines[2]["maps"][0]["reused"], true);
+    EXPECT_EQ(lines[2]["maps"][1]["reason"], "light changed");
+    for (int n = 1; n <= 3; ++n) {
+        const std::string image = fmt::format("out.{:04d}.tif", n);
+        EXPECT_EQ(test::maxAbsDiff(imageOf(on.file(image)), imageOf(off.file(image)), 4), 0.0) << image;
+    }
+}
+
 TEST(MapReuse, OptionTurnsItOff) {
     ScratchDir dir("reuse-option");
     writeShaders(dir);
