@@ -54,8 +54,9 @@ struct MapContent {
     Digest settings;          // depth filter, culling, dicing rates, sampling options
     Digest view;              // the light's shader and the depth passes' cameras
     std::vector<Digest> casters;  // each shadow-casting primitive record, in scene order
-    /// The frame's random seed when the passes use it (motion blur draws
-    /// sample times from it; a displacement shader may call random()).
+    /// The frame's random seed when the passes depend on the frame (motion
+    /// blur draws sample times from it; a displacement shader may call
+    /// random() or option(): Shader::variesByFrame).
     std::optional<uint32_t> seed;
 };
 
@@ -67,7 +68,9 @@ Digest casterDigest(const scene::PrimitiveRecord& record);
 /// Why `now` may or may not reuse the map made for `before` (null: there
 /// is none): "same content" (reusable), or the first difference found:
 /// "first frame", "map size changed", "map settings changed", "new caster",
-/// "caster removed", "caster changed", "light changed", "frame seed changed".
+/// "caster removed", "caster changed", "casters reordered", "light changed",
+/// "frame seed changed". Casters come before the light: a distant light's
+/// view is fitted to its casters, so a moved caster moves it too.
 std::string reuseReason(const MapContent* before, const MapContent& now);
 
 /// The reason reuseReason gives when the map can be reused.

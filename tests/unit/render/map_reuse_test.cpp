@@ -193,7 +193,9 @@ TEST(MapReuse, DecidedFromContentAndNeverChangesAPixel) {
         EXPECT_EQ(maps[0]["reason"].get<std::string>(), expected[i].second);
         // A reused map has no depth pass of its own and reads the earlier file.
         EXPECT_EQ(lines[i]["passes"].size(), expected[i].first ? 1u : 2u);
-        if (!expected[i].first) EXPECT_EQ(maps[0]["path"], fmt::format("out.{:04d}.key.shd", i + 1));
+        if (!expected[i].first) {
+            EXPECT_EQ(maps[0]["path"], fmt::format("out.{:04d}.key.shd", i + 1));
+        }
         // With reuse off every map is rendered; the decision is still reported.
         EXPECT_FALSE(linesOff[i]["maps"][0]["reused"].get<bool>());
         EXPECT_EQ(linesOff[i]["passes"].size(), 2u);
