@@ -1,4 +1,5 @@
 #include "umbra/hider/bucket_scheduler.h"
+#include "umbra/hider/bucket_work.h"
 
 #include "umbra/util/cpu_time.h"
 #include "umbra/util/interrupt.h"
@@ -13,6 +14,7 @@
 #include <atomic>
 #include <cmath>
 #include <mutex>
+#include <optional>
 
 namespace umbra::hider {
 
@@ -294,6 +296,19 @@ SchedulerStats BucketScheduler::render(const std::vector<geometry::PrimitivePtr>
             for (int bx = node->bx0; bx <= node->bx1; ++bx) perBucket[size_t(by * frame.bucketsX + bx)].push_back(node.get());
     }
 
+    // Progress by work: each bucket's share from the raster area its
+    // primitives cover (an empty sky is done at once, and says so).
+    std::optional<WorkFraction> work;
+    if (m_settings.progress) {
+        std::vector<Bound3> bounds;
+        bounds.reserve(roots.size());
+        for (const auto& node : roots)
+            if (node) bounds.push_back(node->bound);
+        const BucketLayout layout{film.x0(), film.y0(), film.x1(), film.y1(), bw, bh};
+        const double emptyPixelWork = m_settings.sampling.mode == HiderMode::Depth ? 0.0 : kEmptyPixelWorkColour;
+        work.emplace(estimateBucketWork(layout, bounds, emptyPixelWork));
+    }
+
     // Workers take buckets in scanline order, so the grids alive at any time
     // are those of a band of buckets, not of the whole frame.
     std::atomic<int> next{0}, done{0};
@@ -325,7 +340,7 @@ SchedulerStats BucketScheduler::render(const std::vector<geometry::PrimitivePtr>
             }
             ++stats.buckets;
             int d = ++done;
-            if (m_settings.progress) m_settings.progress(d, bucketCount);
+            if (work) m_settings.progress(d, bucketCount, work->finish(b));
         }
         stats.workerCpuSeconds = threadCpuSeconds() - cpu0;
         stats.blur = buffer.blurStats();

@@ -38,6 +38,7 @@ constexpr UmbraNumber kUmbraNumbers[] = {
     {"depthlayers", 1, 2, "1 or 2"},
     {"depthshadingrate", 0, 1e6, "a rate of 0 (the surfaces' own) or more"},
     {"dualoffset", 0, 1e6, "an offset of 0 or more"},
+    {"reusemaps", 0, 1, "0 (render every automatic map) or 1"},
 };
 
 /// Whether `p`, a parameter of Option or Attribute "umbra", holds a value

@@ -104,8 +104,9 @@ struct SchedulerSettings {
     SampleBufferConfig sampling;
     int filterMargin = 1;         // pixels sampled around each bucket (ceil of filter radius)
     int maxEyeSplits = 10;
-    /// Called after each bucket with (done, total); from worker threads.
-    std::function<void(int, int)> progress;
+    /// Called after each bucket with (buckets done, buckets, share of the
+    /// estimated work done: hider/bucket_work.h); from worker threads.
+    std::function<void(int, int, double)> progress;
 };
 
 /// Renders a list of primitives into a film, bucket by bucket.
