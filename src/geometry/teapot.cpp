@@ -5,13 +5,11 @@ namespace umbra::geometry {
 namespace {
 
 // Martin Newell's teapot (1975), in the public-domain numbers everyone
-// draws it from: 306 control points and 32 bicubic Bezier patches of 16
-// indices each, rows of four along u. Patches 0-3 are the rim, 4-11 the
-// body, 12-15 the handle, 16-19 the spout, 20-27 the lid and 28-31 the
-// bottom that later versions added (so the teapot is closed and casts a
-// whole shadow). A few points the patches do not use are kept so the
-// indices stay those of the published table.
-constexpr float kPoints[306][3] = {
+// draws it from: control points, and bicubic Bezier patches of 16 indices
+// each, rows of four along u. Patches 0-3 are the rim, 4-11 the body,
+// 12-15 the handle, 16-19 the spout and 20-27 the lid. A few points no
+// patch uses are kept so the indices stay those of the published table.
+constexpr float kPoints[269][3] = {
     {1.4f, 0, 2.4f}, {1.4f, -0.784f, 2.4f}, {0.784f, -1.4f, 2.4f}, {0, -1.4f, 2.4f},
     {1.3375f, 0, 2.53125f}, {1.3375f, -0.749f, 2.53125f}, {0.749f, -1.3375f, 2.53125f}, {0, -1.3375f, 2.53125f},
     {1.4375f, 0, 2.53125f}, {1.4375f, -0.805f, 2.53125f}, {0.805f, -1.4375f, 2.53125f}, {0, -1.4375f, 2.53125f},
@@ -79,19 +77,11 @@ constexpr float kPoints[306][3] = {
     {0, 0.4f, 2.55f}, {-1.3f, 0.728f, 2.55f}, {-0.728f, 1.3f, 2.55f}, {0, 1.3f, 2.55f},
     {-1.3f, 0.728f, 2.4f}, {-0.728f, 1.3f, 2.4f}, {0, 1.3f, 2.4f}, {0.224f, 0.4f, 2.55f},
     {0.4f, 0.224f, 2.55f}, {0.728f, 1.3f, 2.55f}, {1.3f, 0.728f, 2.55f}, {0.728f, 1.3f, 2.4f},
-    {1.3f, 0.728f, 2.4f}, {0, 0, 0}, {1.5f, 0, 0.15f}, {1.5f, 0.84f, 0.15f},
-    {0.84f, 1.5f, 0.15f}, {0, 1.5f, 0.15f}, {1.5f, 0, 0.075f}, {1.5f, 0.84f, 0.075f},
-    {0.84f, 1.5f, 0.075f}, {0, 1.5f, 0.075f}, {1.425f, 0, 0}, {1.425f, 0.798f, 0},
-    {0.798f, 1.425f, 0}, {0, 1.425f, 0}, {-0.84f, 1.5f, 0.15f}, {-1.5f, 0.84f, 0.15f},
-    {-1.5f, 0, 0.15f}, {-0.84f, 1.5f, 0.075f}, {-1.5f, 0.84f, 0.075f}, {-1.5f, 0, 0.075f},
-    {-0.798f, 1.425f, 0}, {-1.425f, 0.798f, 0}, {-1.425f, 0, 0}, {-1.5f, -0.84f, 0.15f},
-    {-0.84f, -1.5f, 0.15f}, {0, -1.5f, 0.15f}, {-1.5f, -0.84f, 0.075f}, {-0.84f, -1.5f, 0.075f},
-    {0, -1.5f, 0.075f}, {-1.425f, -0.798f, 0}, {-0.798f, -1.425f, 0}, {0, -1.425f, 0},
-    {0.84f, -1.5f, 0.15f}, {1.5f, -0.84f, 0.15f}, {0.84f, -1.5f, 0.075f}, {1.5f, -0.84f, 0.075f},
-    {0.798f, -1.425f, 0}, {1.425f, -0.798f, 0},
+    {1.3f, 0.728f, 2.4f},
 };
 
-constexpr short kPatches[kTeapotPatchCount][16] = {
+constexpr int kNewellPatches = 28;
+constexpr short kPatches[kNewellPatches][16] = {
     {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15},
     {3, 16, 17, 18, 7, 19, 20, 21, 11, 22, 23, 24, 15, 25, 26, 27},
     {18, 28, 29, 30, 21, 31, 32, 33, 24, 34, 35, 36, 27, 37, 38, 39},
@@ -120,17 +110,28 @@ constexpr short kPatches[kTeapotPatchCount][16] = {
     {214, 219, 220, 221, 236, 245, 246, 247, 240, 248, 249, 250, 244, 251, 252, 253},
     {221, 226, 227, 228, 247, 254, 255, 256, 250, 257, 258, 259, 253, 260, 261, 262},
     {228, 231, 232, 211, 256, 263, 264, 233, 259, 265, 266, 237, 262, 267, 268, 241},
-    {269, 269, 269, 269, 278, 279, 280, 281, 274, 275, 276, 277, 270, 271, 272, 273},
-    {269, 269, 269, 269, 281, 288, 289, 290, 277, 285, 286, 287, 273, 282, 283, 284},
-    {269, 269, 269, 269, 290, 297, 298, 299, 287, 294, 295, 296, 284, 291, 292, 293},
-    {269, 269, 269, 269, 299, 304, 305, 278, 296, 302, 303, 274, 293, 300, 301, 270},
 };
+
+/// Newell's body ends at z = 0.15 (his table's bottom row); moved down so
+/// it stands on z = 0, where Aqsis draws it.
+constexpr float kLift = -0.15f;
 
 }  // namespace
 
 Vec3 teapotControlPoint(int patch, int k) {
+    if (patch >= kNewellPatches) {
+        // The flat bottom (Newell's teapot has none; Aqsis closes it so):
+        // a disc on z = 0 bounded by the body's lower edge (the last row of
+        // lower body patch 8 + q), each row a third nearer the centre,
+        // continuing the body's parameter direction so its normals face
+        // out (down) as the body's do.
+        const int row = k / 4;
+        const Vec3 edge = teapotControlPoint(8 + patch - kNewellPatches, 12 + k % 4);
+        const float scale = float(3 - row) / 3;
+        return {edge.x * scale, edge.y * scale, 0};
+    }
     const float* p = kPoints[kPatches[patch][k]];
-    return {p[0], p[1], p[2]};
+    return {p[0], p[1], p[2] + kLift};
 }
 
 }  // namespace umbra::geometry

@@ -1,8 +1,8 @@
 #pragma once
-// The Newell teapot that `Geometry "teapot"` draws, as PRMan and Aqsis do:
-// bicubic Bezier patches, z up, standing on z = 0 and 3.15 tall, the spout
-// towards +x and the handle towards -x; the plane y = 0 is its plane of
-// symmetry.
+// The Newell teapot that `Geometry "teapot"` draws, as Aqsis does: the 28
+// bicubic Bezier patches of the original and a flat bottom of 4 more, z up,
+// standing on z = 0 and 3 tall, the spout towards +x and the handle
+// towards -x; the plane y = 0 is its plane of symmetry.
 
 #include "umbra/util/math.h"
 
