@@ -1,11 +1,15 @@
 #include "umbra/geometry/procedural.h"
 
+#include "geometry/ri_binding.h"
+#include "umbra/geometry/ri.h"
+
 #include "umbra/ri/parser.h"
 #include "umbra/scene/builder.h"
 #include "umbra/util/search_path.h"
 
 #include <fmt/format.h>
 
+#include <dlfcn.h>
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
@@ -295,6 +299,51 @@ void Procedural::split(bool, std::vector<PrimitivePtr>& out) const {
     }
 }
 
+bool Procedural::runDso(const std::string& name, const std::string& data, const std::string& directory,
+                        ri::Target& target, Diagnostics& generatorDiag) const {
+    ProceduralContext& ctx = *m_context;
+    const FileLoc& loc = record().loc;
+    // Beside the RIB, then on the "procedural" search path; "name" may omit ".so".
+    const std::vector<std::string> path = searchPathOf(ctx.world().options, "procedural");
+    std::string found = findFile(name, directory, path);
+    if (found.empty()) found = findFile(name + ".so", directory, path);
+    if (found.empty()) {
+        ctx.diag().warning(loc, "Procedural \"DynamicLoad\": cannot find \"{}\" (beside the RIB file or on the "
+                           "\"procedural\" search path); its geometry is skipped", name);
+        return false;
+    }
+    if (found.find('/') == std::string::npos) found = "./" + found;  // not a library name for dlopen's search
+    void* dso = dlopen(found.c_str(), RTLD_NOW | RTLD_LOCAL);
+    if (!dso) {
+        ctx.diag().warning(loc, "Procedural \"DynamicLoad\": cannot load \"{}\": {}; its geometry is skipped", found,
+                           dlerror());
+        return false;
+    }
+    using Convert = RtPointer (*)(RtString);
+    using Subdivide = RtVoid (*)(RtPointer, RtFloat);
+    using Free = RtVoid (*)(RtPointer);
+    auto convert = reinterpret_cast<Convert>(dlsym(dso, "ConvertParameters"));
+    auto subdivide = reinterpret_cast<Subdivide>(dlsym(dso, "Subdivide"));
+    auto release = reinterpret_cast<Free>(dlsym(dso, "Free"));
+    if (!convert || !subdivide || !release) {
+        ctx.diag().warning(loc, "Procedural \"DynamicLoad\": \"{}\" lacks {} (the RI spec's entry points are "
+                           "ConvertParameters, Subdivide and Free, with C linkage); its geometry is skipped", found,
+                           !convert ? "ConvertParameters" : !subdivide ? "Subdivide" : "Free");
+        dlclose(dso);
+        return false;
+    }
+    std::string block = data;  // the DSO may write into it
+    RtPointer converted = convert(block.data());
+    {
+        RiCallbackScope scope(target, generatorDiag, loc);
+        subdivide(converted, std::min(ctx.detail(bound(), record().worldFromObject), 3.0e38f));
+    }
+    release(converted);
+    ++ctx.dsoCalls;
+    dlclose(dso);
+    return true;
+}
+
 void Procedural::expand() const {
     ProceduralContext& ctx = *m_context;
     const scene::PrimitiveRecord& rec = record();
@@ -341,9 +390,7 @@ void Procedural::expand() const {
         }
         ++ctx.programRequests;
         parser.parseString(rib, fmt::format("RunProgram \"{}\" \"{}\"", first, data), directory);
-    } else {
-        ctx.diag().warningOnce("procedural:DynamicLoad", loc,
-                               "Procedural \"DynamicLoad\": not supported by umbra yet (skipped; docs/rib.md)");
+    } else if (!runDso(first, data, directory, builder, generatorDiag.diag())) {
         ++ctx.failures;
         return;
     }

@@ -8,6 +8,7 @@
 // the pieces. A bound the view culls is never expanded.
 
 #include "umbra/geometry/primitive.h"
+#include "umbra/ri/target.h"
 #include "umbra/scene/scene.h"
 
 #include <atomic>
@@ -109,6 +110,10 @@ public:
 private:
     /// Reads, runs or loads the generator; fills m_expansion once.
     void expand() const;
+    /// DynamicLoad: loads the DSO `name` and runs its ConvertParameters
+    /// (on `data`), Subdivide (its Ri calls going to `target`) and Free.
+    bool runDso(const std::string& name, const std::string& data, const std::string& directory, ri::Target& target,
+                Diagnostics& generatorDiag) const;
 
     std::shared_ptr<ProceduralContext> m_context;
     std::shared_ptr<Expansion> m_expansion;

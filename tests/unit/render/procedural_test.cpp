@@ -1,4 +1,4 @@
-// Procedural primitives (DelayedReadArchive, RunProgram) and Geometry
+// Procedural primitives (DelayedReadArchive, RunProgram, DynamicLoad) and Geometry
 // "teapot", end to end: each expanded procedural must give the pixels of
 // the same geometry written inline, in the camera pass and in depth passes;
 // a bound the view culls is never read; failing generators warn and the
@@ -314,6 +314,46 @@ TEST(RunProgram, FailingProgramsWarnAndTheRestRenders) {
         if (d.message.find("RunProgram") != std::string::npos && d.loc.line >= 17) ++located;
     EXPECT_GE(located, 3);
     EXPECT_GE(frameStats(stats)["procedurals"]["failed"], 3);
+    Image a, b;
+    ASSERT_TRUE(test::readImage(dir.file("a.exr"), &a));
+    ASSERT_TRUE(test::readImage(dir.file("b.exr"), &b));
+    expectSamePixels(a, b);
+}
+
+TEST(DynamicLoad, SamePixelsAsInline) {
+    // tests/unit/render/dso/sphere_dso.cpp makes, through the C binding,
+    // the sphere the RunProgram generator above writes as RIB.
+    ScratchDir dir("dynamicload");
+    const std::string world = fmt::format(R"(
+        AttributeBegin Translate -1 0 0 Procedural "DynamicLoad" ["{0}" "0.7"] [-0.7 0.7 -0.7 0.7 -0.7 0.7] AttributeEnd
+        AttributeBegin Translate 1 0 0 Procedural "DynamicLoad" ["{0}" "0.5"] [-0.5 0.5 -0.5 0.5 -0.5 0.5] AttributeEnd
+    )", UMBRA_TEST_SPHERE_DSO);
+    const std::string inlined = R"(
+        AttributeBegin Translate -1 0 0 AttributeBegin Color [0.2 0.4 0.9] Sphere 0.7 -0.7 0.7 360 AttributeEnd AttributeEnd
+        AttributeBegin Translate 1 0 0 AttributeBegin Color [0.2 0.4 0.9] Sphere 0.5 -0.5 0.5 360 AttributeEnd AttributeEnd
+    )";
+    auto stats = compareWithAndWithoutShadows(
+        dir, [&](const std::string& out, bool shadows) { return shadowedFrame(out, world, "", shadows); },
+        [&](const std::string& out, bool shadows) { return shadowedFrame(out, inlined, "", shadows); });
+    EXPECT_EQ(frameStats(stats)["procedurals"]["expanded"], 2);
+    EXPECT_EQ(frameStats(stats)["procedurals"]["primitives_made"], 2);
+}
+
+TEST(DynamicLoad, MissingDsoWarnsAndTheRestRenders) {
+    ScratchDir dir("dynamicload_missing");
+    writeFile(dir.file("not-a-dso.so"), "not an ELF file");
+    const std::string sphere = "Sphere 0.6 -0.6 0.6 360";
+    const std::string world = fmt::format(R"(
+        Procedural "DynamicLoad" ["{}" ""] [-1 1 -1 1 -1 1]
+        Procedural "DynamicLoad" ["{}" ""] [-1 1 -1 1 -1 1]
+        {}
+    )", dir.file("missing"), dir.file("not-a-dso.so"), sphere);
+    Diagnostics d1, d2;
+    d1.setSink([](const Diagnostic&) {});
+    test::renderRib(shadowedFrame(dir.file("a.exr"), world, "", false), d1);
+    test::renderRib(shadowedFrame(dir.file("b.exr"), sphere, "", false), d2);
+    EXPECT_EQ(d1.errorCount(), 0);
+    EXPECT_EQ(d1.warningCount(), 2);
     Image a, b;
     ASSERT_TRUE(test::readImage(dir.file("a.exr"), &a));
     ASSERT_TRUE(test::readImage(dir.file("b.exr"), &b));
