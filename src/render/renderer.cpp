@@ -671,6 +671,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
          {{"expanded", procedurals->expanded.load()},
           {"archives_read", procedurals->archivesRead.load()},
           {"program_requests", procedurals->programRequests.load()},
+          {"dso_calls", procedurals->dsoCalls.load()},
           {"failed", procedurals->failures.load()},
           {"primitives_made", procedurals->primitivesMade.load()}}},
         {"errors", diag.errorCount() - errorsBefore},
