@@ -94,9 +94,6 @@ public:
 
 }  // namespace
 
-// ---------------------------------------------------------------------------
-// RunProgram's programs.
-
 /// A running RunProgram generator: its input (a socket, so writing to a
 /// program that died fails instead of raising SIGPIPE) and its output.
 struct ProceduralContext::Program {
@@ -105,14 +102,14 @@ struct ProceduralContext::Program {
     std::mutex mutex;  // one request at a time, answered in order
     bool dead = false;
 
-    void stop(bool kill) {
+    void stop(bool force) {
         if (in >= 0) close(in);
         if (out >= 0) close(out);
         in = out = -1;
         if (pid <= 0) return;
         // Closing its input is the RI spec's way of ending a generator; one
         // that does not exit within a second is killed.
-        if (kill) ::kill(pid, SIGKILL);
+        if (force) ::kill(pid, SIGKILL);
         for (int i = 0; i < 100; ++i) {
             if (waitpid(pid, nullptr, WNOHANG) != 0) {
                 pid = -1;
@@ -256,9 +253,6 @@ bool ProceduralContext::runProgram(const std::string& command, const std::string
         if (rib->size() > kMaxAnswerBytes) return fail(fmt::format("answered more than {} bytes", kMaxAnswerBytes));
     }
 }
-
-// ---------------------------------------------------------------------------
-// The primitive.
 
 struct Procedural::Expansion {
     std::once_flag once;
