@@ -126,7 +126,7 @@ struct ProceduralContext::Program {
 ProceduralContext::ProceduralContext(const scene::WorldRecord& world, const Mat4& cameraFromWorld,
                                      const Mat4& rasterFromCamera, bool perspective, Diagnostics& diag)
     : m_world(world), m_cameraFromWorld(cameraFromWorld), m_rasterFromCamera(rasterFromCamera),
-      m_perspective(perspective), m_diag(diag), m_budget(world.options.archiveReads) {
+      m_perspective(perspective), m_diag(diag), m_budget(kMaxExpansions) {
     if (auto it = world.options.user.find("limits:proceduraltime"); it != world.options.user.end()) {
         const double s = !it->second.floats.empty() ? double(it->second.floats[0])
                          : !it->second.ints.empty() ? double(it->second.ints[0]) : -1.0;
@@ -157,9 +157,8 @@ float ProceduralContext::detail(const Bound3& objectBound, const Mat4& worldFrom
 bool ProceduralContext::chargeExpansion(const FileLoc& loc) {
     if (m_budget.fetch_sub(1) > 0) return true;
     if (!m_budgetReported.exchange(true))
-        m_diag.error(loc, "Procedural: more than {} expansions and archive reads in one frame; this and the frame's "
-                     "further procedurals are skipped (raise Option \"limits\" \"archivereads\" if the scene needs "
-                     "more)", m_world.options.archiveReads);
+        m_diag.error(loc, "Procedural: more than {} expansions in one frame (procedurals that make more of "
+                     "themselves?); this and the frame's further procedurals are skipped", kMaxExpansions);
     return false;
 }
 

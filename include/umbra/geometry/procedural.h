@@ -63,8 +63,11 @@ public:
     /// that delays-reads itself).
     static constexpr int kMaxDepth = 64;
 
-    /// Expansions allowed in one frame (Option "limits" "archivereads",
-    /// shared with ReadArchive's budget); false once spent, reporting it once.
+    /// Expansions allowed in one frame: the depth limit bounds recursion,
+    /// this its breadth (an archive that delays-reads itself twice would
+    /// expand 2^64 times), and stays far above what real scenes expand.
+    static constexpr int64_t kMaxExpansions = int64_t(1) << 18;
+    /// Counts one expansion; false once the frame's are spent (reported once).
     bool chargeExpansion(const FileLoc& loc);
 
     /// Statistics, summed over passes and threads.
