@@ -66,7 +66,7 @@ public:
     /// Expansions allowed in one frame: the depth limit bounds recursion,
     /// this its breadth (an archive that delays-reads itself twice would
     /// expand 2^64 times), and stays far above what real scenes expand.
-    static constexpr int64_t kMaxExpansions = int64_t(1) << 18;
+    static constexpr int64_t kMaxExpansions = int64_t(1) << 16;
     /// Counts one expansion; false once the frame's are spent (reported once).
     bool chargeExpansion(const FileLoc& loc);
 
