@@ -11,6 +11,7 @@
 #include "umbra/trace/occlusion_scene.h"
 
 #include <atomic>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -74,6 +75,22 @@ struct FrameState {
     uint32_t frameSeed = 0;
     shading::ShadingSystem* shading = nullptr;
     std::map<const scene::Attributes*, PreparedAttributes> attributes;
+    /// The prepared shaders of `attrs`: those of the world's primitives
+    /// (`attributes`, made before any bucket runs and never changed while
+    /// passes run), else those of an attribute set a procedural made while
+    /// a pass ran, prepared on first use under a lock (`prepareLate`).
+    const PreparedAttributes& prepared(const scene::Attributes& attrs) const;
+    /// Instantiates a late attribute set's shaders.
+    std::function<void(PreparedAttributes&)> prepareLate;
+    /// The world's light instances, once made (after the depth passes):
+    /// late attribute sets get theirs on their first use after that.
+    const std::vector<std::shared_ptr<const shading::ShaderInstance>>* lights = nullptr;
+    struct LateAttributes {
+        PreparedAttributes prepared;
+        bool shaded = false, lit = false;
+    };
+    mutable std::mutex lateMutex;
+    mutable std::map<const scene::Attributes*, std::unique_ptr<LateAttributes>> late;
     std::vector<std::string> aovNames;  // film AOV channels in order
     std::vector<int> aovComponents;
     bool noShadows = false;

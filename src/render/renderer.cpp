@@ -13,6 +13,7 @@
 #include "render/surface_pipeline.h"
 
 #include "umbra/film/film.h"
+#include "umbra/geometry/procedural.h"
 #include "umbra/render/make_files.h"
 #include "umbra/hider/bucket_scheduler.h"
 #include "umbra/ri/parser.h"
@@ -501,9 +502,22 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     services->setFrame(&frame);
     services->resetStats();
 
+    // Procedurals measure their detail in the camera's view, whichever pass
+    // expands them.
+    hider::Camera detailCamera = hider::Camera::fromOptions(options);
+    if (options.cameraMotion) detailCamera.cameraFromWorld = options.cameraMotion->at(frame.shutterOpen);
+    auto procedurals = std::make_shared<geometry::ProceduralContext>(
+        world, detailCamera.cameraFromWorld, detailCamera.rasterFromCamera(), detailCamera.perspective, diag);
+    frame.prepareLate = [this](PreparedAttributes& pa) {
+        const scene::Attributes& a = *pa.attributes;
+        if (a.surface) pa.surface = shading->instantiate(*a.surface, shading::ShaderKind::Surface);
+        if (a.displacement) pa.displacement = shading->instantiate(*a.displacement, shading::ShaderKind::Displacement);
+        if (a.atmosphere) pa.atmosphere = shading->instantiate(*a.atmosphere, shading::ShaderKind::Volume);
+    };
+
     std::vector<geometry::PrimitivePtr> prims;
     for (const auto& rec : world.primitives) {
-        auto made = geometry::makePrimitives(std::make_shared<const scene::PrimitiveRecord>(rec), diag);
+        auto made = geometry::makePrimitives(std::make_shared<const scene::PrimitiveRecord>(rec), diag, procedurals);
         for (auto& p : made) prims.push_back(std::move(p));
     }
 
@@ -605,6 +619,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
         lights[i] = shading->instantiate(withMap, shading::ShaderKind::Light);
     }
     attachLights(lights, frame);
+    frame.lights = &lights;
 
     // Second pass: the camera. A frame whose displays are all depth ("z")
     // is a depth pass itself (RenderMan's two-RIB shadow workflow).
@@ -725,6 +740,13 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
           {"bound_growth", frame.stillBoundPixels.load() > 0
                                ? double(frame.blurredBoundPixels.load()) / double(frame.stillBoundPixels.load())
                                : 1.0}}},
+        {"procedurals",
+         {{"expanded", procedurals->expanded.load()},
+          {"archives_read", procedurals->archivesRead.load()},
+          {"program_requests", procedurals->programRequests.load()},
+          {"dso_calls", procedurals->dsoCalls.load()},
+          {"failed", procedurals->failures.load()},
+          {"primitives_made", procedurals->primitivesMade.load()}}},
         {"errors", diag.errorCount() - errorsBefore},
     };
     addFrame(f);

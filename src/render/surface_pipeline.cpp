@@ -7,6 +7,27 @@
 
 namespace umbra::render {
 
+const PreparedAttributes& FrameState::prepared(const scene::Attributes& attrs) const {
+    if (auto it = attributes.find(&attrs); it != attributes.end()) return it->second;
+    std::lock_guard<std::mutex> lock(lateMutex);
+    std::unique_ptr<LateAttributes>& entry = late[&attrs];
+    if (!entry) entry = std::make_unique<LateAttributes>();
+    PreparedAttributes& pa = entry->prepared;
+    if (!entry->shaded) {
+        pa.attributes = &attrs;
+        if (prepareLate) prepareLate(pa);
+        entry->shaded = true;
+    }
+    // Depth passes need no lights; the camera pass, which starts after the
+    // lights are made, gets them here before any of its grids uses them.
+    if (!entry->lit && lights) {
+        for (int l : attrs.lights)
+            if (l >= 0 && size_t(l) < lights->size() && (*lights)[size_t(l)]) pa.lights.push_back((*lights)[size_t(l)].get());
+        entry->lit = true;
+    }
+    return pa;
+}
+
 bool normalsFlip(const scene::Attributes& attrs, const Mat4& cameraFromObject) {
     // dPdu x dPdv measured in camera space is the family's outward normal
     // when cameraFromObject keeps handedness; a mirroring transform reverses
@@ -119,7 +140,7 @@ dice::DiceParams SurfacePipeline::diceParams(const geometry::Primitive& prim) co
     // size (1/z is linear across it): one micropolygon per piece. Other
     // surfaces dice no finer than the pass's flatness needs. Both unless a
     // displacement shader may bend the surface.
-    if (m_pass.depthOnly && !m_frame.attributes.at(&attrs).displacement) {
+    if (m_pass.depthOnly && !m_frame.prepared(attrs).displacement) {
         if (prim.flatQuad())
             p.shadingRate = kInfinity;
         else
@@ -264,7 +285,7 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
     if (g.ownNormals && attrs.insideOut)
         for (Vec3& nrm : g.N) nrm = -nrm;
 
-    const PreparedAttributes& pa = m_frame.attributes.at(&attrs);
+    const PreparedAttributes& pa = m_frame.prepared(attrs);
     const bool flip = normalsFlip(attrs, c);
     // A depth pass needs only positions; it runs the shading system just for
     // displacement.

@@ -61,6 +61,7 @@ constexpr const char* kByClass[] = {
     "Option shutter uniform float[2] opening", "Option shutter uniform float[2] shutteropening",
     "Option shadow uniform float bias", "Option limits uniform integer brickmemory",
     "Option limits uniform integer geocachememory", "Option limits uniform integer proceduralmemory",
+    "Option limits uniform float proceduraltime",  // honoured: RunProgram's answer time
     "Option limits uniform integer deepshadowtiles", "Option limits uniform integer deepshadowmemory",
     "Option statistics uniform string xmlfilename", "Option trace uniform integer maxdepth",
     "Option trace uniform float specularthreshold",

@@ -22,7 +22,25 @@ const char* endName(int kind) {
 
 // Geometry requests the renderer does not draw yet: parsed and validated,
 // reported once, and left out of the world.
-constexpr const char* kUnsupportedGeometry[] = {"Blobby", "Procedural", "Geometry"};
+constexpr const char* kUnsupportedGeometry[] = {"Blobby"};
+
+/// The procedural primitives of RI spec 3.2 §5.7, and the strings each
+/// needs at least: the archive; the program (with its command line) and
+/// the data block written to it; the DSO and the data block it converts.
+struct ProceduralKind {
+    const char* name;
+    size_t strings;
+    const char* what;
+};
+constexpr ProceduralKind kProceduralKinds[] = {
+    {"DelayedReadArchive", 1, "[\"archive.rib\"]"},
+    {"RunProgram", 2, "[\"program args\" \"datablock\"]"},
+    {"DynamicLoad", 2, "[\"dso\" \"datablock\"]"},
+};
+
+/// Named objects other renderers draw for `Geometry "name"` (PRMan,
+/// Aqsis, Pixie): umbra draws the teapot and warns for the others.
+constexpr const char* kOtherGeometryNames[] = {"bunny", "cube", "sphere", "torus", "envsphere"};
 
 /// The numeric settings of Option (and Attribute) "umbra": the range each
 /// must lie in. Out of range, they would make a depth pass of no pixels, or
@@ -197,6 +215,8 @@ void Builder::reportOpenBlocks(size_t first, const char* request, const FileLoc&
 void Builder::endOfInput(const FileLoc& loc) {
     reportOpenBlocks(0, nullptr, loc);
     m_blocks.clear();
+    // A procedural's RIB ends inside the world it expands into.
+    if (m_procedural) return;
     m_world.reset();
     m_objectHandle.clear();
 }
@@ -1263,6 +1283,11 @@ bool Builder::lightAllowed(const char* request, const std::string& name, const s
 
 void Builder::lightSource(const std::string& name, const std::string& handle, ri::ParamList params,
                           const FileLoc& loc) {
+    if (m_procedural) {
+        m_diag.error(loc, "LightSource: not allowed in a procedural primitive's RIB, whose lights are the world's "
+                     "(ignored)");
+        return;
+    }
     if (!lightAllowed("LightSource", name, handle, params, loc)) return;
     if (skipMotionSample()) return;
     LightRecord l;
@@ -1375,6 +1400,16 @@ void Builder::primitive(const std::string& type, ri::RequestArgs args, ri::Param
             unsupported(type, loc, fmt::format("{}: not supported by the renderer (parsed and skipped)", type));
             return;
         }
+    if (type == "Procedural" && !proceduralValid(args, loc)) return;
+    if (type == "Geometry" && (args.strings.empty() || args.strings[0] != "teapot")) {
+        const std::string name = args.strings.empty() ? std::string() : args.strings[0];
+        const bool known = std::find_if(std::begin(kOtherGeometryNames), std::end(kOtherGeometryNames),
+                                        [&](const char* n) { return name == n; }) != std::end(kOtherGeometryNames);
+        unsupported("Geometry:" + name, loc,
+                    fmt::format("Geometry \"{}\": {}; umbra draws only \"teapot\" (skipped)", name,
+                                known ? "drawn by some other renderers" : "unknown"));
+        return;
+    }
     PrimitiveRecord r;
     r.type = type;
     r.floatArgs = std::move(args.floats);
@@ -1397,6 +1432,65 @@ void Builder::primitive(const std::string& type, ri::RequestArgs args, ri::Param
     }
     placeRecord(r);
     emitPrimitive(std::move(r));
+}
+
+bool Builder::proceduralValid(const ri::RequestArgs& args, const FileLoc& loc) {
+    const std::string name = args.strings.empty() ? std::string() : args.strings[0];
+    const ProceduralKind* kind = nullptr;
+    for (const ProceduralKind& k : kProceduralKinds)
+        if (name == k.name) kind = &k;
+    if (!kind) {
+        m_diag.error(loc, "Procedural: unknown procedural \"{}\" (expected \"DelayedReadArchive\", \"RunProgram\" or "
+                     "\"DynamicLoad\"; skipped)", name);
+        return false;
+    }
+    // The parser gives the name, then the args array's strings.
+    if (args.strings.size() < 1 + kind->strings) {
+        if (kind->strings == 2 && args.strings.size() == 2) return boundValid(args, loc);  // no data block: ""
+        m_diag.error(loc, "Procedural \"{}\": expected the arguments {}, got {} strings (skipped)", name, kind->what,
+                     args.strings.size() - 1);
+        return false;
+    }
+    return boundValid(args, loc);
+}
+
+bool Builder::boundValid(const ri::RequestArgs& args, const FileLoc& loc) {
+    const std::vector<float>& b = args.floats;
+    if (b.size() != 6) {
+        m_diag.error(loc, "Procedural: expected a bound of 6 floats [xmin xmax ymin ymax zmin zmax], got {} (skipped)",
+                     b.size());
+        return false;
+    }
+    for (int a = 0; a < 3; ++a)
+        if (!(b[size_t(2 * a)] <= b[size_t(2 * a + 1)])) {
+            m_diag.error(loc, "Procedural: the bound's {} range [{} {}] is empty or not a number (expected min <= max; "
+                         "skipped)", "xyz"[a], b[size_t(2 * a)], b[size_t(2 * a + 1)]);
+            return false;
+        }
+    return true;
+}
+
+void Builder::beginProcedural(const WorldRecord& world, const PrimitiveRecord& procedural) {
+    m_options = world.options;
+    m_frame = world.frameNumber;
+    m_world = std::make_unique<WorldRecord>();
+    m_world->frameNumber = world.frameNumber;
+    m_world->options = world.options;
+    m_world->coordinateSystems = world.coordinateSystems;
+    m_world->lights = world.lights;
+    m_world->loc = world.loc;
+    m_lightHandles.clear();
+    for (size_t i = 0; i < world.lights.size(); ++i) m_lightHandles[world.lights[i].handle] = int(i);
+    m_procedural = true;
+    // The record keeps its reference, so the first attribute request copies
+    // (mutableAttributes) and the procedural's own attributes never change.
+    m_state.attrs = std::const_pointer_cast<Attributes>(procedural.attributes);
+    m_state.transform = procedural.worldFromObject;
+    m_state.motion = procedural.worldFromObjectMotion;
+}
+
+std::vector<PrimitiveRecord> Builder::takePrimitives() {
+    return m_world ? std::move(m_world->primitives) : std::vector<PrimitiveRecord>();
 }
 
 void Builder::placeRecord(PrimitiveRecord& r) const {

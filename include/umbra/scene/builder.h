@@ -57,6 +57,15 @@ public:
     const Attributes& attributes() const { return *m_state.attrs; }
     const Mat4& currentTransform() const { return m_state.transform; }
     bool inWorld() const { return m_world != nullptr; }
+
+    /// Makes this (fresh) builder take the requests of a procedural
+    /// primitive's RIB (RI spec 3.2 §5.7): inside `world`, with its options,
+    /// coordinate systems and light handles, and the graphics state of the
+    /// `Procedural` request (its attributes and transform). World, frame
+    /// and option requests are errors there, as are new lights.
+    void beginProcedural(const WorldRecord& world, const PrimitiveRecord& procedural);
+    /// The primitives made since beginProcedural, in request order.
+    std::vector<PrimitiveRecord> takePrimitives();
     /// Orientation as a handedness: true when "outside" is left-handed.
 
     void unhandled(std::string_view request, const FileLoc& loc) override;
@@ -228,6 +237,9 @@ private:
     /// The record of a primitive request, with the current transform and
     /// attributes (and its motion).
     void placeRecord(PrimitiveRecord& r) const;
+    /// Checks a Procedural request's name, strings and bound.
+    bool proceduralValid(const ri::RequestArgs& args, const FileLoc& loc);
+    bool boundValid(const ri::RequestArgs& args, const FileLoc& loc);
     /// Adds a finished primitive record to the world or the object being defined.
     void emitPrimitive(PrimitiveRecord r);
     bool currentIsLeft(const Mat4& transform) const;
@@ -277,6 +289,7 @@ private:
     std::unique_ptr<MotionBlock> m_motion;  // the open motion block, if any
     int m_archiveReads = 0;              // ReadArchive requests of the current frame (or before the first)
     bool m_archiveBudgetReported = false;
+    bool m_procedural = false;           // beginProcedural: the contents of a procedural primitive
     std::map<std::string, std::string> m_defaultSearchPaths;
 };
 
