@@ -32,6 +32,8 @@ MicroGrid ShadedGrid::view() const {
     g.id = id;
     g.ownSecondLayer = ownSecondLayer;
     g.discs = discs;
+    g.csgLeaf = csgLeaf;
+    g.leaving = leaving.empty() ? nullptr : leaving.data();
     if (keyTimes.size() > 1) {
         g.keyCount = int(keyTimes.size());
         g.keyTimes = keyTimes.data();

@@ -283,10 +283,16 @@ void SampleBuffer::reset(const SampleBufferConfig& c) {
         m_ci.clear();
         m_alpha.clear();
         m_aov.clear();
-        m_fragHead.clear();
+        if (c.csg)
+            m_fragHead.assign(n, -1);
+        else
+            m_fragHead.clear();
     }
     m_frags.clear();
     m_fragAov.clear();
+    m_csgFragments = 0;
+    m_csgDepth.assign(c.csg ? size_t(c.csg->size()) : 0, 0);
+    m_csgInside.assign(c.csg ? size_t(c.csg->size()) : 0, 0);
     m_pixelMax.assign(size_t(m_rw) * size_t(m_rh), kInfinity);
     m_pixelDirty.assign(size_t(m_rw) * size_t(m_rh), 0);
 }
@@ -890,38 +896,46 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
     if (wrote) markDirty(sx0, sy0, sx1, sy1);
 }
 
+inline bool SampleBuffer::recordDepth(size_t s, float z, uint64_t gid, uint32_t sub, bool ownSecondLayer) {
+    if (keyLess(z, gid, sub, m_z[s], m_id[s], m_sub[s])) {
+        // The nearest hit from another grid than the new nearest is the
+        // old nearest (it was nearer than everything else); a surface
+        // that is its own second layer is nearer still.
+        if (m_cfg.depthLayers > 1 && ownSecondLayer) {
+            m_z2[s] = z;
+            m_id2[s] = gid;
+            m_sub2[s] = sub;
+        } else if (m_cfg.depthLayers > 1 && m_z[s] != kInfinity && m_id[s] != gid) {
+            m_z2[s] = m_z[s];
+            m_id2[s] = m_id[s];
+            m_sub2[s] = m_sub[s];
+        }
+        m_z[s] = z;
+        m_id[s] = gid;
+        m_sub[s] = sub;
+        return true;
+    }
+    if (m_cfg.depthLayers > 1 && (gid != m_id[s] || ownSecondLayer) &&
+        keyLess(z, gid, sub, m_z2[s], m_id2[s], m_sub2[s])) {
+        m_z2[s] = z;
+        m_id2[s] = gid;
+        m_sub2[s] = sub;
+        return true;
+    }
+    return false;
+}
+
 bool SampleBuffer::record(const MicroGrid& g, const HitContext& ctx, const Tri& t, size_t s, float z, float b1,
                           float b2) {
     const uint64_t gid = g.id;
     const uint32_t sub = t.sub;
 
     if (ctx.depthMode) {
-        if (keyLess(z, gid, sub, m_z[s], m_id[s], m_sub[s])) {
-            // The nearest hit from another grid than the new nearest is the
-            // old nearest (it was nearer than everything else); a surface
-            // that is its own second layer is nearer still.
-            if (m_cfg.depthLayers > 1 && g.ownSecondLayer) {
-                m_z2[s] = z;
-                m_id2[s] = gid;
-                m_sub2[s] = sub;
-            } else if (m_cfg.depthLayers > 1 && m_z[s] != kInfinity && m_id[s] != gid) {
-                m_z2[s] = m_z[s];
-                m_id2[s] = m_id[s];
-                m_sub2[s] = m_sub[s];
-            }
-            m_z[s] = z;
-            m_id[s] = gid;
-            m_sub[s] = sub;
-            return true;
+        if (g.csgLeaf >= 0) {
+            recordCsgDepth(g, t, s, z);
+            return false;
         }
-        if (m_cfg.depthLayers > 1 && (gid != m_id[s] || g.ownSecondLayer) &&
-            keyLess(z, gid, sub, m_z2[s], m_id2[s], m_sub2[s])) {
-            m_z2[s] = z;
-            m_id2[s] = gid;
-            m_sub2[s] = sub;
-            return true;
-        }
-        return false;
+        return recordDepth(s, z, gid, sub, g.ownSecondLayer);
     }
 
     if (!keyLess(z, gid, sub, m_z[s], m_id[s], m_sub[s])) return false;  // behind the opaque hit
@@ -946,7 +960,7 @@ bool SampleBuffer::record(const MicroGrid& g, const HitContext& ctx, const Tri& 
         const float* a2 = g.aov + size_t(t.i2) * size_t(aovN);
         for (int k = 0; k < aovN; ++k) dst[k] = a0[k] + b1 * (a1[k] - a0[k]) + b2 * (a2[k] - a0[k]);
     };
-    if (isOpaque) {
+    if (isOpaque && g.csgLeaf < 0) {
         m_z[s] = z;
         m_id[s] = gid;
         m_sub[s] = sub;
@@ -970,6 +984,10 @@ bool SampleBuffer::record(const MicroGrid& g, const HitContext& ctx, const Tri& 
     f.oi = oi;
     f.next = m_fragHead[s];
     f.aovBase = -1;
+    f.opaque = isOpaque;
+    f.leaving = g.leaving && g.leaving[sub / 2];
+    f.csgLeaf = g.csgLeaf;
+    m_csgFragments += g.csgLeaf >= 0;
     if (hasAov) {
         f.aovBase = int32_t(m_fragAov.size());
         m_fragAov.resize(m_fragAov.size() + size_t(aovN));
@@ -977,7 +995,90 @@ bool SampleBuffer::record(const MicroGrid& g, const HitContext& ctx, const Tri& 
     }
     m_fragHead[s] = int32_t(m_frags.size());
     m_frags.push_back(f);
-    return false;  // transparent fragments do not change the occlusion bound
+    return false;  // transparent fragments and CSG hits do not change the occlusion bound
+}
+
+void SampleBuffer::recordCsgDepth(const MicroGrid& g, const Tri& t, size_t s, float z) {
+    // Nothing behind the farthest depth kept can change the map.
+    const bool twoLayers = m_cfg.depthLayers > 1;
+    if (!keyLess(z, g.id, t.sub, twoLayers ? m_z2[s] : m_z[s], twoLayers ? m_id2[s] : m_id[s],
+                 twoLayers ? m_sub2[s] : m_sub[s]))
+        return;
+    Fragment f{};
+    f.z = z;
+    f.sub = t.sub;
+    f.id = g.id;
+    f.next = m_fragHead[s];
+    f.aovBase = -1;
+    f.opaque = true;
+    f.leaving = g.leaving && g.leaving[t.sub / 2];
+    f.csgLeaf = g.csgLeaf;
+    m_fragHead[s] = int32_t(m_frags.size());
+    m_frags.push_back(f);
+    ++m_csgFragments;
+}
+
+void SampleBuffer::resolveCsg(size_t s) {
+    const CsgForest& forest = *m_cfg.csg;
+    const bool depthMode = m_cfg.mode == HiderMode::Depth;
+    // Colour mode: what lies in front of the ordinary opaque hit, in the
+    // total key order. Depth mode: every CSG hit (the nearest depths are
+    // merged with them below).
+    m_order.clear();
+    for (int32_t f = m_fragHead[s]; f >= 0; f = m_frags[size_t(f)].next) {
+        const Fragment& fr = m_frags[size_t(f)];
+        if (depthMode || keyLess(fr.z, fr.id, fr.sub, m_z[s], m_id[s], m_sub[s])) m_order.push_back(f);
+    }
+    std::sort(m_order.begin(), m_order.end(), [&](int32_t a, int32_t b) {
+        const Fragment &fa = m_frags[size_t(a)], &fb = m_frags[size_t(b)];
+        return keyLess(fa.z, fa.id, fa.sub, fb.z, fb.id, fb.sub);
+    });
+    // The eye is taken to be outside every solid: each leaf starts with
+    // depth 0 and each tree outside its result.
+    size_t kept = 0;
+    for (int32_t f : m_order) {
+        const Fragment& fr = m_frags[size_t(f)];
+        if (fr.csgLeaf < 0) {
+            m_order[kept++] = f;
+            continue;
+        }
+        const int root = forest.root(fr.csgLeaf);
+        m_csgDepth[size_t(fr.csgLeaf)] += fr.leaving ? -1 : 1;
+        const bool inside = forest.inside(root, m_csgDepth.data());
+        if (inside == bool(m_csgInside[size_t(root)])) continue;  // inside the result: hidden by its surface
+        m_csgInside[size_t(root)] = inside;
+        if (depthMode) {
+            recordDepth(s, fr.z, fr.id, fr.sub, false);
+            continue;
+        }
+        if (!fr.opaque) {
+            m_order[kept++] = f;
+            continue;
+        }
+        // The first opaque boundary hides everything behind it: it becomes
+        // the sample's opaque hit.
+        m_z[s] = fr.z;
+        m_id[s] = fr.id;
+        m_sub[s] = fr.sub;
+        m_ci[s] = fr.ci;
+        m_alpha[s] = fr.matte ? 0.0f : 1.0f;
+        const int aovN = m_cfg.aovCount;
+        if (aovN > 0) {
+            float* dst = &m_aov[s * size_t(aovN)];
+            if (fr.aovBase >= 0)
+                std::copy_n(&m_fragAov[size_t(fr.aovBase)], aovN, dst);
+            else
+                std::fill_n(dst, aovN, 0.0f);
+        }
+        break;
+    }
+    m_order.resize(kept);
+    for (int32_t f = m_fragHead[s]; f >= 0; f = m_frags[size_t(f)].next) {
+        const Fragment& fr = m_frags[size_t(f)];
+        if (fr.csgLeaf < 0) continue;
+        m_csgDepth[size_t(fr.csgLeaf)] = 0;
+        m_csgInside[size_t(forest.root(fr.csgLeaf))] = 0;
+    }
 }
 
 void SampleBuffer::markDirty(int sx0, int sy0, int sx1, int sy1) {
@@ -1056,6 +1157,10 @@ void SampleBuffer::resolve(film::Film& film) {
         }
         return m;
     };
+    // Depth mode: the CSG trees' visible surfaces join the nearest depths.
+    if (m_cfg.mode == HiderMode::Depth && m_csgFragments > 0)
+        for (size_t s = 0; s < n; ++s)
+            if (m_fragHead[s] >= 0) resolveCsg(s);
     if (m_cfg.mode == HiderMode::Depth && xs == 1 && ys == 1) {
         // One sample a pixel (automatic maps): every reduction of a single
         // depth is that depth, so rows are copied.
@@ -1122,16 +1227,21 @@ void SampleBuffer::resolve(film::Film& film) {
             for (int k = 0; k < aovN; ++k) out[4 + k] = opAov[k];
             continue;
         }
-        // Fragments in front of the opaque hit, sorted by the total key order.
-        m_order.clear();
-        for (int32_t f = m_fragHead[s]; f >= 0; f = m_frags[size_t(f)].next) {
-            const Fragment& fr = m_frags[size_t(f)];
-            if (keyLess(fr.z, fr.id, fr.sub, m_z[s], m_id[s], m_sub[s])) m_order.push_back(f);
+        // Fragments in front of the opaque hit, sorted by the total key
+        // order; of CSG hits, those on their result's boundary.
+        if (m_csgFragments > 0) {
+            resolveCsg(s);
+        } else {
+            m_order.clear();
+            for (int32_t f = m_fragHead[s]; f >= 0; f = m_frags[size_t(f)].next) {
+                const Fragment& fr = m_frags[size_t(f)];
+                if (keyLess(fr.z, fr.id, fr.sub, m_z[s], m_id[s], m_sub[s])) m_order.push_back(f);
+            }
+            std::sort(m_order.begin(), m_order.end(), [&](int32_t a, int32_t b) {
+                const Fragment &fa = m_frags[size_t(a)], &fb = m_frags[size_t(b)];
+                return keyLess(fa.z, fa.id, fa.sub, fb.z, fb.id, fb.sub);
+            });
         }
-        std::sort(m_order.begin(), m_order.end(), [&](int32_t a, int32_t b) {
-            const Fragment &fa = m_frags[size_t(a)], &fb = m_frags[size_t(b)];
-            return keyLess(fa.z, fa.id, fa.sub, fb.z, fb.id, fb.sub);
-        });
         Color ci(0.0f), oi(0.0f);
         float alpha = 0.0f;
         std::fill(m_scratchAov.begin(), m_scratchAov.end(), 0.0f);

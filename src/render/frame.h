@@ -95,6 +95,8 @@ struct FrameState {
     const std::vector<geometry::PrimitivePtr>* primitives = nullptr;
     mutable std::once_flag occlusionOnce;
     mutable std::unique_ptr<trace::OcclusionScene> occlusion;
+    /// The world's CSG trees (WorldRecord::solids), which the hider resolves.
+    hider::CsgForest csg;
 };
 
 /// The renderState a ShadingGrid carries to RendererServices.

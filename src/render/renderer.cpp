@@ -354,6 +354,7 @@ PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const st
     ss.sampling.nearClip = pass.camera.nearClip;
     ss.sampling.perspective = pass.camera.perspective;
     ss.sampling.farClip = pass.camera.farClip;
+    ss.sampling.csg = frame.csg.empty() ? nullptr : &frame.csg;
     // Every pass of a blurred frame gives its samples times: moving casters
     // blur their depth maps' texels too (docs/motion.md).
     ss.sampling.motion = frame.motionBlur();
@@ -468,6 +469,14 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     frame.shutterClose = options.shutter[1] + options.shutterOffset;
     frame.shading = shading.get();
     frame.noShadows = settings.noShadows;
+    for (const scene::SolidRecord& solid : world.solids) {
+        using Op = hider::CsgForest::Op;
+        const Op op = solid.operation == "union"          ? Op::Union
+                      : solid.operation == "intersection" ? Op::Intersection
+                      : solid.operation == "difference"   ? Op::Difference
+                                                          : Op::Primitive;
+        frame.csg.add(op, solid.parent);
+    }
     services->setFrame(&frame);
     services->resetStats();
 

@@ -353,7 +353,15 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
         }
     }
     out.culled.clear();
-    if (attrs.sides == 1 && m_pass.cull != Pass::Cull::None && !cullFacing(*keyed, keys, flip, out)) return false;
+    // A CSG leaf's surfaces are never culled by facing: the ray leaving a
+    // solid through its far side is what makes the cut surfaces of a
+    // difference visible.
+    out.csgLeaf = rec.solid;
+    out.leaving.clear();
+    if (rec.solid >= 0)
+        markLeaving(P, flip, out);
+    else if (attrs.sides == 1 && m_pass.cull != Pass::Cull::None && !cullFacing(*keyed, keys, flip, out))
+        return false;
 
     out.ownSecondLayer = m_pass.depthOnly && m_pass.openSurfacesAreOwnSecondLayer && attrs.sides == 2;
     if (m_pass.depthOnly) {
@@ -387,6 +395,23 @@ void SurfacePipeline::noteBlur(const hider::ShadedGrid& out) const {
     m_frame.blurredGrids.fetch_add(1, std::memory_order_relaxed);
     m_frame.stillBoundPixels.fetch_add(uint64_t(std::min(area(still), 1e15)), std::memory_order_relaxed);
     m_frame.blurredBoundPixels.fetch_add(uint64_t(std::min(area(blurred), 1e15)), std::memory_order_relaxed);
+}
+
+void SurfacePipeline::markLeaving(const std::vector<Vec3>& P, bool flip, hider::ShadedGrid& out) const {
+    // As cullFacing() at the shutter's opening: a micropolygon whose outward
+    // normal faces away from the eye is where the ray leaves the solid.
+    const int nu = out.nu, nv = out.nv, nu1 = nu + 1;
+    const bool perspective = m_pass.camera.perspective;
+    out.leaving.assign(size_t(nu) * size_t(nv), 0);
+    for (int j = 0; j < nv; ++j)
+        for (int i = 0; i < nu; ++i) {
+            const Vec3& a = P[size_t(j * nu1 + i)];
+            const Vec3& d = P[size_t((j + 1) * nu1 + i + 1)];
+            Vec3 n = cross(d - a, P[size_t((j + 1) * nu1 + i)] - P[size_t(j * nu1 + i + 1)]);
+            Vec3 centre = (a + d) * 0.5f;
+            float toward = perspective ? dot(n, centre) : n.z;  // > 0: faces away (unflipped)
+            out.leaving[size_t(j * nu + i)] = (flip ? toward < 0 : toward > 0) ? 1 : 0;
+        }
 }
 
 bool SurfacePipeline::cullFacing(const std::vector<Vec3>& keyed, size_t keys, bool flip,

@@ -55,6 +55,9 @@ private:
     /// Marks the micropolygons the pass culls by facing (see Pass::Cull);
     /// false when none is left.
     bool cullFacing(const std::vector<Vec3>& keyed, size_t keys, bool flip, hider::ShadedGrid& out) const;
+    /// CSG leaves: marks the micropolygons (of the camera-space grid P)
+    /// whose outward normal faces away from the eye (hider::MicroGrid::leaving).
+    void markLeaving(const std::vector<Vec3>& P, bool flip, hider::ShadedGrid& out) const;
     /// Adds a blurred grid's bound growth to the frame's statistics.
     void noteBlur(const hider::ShadedGrid& out) const;
 

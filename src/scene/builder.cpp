@@ -357,10 +357,34 @@ void Builder::solidBegin(const std::string& operation, const FileLoc& loc) {
                      "\"intersection\" or \"difference\")", operation);
     }
     push(Block::Solid, loc);
-    if (operation != "primitive")
-        unsupported("csg", loc, "SolidBegin: CSG operations are not supported; the solids are rendered as if "
-                    "\"union\" (parsed and recorded in Attributes::solid)");
     mutableAttributes().solid = operation;
+    const bool known = operation == "primitive" || operation == "union" || operation == "intersection" ||
+                       operation == "difference";
+    if (!known || !m_world) return;
+    if (!m_objectHandle.empty()) {
+        if (operation != "primitive")
+            unsupported("csg-object", loc, "SolidBegin: CSG inside ObjectBegin is not supported; the object's "
+                        "solids are drawn as if \"union\"");
+        return;
+    }
+    // A top-level primitive solid is ordinary geometry; one inside another
+    // is part of it (a primitive solid holds only surfaces).
+    if (m_state.solid < 0 && operation == "primitive") return;
+    if (m_state.solid >= 0 && m_world->solids[size_t(m_state.solid)].operation == "primitive") {
+        m_diag.warning(loc, "SolidBegin: \"{}\" inside the \"primitive\" solid begun at {} (expected only "
+                       "geometry there; its surfaces are part of that solid)", operation,
+                       m_world->solids[size_t(m_state.solid)].loc.str());
+        return;
+    }
+    m_world->solids.push_back(SolidRecord{operation, m_state.solid, loc});
+    m_state.solid = int(m_world->solids.size()) - 1;
+}
+
+int Builder::solidLeaf(const FileLoc& loc) {
+    if (m_state.solid < 0 || !m_world) return -1;
+    if (m_world->solids[size_t(m_state.solid)].operation == "primitive") return m_state.solid;
+    m_world->solids.push_back(SolidRecord{"primitive", m_state.solid, loc});
+    return int(m_world->solids.size()) - 1;
 }
 
 void Builder::solidEnd(const FileLoc& loc) {
@@ -404,8 +428,10 @@ void Builder::objectInstance(const std::string& handle, const FileLoc& loc) {
     // Pieces share attributes: the instance's where the definition set
     // none, else one merge per distinct state inside the definition.
     std::map<const Attributes*, std::shared_ptr<const Attributes>> merged;
+    const int leaf = solidLeaf(loc);  // an instance is one solid
     for (const ObjectPrim& op : it->second) {
         PrimitiveRecord r = op.record;
+        r.solid = leaf;
         r.worldFromObject = m_state.transform * op.objectFromPrim;
         if (m_state.motion) {
             auto moving = std::make_shared<MotionTransform>(*m_state.motion);
@@ -1414,6 +1440,7 @@ void Builder::emitPrimitive(PrimitiveRecord r) {
         m_objects[m_objectHandle].push_back(std::move(op));
         return;
     }
+    r.solid = solidLeaf(r.loc);
     m_world->primitives.push_back(std::move(r));
 }
 

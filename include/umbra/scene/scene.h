@@ -135,8 +135,21 @@ struct PrimitiveRecord {
     std::vector<PrimitiveRecord> shapes;
     std::shared_ptr<const Attributes> attributes;
     FileLoc loc;
+    /// CSG: the "primitive" solid (index into WorldRecord::solids) whose
+    /// closed boundary this surface is part of; -1 outside CSG trees.
+    int solid = -1;
 
     bool moving() const { return (worldFromObjectMotion && worldFromObjectMotion->moving()) || !shapes.empty(); }
+};
+
+/// One node of a CSG tree (RI spec 3.2 §5.8): a SolidBegin block inside a
+/// union, intersection or difference, or such an operation itself. A
+/// primitive given directly inside an operation is a "primitive" node of
+/// its own; a top-level SolidBegin "primitive" is no tree (ordinary geometry).
+struct SolidRecord {
+    std::string operation;  // "primitive", "union", "intersection" or "difference"
+    int parent = -1;        // index into WorldRecord::solids, before this one; -1 for a tree's root
+    FileLoc loc;
 };
 
 /// A light source or area light, with its transform.
@@ -228,6 +241,7 @@ struct WorldRecord {
     Options options;
     std::vector<LightRecord> lights;
     std::vector<PrimitiveRecord> primitives;
+    std::vector<SolidRecord> solids;          // CSG trees, parents first
     /// CoordinateSystem names -> worldFromNamed, including "world".
     std::map<std::string, Mat4> coordinateSystems;
     FileLoc loc;                              // the WorldBegin

@@ -1,0 +1,50 @@
+#pragma once
+// Constructive solid geometry (RI spec 3.2 §5.8, SolidBegin/SolidEnd) as the
+// hider resolves it: per sample, along the ray.
+//
+// Terms: a *solid* is a node of a CSG tree. A *leaf* is a "primitive" solid:
+// the closed surfaces given inside it bound one volume. An operation node
+// ("union", "intersection", "difference") combines its children; difference
+// subtracts every child after the first from the first.
+//
+// A sample keeps every hit of a CSG tree's surfaces, each marked entering or
+// leaving its leaf (the surface faces toward or away from the eye). Walking
+// the hits front to back, a leaf is inside while it has been entered more
+// often than left; the tree's expression gives whether the sample's ray is
+// inside the result. A hit at which that answer changes lies on the
+// result's boundary: it is a visible surface; every other hit is not.
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace umbra::hider {
+
+/// The CSG trees of a world: nodes in the order their SolidBegin came (a
+/// parent before its children), each with its operation and parent (-1 for a
+/// tree's root).
+class CsgForest {
+public:
+    enum class Op : uint8_t { Primitive, Union, Intersection, Difference };
+
+    /// Appends a node; returns its index. `parent` must be an earlier node or -1.
+    int add(Op op, int parent);
+    bool empty() const { return m_op.empty(); }
+    int size() const { return int(m_op.size()); }
+    Op op(int node) const { return m_op[size_t(node)]; }
+    /// The root of the tree holding `node`.
+    int root(int node) const { return m_root[size_t(node)]; }
+    /// Whether the point is inside `node`, given per node whether it is
+    /// inside that node's own surfaces (`depth` > 0: entered more often than
+    /// left). A "primitive" node is also inside its children (nested
+    /// primitive blocks are one solid); an operation node ignores its own
+    /// count (its surfaces, if any, were given leaves of their own).
+    bool inside(int node, const int32_t* depth) const;
+
+private:
+    std::vector<Op> m_op;
+    std::vector<int> m_parent, m_root;
+    std::vector<std::vector<int>> m_children;
+};
+
+}  // namespace umbra::hider
