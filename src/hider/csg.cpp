@@ -15,29 +15,29 @@ int CsgForest::add(Op op, int parent) {
     return node;
 }
 
-bool CsgForest::inside(int node, const int32_t* depth) const {
+bool CsgForest::inside(int node, const int32_t* inLeaf) const {
     const std::vector<int>& children = m_children[size_t(node)];
     switch (m_op[size_t(node)]) {
     case Op::Primitive: {
-        if (depth[node] > 0) return true;
+        if (inLeaf[node] > 0) return true;
         for (int c : children)
-            if (inside(c, depth)) return true;
+            if (inside(c, inLeaf)) return true;
         return false;
     }
     case Op::Union:
         for (int c : children)
-            if (inside(c, depth)) return true;
+            if (inside(c, inLeaf)) return true;
         return false;
     case Op::Intersection:
         // An empty intersection is empty, not everything.
         if (children.empty()) return false;
         for (int c : children)
-            if (!inside(c, depth)) return false;
+            if (!inside(c, inLeaf)) return false;
         return true;
     case Op::Difference:
-        if (children.empty() || !inside(children.front(), depth)) return false;
+        if (children.empty() || !inside(children.front(), inLeaf)) return false;
         for (size_t k = 1; k < children.size(); ++k)
-            if (inside(children[k], depth)) return false;
+            if (inside(children[k], inLeaf)) return false;
         return true;
     }
     return false;

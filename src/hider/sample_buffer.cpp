@@ -1021,31 +1021,59 @@ void SampleBuffer::recordCsgDepth(const MicroGrid& g, const Tri& t, size_t s, fl
 void SampleBuffer::resolveCsg(size_t s) {
     const CsgForest& forest = *m_cfg.csg;
     const bool depthMode = m_cfg.mode == HiderMode::Depth;
-    // Colour mode: what lies in front of the ordinary opaque hit, in the
-    // total key order. Depth mode: every CSG hit (the nearest depths are
-    // merged with them below).
+    // Every CSG hit (those behind the opaque hit still tell which leaves the
+    // ray is in) and the ordinary fragments in front of the opaque hit, in
+    // the total key order.
     m_order.clear();
     for (int32_t f = m_fragHead[s]; f >= 0; f = m_frags[size_t(f)].next) {
         const Fragment& fr = m_frags[size_t(f)];
-        if (depthMode || keyLess(fr.z, fr.id, fr.sub, m_z[s], m_id[s], m_sub[s])) m_order.push_back(f);
+        if (fr.csgLeaf >= 0 || keyLess(fr.z, fr.id, fr.sub, m_z[s], m_id[s], m_sub[s])) m_order.push_back(f);
     }
     std::sort(m_order.begin(), m_order.end(), [&](int32_t a, int32_t b) {
         const Fragment &fa = m_frags[size_t(a)], &fb = m_frags[size_t(b)];
         return keyLess(fa.z, fa.id, fa.sub, fb.z, fb.id, fb.sub);
     });
-    // The eye is taken to be outside every solid: each leaf starts with
-    // depth 0 and each tree outside its result.
-    size_t kept = 0;
+    // Whether the ray is inside a leaf just after one of its hits: inside
+    // when the leaf's next hit leaves it, else (no later hit) when this one
+    // enters. Counting entries and exits instead would let one sample that
+    // slips through a crack between grids, or hits a shared edge twice, turn
+    // a whole solid inside out along the rest of the ray; looking ahead only
+    // misjudges the stretch before the missed hit. Before its first hit the
+    // ray is inside a leaf that its first hit leaves (the eye inside it).
+    // m_csgDepth, walking back: 0 no later hit, 1 it enters, 2 it leaves.
+    m_csgAfter.resize(m_order.size());
+    for (size_t k = m_order.size(); k-- > 0;) {
+        const Fragment& fr = m_frags[size_t(m_order[k])];
+        if (fr.csgLeaf < 0) continue;
+        int32_t& next = m_csgDepth[size_t(fr.csgLeaf)];
+        m_csgAfter[k] = next != 0 ? next == 2 : !fr.leaving;
+        next = fr.leaving ? 2 : 1;
+    }
     for (int32_t f : m_order) {
+        const Fragment& fr = m_frags[size_t(f)];
+        if (fr.csgLeaf >= 0 && m_csgDepth[size_t(fr.csgLeaf)] > 0)
+            m_csgDepth[size_t(fr.csgLeaf)] = m_csgDepth[size_t(fr.csgLeaf)] == 2;  // inside from the eye
+    }
+    for (int32_t f : m_order) {
+        const Fragment& fr = m_frags[size_t(f)];
+        if (fr.csgLeaf >= 0) {
+            const int root = forest.root(fr.csgLeaf);
+            m_csgInside[size_t(root)] = forest.inside(root, m_csgDepth.data());
+        }
+    }
+    size_t kept = 0;
+    for (size_t k = 0; k < m_order.size(); ++k) {
+        const int32_t f = m_order[k];
         const Fragment& fr = m_frags[size_t(f)];
         if (fr.csgLeaf < 0) {
             m_order[kept++] = f;
             continue;
         }
+        if (!depthMode && !keyLess(fr.z, fr.id, fr.sub, m_z[s], m_id[s], m_sub[s])) break;  // behind the opaque hit
         const int root = forest.root(fr.csgLeaf);
-        m_csgDepth[size_t(fr.csgLeaf)] += fr.leaving ? -1 : 1;
+        m_csgDepth[size_t(fr.csgLeaf)] = m_csgAfter[k];
         const bool inside = forest.inside(root, m_csgDepth.data());
-        if (inside == bool(m_csgInside[size_t(root)])) continue;  // inside the result: hidden by its surface
+        if (inside == bool(m_csgInside[size_t(root)])) continue;  // not on the result's boundary
         m_csgInside[size_t(root)] = inside;
         if (depthMode) {
             recordDepth(s, fr.z, fr.id, fr.sub, false);
@@ -1072,6 +1100,7 @@ void SampleBuffer::resolveCsg(size_t s) {
         }
         break;
     }
+    // Ordinary fragments after the break lie behind the new opaque hit.
     m_order.resize(kept);
     for (int32_t f = m_fragHead[s]; f >= 0; f = m_frags[size_t(f)].next) {
         const Fragment& fr = m_frags[size_t(f)];

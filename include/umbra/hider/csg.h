@@ -8,11 +8,12 @@
 // subtracts every child after the first from the first.
 //
 // A sample keeps every hit of a CSG tree's surfaces, each marked entering or
-// leaving its leaf (the surface faces toward or away from the eye). Walking
-// the hits front to back, a leaf is inside while it has been entered more
-// often than left; the tree's expression gives whether the sample's ray is
-// inside the result. A hit at which that answer changes lies on the
-// result's boundary: it is a visible surface; every other hit is not.
+// leaving its leaf (the surface faces toward or away from the eye). Along
+// the ray, a leaf is inside just after a hit when its next hit leaves it
+// (or, with no later hit, when this one enters); the tree's expression
+// gives whether the ray is inside the result. A hit at which that answer
+// changes lies on the result's boundary: it is a visible surface; every
+// other hit is not (SampleBuffer::resolveCsg).
 
 #include <cstddef>
 #include <cstdint>
@@ -35,11 +36,10 @@ public:
     /// The root of the tree holding `node`.
     int root(int node) const { return m_root[size_t(node)]; }
     /// Whether the point is inside `node`, given per node whether it is
-    /// inside that node's own surfaces (`depth` > 0: entered more often than
-    /// left). A "primitive" node is also inside its children (nested
-    /// primitive blocks are one solid); an operation node ignores its own
-    /// count (its surfaces, if any, were given leaves of their own).
-    bool inside(int node, const int32_t* depth) const;
+    /// inside that node's own surfaces (`inLeaf[n]` > 0). A "primitive"
+    /// node is also inside its children; an operation node has no surfaces
+    /// of its own (primitives given directly in it are leaves of their own).
+    bool inside(int node, const int32_t* inLeaf) const;
 
 private:
     std::vector<Op> m_op;

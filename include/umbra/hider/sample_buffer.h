@@ -360,7 +360,8 @@ private:
     std::vector<float> m_acc;        // per bucket pixel: r g b a aov... (non-separable filters: and the weight)
     std::vector<int32_t> m_order;    // fragment sort scratch
     size_t m_csgFragments = 0;       // CSG hits recorded since reset()
-    std::vector<int32_t> m_csgDepth; // per CSG node: entries minus exits along the sample being resolved
+    std::vector<int32_t> m_csgDepth; // per CSG node: 1 while the ray is inside its own surfaces (resolveCsg)
+    std::vector<uint8_t> m_csgAfter; // per sorted fragment: whether the ray is inside its leaf just after it
     std::vector<uint8_t> m_csgInside;  // per CSG root: whether the ray is inside its result
     std::vector<float> m_scratchAov;
 };
