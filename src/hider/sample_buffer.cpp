@@ -5,6 +5,7 @@
 #include "umbra/film/film.h"
 #include "umbra/util/error.h"
 #include "umbra/util/lanes.h"
+#include "umbra/util/rng.h"
 
 #include <algorithm>
 #include <cmath>
@@ -291,10 +292,24 @@ void SampleBuffer::reset(const SampleBufferConfig& c) {
     m_frags.clear();
     m_fragAov.clear();
     m_csgFragments = 0;
+    m_dissolveReady = false;
     m_csgDepth.assign(c.csg ? size_t(c.csg->size()) : 0, 0);
     m_csgInside.assign(c.csg ? size_t(c.csg->size()) : 0, 0);
     m_pixelMax.assign(size_t(m_rw) * size_t(m_rh), kInfinity);
     m_pixelDirty.assign(size_t(m_rw) * size_t(m_rh), 0);
+}
+
+float SampleBuffer::dissolveValue(int sx, int sy, uint32_t frameSeed) {
+    return hashToUnit(hashKeys(uint32_t(sx), uint32_t(sy), frameSeed, 0x10dU));
+}
+
+void SampleBuffer::prepareDissolve() {
+    if (m_dissolveReady) return;
+    m_dissolve.resize(size_t(m_sw) * size_t(m_sh) + 3);  // read in groups of four
+    for (int sy = 0; sy < m_sh; ++sy)
+        for (int sx = 0; sx < m_sw; ++sx)
+            m_dissolve[size_t(sy) * size_t(m_sw) + size_t(sx)] = dissolveValue(m_sx0 + sx, m_sy0 + sy, m_cfg.frameSeed);
+    m_dissolveReady = true;
 }
 
 int SampleBuffer::sampleIndex(int px, int py, int s) const {
@@ -323,6 +338,7 @@ void SampleBuffer::sample(const MicroGrid& g) {
     if (g.nu <= 0 || g.nv <= 0 || !g.P) return;
     UMBRA_CHECK(!g.aov || g.aovCount == m_cfg.aovCount, "grid has {} AOV floats, the buffer {}", g.aovCount,
                 m_cfg.aovCount);
+    if (g.dissolves()) prepareDissolve();
     if (g.keyCount > 1 || m_cfg.lens) {
         sampleBlurred(g);
         return;
@@ -486,6 +502,10 @@ void SampleBuffer::rasterizeQuad(const MicroGrid& g, const HitContext& ctx, int 
                 if (g.discs && hits) {
                     const F4 dx = x - discX, dy = y - discY;
                     hits &= laneMask(dx * dx + dy * dy <= discR2);
+                }
+                if (g.dissolves() && hits) {
+                    const F4 u = load4(&m_dissolve[s]);
+                    hits &= laneMask((u >= g.dissolveFrom) & (u < g.dissolveBelow));
                 }
                 if (g.trim && hits) {
                     float w1[4], w2[4];
@@ -735,6 +755,7 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
                 t.i1 = corner[b];
                 t.i2 = corner[c];
                 t.sub = 2 * mp + uint32_t(h);
+                if (g.dissolves() && !(m_dissolve[s] >= g.dissolveFrom && m_dissolve[s] < g.dissolveBelow)) continue;
                 if (g.trim) {
                     const float w1s[4] = {b1, 0, 0, 0}, w2s[4] = {b2, 0, 0, 0};
                     if (!trimKept(g, t, w1s, w2s, 1)) continue;

@@ -24,6 +24,9 @@ struct PreparedAttributes {
     const scene::Attributes* attributes = nullptr;
     std::shared_ptr<const shading::ShaderInstance> surface, displacement, atmosphere;
     std::vector<const shading::ShaderInstance*> lights;
+    /// Level of detail: the samples that draw these primitives in every
+    /// pass (hider::MicroGrid::dissolveFrom/Below); below <= from: none.
+    float dissolveFrom = 0, dissolveBelow = 1;
 };
 
 /// One render pass: the camera pass, or a light's depth pass.

@@ -204,6 +204,13 @@ struct Renderer::Impl {
             pa.surface = instance(a->surface, shading::ShaderKind::Surface);
             pa.displacement = instance(a->displacement, shading::ShaderKind::Displacement);
             pa.atmosphere = instance(a->atmosphere, shading::ShaderKind::Volume);
+            if (a->hasDetail) {
+                // Every pass draws what the camera's view chooses, so a
+                // shadow is cast by the representation that is seen.
+                const scene::Options& o = frame.world->options;
+                const float detail = rasterDetail(a->detailCorners, hider::Camera::fromOptions(o), o.relativeDetail);
+                std::tie(pa.dissolveFrom, pa.dissolveBelow) = dissolveWindow(detail, a->detailRange);
+            }
             frame.attributes.emplace(a, std::move(pa));
         }
     }

@@ -14,6 +14,29 @@ bool normalsFlip(const scene::Attributes& attrs, const Mat4& cameraFromObject) {
     return attrs.insideOut != (cameraFromObject.det3() < 0);
 }
 
+float rasterDetail(const std::array<Vec3, 8>& worldCorners, const hider::Camera& camera, float relativeDetail) {
+    float x0 = kInfinity, y0 = kInfinity, x1 = -kInfinity, y1 = -kInfinity;
+    for (const Vec3& w : worldCorners) {
+        const Vec3 c = camera.cameraFromWorld.point(w);
+        if (camera.perspective && !(c.z > 0)) return kInfinity;
+        const Vec3 r = camera.rasterOf(c);
+        x0 = std::min(x0, r.x);
+        x1 = std::max(x1, r.x);
+        y0 = std::min(y0, r.y);
+        y1 = std::max(y1, r.y);
+    }
+    return (x1 - x0) * (y1 - y0) * relativeDetail;
+}
+
+std::pair<float, float> dissolveWindow(float detail, const std::array<float, 4>& range) {
+    const float minVisible = range[0], lower = range[1], upper = range[2], maxVisible = range[3];
+    // An infinite maxvisible keeps even an infinite detail (a box around the eye).
+    if (!(detail >= minVisible) || (detail >= maxVisible && maxVisible < kInfinity)) return {0.0f, 0.0f};
+    if (detail < lower) return {1.0f - (detail - minVisible) / (lower - minVisible), 1.0f};
+    if (detail >= upper && upper < kInfinity) return {0.0f, std::min(1.0f, (maxVisible - detail) / (maxVisible - upper))};
+    return {0.0f, 1.0f};
+}
+
 SurfacePipeline::SurfacePipeline(FrameState& frame, const Pass& pass, Services& services, Diagnostics& diag,
                                  const film::Film& film)
     : m_frame(frame), m_pass(pass), m_services(services), m_diag(diag),
@@ -177,7 +200,10 @@ dice::DiceParams SurfacePipeline::diceParams(const geometry::Primitive& prim) co
 }
 
 bool SurfacePipeline::takesPart(const scene::Attributes& attrs) const {
-    return m_pass.depthOnly ? attrs.castsShadows : attrs.visibleToCamera;
+    if (!(m_pass.depthOnly ? attrs.castsShadows : attrs.visibleToCamera)) return false;
+    if (!attrs.hasDetail) return true;
+    const PreparedAttributes& pa = m_frame.attributes.at(&attrs);
+    return pa.dissolveBelow > pa.dissolveFrom;  // some level of detail draws it
 }
 
 Bound3 SurfacePipeline::rasterBound(const geometry::Primitive& prim) {
@@ -357,6 +383,8 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
     // solid through its far side is what makes the cut surfaces of a
     // difference visible.
     out.csgLeaf = rec.solid;
+    out.dissolveFrom = pa.dissolveFrom;
+    out.dissolveBelow = pa.dissolveBelow;
     out.leaving.clear();
     if (rec.solid >= 0)
         markLeaving(P, flip, out);

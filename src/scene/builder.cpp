@@ -1089,7 +1089,12 @@ void Builder::colorSamples(const std::vector<float>& nRGB, const std::vector<flo
 }
 
 void Builder::relativeDetail(float v, const FileLoc& loc) {
-    unsupported("detail", loc, "RelativeDetail: level of detail is not supported (ignored)");
+    if (!optionsAllowed("RelativeDetail", loc)) return;
+    if (!(v > 0) || !std::isfinite(v)) {
+        m_diag.error(loc, "RelativeDetail: expected a positive number, got {} (ignored)", v);
+        return;
+    }
+    m_options.relativeDetail = v;
 }
 
 void Builder::attribute(const std::string& name, ri::ParamList params, const FileLoc& loc) {
@@ -1230,11 +1235,26 @@ void Builder::bound(const std::array<float, 6>& b, const FileLoc& loc) {
 }
 
 void Builder::detail(const std::array<float, 6>& b, const FileLoc& loc) {
-    unsupported("detail", loc, "Detail: level of detail is not supported (ignored)");
+    if (!(b[0] <= b[1] && b[2] <= b[3] && b[4] <= b[5])) {
+        m_diag.error(loc, "Detail: expected a bound xmin xmax ymin ymax zmin zmax with each min <= max (ignored)");
+        return;
+    }
+    Attributes& a = mutableAttributes();
+    a.hasDetail = true;
+    for (int k = 0; k < 8; ++k)
+        a.detailCorners[size_t(k)] = m_state.transform.point(Vec3(b[k & 1], b[2 + ((k >> 1) & 1)], b[4 + (k >> 2)]));
 }
 
 void Builder::detailRange(const std::array<float, 4>& r, const FileLoc& loc) {
-    unsupported("detail", loc, "DetailRange: level of detail is not supported (every range is drawn)");
+    if (!(r[0] >= 0 && r[0] <= r[1] && r[1] <= r[2] && r[2] <= r[3])) {
+        m_diag.error(loc, "DetailRange: expected 0 <= minvisible <= lowertransition <= uppertransition <= "
+                     "maxvisible (ignored)");
+        return;
+    }
+    if (!m_state.attrs->hasDetail)
+        m_diag.warningOnce("detailrange-without-detail", loc,
+                           "DetailRange: no Detail bound is set, so the range cannot be measured (drawn always)");
+    mutableAttributes().detailRange = r;
 }
 
 void Builder::geometricApproximation(const std::string& type, float value, const FileLoc& loc) {

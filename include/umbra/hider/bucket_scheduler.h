@@ -50,6 +50,7 @@ struct ShadedGrid {
     bool discs = false;       // see MicroGrid
     int csgLeaf = -1;         // see MicroGrid
     std::vector<uint8_t> leaving;  // per micropolygon, see MicroGrid; empty: none
+    float dissolveFrom = 0, dissolveBelow = 1;  // see MicroGrid
     Bound3 bound;             // of P
 
     MicroGrid view() const;

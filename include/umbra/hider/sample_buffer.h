@@ -108,6 +108,14 @@ struct MicroGrid {
     /// outward normal faces away from the eye (null: none).
     int csgLeaf = -1;
     const uint8_t* leaving = nullptr;
+    /// Level of detail's cross-fade (a stochastic dissolve): each sample
+    /// has a fixed value u in [0, 1) (SampleBuffer::dissolveValue), and the
+    /// grid is drawn only at samples with dissolveFrom <= u < dissolveBelow.
+    /// A representation fading out keeps [0, w), one fading in [1 - w, 1),
+    /// so two whose weights sum to 1 share the samples without overlap.
+    float dissolveFrom = 0, dissolveBelow = 1;
+
+    bool dissolves() const { return dissolveFrom > 0 || dissolveBelow < 1; }
 
     int vertexCount() const { return (nu + 1) * (nv + 1); }
 };
@@ -233,6 +241,11 @@ public:
     /// lens disc (depth of field), for the buffer's settings `config`.
     static float sampleTime(int px, int py, int s, const SampleBufferConfig& config);
     static Vec2 sampleLens(int px, int py, int s, const SampleBufferConfig& config);
+    /// The dissolve value of the sample in global stratum column sx, row sy
+    /// (sample s of pixel (px, py) is column px * xs + s % xs, row
+    /// py * ys + s / xs): a hash of the stratum and the frame seed, so
+    /// uncorrelated with the sample's position and the same in every bucket.
+    static float dissolveValue(int sx, int sy, uint32_t frameSeed);
 
     const BlurStats& blurStats() const { return m_blur; }
 
@@ -344,6 +357,11 @@ private:
 
     std::unique_ptr<SamplePattern> m_pattern;          // positions of one period
     std::unique_ptr<PatternFilterWeights> m_weights;   // the film filter's weights over it
+
+    std::vector<float> m_dissolve;   // per sample: dissolveValue(), made when a dissolving grid first arrives
+    bool m_dissolveReady = false;
+    /// Makes m_dissolve for this bucket if not done yet.
+    void prepareDissolve();
 
     std::vector<float> m_inverseDepth;  // perspective: 1/z per vertex (and key) of the grid being sampled
 

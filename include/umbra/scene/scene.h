@@ -13,6 +13,7 @@
 #include "umbra/util/motion.h"
 
 #include <array>
+#include <limits>
 #include <map>
 #include <memory>
 #include <string>
@@ -98,6 +99,14 @@ struct Attributes {
     bool castsShadows = true;
     /// Attribute "dice" "binary": grids diced into powers of two.
     bool binaryDice = false;
+    /// Level of detail: the Detail box's corners in world space (set when
+    /// hasDetail), and the DetailRange minvisible, lowertransition,
+    /// uppertransition, maxvisible the primitives are drawn over
+    /// (docs/rib.md, "Level of detail").
+    bool hasDetail = false;
+    std::array<Vec3, 8> detailCorners{};
+    std::array<float, 4> detailRange{0, 0, std::numeric_limits<float>::infinity(),
+                                     std::numeric_limits<float>::infinity()};
     /// The current TrimCurve (null: none); it applies to NuPatch only.
     std::shared_ptr<const TrimCurveRecord> trimCurves;
     /// Every other `Attribute "class" "name" value` by "class:name", for the
@@ -190,6 +199,7 @@ struct Options {
     std::string pixelFilter = "gaussian";
     float filterWidth[2] = {2, 2};
     float exposureGain = 1.0f, exposureGamma = 1.0f;
+    float relativeDetail = 1.0f;             // RelativeDetail: scales every level-of-detail measure
     // Quantize "rgba" one min max dither; (0,0,0,0) means floating point.
     float quantizeOne = 255, quantizeMin = 0, quantizeMax = 255, quantizeDither = 0.5f;
     float zQuantizeOne = 0, zQuantizeMin = 0, zQuantizeMax = 0, zQuantizeDither = 0;
