@@ -468,7 +468,7 @@ void SampleBuffer::rasterizeQuad(const MicroGrid& g, const HitContext& ctx, int 
     // Four samples of a row at a time (positions are padded so the last
     // group may read past the end); lanes past sx1 are masked off.
     bool wrote = false;
-    const bool nearestOnly = ctx.depthMode && m_cfg.depthLayers == 1;
+    const bool nearestOnly = ctx.depthMode && m_cfg.depthLayers == 1 && g.csgLeaf < 0;  // CSG hits go to record()
     for (int sy = sy0; sy <= sy1; ++sy) {
         const size_t row = size_t(sy) * size_t(m_sw);
         for (int sx = sx0; sx <= sx1; sx += 4) {
@@ -682,7 +682,7 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
     ++m_blur.micropolygons;
 
     const uint32_t mp = uint32_t(j * g.nu + i);
-    const bool nearestOnly = ctx.depthMode && m_cfg.depthLayers == 1;
+    const bool nearestOnly = ctx.depthMode && m_cfg.depthLayers == 1 && g.csgLeaf < 0;  // CSG hits go to record()
     const float* depthOf = ctx.inverseDepth;
     auto depthAt = [&](size_t v) { return depthOf ? depthOf[v] : g.P[v].z; };
     bool wrote = false;

@@ -231,3 +231,41 @@ TEST(Csg, SamePixelsWhateverThreadsAndBuckets) {
     ASSERT_EQ(one.pixels.size(), two.pixels.size());
     for (size_t i = 0; i < one.pixels.size(); ++i) ASSERT_EQ(one.pixels[i], two.pixels[i]) << "at float " << i;
 }
+
+TEST(Csg, DepthMapsSeeTheResolvedSolid) {
+    // A distant light straight down the view; the ring (a unit sphere less
+    // a longer capped cylinder of radius 0.5), invisible to the camera,
+    // shadows a floor at z = 1.5: the shadow is the annulus, and the hole's
+    // middle is lit (drawn as a union, the cylinder's cap would shade it),
+    // with the nearest-depth map and a two-layer one.
+    const std::string world = R"(
+LightSource "shadowdistant" 1 "from" [0 0 -10] "to" [0 0 0] "shadowname" ["auto"] "intensity" [1]
+AttributeBegin
+  Attribute "visibility" "camera" [0]
+  SolidBegin "difference"
+)" + sphere("1 0 0", 0, 0, 0, 1) + cappedCylinder(0.5f, -2, 2) + R"(
+  SolidEnd
+AttributeEnd
+AttributeBegin
+  Surface "matte" "Kd" [1] "Ka" [0]
+  Polygon "P" [-2 -2 1.5  2 -2 1.5  2 2 1.5  -2 2 1.5]
+AttributeEnd
+)";
+    for (const char* filter : {"min", "midpoint"}) {
+        SCOPED_TRACE(filter);
+        const Image img = renderCsg(world, "csg-shadow", 4, 128,
+                                    fmt::format("Option \"umbra\" \"shadowmapsize\" [512]\nHider \"hidden\" \"depthfilter\" \"{}\"", filter));
+        double lit = 0, maxLit = 0;
+        for (int y = 0; y < img.height; ++y)
+            for (int x = 0; x < img.width; ++x) {
+                lit += img.at(x, y, 0);
+                maxLit = std::max(maxLit, double(img.at(x, y, 0)));
+            }
+        ASSERT_GT(maxLit, 0.1);
+        EXPECT_NEAR(img.at(64, 64, 0), maxLit, 0.02 * maxLit) << "the hole's middle";
+        EXPECT_LT(img.at(64 + 24, 64, 0), 0.02 * maxLit) << "under the ring, 0.75 off the axis";
+        const double darkArea = (double(img.width) * img.height - lit / maxLit) * (4.0 / 128) * (4.0 / 128);
+        const double annulus = M_PI * (1.0 - 0.25);
+        EXPECT_NEAR(darkArea / annulus, 1.0, 0.05) << darkArea << " vs " << annulus;
+    }
+}
