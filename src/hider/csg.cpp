@@ -10,37 +10,53 @@ int CsgForest::add(Op op, int parent) {
     m_op.push_back(op);
     m_parent.push_back(parent);
     m_root.push_back(parent < 0 ? node : m_root[size_t(parent)]);
-    m_children.emplace_back();
-    if (parent >= 0) m_children[size_t(parent)].push_back(node);
+    m_firstChild.push_back(-1);
+    m_childCount.push_back(0);
+    if (parent >= 0) {
+        if (m_firstChild[size_t(parent)] < 0) m_firstChild[size_t(parent)] = node;
+        ++m_childCount[size_t(parent)];
+    }
     return node;
 }
 
-bool CsgForest::inside(int node, const int32_t* inLeaf) const {
-    const std::vector<int>& children = m_children[size_t(node)];
-    switch (m_op[size_t(node)]) {
-    case Op::Primitive: {
-        if (inLeaf[node] > 0) return true;
-        for (int c : children)
-            if (inside(c, inLeaf)) return true;
-        return false;
-    }
+bool CsgForest::evaluate(int node, const CsgRayState& state) const {
+    const size_t n = size_t(node);
+    switch (m_op[n]) {
+    case Op::Primitive:
+        return state.own[n] || state.count[n] > 0;
     case Op::Union:
-        for (int c : children)
-            if (inside(c, inLeaf)) return true;
-        return false;
+        return state.count[n] > 0;
     case Op::Intersection:
         // An empty intersection is empty, not everything.
-        if (children.empty()) return false;
-        for (int c : children)
-            if (!inside(c, inLeaf)) return false;
-        return true;
+        return m_childCount[n] > 0 && state.count[n] == m_childCount[n];
     case Op::Difference:
-        if (children.empty() || !inside(children.front(), inLeaf)) return false;
-        for (size_t k = 1; k < children.size(); ++k)
-            if (inside(children[k], inLeaf)) return false;
-        return true;
+        return m_firstChild[n] >= 0 && state.in[size_t(m_firstChild[n])] && state.count[n] == 0;
     }
     return false;
+}
+
+bool CsgForest::setLeaf(int leaf, bool inside, CsgRayState& state) const {
+    state.own[size_t(leaf)] = inside;
+    int node = leaf;
+    for (;;) {
+        const bool now = evaluate(node, state);
+        if (now == bool(state.in[size_t(node)])) return false;
+        state.in[size_t(node)] = now;
+        const int parent = m_parent[size_t(node)];
+        if (parent < 0) return true;
+        // A difference's first child is read through `in`; the others count.
+        if (!(m_op[size_t(parent)] == Op::Difference && m_firstChild[size_t(parent)] == node))
+            state.count[size_t(parent)] += now ? 1 : -1;
+        node = parent;
+    }
+}
+
+void CsgForest::clearPath(int leaf, CsgRayState& state) const {
+    for (int node = leaf; node >= 0; node = m_parent[size_t(node)]) {
+        state.count[size_t(node)] = 0;
+        state.own[size_t(node)] = 0;
+        state.in[size_t(node)] = 0;
+    }
 }
 
 }  // namespace umbra::hider

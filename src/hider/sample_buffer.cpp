@@ -293,8 +293,8 @@ void SampleBuffer::reset(const SampleBufferConfig& c) {
     m_fragAov.clear();
     m_csgFragments = 0;
     m_dissolveReady = false;
-    m_csgDepth.assign(c.csg ? size_t(c.csg->size()) : 0, 0);
-    m_csgInside.assign(c.csg ? size_t(c.csg->size()) : 0, 0);
+    m_csgRay.reset(c.csg ? size_t(c.csg->size()) : 0);
+    m_csgNext.assign(c.csg ? size_t(c.csg->size()) : 0, 0);
     m_pixelMax.assign(size_t(m_rw) * size_t(m_rh), kInfinity);
     m_pixelDirty.assign(size_t(m_rw) * size_t(m_rh), 0);
 }
@@ -1061,26 +1061,20 @@ void SampleBuffer::resolveCsg(size_t s) {
     // a whole solid inside out along the rest of the ray; looking ahead only
     // misjudges the stretch before the missed hit. Before its first hit the
     // ray is inside a leaf that its first hit leaves (the eye inside it).
-    // m_csgDepth, walking back: 0 no later hit, 1 it enters, 2 it leaves.
+    // m_csgNext, walking back: 0 no later hit, 1 it enters, 2 it leaves.
     m_csgAfter.resize(m_order.size());
     for (size_t k = m_order.size(); k-- > 0;) {
         const Fragment& fr = m_frags[size_t(m_order[k])];
         if (fr.csgLeaf < 0) continue;
-        int32_t& next = m_csgDepth[size_t(fr.csgLeaf)];
+        uint8_t& next = m_csgNext[size_t(fr.csgLeaf)];
         m_csgAfter[k] = next != 0 ? next == 2 : !fr.leaving;
         next = fr.leaving ? 2 : 1;
     }
     for (int32_t f : m_order) {
-        const Fragment& fr = m_frags[size_t(f)];
-        if (fr.csgLeaf >= 0 && m_csgDepth[size_t(fr.csgLeaf)] > 0)
-            m_csgDepth[size_t(fr.csgLeaf)] = m_csgDepth[size_t(fr.csgLeaf)] == 2;  // inside from the eye
-    }
-    for (int32_t f : m_order) {
-        const Fragment& fr = m_frags[size_t(f)];
-        if (fr.csgLeaf >= 0) {
-            const int root = forest.root(fr.csgLeaf);
-            m_csgInside[size_t(root)] = forest.inside(root, m_csgDepth.data());
-        }
+        const int leaf = m_frags[size_t(f)].csgLeaf;
+        if (leaf < 0 || m_csgNext[size_t(leaf)] == 0) continue;
+        if (m_csgNext[size_t(leaf)] == 2) forest.setLeaf(leaf, true, m_csgRay);  // the eye is inside it
+        m_csgNext[size_t(leaf)] = 0;
     }
     size_t kept = 0;
     for (size_t k = 0; k < m_order.size(); ++k) {
@@ -1091,11 +1085,7 @@ void SampleBuffer::resolveCsg(size_t s) {
             continue;
         }
         if (!depthMode && !keyLess(fr.z, fr.id, fr.sub, m_z[s], m_id[s], m_sub[s])) break;  // behind the opaque hit
-        const int root = forest.root(fr.csgLeaf);
-        m_csgDepth[size_t(fr.csgLeaf)] = m_csgAfter[k];
-        const bool inside = forest.inside(root, m_csgDepth.data());
-        if (inside == bool(m_csgInside[size_t(root)])) continue;  // not on the result's boundary
-        m_csgInside[size_t(root)] = inside;
+        if (!forest.setLeaf(fr.csgLeaf, m_csgAfter[k], m_csgRay)) continue;  // not on the result's boundary
         if (depthMode) {
             recordDepth(s, fr.z, fr.id, fr.sub, false);
             continue;
@@ -1123,12 +1113,8 @@ void SampleBuffer::resolveCsg(size_t s) {
     }
     // Ordinary fragments after the break lie behind the new opaque hit.
     m_order.resize(kept);
-    for (int32_t f = m_fragHead[s]; f >= 0; f = m_frags[size_t(f)].next) {
-        const Fragment& fr = m_frags[size_t(f)];
-        if (fr.csgLeaf < 0) continue;
-        m_csgDepth[size_t(fr.csgLeaf)] = 0;
-        m_csgInside[size_t(forest.root(fr.csgLeaf))] = 0;
-    }
+    for (int32_t f = m_fragHead[s]; f >= 0; f = m_frags[size_t(f)].next)
+        if (m_frags[size_t(f)].csgLeaf >= 0) forest.clearPath(m_frags[size_t(f)].csgLeaf, m_csgRay);
 }
 
 void SampleBuffer::markDirty(int sx0, int sy0, int sx1, int sy1) {

@@ -21,6 +21,22 @@
 
 namespace umbra::hider {
 
+/// Where one ray is, node by node, while its hits are walked: whether it is
+/// inside each node's result and, per node, how many children count toward
+/// it. All zero (outside everything) to begin with; CsgForest::setLeaf keeps
+/// it consistent.
+struct CsgRayState {
+    std::vector<int32_t> count;  // children inside (difference: after the first)
+    std::vector<uint8_t> own;    // a leaf: inside its own surfaces
+    std::vector<uint8_t> in;     // inside the node's result
+
+    void reset(size_t nodes) {
+        count.assign(nodes, 0);
+        own.assign(nodes, 0);
+        in.assign(nodes, 0);
+    }
+};
+
 /// The CSG trees of a world: nodes in the order their SolidBegin came (a
 /// parent before its children), each with its operation and parent (-1 for a
 /// tree's root).
@@ -35,16 +51,21 @@ public:
     Op op(int node) const { return m_op[size_t(node)]; }
     /// The root of the tree holding `node`.
     int root(int node) const { return m_root[size_t(node)]; }
-    /// Whether the point is inside `node`, given per node whether it is
-    /// inside that node's own surfaces (`inLeaf[n]` > 0). A "primitive"
-    /// node is also inside its children; an operation node has no surfaces
-    /// of its own (primitives given directly in it are leaves of their own).
-    bool inside(int node, const int32_t* inLeaf) const;
+    /// Sets whether the ray is inside leaf `leaf`'s own surfaces and updates
+    /// the nodes above it, stopping where nothing changes: the cost is the
+    /// leaf's depth at most, however large the tree. True when the root's
+    /// answer changed (the hit lies on the result's boundary). A
+    /// "primitive" node is also inside its children (nested primitive
+    /// blocks are one solid); an operation node has no surfaces of its own.
+    bool setLeaf(int leaf, bool inside, CsgRayState& state) const;
+    /// Returns the nodes from `leaf` up to its root to the all-outside state.
+    void clearPath(int leaf, CsgRayState& state) const;
 
 private:
+    bool evaluate(int node, const CsgRayState& state) const;
+
     std::vector<Op> m_op;
-    std::vector<int> m_parent, m_root;
-    std::vector<std::vector<int>> m_children;
+    std::vector<int> m_parent, m_root, m_firstChild, m_childCount;
 };
 
 }  // namespace umbra::hider

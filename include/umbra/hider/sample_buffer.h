@@ -378,9 +378,9 @@ private:
     std::vector<float> m_acc;        // per bucket pixel: r g b a aov... (non-separable filters: and the weight)
     std::vector<int32_t> m_order;    // fragment sort scratch
     size_t m_csgFragments = 0;       // CSG hits recorded since reset()
-    std::vector<int32_t> m_csgDepth; // per CSG node: 1 while the ray is inside its own surfaces (resolveCsg)
-    std::vector<uint8_t> m_csgAfter; // per sorted fragment: whether the ray is inside its leaf just after it
-    std::vector<uint8_t> m_csgInside;  // per CSG root: whether the ray is inside its result
+    CsgRayState m_csgRay;            // resolveCsg: where the ray being walked is
+    std::vector<uint8_t> m_csgNext;  // resolveCsg: per leaf, its next hit along the ray (0 none, 1 enters, 2 leaves)
+    std::vector<uint8_t> m_csgAfter; // resolveCsg: per sorted fragment, whether the ray is inside its leaf after it
     std::vector<float> m_scratchAov;
 };
 
