@@ -20,6 +20,9 @@ const char* endName(int kind) {
     return k[kind];
 }
 
+/// How deep SolidBegin operations may nest (docs/rib.md, Limits).
+constexpr int kMaxSolidNesting = 256;
+
 // Geometry requests the renderer does not draw yet: parsed and validated,
 // reported once, and left out of the world.
 constexpr const char* kUnsupportedGeometry[] = {"Blobby", "Procedural", "Geometry"};
@@ -374,6 +377,15 @@ void Builder::solidBegin(const std::string& operation, const FileLoc& loc) {
         m_diag.warning(loc, "SolidBegin: \"{}\" inside the \"primitive\" solid begun at {} (expected only "
                        "geometry there; its surfaces are part of that solid)", operation,
                        m_world->solids[size_t(m_state.solid)].loc.str());
+        return;
+    }
+    // Each hit a sample resolves walks up its leaf's ancestors: a bounded
+    // depth keeps a pathological file from costing depth x hits per sample.
+    int depth = 0;
+    for (int n = m_state.solid; n >= 0; n = m_world->solids[size_t(n)].parent) ++depth;
+    if (depth >= kMaxSolidNesting) {
+        m_diag.error(loc, "SolidBegin: CSG nested deeper than {} solids (its surfaces are part of the enclosing "
+                     "solid)", kMaxSolidNesting);
         return;
     }
     m_world->solids.push_back(SolidRecord{operation, m_state.solid, loc});

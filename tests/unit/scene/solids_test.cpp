@@ -82,6 +82,22 @@ TEST(Solids, UnknownOperationIsALocatedError) {
     EXPECT_EQ(w.primitives.at(0).solid, -1);
 }
 
+TEST(Solids, NestingIsBounded) {
+    std::string rib = "WorldBegin\n";
+    for (int k = 0; k < 300; ++k) rib += "SolidBegin \"union\"\n";
+    rib += "Sphere 1 -1 1 360\n";
+    for (int k = 0; k < 300; ++k) rib += "SolidEnd\n";
+    rib += "WorldEnd\n";
+    Diagnostics diag;
+    const WorldRecord w = build(rib, diag);
+    EXPECT_EQ(diag.errorCount(), 44);
+    EXPECT_NE(diag.recorded().front().str().find("s.rib:258:1: error: SolidBegin: CSG nested deeper than 256"),
+              std::string::npos)
+        << diag.recorded().front().str();
+    ASSERT_EQ(w.solids.size(), 257u);  // 256 unions and the sphere's own leaf
+    EXPECT_EQ(w.primitives.at(0).solid, 256);
+}
+
 TEST(LevelOfDetailAttributes, DetailBoxIsKeptInWorldSpace) {
     Diagnostics diag;
     const WorldRecord w = build(R"(RelativeDetail 0.5
