@@ -21,15 +21,15 @@ namespace {
 
 /// A 90 degree perspective view at 256x256 of a unit Detail box [-1,1]^3
 /// at `distance` on the axis, holding one square (half size 0.5, facing the
-/// eye) per representation, each a constant colour: `ranges` gives each
-/// one's DetailRange and colour.
+/// eye, `half` its half size) per representation, each a constant colour:
+/// `ranges` gives each one's DetailRange and colour.
 std::string lodFrame(const std::string& out, float distance, const std::vector<std::pair<std::string, std::string>>& ranges,
-                     const std::string& extra = "") {
+                     const std::string& extra = "", float half = 0.5f) {
     std::string reps;
     for (const auto& [range, colour] : ranges)
-        reps += fmt::format(R"(AttributeBegin DetailRange {} Color [{}]
-            Polygon "P" [-0.5 -0.5 0  0.5 -0.5 0  0.5 0.5 0  -0.5 0.5 0] AttributeEnd
-)", range, colour);
+        reps += fmt::format(R"(AttributeBegin DetailRange {0} Color [{1}]
+            Polygon "P" [{3} {3} 0  {2} {3} 0  {2} {2} 0  {3} {2} 0] AttributeEnd
+)", range, colour, half, -half);
     return fmt::format(R"(
 Display "{}" "openexr" "rgba" "string type" "float"
 Format 256 256 1
@@ -73,10 +73,10 @@ Color centreColour(const Image& img, float distance) {
 }
 
 Image renderLod(float distance, const std::vector<std::pair<std::string, std::string>>& ranges, const std::string& name,
-                const std::string& extra = "") {
+                const std::string& extra = "", float half = 0.5f, int threads = 0, int bucket = 0) {
     ScratchDir dir(name);
     Diagnostics diag;
-    test::renderRib(lodFrame(dir.file("out.exr"), distance, ranges, extra), diag);
+    test::renderRib(lodFrame(dir.file("out.exr"), distance, ranges, extra, half), diag, threads, bucket);
     EXPECT_EQ(diag.errorCount(), 0);
     Image img;
     EXPECT_TRUE(test::readImage(dir.file("out.exr"), &img));
@@ -135,23 +135,31 @@ TEST(LevelOfDetail, RelativeDetailScalesTheMeasure) {
 TEST(LevelOfDetail, TransitionSharesTheSamplesByTheRamp) {
     // Low fades out and high fades in over details 400..900; at distance 11
     // (detail 655.36) the high one holds (655.36 - 400) / 500 of the samples
-    // and the low one the rest, every sample exactly one of them.
+    // and the low one the rest, every sample exactly one of them. The
+    // squares (far larger than the Detail box, which alone is measured)
+    // fill the frame: 2^20 samples, so the share's standard error is 0.0005.
     const float distance = 11;
-    const Image img = renderLod(distance, {{"0 0 400 900", "1 0 0"}, {"400 900 1e30 1e30", "0 1 0"}}, "lod-fade");
+    const Image img =
+        renderLod(distance, {{"0 0 400 900", "1 0 0"}, {"400 900 1e30 1e30", "0 1 0"}}, "lod-fade", "", 20.0f);
     const double expected = (boxDetail(distance) - 400) / 500;
-    const int half = int(0.8 * 64 / distance);
     double green = 0;
-    int n = 0;
-    for (int y = 128 - half; y < 128 + half; ++y)
-        for (int x = 128 - half; x < 128 + half; ++x) {
-            EXPECT_NEAR(img.at(x, y, 0) + img.at(x, y, 1), 1.0f, 1e-5f) << x << "," << y;
-            EXPECT_NEAR(img.at(x, y, 3), 1.0f, 1e-5f) << x << "," << y;
+    int wrong = 0;
+    for (int y = 0; y < img.height; ++y)
+        for (int x = 0; x < img.width; ++x) {
+            wrong += std::fabs(img.at(x, y, 0) + img.at(x, y, 1) - 1.0f) > 1e-5f || img.at(x, y, 3) != 1.0f;
             green += img.at(x, y, 1);
-            ++n;
         }
-    // n pixels of 16 samples: the share's standard error is about 0.01 here.
-    EXPECT_NEAR(green / n, expected, 0.03);
-    EXPECT_GT(n, 60);
+    EXPECT_EQ(wrong, 0);
+    EXPECT_NEAR(green / (double(img.width) * img.height), expected, 0.003);
+}
+
+TEST(LevelOfDetail, DissolveIsTheSameWhateverThreadsAndBuckets) {
+    const std::vector<std::pair<std::string, std::string>> fade = {{"0 0 400 900", "1 0 0"},
+                                                                   {"400 900 1e30 1e30", "0 1 0"}};
+    const Image one = renderLod(11, fade, "lod-det1", "PixelFilter \"gaussian\" 2 2", 20.0f, 1, 16);
+    const Image two = renderLod(11, fade, "lod-det2", "PixelFilter \"gaussian\" 2 2", 20.0f, 2, 7);
+    ASSERT_EQ(one.pixels.size(), two.pixels.size());
+    for (size_t i = 0; i < one.pixels.size(); ++i) ASSERT_EQ(one.pixels[i], two.pixels[i]) << "at float " << i;
 }
 
 TEST(LevelOfDetail, DetailRangeOutOfOrderIsALocatedError) {
