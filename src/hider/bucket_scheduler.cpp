@@ -34,6 +34,10 @@ MicroGrid ShadedGrid::view() const {
     g.id = id;
     g.ownSecondLayer = ownSecondLayer;
     g.discs = discs;
+    g.csgLeaf = csgLeaf;
+    g.dissolveFrom = dissolveFrom;
+    g.dissolveBelow = dissolveBelow;
+    g.leaving = leaving.empty() ? nullptr : leaving.data();
     if (keyTimes.size() > 1) {
         g.keyCount = int(keyTimes.size());
         g.keyTimes = keyTimes.data();

@@ -25,6 +25,9 @@ struct PreparedAttributes {
     const scene::Attributes* attributes = nullptr;
     std::shared_ptr<const shading::ShaderInstance> surface, displacement, atmosphere;
     std::vector<const shading::ShaderInstance*> lights;
+    /// Level of detail: the samples that draw these primitives in every
+    /// pass (hider::MicroGrid::dissolveFrom/Below); below <= from: none.
+    float dissolveFrom = 0, dissolveBelow = 1;
 };
 
 /// One render pass: the camera pass, or a light's depth pass.
@@ -112,6 +115,8 @@ struct FrameState {
     const std::vector<geometry::PrimitivePtr>* primitives = nullptr;
     mutable std::once_flag occlusionOnce;
     mutable std::unique_ptr<trace::OcclusionScene> occlusion;
+    /// The world's CSG trees (WorldRecord::solids), which the hider resolves.
+    hider::CsgForest csg;
 };
 
 /// The renderState a ShadingGrid carries to RendererServices.

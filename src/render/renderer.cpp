@@ -229,6 +229,13 @@ struct Renderer::Impl {
             pa.surface = instance(a->surface, shading::ShaderKind::Surface);
             pa.displacement = instance(a->displacement, shading::ShaderKind::Displacement);
             pa.atmosphere = instance(a->atmosphere, shading::ShaderKind::Volume);
+            if (a->hasDetail) {
+                // Every pass draws what the camera's view chooses, so a
+                // shadow is cast by the representation that is seen.
+                const scene::Options& o = frame.world->options;
+                const float detail = rasterDetail(a->detailCorners, hider::Camera::fromOptions(o), o.relativeDetail);
+                std::tie(pa.dissolveFrom, pa.dissolveBelow) = dissolveWindow(detail, a->detailRange);
+            }
             frame.attributes.emplace(a, std::move(pa));
         }
     }
@@ -385,6 +392,7 @@ PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const st
     ss.sampling.nearClip = pass.camera.nearClip;
     ss.sampling.perspective = pass.camera.perspective;
     ss.sampling.farClip = pass.camera.farClip;
+    ss.sampling.csg = frame.csg.empty() ? nullptr : &frame.csg;
     // Every pass of a blurred frame gives its samples times: moving casters
     // blur their depth maps' texels too (docs/motion.md).
     ss.sampling.motion = frame.motionBlur();
@@ -499,6 +507,14 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     frame.shutterClose = options.shutter[1] + options.shutterOffset;
     frame.shading = shading.get();
     frame.noShadows = settings.noShadows;
+    for (const scene::SolidRecord& solid : world.solids) {
+        using Op = hider::CsgForest::Op;
+        const Op op = solid.operation == "union"          ? Op::Union
+                      : solid.operation == "intersection" ? Op::Intersection
+                      : solid.operation == "difference"   ? Op::Difference
+                                                          : Op::Primitive;
+        frame.csg.add(op, solid.parent);
+    }
     services->setFrame(&frame);
     services->resetStats();
 

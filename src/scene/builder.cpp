@@ -20,6 +20,9 @@ const char* endName(int kind) {
     return k[kind];
 }
 
+/// How deep SolidBegin operations may nest (docs/rib.md, Limits).
+constexpr int kMaxSolidNesting = 256;
+
 // Geometry requests the renderer does not draw yet: parsed and validated,
 // reported once, and left out of the world.
 constexpr const char* kUnsupportedGeometry[] = {"Blobby"};
@@ -378,10 +381,43 @@ void Builder::solidBegin(const std::string& operation, const FileLoc& loc) {
                      "\"intersection\" or \"difference\")", operation);
     }
     push(Block::Solid, loc);
-    if (operation != "primitive")
-        unsupported("csg", loc, "SolidBegin: CSG operations are not supported; the solids are rendered as if "
-                    "\"union\" (parsed and recorded in Attributes::solid)");
     mutableAttributes().solid = operation;
+    const bool known = operation == "primitive" || operation == "union" || operation == "intersection" ||
+                       operation == "difference";
+    if (!known || !m_world) return;
+    if (!m_objectHandle.empty()) {
+        if (operation != "primitive")
+            unsupported("csg-object", loc, "SolidBegin: CSG inside ObjectBegin is not supported; the object's "
+                        "solids are drawn as if \"union\"");
+        return;
+    }
+    // A top-level primitive solid is ordinary geometry; one inside another
+    // is part of it (a primitive solid holds only surfaces).
+    if (m_state.solid < 0 && operation == "primitive") return;
+    if (m_state.solid >= 0 && m_world->solids[size_t(m_state.solid)].operation == "primitive") {
+        m_diag.warning(loc, "SolidBegin: \"{}\" inside the \"primitive\" solid begun at {} (expected only "
+                       "geometry there; its surfaces are part of that solid)", operation,
+                       m_world->solids[size_t(m_state.solid)].loc.str());
+        return;
+    }
+    // Each hit a sample resolves walks up its leaf's ancestors: a bounded
+    // depth keeps a pathological file from costing depth x hits per sample.
+    int depth = 0;
+    for (int n = m_state.solid; n >= 0; n = m_world->solids[size_t(n)].parent) ++depth;
+    if (depth >= kMaxSolidNesting) {
+        m_diag.error(loc, "SolidBegin: CSG nested deeper than {} solids (its surfaces are part of the enclosing "
+                     "solid)", kMaxSolidNesting);
+        return;
+    }
+    m_world->solids.push_back(SolidRecord{operation, m_state.solid, loc});
+    m_state.solid = int(m_world->solids.size()) - 1;
+}
+
+int Builder::solidLeaf(const FileLoc& loc) {
+    if (m_state.solid < 0 || !m_world) return -1;
+    if (m_world->solids[size_t(m_state.solid)].operation == "primitive") return m_state.solid;
+    m_world->solids.push_back(SolidRecord{"primitive", m_state.solid, loc});
+    return int(m_world->solids.size()) - 1;
 }
 
 void Builder::solidEnd(const FileLoc& loc) {
@@ -425,8 +461,10 @@ void Builder::objectInstance(const std::string& handle, const FileLoc& loc) {
     // Pieces share attributes: the instance's where the definition set
     // none, else one merge per distinct state inside the definition.
     std::map<const Attributes*, std::shared_ptr<const Attributes>> merged;
+    const int leaf = solidLeaf(loc);  // an instance is one solid
     for (const ObjectPrim& op : it->second) {
         PrimitiveRecord r = op.record;
+        r.solid = leaf;
         r.worldFromObject = m_state.transform * op.objectFromPrim;
         if (m_state.motion) {
             auto moving = std::make_shared<MotionTransform>(*m_state.motion);
@@ -1084,7 +1122,12 @@ void Builder::colorSamples(const std::vector<float>& nRGB, const std::vector<flo
 }
 
 void Builder::relativeDetail(float v, const FileLoc& loc) {
-    unsupported("detail", loc, "RelativeDetail: level of detail is not supported (ignored)");
+    if (!optionsAllowed("RelativeDetail", loc)) return;
+    if (!(v > 0) || !std::isfinite(v)) {
+        m_diag.error(loc, "RelativeDetail: expected a positive number, got {} (ignored)", v);
+        return;
+    }
+    m_options.relativeDetail = v;
 }
 
 void Builder::attribute(const std::string& name, ri::ParamList params, const FileLoc& loc) {
@@ -1225,11 +1268,26 @@ void Builder::bound(const std::array<float, 6>& b, const FileLoc& loc) {
 }
 
 void Builder::detail(const std::array<float, 6>& b, const FileLoc& loc) {
-    unsupported("detail", loc, "Detail: level of detail is not supported (ignored)");
+    if (!(b[0] <= b[1] && b[2] <= b[3] && b[4] <= b[5])) {
+        m_diag.error(loc, "Detail: expected a bound xmin xmax ymin ymax zmin zmax with each min <= max (ignored)");
+        return;
+    }
+    Attributes& a = mutableAttributes();
+    a.hasDetail = true;
+    for (int k = 0; k < 8; ++k)
+        a.detailCorners[size_t(k)] = m_state.transform.point(Vec3(b[k & 1], b[2 + ((k >> 1) & 1)], b[4 + (k >> 2)]));
 }
 
 void Builder::detailRange(const std::array<float, 4>& r, const FileLoc& loc) {
-    unsupported("detail", loc, "DetailRange: level of detail is not supported (every range is drawn)");
+    if (!(r[0] >= 0 && r[0] <= r[1] && r[1] <= r[2] && r[2] <= r[3])) {
+        m_diag.error(loc, "DetailRange: expected 0 <= minvisible <= lowertransition <= uppertransition <= "
+                     "maxvisible (ignored)");
+        return;
+    }
+    if (!m_state.attrs->hasDetail)
+        m_diag.warningOnce("detailrange-without-detail", loc,
+                           "DetailRange: no Detail bound is set, so the range cannot be measured (drawn always)");
+    mutableAttributes().detailRange = r;
 }
 
 void Builder::geometricApproximation(const std::string& type, float value, const FileLoc& loc) {
@@ -1509,6 +1567,7 @@ void Builder::emitPrimitive(PrimitiveRecord r) {
         m_objects[m_objectHandle].push_back(std::move(op));
         return;
     }
+    r.solid = solidLeaf(r.loc);
     m_world->primitives.push_back(std::move(r));
 }
 

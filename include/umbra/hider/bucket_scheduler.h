@@ -48,6 +48,9 @@ struct ShadedGrid {
     uint64_t id = 0;
     bool ownSecondLayer = false;  // see MicroGrid
     bool discs = false;       // see MicroGrid
+    int csgLeaf = -1;         // see MicroGrid
+    std::vector<uint8_t> leaving;  // per micropolygon, see MicroGrid; empty: none
+    float dissolveFrom = 0, dissolveBelow = 1;  // see MicroGrid
     Bound3 bound;             // of P
 
     MicroGrid view() const;

@@ -192,6 +192,7 @@ private:
         /// The current transform over the shutter when a motion block moved
         /// it; null: `transform` is all of it.
         std::shared_ptr<const MotionTransform> motion;
+        int solid = -1;  // the innermost open CSG node (WorldRecord::solids); -1: none
     };
     /// What an open MotionBegin block has collected: one transform or one
     /// primitive per time.
@@ -252,6 +253,9 @@ private:
     /// at most kMaxListedOpenBlocks of them, then one line for the rest.
     void reportOpenBlocks(size_t first, const char* request, const FileLoc& loc);
     void unsupported(const std::string& key, const FileLoc& loc, const std::string& what);
+    /// The CSG leaf a primitive given now belongs to (a new "primitive"
+    /// node when the innermost solid is an operation); -1 outside CSG.
+    int solidLeaf(const FileLoc& loc);
     std::string expandSearchPath(const std::string& kind, const std::string& value) const;
 
     SceneSink& m_sink;
