@@ -1,5 +1,7 @@
 #include "umbra/shadow/shadow_map.h"
 
+#include "umbra/util/exr_header.h"
+
 #include "map_header.h"
 
 #include <ImfChannelList.h>
@@ -117,6 +119,7 @@ std::shared_ptr<ShadowMap> ShadowMap::open(const std::string& path, Diagnostics&
     std::error_code ec;
     if (!std::filesystem::is_regular_file(path, ec)) return fail("no such file");
     const uint64_t fileBytes = std::filesystem::file_size(path, ec);
+    if (std::string why; !exrHeadersFit(path, &why)) return fail(why);
     if (!cache) cache = TileCache::shared();
     std::shared_ptr<ShadowMap> map(new ShadowMap());
     try {
