@@ -7,8 +7,11 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
 #include <set>
 #include <string>
+#include <unistd.h>
 
 namespace umbra::scene {
 namespace {
@@ -32,6 +35,17 @@ std::unique_ptr<Parsed> parse(const std::string& rib) {
     Builder builder(r->sink, r->diag);
     ri::Parser parser(builder, r->diag);
     parser.parseString(rib, "run.rib", {});
+    for (const auto& d : r->diag.recorded()) r->messages.push_back(d.str());
+    return r;
+}
+
+std::unique_ptr<Parsed> parseFile(const std::string& path) {
+    auto r = std::make_unique<Parsed>();
+    r->diag.setRecord(true);
+    r->diag.setSink([](const Diagnostic&) {});
+    Builder builder(r->sink, r->diag);
+    ri::Parser parser(builder, r->diag);
+    parser.parseFile(path);
     for (const auto& d : r->diag.recorded()) r->messages.push_back(d.str());
     return r;
 }
@@ -94,6 +108,34 @@ TEST(PolygonRun, AMalformedPolygonKeepsItsOwnRecordAndLocation) {
     ASSERT_EQ(prims.size(), 3u);
     EXPECT_EQ(prims[1].loc.str(), "run.rib:3:1");
     EXPECT_TRUE(prims[0].intArrays.empty());
+}
+
+TEST(PolygonRun, TextTheParserGaveBackLeavesLaterRequestsIntact) {
+    // Past 17 MB of text the parser gives parsed pages back; an inline
+    // archive recorded and read after that, and its message's column, must
+    // be as if it had not.
+    const std::string path =
+        (std::filesystem::temp_directory_path() / ("umbra-large-" + std::to_string(::getpid()) + ".rib")).string();
+    const int n = 250000;
+    {
+        std::ofstream f(path);
+        f << "WorldBegin\n";
+        for (int k = 0; k < n; ++k) f << quad(float(k % 1000));
+        f << "ArchiveBegin \"late\" Sphere 1 \"oops\"\nArchiveEnd\nReadArchive \"late\"\nSphere 2 -2 2 360\nWorldEnd\n";
+    }
+    ASSERT_GT(std::filesystem::file_size(path), size_t(17) << 20);
+    auto r = parseFile(path);
+    std::filesystem::remove(path);
+    EXPECT_EQ(r->messages, (std::vector<std::string>{
+                               path + ":" + std::to_string(n + 2) +
+                               ":21: error: Sphere: missing argument zmin (usage: Sphere radius zmin zmax thetamax)"}));
+    ASSERT_EQ(r->sink.worlds.size(), 1u);
+    const auto& prims = r->sink.worlds[0].primitives;
+    ASSERT_EQ(prims.size(), 2u);
+    ASSERT_EQ(prims[0].intArrays.at(0).size(), size_t(n));
+    const std::vector<float>& P = prims[0].params.find("P")->floats;
+    EXPECT_EQ(P[12 * (n - 1)], float((n - 1) % 1000));
+    EXPECT_EQ(prims[1].floatArgs.at(0), 2.0f);
 }
 
 }  // namespace

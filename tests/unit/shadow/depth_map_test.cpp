@@ -451,6 +451,33 @@ TEST(DepthMap, TruncatedOrCorruptMapsGiveACleanError) {
               "cannot open shadow map \"" + scratchFile("missing.exr") + "\": no such file");
 }
 
+TEST(DepthMap, AnAttributeClaimingMoreThanTheFileIsRejectedBeforeOpenEXRAllocatesIt) {
+    DepthImage img = sampleImage();
+    Diagnostics ok;
+    const std::string good = scratchFile("claims.exr");
+    ASSERT_TRUE(writeDepthMap(good, img, ok));
+    std::string bytes = readBytes(good);
+    // The first attribute: its name and type after the 8-byte magic and
+    // version, then its size (little-endian), here 2^31 - 1.
+    const size_t name = 8, type = bytes.find('\0', name) + 1, size = bytes.find('\0', type) + 1;
+    bytes.replace(size, 4, std::string("\xff\xff\xff\x7f", 4));
+    const std::string bad = scratchFile("claims_too_much.exr");
+    writeBytes(bad, bytes);
+    Diagnostics diag;
+    diag.setRecord(true);
+    diag.setPolicy(Diagnostics::Policy::Ignore);
+    EXPECT_FALSE(ShadowMap::open(bad, diag));
+    const std::string attribute = bytes.substr(name, type - name - 1);
+    ASSERT_EQ(diag.recorded().size(), 1u);
+    EXPECT_EQ(diag.recorded()[0].message,
+              "cannot open shadow map \"" + bad + "\": damaged OpenEXR header (attribute \"" + attribute +
+                  "\" claims 2147483647 bytes, the file has " + std::to_string(bytes.size() - size - 4) +
+                  " after it)");
+    DepthImage read;
+    EXPECT_FALSE(readDepthImage(bad, read, diag));
+    EXPECT_TRUE(ShadowMap::open(good, ok));
+}
+
 TEST(DepthMap, MapWithoutMatricesIsRejected) {
     // A plain tiled EXR written by OIIO carries no worldToCamera.
     const std::string path = scratchFile("nomatrix.exr");
