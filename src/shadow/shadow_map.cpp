@@ -347,9 +347,15 @@ bool ShadowMap::initHeader(const Imf::Header& header, int tilesX, int tilesY, st
     }
     if (auto* a = header.findTypedAttribute<Imf::FloatAttribute>(kAttrMinZ)) m_minZ = a->value();
     if (auto* a = header.findTypedAttribute<Imf::FloatAttribute>(kAttrMaxZ)) m_maxZ = a->value();
-    if (auto* a = header.findTypedAttribute<Imf::DoubleAttribute>(kAttrFiniteCount))
+    if (auto* a = header.findTypedAttribute<Imf::DoubleAttribute>(kAttrFiniteCount)) {
+        const double texels = std::max(0.0, double(m_dx1 - m_dx0 + 1) * double(m_dy1 - m_dy0 + 1));
+        if (!(a->value() >= 0 && a->value() <= texels)) {
+            why = fmt::format("{} is {}, not a count of the data window's {} texels", kAttrFiniteCount, a->value(),
+                              texels);
+            return false;
+        }
         m_finiteCount = int64_t(a->value());
-    else
+    } else
         m_finiteCount = int64_t(m_dx1 - m_dx0 + 1) * (m_dy1 - m_dy0 + 1);
     if (m_dx1 < m_dx0 || m_dy1 < m_dy0) m_finiteCount = 0;
     return true;

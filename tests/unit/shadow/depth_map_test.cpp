@@ -478,6 +478,30 @@ TEST(DepthMap, AnAttributeClaimingMoreThanTheFileIsRejectedBeforeOpenEXRAllocate
     EXPECT_TRUE(ShadowMap::open(good, ok));
 }
 
+TEST(DepthMap, AFiniteCountNoWindowHoldsIsRejected) {
+    // A damaged count (1e300 does not fit an integer) found by fuzz_maps.
+    DepthImage img = sampleImage();
+    Diagnostics ok;
+    const std::string good = scratchFile("count.exr");
+    ASSERT_TRUE(writeDepthMap(good, img, ok));
+    std::string bytes = readBytes(good);
+    const std::string attribute = std::string("umbra:finiteCount") + '\0' + "double" + '\0';
+    const size_t at = bytes.find(attribute);
+    ASSERT_NE(at, std::string::npos);
+    const double huge = 1e300;
+    bytes.replace(at + attribute.size() + 4, 8, std::string(reinterpret_cast<const char*>(&huge), 8));
+    const std::string bad = scratchFile("count_too_large.exr");
+    writeBytes(bad, bytes);
+    Diagnostics diag;
+    diag.setRecord(true);
+    diag.setPolicy(Diagnostics::Policy::Ignore);
+    EXPECT_FALSE(ShadowMap::open(bad, diag));
+    ASSERT_EQ(diag.recorded().size(), 1u);
+    EXPECT_NE(diag.recorded()[0].message.find("umbra:finiteCount is 1e+300, not a count of the data window's"),
+              std::string::npos)
+        << diag.recorded()[0].message;
+}
+
 TEST(DepthMap, MapWithoutMatricesIsRejected) {
     // A plain tiled EXR written by OIIO carries no worldToCamera.
     const std::string path = scratchFile("nomatrix.exr");
