@@ -258,8 +258,11 @@ public:
 private:
     /// False when the file OpenImageIO would open for `file` (as named,
     /// else in the search path) is an OpenEXR file whose headers claim more
-    /// than it holds: OpenEXR would allocate what they claim (see
-    /// util/exr_header.h). Checked once per name.
+    /// than it holds (OpenEXR would allocate what they claim, see
+    /// util/exr_header.h), or an untiled image of more than 2^24 channel
+    /// values: OpenImageIO reads those whole, at up to 32 bytes a value (a
+    /// 1.5 KB file of 393,232 x 16 RGBA pixels asked 805 MB, found by
+    /// fuzz_maps); MakeTexture makes tiled textures. Checked once per name.
     bool fits(const std::string& file) {
         std::lock_guard<std::mutex> lock(m_mutex);
         auto [it, fresh] = m_fits.try_emplace(file, true);
@@ -268,7 +271,14 @@ private:
             OIIO::Filesystem::searchpath_split(m_searchPath, dirs, true);
             const std::string found = OIIO::Filesystem::searchpath_find(file, dirs, true);
             std::string why;
-            it->second = found.empty() || exrHeadersFit(found, &why);
+            if (!found.empty() && !exrHeadersFit(found, &why)) {
+                it->second = false;
+            } else if (auto in = found.empty() ? nullptr : OIIO::ImageInput::open(found)) {
+                const OIIO::ImageSpec& spec = in->spec();
+                const uint64_t values = uint64_t(std::max(spec.width, 0)) * uint64_t(std::max(spec.height, 0)) *
+                                        uint64_t(std::max(spec.depth, 1)) * uint64_t(std::max(spec.nchannels, 0));
+                it->second = spec.tile_width > 0 || values <= (uint64_t(1) << 24);
+            }
         }
         return it->second;
     }
