@@ -3,7 +3,8 @@
 #  1. Release build, every unit/golden/corpus test (ctest);
 #  2. the same tests built with AddressSanitizer + UndefinedBehaviorSanitizer;
 #  3. the tile cache and scheduler tests under ThreadSanitizer;
-#  4. the RIB and shading-language fuzzers (libFuzzer) for a bounded time.
+#  4. the RIB, shading-language, render and map/texture fuzzers (libFuzzer)
+#     for a bounded time.
 # Set UMBRA_QUICK=1 to run step 1 only.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -59,6 +60,7 @@ for f in build-fuzz/bin/fuzz_*; do
     fuzz_rib) find scenes tests/rib_errors -name '*.rib' -size -64k -exec cp {} "$work"/ \; ;;
     fuzz_render) cp tests/fuzz/render_corpus/*.rib "$work"/ ;;
     fuzz_slc) cp shaders_dsl/*.sl tests/unit/shading/errors/*.sl "$work"/ ;;
+    fuzz_maps) cp tests/fuzz/maps_corpus/*.seed "$work"/ ;;
   esac
   log="$work.log"
   # The crash report (the input, the sanitizer's stack) must reach the CI

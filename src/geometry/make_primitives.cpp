@@ -103,9 +103,42 @@ std::shared_ptr<PolygonFaces> buildFaces(const scene::PrimitiveRecord& rec, cons
     return faces;
 }
 
+// One face per polygon of a run of Polygon requests (scene::PrimitiveRecord),
+// each made into the very primitives its own record would give.
+void makePolygonRun(const RecordPtr& rec, Diagnostics& diag, std::vector<PrimitivePtr>& out) {
+    const std::vector<int>& nverts = rec->intArrays[0];
+    auto faces = std::make_shared<PolygonFaces>();
+    faces->loopSize = nverts;
+    faces->faceLoopStart.resize(nverts.size() + 1);
+    std::iota(faces->faceLoopStart.begin(), faces->faceLoopStart.end(), 0);
+    faces->faceCornerStart.assign(1, 0);
+    for (int n : nverts) faces->faceCornerStart.push_back(faces->faceCornerStart.back() + n);
+    const long total = faces->faceCornerStart.back();
+    if (positionCount(*rec) != total) {
+        diag.error(rec->loc, "Polygon: the run's \"P\" has {} vertices, expected {}", positionCount(*rec), total);
+        return;
+    }
+    faces->vertices.resize(size_t(total));
+    std::iota(faces->vertices.begin(), faces->vertices.end(), 0);
+    ClassCounts counts;
+    counts.uniform = nverts.size();
+    counts.varying = counts.vertex = counts.faceVarying = size_t(total);
+    auto sd = readSurfaceData(*rec, counts, true, diag);
+    if (!sd) return;
+    std::shared_ptr<const PolygonFaces> shared = std::move(faces);
+    std::vector<PrimitivePtr> pieces;
+    for (int f = 0; f < shared->faceCount(); ++f) {
+        pieces.clear();
+        appendFacePieces(rec, sd, *shared, f, pieces);
+        if (pieces.size() == 1) out.push_back(std::move(pieces[0]));
+        else if (!pieces.empty()) out.push_back(std::make_unique<PolygonMesh>(rec, sd, shared, f, f + 1));
+    }
+}
+
 void makePolygons(const RecordPtr& rec, Diagnostics& diag, std::vector<PrimitivePtr>& out) {
     const std::string& t = rec->type;
     const auto& arrays = rec->intArrays;
+    if (t == "Polygon" && arrays.size() == 1) return makePolygonRun(rec, diag, out);
     std::shared_ptr<PolygonFaces> faces;
     long npoints = 0;
     if (t == "Polygon") {

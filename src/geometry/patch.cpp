@@ -63,17 +63,24 @@ BilinearPatch::BilinearPatch(std::shared_ptr<const scene::PrimitiveRecord> recor
                              std::shared_ptr<const SurfaceData> data, const CornerRefs& refs, const ParamRange& range,
                              const ParamMap& map)
     : Primitive(std::move(record)), m_data(std::move(data)), m_refs(refs), m_range(range), m_map(map) {
-    for (int c = 0; c < 4; ++c) m_data->position(size_t(refs.vertex[c]), m_corner[c]);
-    m_flatQuad = isFlatConvexQuad(m_corner);
+    float corner[4][4];
+    cornerPositions(corner);
+    m_flatQuad = isFlatConvexQuad(corner);
+}
+
+void BilinearPatch::cornerPositions(float corner[4][4]) const {
+    for (int c = 0; c < 4; ++c) m_data->position(size_t(m_refs.vertex[c]), corner[c]);
 }
 
 void BilinearPatch::evalPositions(const std::vector<float>& a, const std::vector<float>& b, Vec3* P) const {
     const int dim = m_data->posDim;
+    float corner[4][4];
+    cornerPositions(corner);
     for (float bv : b) {
         float L[4], R[4];
         for (int k = 0; k < 4; ++k) {
-            L[k] = m_corner[0][k] + bv * (m_corner[2][k] - m_corner[0][k]);
-            R[k] = m_corner[1][k] + bv * (m_corner[3][k] - m_corner[1][k]);
+            L[k] = corner[0][k] + bv * (corner[2][k] - corner[0][k]);
+            R[k] = corner[1][k] + bv * (corner[3][k] - corner[1][k]);
         }
         for (float av : a) {
             float h[4];

@@ -280,24 +280,34 @@ SchedulerStats BucketScheduler::render(const std::vector<geometry::PrimitivePtr>
     total.primitives = prims.size();
 
     // Top-level nodes and, per bucket, the nodes that cover it.
-    std::vector<std::unique_ptr<Node>> roots(prims.size());
+    // One array, not a node each: a scene of 10^6 polygons has 10^6 roots.
+    std::vector<Node> roots(prims.size());
+    std::vector<char> placed(prims.size());
     // In the caller's arena: the renderer's, which bounds the threads and
     // may run other passes beside this one.
     int threads = m_settings.threads > 0 ? m_settings.threads : tbb::this_task_arena::max_concurrency();
     tbb::parallel_for(size_t(0), prims.size(), [&](size_t i) {
-        auto node = std::make_unique<Node>();
-        node->prim = prims[i].get();
-        node->id = uint64_t(i) + 1;
-        if (frame.place(*node, nullptr)) roots[i] = std::move(node);
+        Node& node = roots[i];
+        node.prim = prims[i].get();
+        node.id = uint64_t(i) + 1;
+        placed[i] = frame.place(node, nullptr);
     });
     std::vector<std::vector<Node*>> perBucket(size_t(std::max(bucketCount, 0)));
-    for (auto& node : roots) {
-        if (!node) {
+    std::vector<size_t> perBucketCount(perBucket.size());
+    for (size_t i = 0; i < roots.size(); ++i) {
+        if (!placed[i]) continue;
+        for (int by = roots[i].by0; by <= roots[i].by1; ++by)
+            for (int bx = roots[i].bx0; bx <= roots[i].bx1; ++bx) ++perBucketCount[size_t(by * frame.bucketsX + bx)];
+    }
+    for (size_t b = 0; b < perBucket.size(); ++b) perBucket[b].reserve(perBucketCount[b]);
+    for (size_t i = 0; i < roots.size(); ++i) {
+        if (!placed[i]) {
             ++total.culled;
             continue;
         }
-        for (int by = node->by0; by <= node->by1; ++by)
-            for (int bx = node->bx0; bx <= node->bx1; ++bx) perBucket[size_t(by * frame.bucketsX + bx)].push_back(node.get());
+        Node& node = roots[i];
+        for (int by = node.by0; by <= node.by1; ++by)
+            for (int bx = node.bx0; bx <= node.bx1; ++bx) perBucket[size_t(by * frame.bucketsX + bx)].push_back(&node);
     }
 
     // Progress by work: each bucket's share from the raster area its

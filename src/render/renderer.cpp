@@ -533,7 +533,14 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
 
     std::vector<geometry::PrimitivePtr> prims;
     for (const auto& rec : world.primitives) {
-        auto made = geometry::makePrimitives(std::make_shared<const scene::PrimitiveRecord>(rec), diag, procedurals);
+        // Not owning: `world` outlives every primitive of this frame, and a
+        // copy of each record doubled the scene's memory.
+        const std::shared_ptr<const scene::PrimitiveRecord> borrowed(std::shared_ptr<void>(), &rec);
+        auto made = geometry::makePrimitives(borrowed, diag, procedurals);
+        if (prims.empty()) {
+            prims = std::move(made);  // a run of 10^6 polygons: not a second array
+            continue;
+        }
         for (auto& p : made) prims.push_back(std::move(p));
     }
 

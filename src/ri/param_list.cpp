@@ -92,6 +92,12 @@ const Param* ParamList::find(std::string_view name) const {
     return nullptr;
 }
 
+Param* ParamList::findMutable(std::string_view name) {
+    for (Param& p : m_params)
+        if (p.decl.name == name) return &p;
+    return nullptr;
+}
+
 float ParamList::getFloat(std::string_view name, float def) const {
     const Param* p = find(name);
     if (!p) return def;

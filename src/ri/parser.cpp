@@ -11,6 +11,8 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <sys/mman.h>
+#include <unistd.h>
 #include <unordered_map>
 
 namespace umbra::ri {
@@ -422,9 +424,9 @@ bool gunzip(std::string_view bytes, std::string* out, std::string* error) {
 class StreamParser {
 public:
     StreamParser(Parser& parser, std::string_view text, std::shared_ptr<const std::string> file,
-                 std::string directory, int depth, int firstLine = 1)
+                 std::string directory, int depth, int firstLine = 1, bool releasable = false)
         : m_parser(parser), m_text(text), m_lex(text, firstLine), m_file(std::move(file)),
-          m_directory(std::move(directory)), m_depth(depth) {}
+          m_directory(std::move(directory)), m_depth(depth), m_releasable(releasable) {}
 
     bool run() {
         Diagnostics& diag = m_parser.m_diag;
@@ -440,6 +442,7 @@ public:
                 reportStray();
                 continue;
             }
+            if (m_releasable && m_recordDepth == 0) releaseParsed(m_tok.offset);
             request();
         }
         if (m_recordDepth > 0)
@@ -1026,6 +1029,7 @@ private:
             m_recordLoc = where;
             m_recordStart = m_tok.offset;
             m_recordLine = m_tok.line;
+            m_recordColumn = m_tok.column;
         } else if (name == "ArchiveEnd") {
             m_parser.m_diag.error(where, "ArchiveEnd: no matching ArchiveBegin (ignored)");
         } else if (name == "IfBegin") {
@@ -1086,16 +1090,30 @@ private:
         return result;
     }
 
+    /// Gives the pages of text well before `offset` back to the system: a
+    /// RIB of 10^6 separate polygons is 77 MB of text, which the scene it
+    /// describes otherwise shares memory with while it renders. The lexer
+    /// never reads behind its token, and recording an inline archive stops
+    /// this (its text is copied at ArchiveEnd); the margin keeps the pages
+    /// of the current request.
+    void releaseParsed(size_t offset) {
+        constexpr size_t kStep = size_t(16) << 20, kMargin = size_t(1) << 20;
+        if (offset < m_released + kStep + kMargin) return;
+        const uintptr_t page = uintptr_t(sysconf(_SC_PAGESIZE));
+        const uintptr_t base = reinterpret_cast<uintptr_t>(m_text.data());
+        const uintptr_t begin = (base + m_released + page - 1) / page * page;
+        const uintptr_t end = (base + offset - kMargin) / page * page;
+        if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_DONTNEED);
+        m_released = offset - kMargin;
+    }
+
     /// ArchiveEnd at byte `endOffset` closes the recorded archive.
     void finishRecording(size_t endOffset) {
         if (m_recordName.empty()) return;
         Parser::InlineArchive a;
         // From the start of the body's line, columns before it blanked, so
         // messages on replay give the body's own lines and columns.
-        size_t lineStart = m_text.rfind('\n', m_recordStart == 0 ? 0 : m_recordStart - 1);
-        lineStart = lineStart == std::string_view::npos || m_recordStart == 0 ? 0 : lineStart + 1;
-        if (lineStart > m_recordStart) lineStart = m_recordStart;
-        a.text.assign(m_recordStart - lineStart, ' ');
+        a.text.assign(size_t(m_recordColumn - 1), ' ');
         a.text.append(m_text.substr(m_recordStart, endOffset - m_recordStart));
         a.file = m_file;
         a.firstLine = m_recordLine;
@@ -1118,6 +1136,9 @@ private:
     FileLoc m_recordLoc;
     size_t m_recordStart = 0;
     int m_recordLine = 1;
+    int m_recordColumn = 1;
+    bool m_releasable = false;
+    size_t m_released = 0;  // text before this offset may have been given back
 };
 
 Parser::Parser(Target& target, Diagnostics& diag) : m_target(target), m_diag(diag) {}
@@ -1128,7 +1149,7 @@ bool Parser::parseFile(const std::string& path) {
         m_diag.error(FileLoc::inFile(path), "RIB: cannot read file: {}", why);
         return false;
     }
-    return parseBytes(bytes, path, directoryOf(path), 0, nullptr);
+    return parseBytes(bytes, path, directoryOf(path), 0, nullptr, true);
 }
 
 bool Parser::parseString(std::string_view text, const std::string& name, const std::string& directory) {
@@ -1136,7 +1157,7 @@ bool Parser::parseString(std::string_view text, const std::string& name, const s
 }
 
 bool Parser::parseBytes(std::string_view bytes, const std::string& name, const std::string& directory, int depth,
-                        const FileLoc* includedFrom) {
+                        const FileLoc* includedFrom, bool owned) {
     auto file = std::make_shared<const std::string>(name);
     std::string inflated;
     if (isGzip(bytes)) {
@@ -1146,8 +1167,9 @@ bool Parser::parseBytes(std::string_view bytes, const std::string& name, const s
             return false;
         }
         bytes = inflated;
+        owned = true;
     }
-    StreamParser p(*this, bytes, std::move(file), directory, depth);
+    StreamParser p(*this, bytes, std::move(file), directory, depth, 1, owned);
     return p.run();
 }
 
@@ -1196,7 +1218,7 @@ bool Parser::readArchive(const std::string& name, const FileLoc& loc, const std:
         m_diag.error(loc, "ReadArchive: cannot read archive \"{}\": {}", name, why);
         return false;
     }
-    return parseBytes(bytes, display, directoryOf(found), depth + 1, &loc);
+    return parseBytes(bytes, display, directoryOf(found), depth + 1, &loc, true);
 }
 
 bool parseFile(const std::string& path, Target& target, Diagnostics& diag) {

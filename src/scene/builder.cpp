@@ -1,9 +1,11 @@
 #include "umbra/scene/builder.h"
+
 #include "umbra/util/frame_set.h"
 #include "umbra/util/search_path.h"
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 namespace umbra::scene {
 
@@ -354,7 +356,15 @@ void Builder::worldEnd(const FileLoc& loc) {
     m_lightHandles.clear();
     m_state = b.saved;
     m_objectHandle.clear();
-    if (world) m_sink.renderWorld(*world);
+    if (!world) return;
+    // A run's arrays grew by doubling; the render holds them as long as
+    // every primitive made from them.
+    for (PrimitiveRecord& r : world->primitives)
+        if (r.type == "Polygon" && !r.intArrays.empty()) {
+            r.intArrays[0].shrink_to_fit();
+            r.params.findMutable("P")->floats.shrink_to_fit();
+        }
+    m_sink.renderWorld(*world);
 }
 
 void Builder::attributeBegin(const FileLoc& loc) { push(Block::Attribute, loc); }
@@ -1568,7 +1578,49 @@ void Builder::emitPrimitive(PrimitiveRecord r) {
         return;
     }
     r.solid = solidLeaf(r.loc);
+    if (appendToPolygonRun(r)) return;
     m_world->primitives.push_back(std::move(r));
+}
+
+namespace {
+
+// The "P" of a Polygon record that can join a run: its only parameter, of
+// whole points, at least three; null otherwise.
+const ri::Param* runnablePolygonP(const PrimitiveRecord& r) {
+    if (r.type != "Polygon" || r.params.size() != 1 || !r.floatArgs.empty() || !r.intArgs.empty() ||
+        !r.stringArgs.empty() || !r.shapes.empty() || r.worldFromObjectMotion)
+        return nullptr;
+    const ri::Param& p = r.params.params()[0];
+    if (p.decl.name != "P" || p.decl.type != ri::ParamType::Point || p.decl.arraySize != 1 ||
+        p.floats.size() % 3 != 0 || p.floats.size() < 9)
+        return nullptr;
+    return &p;
+}
+
+bool sameDecl(const ri::ParamDecl& a, const ri::ParamDecl& b) {
+    return a.name == b.name && a.storage == b.storage && a.type == b.type && a.arraySize == b.arraySize &&
+           a.inferred == b.inferred;
+}
+
+}  // namespace
+
+bool Builder::appendToPolygonRun(PrimitiveRecord& r) {
+    // 10^6 separate Polygon requests as 10^6 records took 1.6 KB each (the
+    // record, its parameter list, the renderer's primitive); a run keeps
+    // 4 bytes and the positions per polygon. Bitwise-equal transforms
+    // only: the run's polygons must render exactly as separate records.
+    if (m_world->primitives.empty()) return false;
+    PrimitiveRecord& last = m_world->primitives.back();
+    const ri::Param* p = runnablePolygonP(r);
+    const ri::Param* lastP = p ? runnablePolygonP(last) : nullptr;
+    if (!lastP || last.attributes != r.attributes || last.solid != r.solid || !sameDecl(lastP->decl, p->decl) ||
+        std::memcmp(&last.worldFromObject, &r.worldFromObject, sizeof(Mat4)) != 0)
+        return false;
+    if (last.intArrays.empty()) last.intArrays.push_back({int(lastP->floats.size() / 3)});
+    last.intArrays[0].push_back(int(p->floats.size() / 3));
+    std::vector<float>& P = last.params.findMutable("P")->floats;
+    P.insert(P.end(), p->floats.begin(), p->floats.end());
+    return true;
 }
 
 void Builder::makeTexture(const std::string& picture, const std::string& texture, const std::string& swrap,

@@ -1,4 +1,5 @@
 #include "umbra/shadow/depth_image.h"
+#include "umbra/util/exr_header.h"
 #include "umbra/util/file.h"
 #include "umbra/util/lanes.h"
 
@@ -398,6 +399,10 @@ bool writeCubeDepthMap(const std::string& path, const std::array<DepthImage, 6>&
 }
 
 bool readDepthImage(const std::string& path, DepthImage& out, Diagnostics& diag, const FileLoc& loc) {
+    if (std::string why; !exrHeadersFit(path, &why)) {
+        diag.error(loc, "cannot read depth image \"{}\": {}", path, why);
+        return false;
+    }
     try {
         Imf::InputFile in(path.c_str());
         const Imf::Header& header = in.header();

@@ -1,5 +1,7 @@
 #include "umbra/shadow/shadow_map.h"
 
+#include "umbra/util/exr_header.h"
+
 #include "map_header.h"
 
 #include <ImfChannelList.h>
@@ -39,6 +41,37 @@ ShadowStats& ShadowStats::operator+=(const ShadowStats& o) {
 namespace {
 
 bool isPowerOfTwo(int v) { return v > 0 && (v & (v - 1)) == 0; }
+
+// The tiling a map must have. Checked before OpenEXR opens the part: it
+// allocates a tile's buffers, and its table of tile offsets, from the
+// header (a damaged tile size asked for 1.7 GB, found by fuzz_maps). The
+// table alone takes 8 bytes a tile of the file, which bounds the count.
+bool tiledLikeAMap(const Imf::Header& header, uint64_t fileBytes, std::string& why) {
+    if (!header.hasTileDescription()) {
+        why = "expected a tiled image (use MakeShadow to convert scanline images)";
+        return false;
+    }
+    const Imf::TileDescription& td = header.tileDescription();
+    if (td.mode != Imf::ONE_LEVEL) {
+        why = "expected a single-level (ONE_LEVEL) tiled image";
+        return false;
+    }
+    if (!isPowerOfTwo(int(td.xSize)) || !isPowerOfTwo(int(td.ySize)) || td.xSize < 4 || td.xSize > 1024 ||
+        td.ySize < 4 || td.ySize > 1024) {
+        why = fmt::format("unsupported tile size {}x{} (expected powers of two from 4 to 1024)", td.xSize, td.ySize);
+        return false;
+    }
+    const Imath::Box2i data = header.dataWindow();
+    const uint64_t tiles = (uint64_t(int64_t(data.max.x) - data.min.x + 1) / td.xSize + 1) *
+                           (uint64_t(int64_t(data.max.y) - data.min.y + 1) / td.ySize + 1);
+    if (data.max.x < data.min.x || data.max.y < data.min.y || tiles > fileBytes / 8) {
+        why = fmt::format("the data window [{} {}] x [{} {}] needs more tiles than the file's {} bytes can hold",
+                          data.min.x, data.max.x, data.min.y, data.max.y, fileBytes);
+        return false;
+    }
+    return true;
+}
+
 int log2i(int v) {
     int s = 0;
     while ((1 << s) < v) ++s;
@@ -117,6 +150,7 @@ std::shared_ptr<ShadowMap> ShadowMap::open(const std::string& path, Diagnostics&
     std::error_code ec;
     if (!std::filesystem::is_regular_file(path, ec)) return fail("no such file");
     const uint64_t fileBytes = std::filesystem::file_size(path, ec);
+    if (std::string why; !exrHeadersFit(path, &why)) return fail(why);
     if (!cache) cache = TileCache::shared();
     std::shared_ptr<ShadowMap> map(new ShadowMap());
     try {
@@ -132,6 +166,8 @@ std::shared_ptr<ShadowMap> ShadowMap::open(const std::string& path, Diagnostics&
         for (int p = 0; p < parts; ++p) {
             std::shared_ptr<ShadowMap> face = part(map, parts, p, path, diag, cache, file);
             face->m_fileBytes = fileBytes;
+            if (std::string why; !tiledLikeAMap(file->input->header(p), fileBytes, why))
+                return fail(parts == 1 ? why : fmt::format("face {}: {}", p, why));
             Imf::TiledInputPart input(*file->input, p);
             std::string why;
             if (!face->initHeader(input.header(), input.numXTiles(), input.numYTiles(), why) || !face->openPart(why))
@@ -268,20 +304,7 @@ bool ShadowMap::openPart(std::string& why) const {
 }
 
 bool ShadowMap::initHeader(const Imf::Header& header, int tilesX, int tilesY, std::string& why) {
-    if (!header.hasTileDescription()) {
-        why = "expected a tiled image (use MakeShadow to convert scanline images)";
-        return false;
-    }
     const Imf::TileDescription& td = header.tileDescription();
-    if (td.mode != Imf::ONE_LEVEL) {
-        why = "expected a single-level (ONE_LEVEL) tiled image";
-        return false;
-    }
-    if (!isPowerOfTwo(int(td.xSize)) || !isPowerOfTwo(int(td.ySize)) || td.xSize < 4 || td.xSize > 1024 ||
-        td.ySize < 4 || td.ySize > 1024) {
-        why = fmt::format("unsupported tile size {}x{} (expected powers of two from 4 to 1024)", td.xSize, td.ySize);
-        return false;
-    }
     const Imf::Channel* z = header.channels().findChannel("Z");
     if (!z || z->type != Imf::FLOAT || z->xSampling != 1 || z->ySampling != 1) {
         why = "expected a full-resolution FLOAT channel \"Z\"";
@@ -344,9 +367,15 @@ bool ShadowMap::initHeader(const Imf::Header& header, int tilesX, int tilesY, st
     }
     if (auto* a = header.findTypedAttribute<Imf::FloatAttribute>(kAttrMinZ)) m_minZ = a->value();
     if (auto* a = header.findTypedAttribute<Imf::FloatAttribute>(kAttrMaxZ)) m_maxZ = a->value();
-    if (auto* a = header.findTypedAttribute<Imf::DoubleAttribute>(kAttrFiniteCount))
+    if (auto* a = header.findTypedAttribute<Imf::DoubleAttribute>(kAttrFiniteCount)) {
+        const double texels = std::max(0.0, double(m_dx1 - m_dx0 + 1) * double(m_dy1 - m_dy0 + 1));
+        if (!(a->value() >= 0 && a->value() <= texels)) {
+            why = fmt::format("{} is {}, not a count of the data window's {} texels", kAttrFiniteCount, a->value(),
+                              texels);
+            return false;
+        }
         m_finiteCount = int64_t(a->value());
-    else
+    } else
         m_finiteCount = int64_t(m_dx1 - m_dx0 + 1) * (m_dy1 - m_dy0 + 1);
     if (m_dx1 < m_dx0 || m_dy1 < m_dy0) m_finiteCount = 0;
     return true;

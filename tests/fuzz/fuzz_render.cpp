@@ -53,6 +53,15 @@ public:
             return p.type == "Procedural" && !p.stringArgs.empty() && p.stringArgs[0] != "DelayedReadArchive";
         });
         if (w.primitives.size() > 32) w.primitives.resize(32);
+        for (scene::PrimitiveRecord& p : w.primitives)
+            if (p.type == "Polygon" && p.intArrays.size() == 1 && p.intArrays[0].size() > 32) {
+                // A run of Polygons (scene.h) counts as its polygons.
+                std::vector<int>& nverts = p.intArrays[0];
+                nverts.resize(32);
+                size_t points = 0;
+                for (int n : nverts) points += size_t(n);
+                p.params.findMutable("P")->floats.resize(3 * points);
+            }
         if (w.lights.size() > 4) w.lights.resize(4);
         std::map<const scene::Attributes*, std::shared_ptr<const scene::Attributes>> coarse;
         for (scene::PrimitiveRecord& p : w.primitives) {

@@ -34,12 +34,14 @@ public:
 
 private:
     void evalPositions(const std::vector<float>& a, const std::vector<float>& b, Vec3* P) const;
+    /// The homogeneous corner positions, read from the shared data rather
+    /// than kept: a scene of 10^6 polygons holds 10^6 patches at once.
+    void cornerPositions(float corner[4][4]) const;
 
     std::shared_ptr<const SurfaceData> m_data;
     CornerRefs m_refs;
     ParamRange m_range;
     ParamMap m_map;
-    float m_corner[4][4];  // homogeneous corner positions
     bool m_flatQuad = false;
 };
 

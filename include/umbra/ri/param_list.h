@@ -74,6 +74,9 @@ public:
 
     /// The parameter called `name`, or nullptr; marks it used.
     const Param* find(std::string_view name) const;
+    /// The parameter called `name` for changing its values, or nullptr;
+    /// does not mark it used.
+    Param* findMutable(std::string_view name);
     /// Typed single-value lookups with a default; mark the parameter used.
     float getFloat(std::string_view name, float def) const;
     int getInt(std::string_view name, int def) const;

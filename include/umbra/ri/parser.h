@@ -49,8 +49,10 @@ private:
         std::string directory;                    // for ReadArchive requests inside it
     };
 
+    /// `owned`: the parser's own copy of the bytes (a file it read), whose
+    /// pages it may give back to the system once parsed.
     bool parseBytes(std::string_view bytes, const std::string& name, const std::string& directory, int depth,
-                    const FileLoc* includedFrom);
+                    const FileLoc* includedFrom, bool owned = false);
     bool readArchive(const std::string& name, const FileLoc& loc, const std::string& directory, int depth);
 
     Target& m_target;

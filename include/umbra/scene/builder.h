@@ -243,6 +243,10 @@ private:
     bool boundValid(const ri::RequestArgs& args, const FileLoc& loc);
     /// Adds a finished primitive record to the world or the object being defined.
     void emitPrimitive(PrimitiveRecord r);
+    /// Appends a plain Polygon to the world's last record when that is a
+    /// Polygon (or a run of them) with the same attributes and transform;
+    /// false (nothing changed) otherwise. See PrimitiveRecord.
+    bool appendToPolygonRun(PrimitiveRecord& r);
     bool currentIsLeft(const Mat4& transform) const;
     void push(Block kind, const FileLoc& loc);
     /// Pops the innermost block of `kind`; reports and returns false when it

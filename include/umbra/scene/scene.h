@@ -129,7 +129,12 @@ struct PrimitiveRecord {
     std::vector<int> intArgs;              // e.g. PointsPolygons nverts then verts
     std::vector<std::string> stringArgs;   // e.g. Patch "bicubic", PatchMesh "periodic"
     /// Array arguments in the order they appeared, for requests with more
-    /// than one (PointsGeneralPolygons: nloops, nverts, verts).
+    /// than one (PointsGeneralPolygons: nloops, nverts, verts). A "Polygon"
+    /// record with one array is a run of consecutive Polygon requests
+    /// (only "P", the same attributes and transform) the builder merged:
+    /// the array holds each polygon's vertex count, "P" their points one
+    /// polygon after another, `loc` is the first's. It renders exactly as
+    /// the separate records would.
     std::vector<std::vector<int>> intArrays;
     ri::ParamList params;
     /// The transform at the shutter's opening (all of it unless moving).

@@ -52,6 +52,9 @@ public:
     /// textureinfo(): a string answer, or `count` numbers (int data converted).
     virtual bool textureInfoString(const std::string& file, const std::string& what, std::string* out) = 0;
     virtual bool textureInfoFloats(const std::string& file, const std::string& what, int count, float* out) = 0;
+    /// Forgets what was read of `file` (its header and tiles), so the next
+    /// lookup reads it again: for a file rewritten in place.
+    virtual void invalidate(const std::string& file) = 0;
     /// Writes a tiled, mip-mapped texture OpenImageIO can read; false with
     /// the reason in `error`.
     virtual bool makeTexture(const MakeTextureRequest& request, std::string* error) = 0;

@@ -2,6 +2,7 @@
 // ImageBufAlgo::make_texture for MakeTexture and friends.
 
 #include "umbra/shading/texture_backend.h"
+#include "umbra/util/exr_header.h"
 
 #include <Imath/ImathVec.h>
 #include <OpenImageIO/imagebuf.h>
@@ -17,6 +18,7 @@
 #include <mutex>
 #include <cctype>
 #include <sstream>
+#include <unordered_map>
 
 namespace {
 
@@ -151,25 +153,36 @@ public:
     void setSearchPath(const std::string& dirs) override {
         std::lock_guard<std::mutex> lock(m_mutex);
         m_ts->attribute("searchpath", dirs);
+        m_searchPath = dirs;
+        m_fits.clear();
     }
     bool texture(const std::string& file, const TextureOptions& o, float s, float t, float dsdx, float dtdx,
                  float dsdy, float dtdy, int nchannels, float* result) override {
+        if (!fits(file)) return false;
         OIIO::TextureOpt opt = toOiio(o);
         return m_ts->texture(OIIO::ustring(file), opt, s, t, dsdx, dtdx, dsdy, dtdy, nchannels, result);
     }
     bool environment(const std::string& file, const TextureOptions& o, const Vec3& R, const Vec3& dRdx,
                      const Vec3& dRdy, int nchannels, float* result) override {
+        if (!fits(file)) return false;
         OIIO::TextureOpt opt = toOiio(o);
         return m_ts->environment(OIIO::ustring(file), opt, Imath::V3f(R.x, R.y, R.z), Imath::V3f(dRdx.x, dRdx.y, dRdx.z),
                                  Imath::V3f(dRdy.x, dRdy.y, dRdy.z), nchannels, result);
     }
+    void invalidate(const std::string& file) override {
+        m_ts->invalidate(OIIO::ustring(file), true);
+        std::lock_guard<std::mutex> lock(m_mutex);
+        m_fits.erase(file);
+    }
     bool textureInfoString(const std::string& file, const std::string& what, std::string* out) override {
+        if (!fits(file)) return false;
         OIIO::ustring s;
         if (!m_ts->get_texture_info(OIIO::ustring(file), 0, OIIO::ustring(what), OIIO::TypeDesc::STRING, &s)) return false;
         *out = s.string();
         return true;
     }
     bool textureInfoFloats(const std::string& file, const std::string& what, int count, float* out) override {
+        if (!fits(file)) return false;
         OIIO::TypeDesc tf(OIIO::TypeDesc::FLOAT, count > 1 ? count : 0);
         if (m_ts->get_texture_info(OIIO::ustring(file), 0, OIIO::ustring(what), tf, out)) return true;
         std::vector<int> iv(size_t(std::max(count, 1)));
@@ -243,8 +256,37 @@ public:
     }
 
 private:
-    std::mutex m_mutex;
+    /// False when the file OpenImageIO would open for `file` (as named,
+    /// else in the search path) is an OpenEXR file whose headers claim more
+    /// than it holds (OpenEXR would allocate what they claim, see
+    /// util/exr_header.h), or an untiled image of more than 2^24 channel
+    /// values: OpenImageIO reads those whole, at up to 32 bytes a value (a
+    /// 1.5 KB file of 393,232 x 16 RGBA pixels asked 805 MB, found by
+    /// fuzz_maps); MakeTexture makes tiled textures. Checked once per name.
+    bool fits(const std::string& file) {
+        std::lock_guard<std::mutex> lock(m_mutex);
+        auto [it, fresh] = m_fits.try_emplace(file, true);
+        if (fresh) {
+            std::vector<std::string> dirs;
+            OIIO::Filesystem::searchpath_split(m_searchPath, dirs, true);
+            const std::string found = OIIO::Filesystem::searchpath_find(file, dirs, true);
+            std::string why;
+            if (!found.empty() && !exrHeadersFit(found, &why)) {
+                it->second = false;
+            } else if (auto in = found.empty() ? nullptr : OIIO::ImageInput::open(found)) {
+                const OIIO::ImageSpec& spec = in->spec();
+                const uint64_t values = uint64_t(std::max(spec.width, 0)) * uint64_t(std::max(spec.height, 0)) *
+                                        uint64_t(std::max(spec.depth, 1)) * uint64_t(std::max(spec.nchannels, 0));
+                it->second = spec.tile_width > 0 || values <= (uint64_t(1) << 24);
+            }
+        }
+        return it->second;
+    }
+
+    std::mutex m_mutex;  // guards the search path and m_fits
     OIIO::TextureSystem* m_ts;
+    std::string m_searchPath;
+    std::unordered_map<std::string, bool> m_fits;
 };
 
 }  // namespace

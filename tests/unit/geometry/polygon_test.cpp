@@ -200,3 +200,72 @@ TEST(PointsGeneralPolygons, FaceWithHoleAndPlainTriangle) {
     auto pieces = splitToDiceable(makeAll(rec));
     EXPECT_NEAR(totalArea(pieces, 2), 9 - 1 + 0.5, 1e-5);
 }
+
+namespace {
+
+// Every piece, split down to diceable ones in the same order, diced 3 x 2.
+std::vector<Grid> dicedPieces(std::vector<PrimitivePtr> prims) {
+    std::vector<Grid> grids;
+    for (auto& top : prims) {
+        std::vector<PrimitivePtr> one;
+        one.push_back(std::move(top));
+        for (const auto& p : splitToDiceable(std::move(one))) grids.push_back(p->dice(3, 2));
+    }
+    return grids;
+}
+
+}  // namespace
+
+TEST(PolygonRun, DicesExactlyAsItsPolygonsAsSeparateRecords) {
+    // A triangle, a convex quad, a convex pentagon, a concave hexagon and a
+    // degenerate (zero-area) quad, as the builder would merge them.
+    const std::vector<std::vector<float>> polygons = {
+        {0, 0, 0, 1, 0, 0, 0, 1, 0},
+        {2, 0, 0, 3, 0, 0.5f, 3, 1, 0, 2, 1, 0.25f},
+        {4, 0, 0, 5, 0, 0, 5.5f, 0.5f, 0, 5, 1, 0, 4, 1, 0},
+        {6, 0, 0, 8, 0, 0, 8, 2, 0, 7.5f, 2, 0, 7.5f, 0.5f, 0, 6, 0.5f, 0},
+        {9, 0, 0, 9, 0, 0, 9, 0, 0, 9, 0, 0},
+    };
+    std::vector<PrimitivePtr> separate;
+    std::vector<float> all;
+    std::vector<int> nverts;
+    for (const auto& xyz : polygons) {
+        for (auto& p : makeAll(record("Polygon", {}, {pointParam(xyz)}))) separate.push_back(std::move(p));
+        all.insert(all.end(), xyz.begin(), xyz.end());
+        nverts.push_back(int(xyz.size() / 3));
+    }
+    auto run = record("Polygon", {}, {pointParam(all)});
+    run->intArrays = {nverts};
+    std::vector<PrimitivePtr> merged = makeAll(run);
+    ASSERT_EQ(merged.size(), separate.size());
+    for (size_t k = 0; k < merged.size(); ++k) {
+        EXPECT_EQ(merged[k]->diceable(), separate[k]->diceable()) << k;
+        EXPECT_EQ(merged[k]->bound().min, separate[k]->bound().min) << k;
+        EXPECT_EQ(merged[k]->bound().max, separate[k]->bound().max) << k;
+    }
+    const std::vector<Grid> a = dicedPieces(std::move(merged)), b = dicedPieces(std::move(separate));
+    ASSERT_EQ(a.size(), b.size());
+    ASSERT_GE(a.size(), 7u);
+    for (size_t k = 0; k < a.size(); ++k) {
+        EXPECT_EQ(a[k].P, b[k].P) << k;
+        EXPECT_EQ(a[k].N, b[k].N) << k;
+        EXPECT_EQ(a[k].u, b[k].u) << k;
+        EXPECT_EQ(a[k].v, b[k].v) << k;
+        ASSERT_EQ(a[k].vars.size(), b[k].vars.size()) << k;
+        for (size_t i = 0; i < a[k].vars.size(); ++i) {
+            EXPECT_EQ(a[k].vars[i].name, b[k].vars[i].name);
+            EXPECT_EQ(a[k].vars[i].data, b[k].vars[i].data) << k << " " << a[k].vars[i].name;
+        }
+    }
+}
+
+TEST(PolygonRun, PointCountDisagreeingWithTheCountsIsReported) {
+    auto run = record("Polygon", {}, {pointParam({0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0})});
+    run->intArrays = {{3, 3}};
+    Diagnostics diag;
+    diag.setRecord(true);
+    diag.setSink([](const Diagnostic&) {});
+    EXPECT_TRUE(makeAll(run, &diag).empty());
+    ASSERT_EQ(diag.recorded().size(), 1u);
+    EXPECT_NE(diag.recorded()[0].str().find("test.rib:3:1"), std::string::npos) << diag.recorded()[0].str();
+}

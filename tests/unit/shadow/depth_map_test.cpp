@@ -451,6 +451,108 @@ TEST(DepthMap, TruncatedOrCorruptMapsGiveACleanError) {
               "cannot open shadow map \"" + scratchFile("missing.exr") + "\": no such file");
 }
 
+TEST(DepthMap, AnAttributeClaimingMoreThanTheFileIsRejectedBeforeOpenEXRAllocatesIt) {
+    DepthImage img = sampleImage();
+    Diagnostics ok;
+    const std::string good = scratchFile("claims.exr");
+    ASSERT_TRUE(writeDepthMap(good, img, ok));
+    std::string bytes = readBytes(good);
+    // The first attribute: its name and type after the 8-byte magic and
+    // version, then its size (little-endian), here 2^31 - 1.
+    const size_t name = 8, type = bytes.find('\0', name) + 1, size = bytes.find('\0', type) + 1;
+    bytes.replace(size, 4, std::string("\xff\xff\xff\x7f", 4));
+    const std::string bad = scratchFile("claims_too_much.exr");
+    writeBytes(bad, bytes);
+    Diagnostics diag;
+    diag.setRecord(true);
+    diag.setPolicy(Diagnostics::Policy::Ignore);
+    EXPECT_FALSE(ShadowMap::open(bad, diag));
+    const std::string attribute = bytes.substr(name, type - name - 1);
+    ASSERT_EQ(diag.recorded().size(), 1u);
+    EXPECT_EQ(diag.recorded()[0].message,
+              "cannot open shadow map \"" + bad + "\": damaged OpenEXR header (attribute \"" + attribute +
+                  "\" claims 2147483647 bytes, the file has " + std::to_string(bytes.size() - size - 4) +
+                  " after it)");
+    DepthImage read;
+    EXPECT_FALSE(readDepthImage(bad, read, diag));
+    EXPECT_TRUE(ShadowMap::open(good, ok));
+}
+
+TEST(DepthMap, HugeTilesAreRejectedBeforeOpenEXRAllocatesThem) {
+    // Tiles of 65536^2 pixels: OpenEXR would allocate a 16 GB buffer.
+    DepthImage img = sampleImage();
+    Diagnostics ok;
+    const std::string good = scratchFile("tiles.exr");
+    ASSERT_TRUE(writeDepthMap(good, img, ok));
+    std::string bytes = readBytes(good);
+    const std::string attribute = std::string("tiles") + '\0' + "tiledesc" + '\0';
+    const size_t at = bytes.find(attribute);
+    ASSERT_NE(at, std::string::npos);
+    bytes.replace(at + attribute.size() + 4, 8, std::string("\0\0\1\0\0\0\1\0", 8));
+    const std::string bad = scratchFile("tiles_too_large.exr");
+    writeBytes(bad, bytes);
+    Diagnostics diag;
+    diag.setRecord(true);
+    diag.setPolicy(Diagnostics::Policy::Ignore);
+    EXPECT_FALSE(ShadowMap::open(bad, diag));
+    ASSERT_EQ(diag.recorded().size(), 1u);
+    EXPECT_EQ(diag.recorded()[0].message, "cannot open shadow map \"" + bad +
+                                              "\": OpenEXR chunks of 4294967296 pixels of 4 bytes (at most 256 MB "
+                                              "a chunk are read)");
+}
+
+TEST(DepthMap, AValueOpenEXRWouldReadPastItsSizeIsRejected) {
+    // umbra:tileMinZ one byte shorter than its floats: OpenEXR reads whole
+    // floats and takes the rest of the header out of step (fuzz_maps).
+    DepthImage img = sampleImage();
+    Diagnostics ok;
+    const std::string good = scratchFile("vector.exr");
+    ASSERT_TRUE(writeDepthMap(good, img, ok));
+    std::string bytes = readBytes(good);
+    const std::string attribute = std::string("umbra:tileMinZ") + '\0' + "floatvector" + '\0';
+    const size_t at = bytes.find(attribute) + attribute.size();
+    ASSERT_NE(at, std::string::npos + attribute.size());
+    const uint32_t size = uint8_t(bytes[at]) | uint32_t(uint8_t(bytes[at + 1])) << 8;
+    ASSERT_EQ(size % 4, 0u);
+    ASSERT_TRUE(size >= 4 && size < 256);  // 6 tiles: the size is its low byte
+    bytes[at] = char(size - 1);
+    const std::string bad = scratchFile("vector_short.exr");
+    writeBytes(bad, bytes);
+    Diagnostics diag;
+    diag.setRecord(true);
+    diag.setPolicy(Diagnostics::Policy::Ignore);
+    EXPECT_FALSE(ShadowMap::open(bad, diag));
+    ASSERT_EQ(diag.recorded().size(), 1u);
+    EXPECT_EQ(diag.recorded()[0].message, "cannot open shadow map \"" + bad +
+                                              "\": damaged OpenEXR header (attribute \"umbra:tileMinZ\" of type "
+                                              "\"floatvector\" does not fit its size, " +
+                                              std::to_string(size - 1) + ")");
+}
+
+TEST(DepthMap, AFiniteCountNoWindowHoldsIsRejected) {
+    // A damaged count (1e300 does not fit an integer) found by fuzz_maps.
+    DepthImage img = sampleImage();
+    Diagnostics ok;
+    const std::string good = scratchFile("count.exr");
+    ASSERT_TRUE(writeDepthMap(good, img, ok));
+    std::string bytes = readBytes(good);
+    const std::string attribute = std::string("umbra:finiteCount") + '\0' + "double" + '\0';
+    const size_t at = bytes.find(attribute);
+    ASSERT_NE(at, std::string::npos);
+    const double huge = 1e300;
+    bytes.replace(at + attribute.size() + 4, 8, std::string(reinterpret_cast<const char*>(&huge), 8));
+    const std::string bad = scratchFile("count_too_large.exr");
+    writeBytes(bad, bytes);
+    Diagnostics diag;
+    diag.setRecord(true);
+    diag.setPolicy(Diagnostics::Policy::Ignore);
+    EXPECT_FALSE(ShadowMap::open(bad, diag));
+    ASSERT_EQ(diag.recorded().size(), 1u);
+    EXPECT_NE(diag.recorded()[0].message.find("umbra:finiteCount is 1e+300, not a count of the data window's"),
+              std::string::npos)
+        << diag.recorded()[0].message;
+}
+
 TEST(DepthMap, MapWithoutMatricesIsRejected) {
     // A plain tiled EXR written by OIIO carries no worldToCamera.
     const std::string path = scratchFile("nomatrix.exr");
