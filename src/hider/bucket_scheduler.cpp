@@ -316,8 +316,8 @@ SchedulerStats BucketScheduler::render(const std::vector<geometry::PrimitivePtr>
     if (m_settings.progress) {
         std::vector<Bound3> bounds;
         bounds.reserve(roots.size());
-        for (const auto& node : roots)
-            if (node) bounds.push_back(node->bound);
+        for (size_t i = 0; i < roots.size(); ++i)
+            if (placed[i]) bounds.push_back(roots[i].bound);
         const BucketLayout layout{film.x0(), film.y0(), film.x1(), film.y1(), bw, bh};
         const double emptyPixelWork = m_settings.sampling.mode == HiderMode::Depth ? 0.0 : kEmptyPixelWorkColour;
         work.emplace(estimateBucketWork(layout, bounds, emptyPixelWork));
