@@ -331,30 +331,6 @@ std::string joinPath(const std::string& dir, const std::string& name) {
     return dir + "/" + name;
 }
 
-bool readWholeFile(const std::string& path, std::string* out, std::string* error) {
-    std::FILE* f = std::fopen(path.c_str(), "rb");
-    if (!f) {
-        *error = std::strerror(errno);
-        return false;
-    }
-    out->clear();
-    constexpr size_t kChunk = 1 << 20;
-    for (;;) {
-        size_t old = out->size();
-        out->resize(old + kChunk);
-        size_t got = std::fread(out->data() + old, 1, kChunk, f);
-        out->resize(old + got);
-        if (got < kChunk) break;
-    }
-    bool bad = std::ferror(f) != 0;
-    std::fclose(f);
-    if (bad) {
-        *error = "read error";
-        return false;
-    }
-    return true;
-}
-
 bool isRegularFile(const std::string& path) {
     std::error_code ec;
     return std::filesystem::is_regular_file(path, ec);
@@ -362,66 +338,149 @@ bool isRegularFile(const std::string& path) {
 
 }  // namespace
 
-bool gunzip(std::string_view bytes, std::string* out, std::string* error) {
-    z_stream zs{};
-    // 15 + 32: a zlib or gzip header, detected automatically.
-    if (inflateInit2(&zs, 15 + 32) != Z_OK) {
-        *error = "cannot initialise zlib";
-        return false;
+namespace {
+
+/// A file read in chunks; its first bytes can be looked at before.
+class FileSource final : public ByteSource {
+public:
+    explicit FileSource(std::FILE* f) : m_file(f) {}
+    ~FileSource() override { std::fclose(m_file); }
+    FileSource(const FileSource&) = delete;
+    FileSource& operator=(const FileSource&) = delete;
+
+    /// True when the file starts with the gzip magic number.
+    bool startsWithGzip() {
+        char magic[2];
+        m_peeked.assign(magic, std::fread(magic, 1, 2, m_file));
+        return isGzip(m_peeked);
     }
-    out->clear();
-    zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(bytes.data()));
-    zs.avail_in = static_cast<uInt>(std::min<size_t>(bytes.size(), UINT_MAX));
-    size_t fed = zs.avail_in;
-    constexpr size_t kMaxOutput = size_t(1) << 32;
-    bool ok = true;
-    for (;;) {
-        if (out->size() >= kMaxOutput) {
-            *error = "decompressed data is larger than 4 GiB";
-            ok = false;
-            break;
-        }
-        size_t old = out->size();
-        size_t grow = std::max<size_t>(1 << 16, std::min<size_t>(old, 64 << 20));
-        out->resize(old + grow);
-        zs.next_out = reinterpret_cast<Bytef*>(out->data() + old);
-        zs.avail_out = static_cast<uInt>(grow);
-        int rc = inflate(&zs, Z_NO_FLUSH);
-        out->resize(old + grow - zs.avail_out);
-        if (zs.avail_in == 0 && fed < bytes.size()) {
-            size_t more = std::min<size_t>(bytes.size() - fed, UINT_MAX);
-            zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(bytes.data() + fed));
-            zs.avail_in = static_cast<uInt>(more);
-            fed += more;
-        }
-        if (rc == Z_STREAM_END) {
-            // Concatenated gzip members decompress to the concatenated data.
-            if (zs.avail_in >= 2 && isGzip(std::string_view(reinterpret_cast<const char*>(zs.next_in), zs.avail_in))) {
-                inflateReset(&zs);
-                continue;
+    size_t read(char* dst, size_t capacity, std::string* error) override {
+        size_t got = std::min(m_peeked.size(), capacity);
+        std::memcpy(dst, m_peeked.data(), got);
+        m_peeked.erase(0, got);
+        got += std::fread(dst + got, 1, capacity - got, m_file);
+        if (got == 0 && std::ferror(m_file)) *error = "cannot read the file: read error";
+        return got;
+    }
+
+private:
+    std::FILE* m_file;
+    std::string m_peeked;
+};
+
+/// Bytes already in memory (gzip data handed to Parser::parseString).
+class MemorySource final : public ByteSource {
+public:
+    explicit MemorySource(std::string_view bytes) : m_bytes(bytes) {}
+    size_t read(char* dst, size_t capacity, std::string*) override {
+        const size_t got = std::min(capacity, m_bytes.size());
+        std::memcpy(dst, m_bytes.data(), got);
+        m_bytes.remove_prefix(got);
+        return got;
+    }
+
+private:
+    std::string_view m_bytes;
+};
+
+/// Inflates gzip data (one or more members) as it is read, within the
+/// target's budget of decompressed bytes: a few MB of gzip can expand to
+/// terabytes, and only the parse state, never the whole text, is kept.
+class GzipSource final : public ByteSource {
+public:
+    GzipSource(ByteSource& compressed, const Target& target) : m_in(compressed), m_target(target) {
+        // 15 + 32: a zlib or gzip header, detected automatically.
+        m_ok = inflateInit2(&m_zs, 15 + 32) == Z_OK;
+        m_buffer.resize(Lexer::kChunkBytes);
+    }
+    ~GzipSource() override {
+        if (m_ok) inflateEnd(&m_zs);
+    }
+    GzipSource(const GzipSource&) = delete;
+    GzipSource& operator=(const GzipSource&) = delete;
+
+    size_t read(char* dst, size_t capacity, std::string* error) override {
+        if (m_done) return 0;
+        if (!m_ok) return fail(error, "cannot decompress: cannot initialise zlib");
+        // One byte past the budget tells "exactly the budget" from "more".
+        const uint64_t budget = m_target.decompressedByteBudget();
+        const uint64_t room = budget >= m_produced ? budget - m_produced + 1 : 1;
+        const uInt want = static_cast<uInt>(std::min<uint64_t>({capacity, room, UINT_MAX}));
+        m_zs.next_out = reinterpret_cast<Bytef*>(dst);
+        m_zs.avail_out = want;
+        while (m_zs.avail_out == want) {
+            if (m_zs.avail_in == 0 && !moreInput(1, error)) {
+                if (!error->empty()) return fail(error, *error);
+                if (m_midMember) return fail(error, "cannot decompress: gzip data is truncated");
+                m_done = true;
+                break;
             }
-            break;
+            m_midMember = true;
+            const int rc = inflate(&m_zs, Z_NO_FLUSH);
+            if (rc == Z_STREAM_END) {
+                m_midMember = false;
+                // Concatenated gzip members decompress to the concatenated
+                // data; anything else after a member is ignored.
+                moreInput(2, error);
+                if (!error->empty()) return fail(error, *error);
+                if (m_zs.avail_in >= 2 &&
+                    isGzip(std::string_view(reinterpret_cast<const char*>(m_zs.next_in), m_zs.avail_in))) {
+                    inflateReset(&m_zs);
+                    continue;
+                }
+                m_done = true;
+                break;
+            }
+            if (rc == Z_OK || (rc == Z_BUF_ERROR && m_zs.avail_in == 0)) continue;
+            return fail(error, fmt::format("cannot decompress: gzip data is corrupt ({})",
+                                           m_zs.msg ? m_zs.msg : "inflate failed"));
         }
-        if (rc == Z_OK) continue;
-        if (rc == Z_BUF_ERROR && zs.avail_in == 0) {
-            *error = "gzip data is truncated";
-        } else {
-            *error = fmt::format("gzip data is corrupt ({})", zs.msg ? zs.msg : "inflate failed");
-        }
-        ok = false;
-        break;
+        const size_t got = want - m_zs.avail_out;
+        m_produced += got;
+        if (m_produced > budget)
+            return fail(error, fmt::format("the decompressed RIB is larger than {} MiB (Option \"limits\" "
+                                           "\"decompressedmb\"); the rest of it is not read", budget >> 20));
+        return got;
     }
-    inflateEnd(&zs);
-    return ok;
-}
+
+private:
+    size_t fail(std::string* error, std::string message) {
+        *error = std::move(message);
+        m_done = true;
+        return 0;
+    }
+    /// Tops the compressed input up to `need` bytes where the file has them.
+    /// False at the end of the compressed data (or a read failure).
+    bool moreInput(size_t need, std::string* error) {
+        while (m_zs.avail_in < need && !m_inEnd) {
+            std::memmove(m_buffer.data(), m_zs.next_in ? m_zs.next_in : reinterpret_cast<Bytef*>(m_buffer.data()),
+                         m_zs.avail_in);
+            const size_t got = m_in.read(m_buffer.data() + m_zs.avail_in, m_buffer.size() - m_zs.avail_in, error);
+            m_inEnd = got == 0;
+            m_zs.next_in = reinterpret_cast<Bytef*>(m_buffer.data());
+            m_zs.avail_in += static_cast<uInt>(got);
+        }
+        return m_zs.avail_in >= need;
+    }
+
+    ByteSource& m_in;
+    const Target& m_target;
+    z_stream m_zs{};
+    std::string m_buffer;  // compressed bytes not yet inflated
+    uint64_t m_produced = 0;
+    bool m_ok = false, m_inEnd = false, m_done = false;
+    bool m_midMember = false;  // inside a member: its end is still due
+};
+
+}  // namespace
 
 /// Parses one stream (a file, a string or an archive) into the parser's
 /// target.
 class StreamParser {
 public:
-    StreamParser(Parser& parser, std::string_view text, std::shared_ptr<const std::string> file,
-                 std::string directory, int depth, int firstLine = 1)
-        : m_parser(parser), m_text(text), m_lex(text, firstLine), m_file(std::move(file)),
+    StreamParser(Parser& parser, Lexer& lexer, std::shared_ptr<const std::string> file, std::string directory,
+                 int depth)
+        : m_parser(parser), m_lex(lexer), m_file(std::move(file)),
           m_directory(std::move(directory)), m_depth(depth) {}
 
     bool run() {
@@ -459,15 +518,25 @@ private:
         m_parser.m_diag.error(loc(line, column), "{}: {}", request, fmt::format(f, std::forward<Args>(args)...));
     }
 
+    // A malformed token inside `request`. Input that cannot be read on is
+    // the file's fault, not the request's, and is reported even while an
+    // inline archive is being recorded.
+    void tokenError(std::string_view request) {
+        if (m_tok.inputFailed)
+            m_parser.m_diag.error(loc(m_tok.line, m_tok.column), "RIB: {}", m_tok.text);
+        else
+            error(m_tok.line, m_tok.column, request, "{}", m_tok.text);
+    }
+
     // Values outside any request: report once, then skip to the next name.
     void reportStray() {
         if (m_tok.kind == TokenKind::Error)
-            error(m_tok.line, m_tok.column, "RIB", "{}", m_tok.text);
+            tokenError("RIB");
         else
             error(m_tok.line, m_tok.column, "RIB", "expected a request name, got {}", tokenText());
         advance();
         while (m_tok.kind != TokenKind::Name && m_tok.kind != TokenKind::End) {
-            if (m_tok.kind == TokenKind::Error) error(m_tok.line, m_tok.column, "RIB", "{}", m_tok.text);
+            if (m_tok.kind == TokenKind::Error) tokenError("RIB");
             advance();
         }
     }
@@ -565,7 +634,7 @@ private:
                 advance();
                 break;
             case TokenKind::Error:
-                error(m_tok.line, m_tok.column, request, "{}", m_tok.text);
+                tokenError(request);
                 ok = false;
                 advance();
                 break;
@@ -607,7 +676,7 @@ private:
                 advance();
                 break;
             case TokenKind::Error:
-                error(m_tok.line, m_tok.column, request, "{}", m_tok.text);
+                tokenError(request);
                 ok = false;
                 advance();
                 break;
@@ -1022,8 +1091,9 @@ private:
             // The body starts at the next token (or the end).
             m_recordDepth = 1;
             m_recordLoc = where;
-            m_recordStart = m_tok.offset;
             m_recordLine = m_tok.line;
+            m_recordColumn = m_tok.column;
+            m_lex.beginCapture(m_tok.offset);
         } else if (name == "ArchiveEnd") {
             m_parser.m_diag.error(where, "ArchiveEnd: no matching ArchiveBegin (ignored)");
         } else if (name == "IfBegin") {
@@ -1086,15 +1156,13 @@ private:
 
     /// ArchiveEnd at byte `endOffset` closes the recorded archive.
     void finishRecording(size_t endOffset) {
+        std::string body = m_lex.endCapture(endOffset);
         if (m_recordName.empty()) return;
         Parser::InlineArchive a;
-        // From the start of the body's line, columns before it blanked, so
-        // messages on replay give the body's own lines and columns.
-        size_t lineStart = m_text.rfind('\n', m_recordStart == 0 ? 0 : m_recordStart - 1);
-        lineStart = lineStart == std::string_view::npos || m_recordStart == 0 ? 0 : lineStart + 1;
-        if (lineStart > m_recordStart) lineStart = m_recordStart;
-        a.text.assign(m_recordStart - lineStart, ' ');
-        a.text.append(m_text.substr(m_recordStart, endOffset - m_recordStart));
+        // Columns before the body's first token blanked, so messages on
+        // replay give the body's own lines and columns.
+        a.text.assign(size_t(m_recordColumn - 1), ' ');
+        a.text.append(body);
         a.file = m_file;
         a.firstLine = m_recordLine;
         a.directory = m_directory;
@@ -1102,8 +1170,7 @@ private:
     }
 
     Parser& m_parser;
-    std::string_view m_text;
-    Lexer m_lex;
+    Lexer& m_lex;
     Token m_tok;
     std::shared_ptr<const std::string> m_file;
     std::string m_directory;
@@ -1114,38 +1181,43 @@ private:
     int m_recordDepth = 0;  // > 0 while recording: ArchiveBegin nesting
     std::string m_recordName;
     FileLoc m_recordLoc;
-    size_t m_recordStart = 0;
-    int m_recordLine = 1;
+    int m_recordLine = 1, m_recordColumn = 1;
 };
 
 Parser::Parser(Target& target, Diagnostics& diag) : m_target(target), m_diag(diag) {}
 
 bool Parser::parseFile(const std::string& path) {
-    std::string bytes, why;
-    if (!readWholeFile(path, &bytes, &why)) {
-        m_diag.error(FileLoc::inFile(path), "RIB: cannot read file: {}", why);
+    std::FILE* f = std::fopen(path.c_str(), "rb");
+    if (!f) {
+        m_diag.error(FileLoc::inFile(path), "RIB: cannot read file: {}", std::strerror(errno));
         return false;
     }
-    return parseBytes(bytes, path, directoryOf(path), 0, nullptr);
+    FileSource source(f);
+    return parseStream(source, source.startsWithGzip(), path, directoryOf(path), 0);
 }
 
 bool Parser::parseString(std::string_view text, const std::string& name, const std::string& directory) {
-    return parseBytes(text, name, directory.empty() ? directoryOf(name) : directory, 0, nullptr);
+    const std::string dir = directory.empty() ? directoryOf(name) : directory;
+    if (isGzip(text)) {
+        MemorySource source(text);
+        return parseStream(source, true, name, dir, 0);
+    }
+    Lexer lexer(text);
+    StreamParser p(*this, lexer, std::make_shared<const std::string>(name), dir, 0);
+    return p.run();
 }
 
-bool Parser::parseBytes(std::string_view bytes, const std::string& name, const std::string& directory, int depth,
-                        const FileLoc* includedFrom) {
+bool Parser::parseStream(ByteSource& source, bool gzip, const std::string& name, const std::string& directory,
+                         int depth) {
     auto file = std::make_shared<const std::string>(name);
-    std::string inflated;
-    if (isGzip(bytes)) {
-        std::string why;
-        if (!gunzip(bytes, &inflated, &why)) {
-            m_diag.error(FileLoc(file, 0, 0), "RIB: cannot decompress: {}", why);
-            return false;
-        }
-        bytes = inflated;
+    if (!gzip) {
+        Lexer lexer(source);
+        StreamParser p(*this, lexer, std::move(file), directory, depth);
+        return p.run();
     }
-    StreamParser p(*this, bytes, std::move(file), directory, depth);
+    GzipSource inflated(source, m_target);
+    Lexer lexer(inflated);
+    StreamParser p(*this, lexer, std::move(file), directory, depth);
     return p.run();
 }
 
@@ -1159,7 +1231,8 @@ bool Parser::readArchive(const std::string& name, const FileLoc& loc, const std:
     if (auto it = m_inlineArchives.find(name); it != m_inlineArchives.end()) {
         if (!m_target.readArchive(name, loc)) return false;
         const InlineArchive a = it->second;  // a copy: the body may redefine it
-        StreamParser p(*this, a.text, a.file, a.directory, depth + 1, a.firstLine);
+        Lexer lexer(a.text, a.firstLine);
+        StreamParser p(*this, lexer, a.file, a.directory, depth + 1);
         return p.run();
     }
     // Candidates: an absolute name as is; otherwise beside the including
@@ -1189,12 +1262,13 @@ bool Parser::readArchive(const std::string& name, const FileLoc& loc, const std:
         return false;
     }
     if (!m_target.readArchive(found, loc)) return false;
-    std::string bytes, why;
-    if (!readWholeFile(found, &bytes, &why)) {
-        m_diag.error(loc, "ReadArchive: cannot read archive \"{}\": {}", name, why);
+    std::FILE* f = std::fopen(found.c_str(), "rb");
+    if (!f) {
+        m_diag.error(loc, "ReadArchive: cannot read archive \"{}\": {}", name, std::strerror(errno));
         return false;
     }
-    return parseBytes(bytes, display, directoryOf(found), depth + 1, &loc);
+    FileSource source(f);
+    return parseStream(source, source.startsWithGzip(), display, directoryOf(found), depth + 1);
 }
 
 bool parseFile(const std::string& path, Target& target, Diagnostics& diag) {
