@@ -100,7 +100,7 @@ Token Lexer::next() {
         while (pos < n) {
             const char c = s[pos];
             if (c == '\n') {
-                ++m_line;
+                m_line += m_line < INT_MAX;  // saturates: 4 GiB of newlines is more lines than an int counts
                 m_lineStart = m_base + pos + 1;
             } else if (!isSpace(static_cast<unsigned char>(c))) {
                 break;
@@ -153,10 +153,10 @@ Token Lexer::next() {
         }
         return makeError(t.line, t.column, "unexpected binary data (only ASCII RIB is supported)");
     }
-    return lexWord(t);
+    return lexWord(t.line, t.column);
 }
 
-Token Lexer::lexWord(Token t) {
+Token Lexer::lexWord(int line, int column) {
     size_t start = m_pos;
     for (;;) {
         const char* s = m_s;
@@ -177,15 +177,19 @@ Token Lexer::lexWord(Token t) {
             while (m_pos < m_n && !endsWord(static_cast<unsigned char>(m_s[m_pos]))) ++m_pos;
             if (m_pos < m_n || !refill(m_pos)) break;
         }
-        return makeError(t.line, t.column, fmt::format("word longer than {} MiB", kMaxTokenBytes >> 20));
+        return makeError(line, column, fmt::format("word longer than {} MiB", kMaxTokenBytes >> 20));
     }
     // The input failed inside the word: report that rather than half a word.
-    if (m_pos == m_n && !m_sourceError.empty()) return inputError(t.line, t.column);
+    if (m_pos == m_n && !m_sourceError.empty()) return inputError(line, column);
     const char c = m_s[start];
     std::string_view word(m_s + start, m_pos - start);
+    Token t;
+    t.line = line;
+    t.column = column;
+    t.offset = m_base + start;
     bool numeric = (c >= '0' && c <= '9') || c == '+' || c == '-' || c == '.';
     if (!numeric) {
-        if (isNonFiniteName(word)) return makeError(t.line, t.column, notFinite(word));
+        if (isNonFiniteName(word)) return makeError(line, column, notFinite(word));
         t.kind = TokenKind::Name;
         t.text = word;
         return t;
@@ -196,7 +200,7 @@ Token Lexer::lexWord(Token t) {
     const char* end = digits.data() + digits.size();
     auto res = std::from_chars(digits.data(), end, v, std::chars_format::general);
     if (digits.empty() || res.ptr != end || (res.ec != std::errc() && res.ec != std::errc::result_out_of_range))
-        return makeError(t.line, t.column, fmt::format("bad number \"{}\"", word));
+        return makeError(line, column, fmt::format("bad number \"{}\"", word));
     if (res.ec == std::errc::result_out_of_range) {
         // Too small for a double is zero; too large is an error below.
         size_t e = digits.find_first_of("eE");
@@ -204,11 +208,11 @@ Token Lexer::lexWord(Token t) {
         v = underflow ? 0.0 : kInfinityD;
     }
     if (std::isnan(v) || (std::isinf(v) && res.ec == std::errc()))
-        return makeError(t.line, t.column, notFinite(word));
+        return makeError(line, column, notFinite(word));
     // Every value ends up in a 32-bit float (or int): beyond FLT_MAX it
     // would silently become infinity.
     if (!(std::fabs(v) <= double(FLT_MAX)))
-        return makeError(t.line, t.column,
+        return makeError(line, column,
                          fmt::format("number out of range \"{}\" (expected a magnitude of at most 3.4e38, the "
                                      "largest 32-bit float)", word));
     bool integral = word.find_first_of(".eE") == std::string_view::npos;
@@ -272,7 +276,7 @@ Token Lexer::lexString(int line, int column) {
             }
             m_scratch.push_back(ch);
             ++m_pos;
-            ++m_line;
+            m_line += m_line < INT_MAX;
             m_lineStart = m_base + m_pos;
             continue;
         }
@@ -302,12 +306,12 @@ Token Lexer::lexString(int line, int column) {
         case '\r':
             // Line continuation with CR LF.
             if (m_pos < n && s[m_pos] == '\n') ++m_pos;
-            ++m_line;
+            m_line += m_line < INT_MAX;
             m_lineStart = m_base + m_pos;
             break;
         case '\n':
             // Line continuation: the backslash and newline vanish.
-            ++m_line;
+            m_line += m_line < INT_MAX;
             m_lineStart = m_base + m_pos;
             break;
         default:

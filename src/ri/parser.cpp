@@ -402,6 +402,10 @@ public:
     size_t read(char* dst, size_t capacity, std::string* error) override {
         if (m_done) return 0;
         if (!m_ok) return fail(error, "cannot decompress: cannot initialise zlib");
+        if (m_overBudget)
+            return fail(error, fmt::format("the decompressed RIB is larger than {} MiB (Option \"limits\" "
+                                           "\"decompressedmb\"); the rest of it is not read",
+                                           m_target.decompressedByteBudget() >> 20));
         // One byte past the budget tells "exactly the budget" from "more".
         const uint64_t budget = m_target.decompressedByteBudget();
         const uint64_t room = budget >= m_produced ? budget - m_produced + 1 : 1;
@@ -435,11 +439,16 @@ public:
             return fail(error, fmt::format("cannot decompress: gzip data is corrupt ({})",
                                            m_zs.msg ? m_zs.msg : "inflate failed"));
         }
-        const size_t got = want - m_zs.avail_out;
+        size_t got = want - m_zs.avail_out;
         m_produced += got;
-        if (m_produced > budget)
-            return fail(error, fmt::format("the decompressed RIB is larger than {} MiB (Option \"limits\" "
-                                           "\"decompressedmb\"); the rest of it is not read", budget >> 20));
+        if (m_produced > budget) {
+            // The bytes within the budget are read; the next read fails, so
+            // the error stands exactly where the budget ran out.
+            got -= m_produced - budget;
+            m_produced = budget;
+            m_overBudget = true;
+            if (got == 0) return read(dst, capacity, error);
+        }
         return got;
     }
 
@@ -470,6 +479,7 @@ private:
     uint64_t m_produced = 0;
     bool m_ok = false, m_inEnd = false, m_done = false;
     bool m_midMember = false;  // inside a member: its end is still due
+    bool m_overBudget = false;
 };
 
 }  // namespace

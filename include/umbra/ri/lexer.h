@@ -3,6 +3,7 @@
 // ASCII RIB only. Tokens are request names, numbers, strings and the array
 // brackets; `#` comments (including `##` structure comments) are skipped.
 
+#include <climits>
 #include <cstddef>
 #include <string>
 #include <string_view>
@@ -80,13 +81,18 @@ private:
     Token makeError(int line, int column, std::string message);
     Token inputError(int line, int column);
     Token lexString(int line, int column);
-    Token lexWord(Token t);
+    Token lexWord(int line, int column);
     /// Streaming: drops the buffer before index `keep` (the start of the
     /// token being read) and appends the next chunk. False at the end of
     /// the input, on a read failure, or when the kept token would exceed
     /// kMaxTokenBytes (m_overlong). Indices into the buffer shift by `keep`.
     bool refill(size_t keep);
-    int columnAt(size_t index) const { return static_cast<int>(m_base + index - m_lineStart) + 1; }
+    /// 1-based column of buffer index `index`; 0 (unknown: messages give
+    /// the line alone) on a line longer than an int counts.
+    int columnAt(size_t index) const {
+        const size_t column = m_base + index - m_lineStart + 1;
+        return column <= size_t(INT_MAX) ? static_cast<int>(column) : 0;
+    }
 
     const char* m_s = nullptr;  // the bytes held: [0, m_n)
     size_t m_n = 0;
