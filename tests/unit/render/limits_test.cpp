@@ -436,3 +436,34 @@ TEST(GzipBomb, PastTheDecompressedBudgetStopsWithALocatedError) {
         << run.messages;
     EXPECT_FALSE(std::filesystem::exists(dir.file("out.exr")));
 }
+
+TEST(LargePolygon, AHundredThousandVerticesRenderAsTheSameShapeWrittenAsTriangles) {
+    // A star of 10^5 vertices (radii alternating 1 and 0.6) as one Polygon,
+    // triangulated by the renderer's sweep, against the same star written
+    // plainly as a fan of triangles about its centre. Ear clipping took
+    // over a minute for this polygon.
+    const int n = 100000;
+    std::string points, fanPoints = "0 0 0 ", fanSizes, fanIndices;
+    for (int k = 0; k < n; ++k) {
+        const double a = 2 * M_PI * k / n, r = k % 2 ? 0.6 : 1.0;
+        const std::string p = fmt::format("{} {} 0 ", r * std::cos(a), r * std::sin(a));
+        points += p;
+        fanPoints += p;
+        fanSizes += "3 ";
+        fanIndices += fmt::format("0 {} {} ", k + 1, (k + 1) % n + 1);
+    }
+    ScratchDir dir("large-polygon");
+    const ChildRun one = renderInChild(dir, "star.rib", frame(dir.file("star.exr"), "",
+                                                              "Polygon \"P\" [" + points + "]"));
+    ASSERT_TRUE(one.exited) << one.describe();
+    EXPECT_EQ(one.status, 0) << one.describe();
+    EXPECT_FALSE(contains(one.messages, "warning")) << one.messages;
+    const ChildRun fan = renderInChild(
+        dir, "fan.rib",
+        frame(dir.file("fan.exr"), "",
+              fmt::format("PointsPolygons [{}] [{}] \"P\" [{}]", fanSizes, fanIndices, fanPoints)));
+    ASSERT_TRUE(fan.exited) << fan.describe();
+    const double star = coverage(dir.file("star.exr")), reference = coverage(dir.file("fan.exr"));
+    EXPECT_GT(reference, 200.0);
+    EXPECT_NEAR(star, reference, 0.002 * reference);
+}
