@@ -473,8 +473,19 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
 
     std::vector<geometry::PrimitivePtr> prims;
     for (const auto& rec : world.primitives) {
-        auto made = geometry::makePrimitives(std::make_shared<const scene::PrimitiveRecord>(rec), diag);
-        for (auto& p : made) prims.push_back(std::move(p));
+        try {
+            auto made = geometry::makePrimitives(std::make_shared<const scene::PrimitiveRecord>(rec), diag);
+            for (auto& p : made) prims.push_back(std::move(p));
+        } catch (const OutOfMemory&) {
+            throw;
+        } catch (const std::bad_alloc&) {
+            // Its copy, topology and primitive variables are about twice its values.
+            uint64_t values = rec.floatArgs.size() + rec.intArgs.size();
+            for (const auto& a : rec.intArrays) values += a.size();
+            for (const ri::Param& p : rec.params.params()) values += p.floats.size() + p.ints.size();
+            throw OutOfMemory(rec.loc, fmt::format("the {} primitive's records ({} values)", rec.type, values),
+                              2 * 4 * values);
+        }
     }
 
     prepareAttributes(prims, frame);
@@ -740,7 +751,11 @@ LightMap Renderer::Impl::makeLightMap(FrameState& frame, LightMapJob& job,
     // One depth pass: rendered, recorded in the statistics, reduced to a map image.
     auto render = [&](Pass& pass) {
         float crop[4] = {0, 1, 0, 1};
-        film::Film film(job.size, job.size, crop, *film::PixelFilter::create("box", 1, 1), {}, depthFilmOf(options, filter));
+        const film::FilmContent content = depthFilmOf(options, filter);
+        film::Film film = allocating(
+            job.loc, film::Film::bytesFor(job.size, job.size, crop, {}, content),
+            fmt::format("the {0}x{0} film of the light's depth pass \"{1}\"", job.size, pass.name),
+            [&] { return film::Film(job.size, job.size, crop, *film::PixelFilter::create("box", 1, 1), {}, content); });
         PassResult r = runPass(frame, pass, prims, film, fmt::format("depth map {}", pass.name));
         made.passes.push_back({{"name", pass.name},
                                {"wall_seconds", r.wall},

@@ -507,7 +507,14 @@ public:
                 reportStray();
                 continue;
             }
-            request();
+            const int line = m_tok.line, column = m_tok.column;
+            try {
+                request();
+            } catch (const OutOfMemory&) {
+                throw;
+            } catch (const std::bad_alloc&) {
+                throw OutOfMemory(loc(line, column), fmt::format("the values of a {} request", m_request), valueBytes());
+            }
         }
         if (m_recordDepth > 0)
             diag.error(m_recordLoc, "ArchiveBegin: no matching ArchiveEnd before the end of {} (archive \"{}\" "
@@ -562,9 +569,20 @@ private:
         }
     }
 
+    /// Bytes the values read so far take (for an out-of-memory message).
+    uint64_t valueBytes() const {
+        uint64_t bytes = 0;
+        for (const Value& v : m_values) {
+            bytes += sizeof(Value) + v.str.size() + v.nums.size() * sizeof(double);
+            for (const std::string& s : v.strs) bytes += sizeof(std::string) + s.size();
+        }
+        return bytes;
+    }
+
     // request: Name value* ; value: number | string | '[' number* ']' | '[' string* ']'
     void request() {
         std::string name(m_tok.text);
+        m_request = name;
         int line = m_tok.line, column = m_tok.column;
         const size_t offset = m_tok.offset;
         advance();
@@ -1181,6 +1199,7 @@ private:
 
     Parser& m_parser;
     Lexer& m_lex;
+    std::string m_request;  // the request being read
     Token m_tok;
     std::shared_ptr<const std::string> m_file;
     std::string m_directory;

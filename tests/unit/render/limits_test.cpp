@@ -467,3 +467,38 @@ TEST(LargePolygon, AHundredThousandVerticesRenderAsTheSameShapeWrittenAsTriangle
     EXPECT_GT(reference, 200.0);
     EXPECT_NEAR(star, reference, 0.002 * reference);
 }
+
+TEST(OutOfMemory, NamesWhatWasBeingAllocatedAndForWhichRequest) {
+    // A 60000 x 60000 film (72 GB) under a 1 GiB address space: the error
+    // names the film, its size and the frame's WorldBegin.
+    ScratchDir dir("out-of-memory");
+    const ChildRun film = renderInChild(dir, "film.rib", R"(Display "big.exr" "openexr" "rgba"
+Format 60000 60000 1
+PixelSamples 4 4
+Projection "perspective" "fov" 40
+Translate 0 0 5
+WorldBegin
+Sphere 1 -1 1 360
+WorldEnd
+)");
+    ASSERT_TRUE(film.exited) << film.describe();
+    EXPECT_EQ(film.status, 1) << film.describe();
+    EXPECT_TRUE(contains(film.messages, dir.file("film.rib") + ":6:1: error: out of memory allocating the 60000x60000 "
+                                        "film with 16 samples per pixel (72000000000 bytes)"))
+        << film.messages;
+    EXPECT_FALSE(std::filesystem::exists(dir.file("big.exr")));
+
+    // 1.5 x 10^8 numbers in one Polygon (300 MB of text from 0.3 MB of
+    // gzip): parsed as doubles they outgrow the address space while the
+    // parser reads them, and the error names the request.
+    const std::string path = dir.file("values.rib.gz");
+    std::string zeros;
+    for (size_t k = 0; k < (size_t(1) << 19); ++k) zeros += "0 ";
+    writeGzipBomb(path, "WorldBegin\nPolygon \"P\" [", zeros, 300, "]\nWorldEnd\n");
+    const ChildRun values = runInChild(path);
+    ASSERT_TRUE(values.exited) << values.describe();
+    EXPECT_EQ(values.status, 1) << values.describe();
+    EXPECT_TRUE(contains(values.messages, path + ":2:1: error: out of memory allocating the values of a Polygon "
+                                          "request ("))
+        << values.messages;
+}
