@@ -336,11 +336,8 @@ bool isRegularFile(const std::string& path) {
     return std::filesystem::is_regular_file(path, ec);
 }
 
-}  // namespace
-
-namespace {
-
-/// A file read in chunks; its first bytes can be looked at before.
+/// A file read in chunks; its first two bytes can be looked at first (is
+/// it gzip?) and are then read again.
 class FileSource final : public ByteSource {
 public:
     explicit FileSource(std::FILE* f) : m_file(f) {}
@@ -1189,7 +1186,7 @@ private:
         Parser::InlineArchive a;
         // Columns before the body's first token blanked, so messages on
         // replay give the body's own lines and columns.
-        a.text.assign(size_t(m_recordColumn - 1), ' ');
+        a.text.assign(size_t(std::max(m_recordColumn - 1, 0)), ' ');  // 0: a column past INT_MAX
         a.text.append(body);
         a.file = m_file;
         a.firstLine = m_recordLine;
