@@ -259,9 +259,7 @@ Token Lexer::lexString(int line, int column) {
     int lineAtNewline = 0;
     for (;;) {
         // Escapes look at most three bytes past the backslash.
-        if (m_n - m_pos < 4 && !m_overlong) {
-            const size_t keep = sawNewline ? firstNewline - m_base : m_pos;
-            refill(keep);
+        while (m_n - m_pos < 4 && !m_overlong && refill(sawNewline ? firstNewline - m_base : m_pos)) {
         }
         if (m_pos >= m_n || m_scratch.size() >= kMaxTokenBytes) break;
         const char* s = m_s;

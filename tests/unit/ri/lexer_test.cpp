@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -183,6 +184,21 @@ TEST(Lexer, StreamingGivesTheSameTokensWhereverTheReadsEnd) {
     TrickleSource source(text);
     Lexer streamed(source);
     EXPECT_EQ(lexAll(streamed), lexAll(text));
+}
+
+TEST(Lexer, StreamingMatchesInMemoryOnRandomText) {
+    // 3000 strings over RIB's awkward characters (quotes, escapes,
+    // comments, brackets, number-like words, binary bytes), fixed seed.
+    const std::string alphabet = " \n\r\t\"\\#[]0123456789.eE+-naifSphere\x81\x01";
+    std::mt19937 rng(3);
+    std::uniform_int_distribution<size_t> pick(0, alphabet.size() - 1), length(0, 120);
+    for (int round = 0; round < 3000; ++round) {
+        std::string text(length(rng), ' ');
+        for (char& c : text) c = alphabet[pick(rng)];
+        TrickleSource source(text);
+        Lexer streamed(source);
+        ASSERT_EQ(lexAll(streamed), lexAll(text)) << "text: " << text;
+    }
 }
 
 TEST(Lexer, CaptureKeepsTheRawTextAcrossReads) {
