@@ -132,6 +132,10 @@ int main(int argc, char** argv) {
         if (*slc) return umbra::apps::compileShaders(slcFiles, slcIncludes, listing, diag);
         if (*info) return umbra::apps::describeMap(mapPath, json, diag);
         if (*txmake) return umbra::apps::txmake(tx, diag);
+    } catch (const umbra::OutOfMemory& e) {
+        // What was being allocated, for which request: the render stops
+        // here, its outputs unwritten.
+        diag.error(e.loc(), "{}; nothing was written for this frame", e.what());
     } catch (const std::bad_alloc&) {
         fmt::print(stderr, "umbra: out of memory: the frame needs more memory than this machine has "
                            "(check Format, PixelSamples and shadowmapsize)\n");

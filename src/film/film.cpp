@@ -266,6 +266,15 @@ Film::Film(int xResolution, int yResolution, const float cropWindow[4], PixelFil
     m_aov.resize(n * size_t(m_aovFloats));
 }
 
+uint64_t Film::bytesFor(int xResolution, int yResolution, const float cropWindow[4],
+                        const std::vector<AovChannel>& aovs, FilmContent content) {
+    int x0, x1, y0, y1;
+    cropPixels(xResolution, yResolution, cropWindow, &x0, &x1, &y0, &y1);
+    uint64_t floats = 1 + (content == FilmContent::Colour ? 4 : 0) + (content == FilmContent::DepthPair ? 1 : 0);
+    for (const AovChannel& a : aovs) floats += uint64_t(std::max(a.components, 0));
+    return uint64_t(std::max(x1 - x0, 0)) * uint64_t(std::max(y1 - y0, 0)) * floats * sizeof(float);
+}
+
 Film Film::fromOptions(const scene::Options& o, std::vector<AovChannel> aovs, FilmContent content,
                        Diagnostics& diag) {
     std::optional<PixelFilter> f = PixelFilter::create(o.pixelFilter, o.filterWidth[0], o.filterWidth[1]);
@@ -276,7 +285,11 @@ Film Film::fromOptions(const scene::Options& o, std::vector<AovChannel> aovs, Fi
                    o.pixelFilter, o.filterWidth[0], o.filterWidth[1]);
         f = PixelFilter(FilterKind::Gaussian, 2, 2);
     }
-    return Film(o.xResolution, o.yResolution, o.cropWindow, *f, std::move(aovs), content);
+    const uint64_t bytes = bytesFor(o.xResolution, o.yResolution, o.cropWindow, aovs, content);
+    const std::string what = fmt::format("the {}x{} film with {} samples per pixel", o.xResolution, o.yResolution,
+                                         o.pixelSamples[0] * o.pixelSamples[1]);
+    return allocating(o.loc, bytes, what,
+                      [&] { return Film(o.xResolution, o.yResolution, o.cropWindow, *f, std::move(aovs), content); });
 }
 
 int Film::findAov(const std::string& name) const {

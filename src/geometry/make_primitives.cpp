@@ -183,7 +183,7 @@ void makePolygons(const RecordPtr& rec, Diagnostics& diag, std::vector<Primitive
         // Triangles and convex quads are diceable at once; anything else
         // stays a one-face mesh until the REYES loop splits it.
         std::vector<PrimitivePtr> pieces;
-        appendFacePieces(rec, sd, *faces, 0, pieces);
+        appendFacePieces(rec, sd, *faces, 0, pieces, &diag);
         if (pieces.size() == 1) {
             out.push_back(std::move(pieces[0]));
             return;

@@ -536,12 +536,23 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
         // Not owning: `world` outlives every primitive of this frame, and a
         // copy of each record doubled the scene's memory.
         const std::shared_ptr<const scene::PrimitiveRecord> borrowed(std::shared_ptr<void>(), &rec);
-        auto made = geometry::makePrimitives(borrowed, diag, procedurals);
-        if (prims.empty()) {
-            prims = std::move(made);  // a run of 10^6 polygons: not a second array
-            continue;
+        try {
+            auto made = geometry::makePrimitives(borrowed, diag, procedurals);
+            if (prims.empty()) {
+                prims = std::move(made);  // a run of 10^6 polygons: not a second array
+                continue;
+            }
+            for (auto& p : made) prims.push_back(std::move(p));
+        } catch (const OutOfMemory&) {
+            throw;
+        } catch (const std::bad_alloc&) {
+            // Its topology and primitive variables are about twice its values.
+            uint64_t values = rec.floatArgs.size() + rec.intArgs.size();
+            for (const auto& a : rec.intArrays) values += a.size();
+            for (const ri::Param& p : rec.params.params()) values += p.floats.size() + p.ints.size();
+            throw OutOfMemory(rec.loc, fmt::format("the {} primitive's records ({} values)", rec.type, values),
+                              2 * 4 * values);
         }
-        for (auto& p : made) prims.push_back(std::move(p));
     }
 
     prepareAttributes(prims, frame);
@@ -858,7 +869,11 @@ LightMap Renderer::Impl::makeLightMap(FrameState& frame, LightMapJob& job,
     // One depth pass: rendered, recorded in the statistics, reduced to a map image.
     auto render = [&](Pass& pass) {
         float crop[4] = {0, 1, 0, 1};
-        film::Film film(job.size, job.size, crop, *film::PixelFilter::create("box", 1, 1), {}, depthFilmOf(options, filter));
+        const film::FilmContent content = depthFilmOf(options, filter);
+        film::Film film = allocating(
+            job.loc, film::Film::bytesFor(job.size, job.size, crop, {}, content),
+            fmt::format("the {0}x{0} film of the light's depth pass \"{1}\"", job.size, pass.name),
+            [&] { return film::Film(job.size, job.size, crop, *film::PixelFilter::create("box", 1, 1), {}, content); });
         PassResult r = runPass(frame, pass, prims, film, fmt::format("depth map {}", pass.name));
         made.passes.push_back({{"name", pass.name},
                                {"wall_seconds", r.wall},

@@ -40,7 +40,7 @@ constexpr const char* kStandard[] = {
     "uniform string shader", "uniform string texture", "uniform string archive",
     "uniform string procedural", "uniform string resource", "uniform string display",
     "uniform integer[2] bucketsize", "uniform integer gridsize", "uniform integer eyesplits",
-    "uniform integer archivereads",
+    "uniform integer archivereads", "uniform integer decompressedmb",
     "uniform integer texturememory", "uniform integer endofframe", "uniform string filename",
     "uniform color zthreshold", "uniform color othreshold",
     // Attribute "displacementbound", "identifier", "visibility", "trimcurve".

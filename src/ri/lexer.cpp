@@ -2,13 +2,16 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cfloat>
 #include <charconv>
 #include <climits>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <string>
+#include <utility>
 
 namespace umbra::ri {
 
@@ -33,7 +36,45 @@ std::string notFinite(std::string_view word) {
 }
 }  // namespace
 
-Lexer::Lexer(std::string_view text, int firstLine) : m_text(text), m_line(firstLine) {}
+Lexer::Lexer(std::string_view text, int firstLine) : m_s(text.data()), m_n(text.size()), m_line(firstLine) {}
+
+Lexer::Lexer(ByteSource& source) : m_source(&source) {}
+
+bool Lexer::refill(size_t keep) {
+    if (!m_source || m_sourceDone) return false;
+    if (m_n - keep >= kMaxTokenBytes) {
+        m_overlong = true;
+        return false;
+    }
+    if (m_capturing && m_captureFrom < m_base + keep) {
+        const size_t from = m_captureFrom - m_base;
+        m_capture.append(m_s + from, keep - from);
+        m_captureFrom = m_base + keep;
+    }
+    m_buffer.erase(0, keep);
+    m_base += keep;
+    m_pos -= keep;
+    const size_t held = m_buffer.size();
+    m_buffer.resize(held + kChunkBytes);
+    const size_t got = m_source->read(m_buffer.data() + held, kChunkBytes, &m_sourceError);
+    m_buffer.resize(held + got);
+    m_s = m_buffer.data();
+    m_n = m_buffer.size();
+    if (got == 0) m_sourceDone = true;
+    return got != 0;
+}
+
+void Lexer::beginCapture(size_t offset) {
+    m_capturing = true;
+    m_capture.clear();
+    m_captureFrom = std::max(offset, m_base);
+}
+
+std::string Lexer::endCapture(size_t offset) {
+    if (offset > m_captureFrom) m_capture.append(m_s + (m_captureFrom - m_base), offset - m_captureFrom);
+    m_capturing = false;
+    return std::move(m_capture);
+}
 
 Token Lexer::makeError(int line, int column, std::string message) {
     m_scratch = std::move(message);
@@ -45,30 +86,49 @@ Token Lexer::makeError(int line, int column, std::string message) {
     return t;
 }
 
+Token Lexer::inputError(int line, int column) {
+    Token t = makeError(line, column, std::exchange(m_sourceError, {}));
+    t.inputFailed = true;
+    return t;
+}
+
 Token Lexer::next() {
-    const char* s = m_text.data();
-    const size_t n = m_text.size();
     for (;;) {
-        while (m_pos < n && isSpace(static_cast<unsigned char>(s[m_pos]))) {
-            if (s[m_pos] == '\n') {
-                ++m_line;
-                m_lineStart = m_pos + 1;
+        const char* s = m_s;
+        const size_t n = m_n;
+        size_t pos = m_pos;
+        while (pos < n) {
+            const char c = s[pos];
+            if (c == '\n') {
+                m_line += m_line < INT_MAX;  // saturates: 4 GiB of newlines is more lines than an int counts
+                m_lineStart = m_base + pos + 1;
+            } else if (!isSpace(static_cast<unsigned char>(c))) {
+                break;
             }
-            ++m_pos;
+            ++pos;
         }
-        if (m_pos < n && s[m_pos] == '#') {
-            while (m_pos < n && s[m_pos] != '\n') ++m_pos;
-            continue;
+        m_pos = pos;
+        if (pos == n) {
+            if (refill(pos)) continue;
+            break;
         }
-        break;
+        if (s[pos] != '#') break;
+        for (;;) {
+            const void* eol = std::memchr(m_s + m_pos, '\n', m_n - m_pos);
+            m_pos = eol ? size_t(static_cast<const char*>(eol) - m_s) : m_n;
+            if (eol || !refill(m_pos)) break;
+        }
     }
     Token t;
     t.line = m_line;
-    t.column = static_cast<int>(m_pos - m_lineStart) + 1;
-    t.offset = m_pos;
-    if (m_pos >= n) return t;
+    t.column = columnAt(m_pos);
+    t.offset = m_base + m_pos;
+    if (m_pos >= m_n) {
+        if (!m_sourceError.empty()) return inputError(t.line, t.column);
+        return t;
+    }
 
-    unsigned char c = static_cast<unsigned char>(s[m_pos]);
+    unsigned char c = static_cast<unsigned char>(m_s[m_pos]);
     if (c == '[') {
         ++m_pos;
         t.kind = TokenKind::ArrayBegin;
@@ -83,20 +143,53 @@ Token Lexer::next() {
     if (c >= 0x80 || (c < 0x20 && !isSpace(c))) {
         // Binary RIB encodes requests and values in bytes >= 0x80; skip the
         // whole run so one stray byte gives one message.
-        while (m_pos < n) {
-            unsigned char d = static_cast<unsigned char>(s[m_pos]);
-            if (!(d >= 0x80 || (d < 0x20 && !isSpace(d)))) break;
-            ++m_pos;
+        for (;;) {
+            while (m_pos < m_n) {
+                unsigned char d = static_cast<unsigned char>(m_s[m_pos]);
+                if (!(d >= 0x80 || (d < 0x20 && !isSpace(d)))) break;
+                ++m_pos;
+            }
+            if (m_pos < m_n || !refill(m_pos)) break;
         }
         return makeError(t.line, t.column, "unexpected binary data (only ASCII RIB is supported)");
     }
+    return lexWord(t.line, t.column);
+}
 
+Token Lexer::lexWord(int line, int column) {
     size_t start = m_pos;
-    while (m_pos < n && !endsWord(static_cast<unsigned char>(s[m_pos]))) ++m_pos;
-    std::string_view word(s + start, m_pos - start);
+    for (;;) {
+        const char* s = m_s;
+        const size_t n = m_n;
+        size_t pos = m_pos;
+        while (pos < n && !endsWord(static_cast<unsigned char>(s[pos]))) ++pos;
+        m_pos = pos;
+        if (pos < n) break;
+        const size_t base = m_base;
+        const bool more = refill(start);
+        start -= m_base - base;
+        if (!more) break;
+    }
+    if (m_overlong) {
+        // Read past the rest of the word without keeping it.
+        m_overlong = false;
+        for (;;) {
+            while (m_pos < m_n && !endsWord(static_cast<unsigned char>(m_s[m_pos]))) ++m_pos;
+            if (m_pos < m_n || !refill(m_pos)) break;
+        }
+        return makeError(line, column, fmt::format("word longer than {} MiB", kMaxTokenBytes >> 20));
+    }
+    // The input failed inside the word: report that rather than half a word.
+    if (m_pos == m_n && !m_sourceError.empty()) return inputError(line, column);
+    const char c = m_s[start];
+    std::string_view word(m_s + start, m_pos - start);
+    Token t;
+    t.line = line;
+    t.column = column;
+    t.offset = m_base + start;
     bool numeric = (c >= '0' && c <= '9') || c == '+' || c == '-' || c == '.';
     if (!numeric) {
-        if (isNonFiniteName(word)) return makeError(t.line, t.column, notFinite(word));
+        if (isNonFiniteName(word)) return makeError(line, column, notFinite(word));
         t.kind = TokenKind::Name;
         t.text = word;
         return t;
@@ -107,7 +200,7 @@ Token Lexer::next() {
     const char* end = digits.data() + digits.size();
     auto res = std::from_chars(digits.data(), end, v, std::chars_format::general);
     if (digits.empty() || res.ptr != end || (res.ec != std::errc() && res.ec != std::errc::result_out_of_range))
-        return makeError(t.line, t.column, fmt::format("bad number \"{}\"", word));
+        return makeError(line, column, fmt::format("bad number \"{}\"", word));
     if (res.ec == std::errc::result_out_of_range) {
         // Too small for a double is zero; too large is an error below.
         size_t e = digits.find_first_of("eE");
@@ -115,11 +208,11 @@ Token Lexer::next() {
         v = underflow ? 0.0 : kInfinityD;
     }
     if (std::isnan(v) || (std::isinf(v) && res.ec == std::errc()))
-        return makeError(t.line, t.column, notFinite(word));
+        return makeError(line, column, notFinite(word));
     // Every value ends up in a 32-bit float (or int): beyond FLT_MAX it
     // would silently become infinity.
     if (!(std::fabs(v) <= double(FLT_MAX)))
-        return makeError(t.line, t.column,
+        return makeError(line, column,
                          fmt::format("number out of range \"{}\" (expected a magnitude of at most 3.4e38, the "
                                      "largest 32-bit float)", word));
     bool integral = word.find_first_of(".eE") == std::string_view::npos;
@@ -131,39 +224,58 @@ Token Lexer::next() {
 }
 
 Token Lexer::lexString(int line, int column) {
-    const char* s = m_text.data();
-    const size_t n = m_text.size();
-    ++m_pos;  // opening quote
-    size_t start = m_pos;
+    size_t quote = m_pos++;
     // Fast path: no escapes, the token points into the input.
-    while (m_pos < n && s[m_pos] != '"' && s[m_pos] != '\\' && s[m_pos] != '\n') ++m_pos;
-    if (m_pos < n && s[m_pos] == '"') {
+    for (;;) {
+        const char* s = m_s;
+        const size_t n = m_n;
+        size_t pos = m_pos;
+        while (pos < n && s[pos] != '"' && s[pos] != '\\' && s[pos] != '\n') ++pos;
+        m_pos = pos;
+        if (pos < n) break;
+        const size_t base = m_base;
+        const bool more = refill(quote);
+        quote -= m_base - base;
+        if (!more) break;
+    }
+    const size_t start = quote + 1;
+    if (m_pos < m_n && m_s[m_pos] == '"') {
         Token t;
         t.kind = TokenKind::String;
         t.line = line;
         t.column = column;
-        t.text = std::string_view(s + start, m_pos - start);
+        t.text = std::string_view(m_s + start, m_pos - start);
         ++m_pos;
         return t;
     }
-    m_scratch.assign(s + start, m_pos - start);
+    m_scratch.assign(m_s + start, m_pos - start);
     // A string may span lines, as PRMan, Aqsis and Pixie read it; one that
     // never ends is reported at its quote and lexing resumes on the line
-    // after it, so one missing quote costs one request.
-    size_t firstNewline = 0, lineStartAtNewline = 0;
+    // after it, so one missing quote costs one request. While streaming,
+    // the input is kept from that first newline on (or from nothing: the
+    // string so far is in m_scratch).
+    bool sawNewline = false;
+    size_t firstNewline = 0, lineStartAtNewline = 0;  // input offsets
     int lineAtNewline = 0;
-    while (m_pos < n) {
+    for (;;) {
+        // Escapes look at most three bytes past the backslash.
+        while (m_n - m_pos < 4 && !m_overlong && refill(sawNewline ? firstNewline - m_base : m_pos)) {
+        }
+        if (m_pos >= m_n || m_scratch.size() >= kMaxTokenBytes) break;
+        const char* s = m_s;
+        const size_t n = m_n;
         char ch = s[m_pos];
         if (ch == '\n') {
-            if (firstNewline == 0) {
-                firstNewline = m_pos;
+            if (!sawNewline) {
+                sawNewline = true;
+                firstNewline = m_base + m_pos;
                 lineAtNewline = m_line;
                 lineStartAtNewline = m_lineStart;
             }
             m_scratch.push_back(ch);
             ++m_pos;
-            ++m_line;
-            m_lineStart = m_pos;
+            m_line += m_line < INT_MAX;
+            m_lineStart = m_base + m_pos;
             continue;
         }
         if (ch == '"') {
@@ -192,13 +304,13 @@ Token Lexer::lexString(int line, int column) {
         case '\r':
             // Line continuation with CR LF.
             if (m_pos < n && s[m_pos] == '\n') ++m_pos;
-            ++m_line;
-            m_lineStart = m_pos;
+            m_line += m_line < INT_MAX;
+            m_lineStart = m_base + m_pos;
             break;
         case '\n':
             // Line continuation: the backslash and newline vanish.
-            ++m_line;
-            m_lineStart = m_pos;
+            m_line += m_line < INT_MAX;
+            m_lineStart = m_base + m_pos;
             break;
         default:
             if (e >= '0' && e <= '7') {
@@ -210,12 +322,17 @@ Token Lexer::lexString(int line, int column) {
             }
         }
     }
+    const bool overlong = m_overlong || m_scratch.size() >= kMaxTokenBytes;
+    m_overlong = false;
     // Resume on the next line so the rest of the file still parses.
-    if (firstNewline != 0) {
-        m_pos = firstNewline;
+    if (sawNewline) {
+        m_pos = firstNewline - m_base;
         m_line = lineAtNewline;
         m_lineStart = lineStartAtNewline;  // the newline itself is lexed next
     }
+    if (!m_sourceError.empty() && !sawNewline) return inputError(line, column);
+    if (overlong)
+        return makeError(line, column, fmt::format("string longer than {} MiB (or no closing '\"')", kMaxTokenBytes >> 20));
     return makeError(line, column, "unterminated string (no closing '\"' before the end of the input)");
 }
 

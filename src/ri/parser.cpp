@@ -11,7 +11,6 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
-#include <sys/mman.h>
 #include <unistd.h>
 #include <unordered_map>
 
@@ -335,98 +334,164 @@ std::string joinPath(const std::string& dir, const std::string& name) {
     return dir + "/" + name;
 }
 
-bool readWholeFile(const std::string& path, std::string* out, std::string* error) {
-    std::FILE* f = std::fopen(path.c_str(), "rb");
-    if (!f) {
-        *error = std::strerror(errno);
-        return false;
-    }
-    out->clear();
-    constexpr size_t kChunk = 1 << 20;
-    for (;;) {
-        size_t old = out->size();
-        out->resize(old + kChunk);
-        size_t got = std::fread(out->data() + old, 1, kChunk, f);
-        out->resize(old + got);
-        if (got < kChunk) break;
-    }
-    bool bad = std::ferror(f) != 0;
-    std::fclose(f);
-    if (bad) {
-        *error = "read error";
-        return false;
-    }
-    return true;
-}
-
 bool isRegularFile(const std::string& path) {
     std::error_code ec;
     return std::filesystem::is_regular_file(path, ec);
 }
 
-}  // namespace
+/// A file read in chunks; its first two bytes can be looked at first (is
+/// it gzip?) and are then read again.
+class FileSource final : public ByteSource {
+public:
+    explicit FileSource(std::FILE* f) : m_file(f) {}
+    ~FileSource() override { std::fclose(m_file); }
+    FileSource(const FileSource&) = delete;
+    FileSource& operator=(const FileSource&) = delete;
 
-bool gunzip(std::string_view bytes, std::string* out, std::string* error) {
-    z_stream zs{};
-    // 15 + 32: a zlib or gzip header, detected automatically.
-    if (inflateInit2(&zs, 15 + 32) != Z_OK) {
-        *error = "cannot initialise zlib";
-        return false;
+    /// True when the file starts with the gzip magic number.
+    bool startsWithGzip() {
+        char magic[2];
+        m_peeked.assign(magic, std::fread(magic, 1, 2, m_file));
+        return isGzip(m_peeked);
     }
-    out->clear();
-    zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(bytes.data()));
-    zs.avail_in = static_cast<uInt>(std::min<size_t>(bytes.size(), UINT_MAX));
-    size_t fed = zs.avail_in;
-    constexpr size_t kMaxOutput = size_t(1) << 32;
-    bool ok = true;
-    for (;;) {
-        if (out->size() >= kMaxOutput) {
-            *error = "decompressed data is larger than 4 GiB";
-            ok = false;
-            break;
-        }
-        size_t old = out->size();
-        size_t grow = std::max<size_t>(1 << 16, std::min<size_t>(old, 64 << 20));
-        out->resize(old + grow);
-        zs.next_out = reinterpret_cast<Bytef*>(out->data() + old);
-        zs.avail_out = static_cast<uInt>(grow);
-        int rc = inflate(&zs, Z_NO_FLUSH);
-        out->resize(old + grow - zs.avail_out);
-        if (zs.avail_in == 0 && fed < bytes.size()) {
-            size_t more = std::min<size_t>(bytes.size() - fed, UINT_MAX);
-            zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(bytes.data() + fed));
-            zs.avail_in = static_cast<uInt>(more);
-            fed += more;
-        }
-        if (rc == Z_STREAM_END) {
-            // Concatenated gzip members decompress to the concatenated data.
-            if (zs.avail_in >= 2 && isGzip(std::string_view(reinterpret_cast<const char*>(zs.next_in), zs.avail_in))) {
-                inflateReset(&zs);
-                continue;
+    size_t read(char* dst, size_t capacity, std::string* error) override {
+        size_t got = std::min(m_peeked.size(), capacity);
+        std::memcpy(dst, m_peeked.data(), got);
+        m_peeked.erase(0, got);
+        got += std::fread(dst + got, 1, capacity - got, m_file);
+        if (got == 0 && std::ferror(m_file)) *error = "cannot read the file: read error";
+        return got;
+    }
+
+private:
+    std::FILE* m_file;
+    std::string m_peeked;
+};
+
+/// Bytes already in memory (gzip data handed to Parser::parseString).
+class MemorySource final : public ByteSource {
+public:
+    explicit MemorySource(std::string_view bytes) : m_bytes(bytes) {}
+    size_t read(char* dst, size_t capacity, std::string*) override {
+        const size_t got = std::min(capacity, m_bytes.size());
+        std::memcpy(dst, m_bytes.data(), got);
+        m_bytes.remove_prefix(got);
+        return got;
+    }
+
+private:
+    std::string_view m_bytes;
+};
+
+/// Inflates gzip data (one or more members) as it is read, within the
+/// target's budget of decompressed bytes: a few MB of gzip can expand to
+/// terabytes, and only the parse state, never the whole text, is kept.
+class GzipSource final : public ByteSource {
+public:
+    GzipSource(ByteSource& compressed, const Target& target) : m_in(compressed), m_target(target) {
+        // 15 + 32: a zlib or gzip header, detected automatically.
+        m_ok = inflateInit2(&m_zs, 15 + 32) == Z_OK;
+        m_buffer.resize(Lexer::kChunkBytes);
+    }
+    ~GzipSource() override {
+        if (m_ok) inflateEnd(&m_zs);
+    }
+    GzipSource(const GzipSource&) = delete;
+    GzipSource& operator=(const GzipSource&) = delete;
+
+    size_t read(char* dst, size_t capacity, std::string* error) override {
+        if (m_done) return 0;
+        if (!m_ok) return fail(error, "cannot decompress: cannot initialise zlib");
+        if (m_overBudget)
+            return fail(error, fmt::format("the decompressed RIB is larger than {} MiB (Option \"limits\" "
+                                           "\"decompressedmb\"); the rest of it is not read",
+                                           m_target.decompressedByteBudget() >> 20));
+        // One byte past the budget tells "exactly the budget" from "more".
+        const uint64_t budget = m_target.decompressedByteBudget();
+        const uint64_t room = budget >= m_produced ? budget - m_produced + 1 : 1;
+        const uInt want = static_cast<uInt>(std::min<uint64_t>({capacity, room, UINT_MAX}));
+        m_zs.next_out = reinterpret_cast<Bytef*>(dst);
+        m_zs.avail_out = want;
+        while (m_zs.avail_out == want) {
+            if (m_zs.avail_in == 0 && !moreInput(1, error)) {
+                if (!error->empty()) return fail(error, *error);
+                if (m_midMember) return fail(error, "cannot decompress: gzip data is truncated");
+                m_done = true;
+                break;
             }
-            break;
+            m_midMember = true;
+            const int rc = inflate(&m_zs, Z_NO_FLUSH);
+            if (rc == Z_STREAM_END) {
+                m_midMember = false;
+                // Concatenated gzip members decompress to the concatenated
+                // data; anything else after a member is ignored.
+                moreInput(2, error);
+                if (!error->empty()) return fail(error, *error);
+                if (m_zs.avail_in >= 2 &&
+                    isGzip(std::string_view(reinterpret_cast<const char*>(m_zs.next_in), m_zs.avail_in))) {
+                    inflateReset(&m_zs);
+                    continue;
+                }
+                m_done = true;
+                break;
+            }
+            if (rc == Z_OK || (rc == Z_BUF_ERROR && m_zs.avail_in == 0)) continue;
+            return fail(error, fmt::format("cannot decompress: gzip data is corrupt ({})",
+                                           m_zs.msg ? m_zs.msg : "inflate failed"));
         }
-        if (rc == Z_OK) continue;
-        if (rc == Z_BUF_ERROR && zs.avail_in == 0) {
-            *error = "gzip data is truncated";
-        } else {
-            *error = fmt::format("gzip data is corrupt ({})", zs.msg ? zs.msg : "inflate failed");
+        size_t got = want - m_zs.avail_out;
+        m_produced += got;
+        if (m_produced > budget) {
+            // The bytes within the budget are read; the next read fails, so
+            // the error stands exactly where the budget ran out.
+            got -= m_produced - budget;
+            m_produced = budget;
+            m_overBudget = true;
+            if (got == 0) return read(dst, capacity, error);
         }
-        ok = false;
-        break;
+        return got;
     }
-    inflateEnd(&zs);
-    return ok;
-}
+
+private:
+    size_t fail(std::string* error, std::string message) {
+        *error = std::move(message);
+        m_done = true;
+        return 0;
+    }
+    /// Tops the compressed input up to `need` bytes where the file has them.
+    /// False at the end of the compressed data (or a read failure).
+    bool moreInput(size_t need, std::string* error) {
+        while (m_zs.avail_in < need && !m_inEnd) {
+            std::memmove(m_buffer.data(), m_zs.next_in ? m_zs.next_in : reinterpret_cast<Bytef*>(m_buffer.data()),
+                         m_zs.avail_in);
+            const size_t got = m_in.read(m_buffer.data() + m_zs.avail_in, m_buffer.size() - m_zs.avail_in, error);
+            m_inEnd = got == 0;
+            m_zs.next_in = reinterpret_cast<Bytef*>(m_buffer.data());
+            m_zs.avail_in += static_cast<uInt>(got);
+        }
+        return m_zs.avail_in >= need;
+    }
+
+    ByteSource& m_in;
+    const Target& m_target;
+    z_stream m_zs{};
+    std::string m_buffer;  // compressed bytes not yet inflated
+    uint64_t m_produced = 0;
+    bool m_ok = false, m_inEnd = false, m_done = false;
+    bool m_midMember = false;  // inside a member: its end is still due
+    bool m_overBudget = false;
+};
+
+}  // namespace
 
 /// Parses one stream (a file, a string or an archive) into the parser's
 /// target.
 class StreamParser {
 public:
-    StreamParser(Parser& parser, std::string_view text, std::shared_ptr<const std::string> file,
-                 std::string directory, int depth, int firstLine = 1, bool releasable = false)
-        : m_parser(parser), m_text(text), m_lex(text, firstLine), m_file(std::move(file)),
-          m_directory(std::move(directory)), m_depth(depth), m_releasable(releasable) {}
+    StreamParser(Parser& parser, Lexer& lexer, std::shared_ptr<const std::string> file, std::string directory,
+                 int depth)
+        : m_parser(parser), m_lex(lexer), m_file(std::move(file)),
+          m_directory(std::move(directory)), m_depth(depth) {}
 
     bool run() {
         Diagnostics& diag = m_parser.m_diag;
@@ -442,8 +507,14 @@ public:
                 reportStray();
                 continue;
             }
-            if (m_releasable && m_recordDepth == 0) releaseParsed(m_tok.offset);
-            request();
+            const int line = m_tok.line, column = m_tok.column;
+            try {
+                request();
+            } catch (const OutOfMemory&) {
+                throw;
+            } catch (const std::bad_alloc&) {
+                throw OutOfMemory(loc(line, column), fmt::format("the values of a {} request", m_request), valueBytes());
+            }
         }
         if (m_recordDepth > 0)
             diag.error(m_recordLoc, "ArchiveBegin: no matching ArchiveEnd before the end of {} (archive \"{}\" "
@@ -464,15 +535,25 @@ private:
         m_parser.m_diag.error(loc(line, column), "{}: {}", request, fmt::format(f, std::forward<Args>(args)...));
     }
 
+    // A malformed token inside `request`. Input that cannot be read on is
+    // the file's fault, not the request's, and is reported even while an
+    // inline archive is being recorded.
+    void tokenError(std::string_view request) {
+        if (m_tok.inputFailed)
+            m_parser.m_diag.error(loc(m_tok.line, m_tok.column), "RIB: {}", m_tok.text);
+        else
+            error(m_tok.line, m_tok.column, request, "{}", m_tok.text);
+    }
+
     // Values outside any request: report once, then skip to the next name.
     void reportStray() {
         if (m_tok.kind == TokenKind::Error)
-            error(m_tok.line, m_tok.column, "RIB", "{}", m_tok.text);
+            tokenError("RIB");
         else
             error(m_tok.line, m_tok.column, "RIB", "expected a request name, got {}", tokenText());
         advance();
         while (m_tok.kind != TokenKind::Name && m_tok.kind != TokenKind::End) {
-            if (m_tok.kind == TokenKind::Error) error(m_tok.line, m_tok.column, "RIB", "{}", m_tok.text);
+            if (m_tok.kind == TokenKind::Error) tokenError("RIB");
             advance();
         }
     }
@@ -488,9 +569,20 @@ private:
         }
     }
 
+    /// Bytes the values read so far take (for an out-of-memory message).
+    uint64_t valueBytes() const {
+        uint64_t bytes = 0;
+        for (const Value& v : m_values) {
+            bytes += sizeof(Value) + v.str.size() + v.nums.size() * sizeof(double);
+            for (const std::string& s : v.strs) bytes += sizeof(std::string) + s.size();
+        }
+        return bytes;
+    }
+
     // request: Name value* ; value: number | string | '[' number* ']' | '[' string* ']'
     void request() {
         std::string name(m_tok.text);
+        m_request = name;
         int line = m_tok.line, column = m_tok.column;
         const size_t offset = m_tok.offset;
         advance();
@@ -570,7 +662,7 @@ private:
                 advance();
                 break;
             case TokenKind::Error:
-                error(m_tok.line, m_tok.column, request, "{}", m_tok.text);
+                tokenError(request);
                 ok = false;
                 advance();
                 break;
@@ -612,7 +704,7 @@ private:
                 advance();
                 break;
             case TokenKind::Error:
-                error(m_tok.line, m_tok.column, request, "{}", m_tok.text);
+                tokenError(request);
                 ok = false;
                 advance();
                 break;
@@ -1027,9 +1119,9 @@ private:
             // The body starts at the next token (or the end).
             m_recordDepth = 1;
             m_recordLoc = where;
-            m_recordStart = m_tok.offset;
             m_recordLine = m_tok.line;
             m_recordColumn = m_tok.column;
+            m_lex.beginCapture(m_tok.offset);
         } else if (name == "ArchiveEnd") {
             m_parser.m_diag.error(where, "ArchiveEnd: no matching ArchiveBegin (ignored)");
         } else if (name == "IfBegin") {
@@ -1090,31 +1182,15 @@ private:
         return result;
     }
 
-    /// Gives the pages of text well before `offset` back to the system: a
-    /// RIB of 10^6 separate polygons is 77 MB of text, which the scene it
-    /// describes otherwise shares memory with while it renders. The lexer
-    /// never reads behind its token, and recording an inline archive stops
-    /// this (its text is copied at ArchiveEnd); the margin keeps the pages
-    /// of the current request.
-    void releaseParsed(size_t offset) {
-        constexpr size_t kStep = size_t(16) << 20, kMargin = size_t(1) << 20;
-        if (offset < m_released + kStep + kMargin) return;
-        const uintptr_t page = uintptr_t(sysconf(_SC_PAGESIZE));
-        const uintptr_t base = reinterpret_cast<uintptr_t>(m_text.data());
-        const uintptr_t begin = (base + m_released + page - 1) / page * page;
-        const uintptr_t end = (base + offset - kMargin) / page * page;
-        if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_DONTNEED);
-        m_released = offset - kMargin;
-    }
-
     /// ArchiveEnd at byte `endOffset` closes the recorded archive.
     void finishRecording(size_t endOffset) {
+        std::string body = m_lex.endCapture(endOffset);
         if (m_recordName.empty()) return;
         Parser::InlineArchive a;
-        // From the start of the body's line, columns before it blanked, so
-        // messages on replay give the body's own lines and columns.
-        a.text.assign(size_t(m_recordColumn - 1), ' ');
-        a.text.append(m_text.substr(m_recordStart, endOffset - m_recordStart));
+        // Columns before the body's first token blanked, so messages on
+        // replay give the body's own lines and columns.
+        a.text.assign(size_t(std::max(m_recordColumn - 1, 0)), ' ');  // 0: a column past INT_MAX
+        a.text.append(body);
         a.file = m_file;
         a.firstLine = m_recordLine;
         a.directory = m_directory;
@@ -1122,8 +1198,8 @@ private:
     }
 
     Parser& m_parser;
-    std::string_view m_text;
-    Lexer m_lex;
+    Lexer& m_lex;
+    std::string m_request;  // the request being read
     Token m_tok;
     std::shared_ptr<const std::string> m_file;
     std::string m_directory;
@@ -1134,42 +1210,43 @@ private:
     int m_recordDepth = 0;  // > 0 while recording: ArchiveBegin nesting
     std::string m_recordName;
     FileLoc m_recordLoc;
-    size_t m_recordStart = 0;
-    int m_recordLine = 1;
-    int m_recordColumn = 1;
-    bool m_releasable = false;
-    size_t m_released = 0;  // text before this offset may have been given back
+    int m_recordLine = 1, m_recordColumn = 1;
 };
 
 Parser::Parser(Target& target, Diagnostics& diag) : m_target(target), m_diag(diag) {}
 
 bool Parser::parseFile(const std::string& path) {
-    std::string bytes, why;
-    if (!readWholeFile(path, &bytes, &why)) {
-        m_diag.error(FileLoc::inFile(path), "RIB: cannot read file: {}", why);
+    std::FILE* f = std::fopen(path.c_str(), "rb");
+    if (!f) {
+        m_diag.error(FileLoc::inFile(path), "RIB: cannot read file: {}", std::strerror(errno));
         return false;
     }
-    return parseBytes(bytes, path, directoryOf(path), 0, nullptr, true);
+    FileSource source(f);
+    return parseStream(source, source.startsWithGzip(), path, directoryOf(path), 0);
 }
 
 bool Parser::parseString(std::string_view text, const std::string& name, const std::string& directory) {
-    return parseBytes(text, name, directory.empty() ? directoryOf(name) : directory, 0, nullptr);
+    const std::string dir = directory.empty() ? directoryOf(name) : directory;
+    if (isGzip(text)) {
+        MemorySource source(text);
+        return parseStream(source, true, name, dir, 0);
+    }
+    Lexer lexer(text);
+    StreamParser p(*this, lexer, std::make_shared<const std::string>(name), dir, 0);
+    return p.run();
 }
 
-bool Parser::parseBytes(std::string_view bytes, const std::string& name, const std::string& directory, int depth,
-                        const FileLoc* includedFrom, bool owned) {
+bool Parser::parseStream(ByteSource& source, bool gzip, const std::string& name, const std::string& directory,
+                         int depth) {
     auto file = std::make_shared<const std::string>(name);
-    std::string inflated;
-    if (isGzip(bytes)) {
-        std::string why;
-        if (!gunzip(bytes, &inflated, &why)) {
-            m_diag.error(FileLoc(file, 0, 0), "RIB: cannot decompress: {}", why);
-            return false;
-        }
-        bytes = inflated;
-        owned = true;
+    if (!gzip) {
+        Lexer lexer(source);
+        StreamParser p(*this, lexer, std::move(file), directory, depth);
+        return p.run();
     }
-    StreamParser p(*this, bytes, std::move(file), directory, depth, 1, owned);
+    GzipSource inflated(source, m_target);
+    Lexer lexer(inflated);
+    StreamParser p(*this, lexer, std::move(file), directory, depth);
     return p.run();
 }
 
@@ -1183,7 +1260,8 @@ bool Parser::readArchive(const std::string& name, const FileLoc& loc, const std:
     if (auto it = m_inlineArchives.find(name); it != m_inlineArchives.end()) {
         if (!m_target.readArchive(name, loc)) return false;
         const InlineArchive a = it->second;  // a copy: the body may redefine it
-        StreamParser p(*this, a.text, a.file, a.directory, depth + 1, a.firstLine);
+        Lexer lexer(a.text, a.firstLine);
+        StreamParser p(*this, lexer, a.file, a.directory, depth + 1);
         return p.run();
     }
     // Candidates: an absolute name as is; otherwise beside the including
@@ -1213,12 +1291,13 @@ bool Parser::readArchive(const std::string& name, const FileLoc& loc, const std:
         return false;
     }
     if (!m_target.readArchive(found, loc)) return false;
-    std::string bytes, why;
-    if (!readWholeFile(found, &bytes, &why)) {
-        m_diag.error(loc, "ReadArchive: cannot read archive \"{}\": {}", name, why);
+    std::FILE* f = std::fopen(found.c_str(), "rb");
+    if (!f) {
+        m_diag.error(loc, "ReadArchive: cannot read archive \"{}\": {}", name, std::strerror(errno));
         return false;
     }
-    return parseBytes(bytes, display, directoryOf(found), depth + 1, &loc, true);
+    FileSource source(f);
+    return parseStream(source, source.startsWithGzip(), display, directoryOf(found), depth + 1);
 }
 
 bool parseFile(const std::string& path, Target& target, Diagnostics& diag) {

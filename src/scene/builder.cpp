@@ -854,6 +854,13 @@ void Builder::option(const std::string& name, ri::ParamList params, const FileLo
                 continue;
             }
             m_options.archiveReads = v;
+        } else if (name == "limits" && pn == "decompressedmb") {
+            int v = params.getInt(pn, 0);
+            if (v < 1) {
+                m_diag.error(p.loc, "Option: limits \"decompressedmb\" expects a positive integer, got {}", v);
+                continue;
+            }
+            m_options.decompressedBytes = uint64_t(v) << 20;
         } else if (name == "shutter" && pn == "offset") {
             m_options.shutterOffset = params.getFloat(pn, 0.0f);
         } else if (name == "shutter" && (pn == "opening" || pn == "shutteropening")) {

@@ -87,6 +87,9 @@ public:
     /// From the frame options (resolution, crop window, pixel filter). An
     /// unknown filter is reported at the options' location and replaced by
     /// RenderMan's default (gaussian 2 x 2).
+    /// Bytes a film of this size and content allocates (its cropped pixels).
+    static uint64_t bytesFor(int xResolution, int yResolution, const float cropWindow[4],
+                             const std::vector<AovChannel>& aovs, FilmContent content);
     static Film fromOptions(const scene::Options& options, std::vector<AovChannel> aovs, FilmContent content,
                             Diagnostics& diag);
 

@@ -5,7 +5,8 @@
 // can cover (BilinearPatch): a triangle becomes a bilinear patch with one
 // collapsed edge, a convex quad a bilinear patch, a convex n-gon a fan of
 // quads (and one triangle when n is odd), and a concave face or a face
-// with holes the triangles of an ear-clipping triangulation. Vertex and
+// with holes the triangles of a triangulation: ear clipping up to 64
+// vertices, a plane sweep into monotone pieces (O(n log n)) above that. Vertex and
 // varying variables are indexed through the face's vertex indices,
 // facevarying ones through its face-corner numbers, uniform ones by face.
 
@@ -49,17 +50,26 @@ private:
 };
 
 /// Appends the pieces of face `f`; false (nothing appended) when the face
-/// is degenerate (fewer than three corners or no area).
+/// is degenerate (fewer than three corners or no area). A face that is not
+/// a simple polygon is warned about through `diag` when there is one (at
+/// scene build time; splits during the render pass none).
 bool appendFacePieces(const std::shared_ptr<const scene::PrimitiveRecord>& record,
                       const std::shared_ptr<const SurfaceData>& data, const PolygonFaces& faces, int f,
-                      std::vector<PrimitivePtr>& out);
+                      std::vector<PrimitivePtr>& out, Diagnostics* diag = nullptr);
 
-/// Triangulates a planar polygon with holes by ear clipping (holes are
-/// first bridged to the outline). `points` holds the loops one after
-/// another, `loopSizes` their lengths (first = outline). Triangles index
-/// `points` and keep the outline's winding. Returns false when it finds no
-/// valid triangulation (self-intersecting input); the triangles found so
-/// far are kept.
+/// Largest polygon (all loops together) triangulated by ear clipping,
+/// which is simple and cheap there; larger ones take the plane sweep.
+constexpr size_t kEarClippingMaxVertices = 64;
+
+/// Triangulates a planar polygon with holes: up to kEarClippingMaxVertices
+/// by ear clipping (holes first bridged to the outline), above that in
+/// O(n log n) by a plane sweep into y-monotone pieces, each cut by a stack
+/// walk, the result checked against the polygon's area. `points` holds the
+/// loops one after another, `loopSizes` their lengths (first = outline).
+/// Triangles index `points` and keep the outline's winding. Returns false
+/// when the input is not a simple polygon (edges crossing or repeated,
+/// holes outside): ear clipping keeps the triangles it found, the sweep
+/// gives a fan of the outline from its first vertex.
 bool triangulatePolygon(const std::vector<Vec3>& points, const std::vector<int>& loopSizes,
                         std::vector<std::array<int, 3>>& triangles);
 

@@ -3,6 +3,7 @@
 // ASCII RIB only. Tokens are request names, numbers, strings and the array
 // brackets; `#` comments (including `##` structure comments) are skipped.
 
+#include <climits>
 #include <cstddef>
 #include <string>
 #include <string_view>
@@ -30,6 +31,17 @@ struct Token {
     double number = 0;
     bool isInt = false;  // written without '.', exponent, and fits in int
     size_t offset = 0;   // byte offset of the token's first character in the input
+    bool inputFailed = false;  // an Error because the input could not be read on (corrupt, truncated, over budget)
+};
+
+/// Where a streaming Lexer reads its bytes from: a file, or a gzip
+/// stream being inflated chunk by chunk.
+class ByteSource {
+public:
+    virtual ~ByteSource() = default;
+    /// Reads up to `capacity` bytes into `dst`. 0 means the end of the input,
+    /// or a failure when `*error` was set (corrupt data, a refused budget).
+    virtual size_t read(char* dst, size_t capacity, std::string* error) = 0;
 };
 
 /// Splits RIB text into tokens without allocating per token. Numbers are
@@ -38,22 +50,66 @@ struct Token {
 /// a request name. So is a number no 32-bit float holds (|x| > 3.4e38,
 /// e.g. "1e39") and a non-finite one ("nan", "inf", "-inf" in any case):
 /// every value ends up in a float, where it would silently become infinity.
+///
+/// The input is either all in memory or streamed from a ByteSource in
+/// chunks of kChunkBytes: a streaming lexer keeps only the current token
+/// (at most kMaxTokenBytes) and a captured inline archive, so a file of
+/// gigabytes of comments or whitespace takes a few hundred KiB.
 class Lexer {
 public:
+    static constexpr size_t kChunkBytes = size_t(256) << 10;
+    /// Longest word or string: past it the token is an error and skipped,
+    /// so one endless word or unterminated string cannot fill memory.
+    static constexpr size_t kMaxTokenBytes = size_t(64) << 20;
+
     /// `text` must outlive the lexer; its first line is numbered `firstLine`
     /// (an inline archive replayed from the middle of its file).
     explicit Lexer(std::string_view text, int firstLine = 1);
+    /// Streams from `source`, which must outlive the lexer. A read failure
+    /// becomes an Error token (its message at the position reached), then End.
+    explicit Lexer(ByteSource& source);
     Token next();
+
+    /// Starts keeping the raw input from byte `offset` (the offset of the
+    /// token last returned, or later) for endCapture().
+    void beginCapture(size_t offset);
+    /// The raw input from beginCapture's offset up to `offset` (the offset
+    /// of the token last returned).
+    std::string endCapture(size_t offset);
 
 private:
     Token makeError(int line, int column, std::string message);
+    Token inputError(int line, int column);
     Token lexString(int line, int column);
+    Token lexWord(int line, int column);
+    /// Streaming: drops the buffer before index `keep` (the start of the
+    /// token being read) and appends the next chunk. False at the end of
+    /// the input, on a read failure, or when the kept token would exceed
+    /// kMaxTokenBytes (m_overlong). Indices into the buffer shift by `keep`.
+    bool refill(size_t keep);
+    /// 1-based column of buffer index `index`; 0 (unknown: messages give
+    /// the line alone) on a line longer than an int counts.
+    int columnAt(size_t index) const {
+        const size_t column = m_base + index - m_lineStart + 1;
+        return column <= size_t(INT_MAX) ? static_cast<int>(column) : 0;
+    }
 
-    std::string_view m_text;
-    size_t m_pos = 0;
+    const char* m_s = nullptr;  // the bytes held: [0, m_n)
+    size_t m_n = 0;
+    size_t m_pos = 0;           // index of the next byte to read
+    size_t m_base = 0;          // input offset of m_s[0]
     int m_line = 1;
-    size_t m_lineStart = 0;
+    size_t m_lineStart = 0;     // input offset of the current line's first byte
     std::string m_scratch;
+
+    ByteSource* m_source = nullptr;  // null: the whole input is in memory
+    std::string m_buffer;            // streaming: the bytes held
+    std::string m_sourceError;       // a read failure, reported once
+    bool m_sourceDone = false;
+    bool m_overlong = false;
+    bool m_capturing = false;
+    size_t m_captureFrom = 0;  // input offset of the first byte not yet copied into m_capture
+    std::string m_capture;
 };
 
 }  // namespace umbra::ri

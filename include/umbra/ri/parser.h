@@ -6,6 +6,7 @@
 // parsing resumes at the next request name.
 
 #include "umbra/ri/declarations.h"
+#include "umbra/ri/lexer.h"
 #include "umbra/ri/target.h"
 #include "umbra/util/error.h"
 
@@ -49,10 +50,8 @@ private:
         std::string directory;                    // for ReadArchive requests inside it
     };
 
-    /// `owned`: the parser's own copy of the bytes (a file it read), whose
-    /// pages it may give back to the system once parsed.
-    bool parseBytes(std::string_view bytes, const std::string& name, const std::string& directory, int depth,
-                    const FileLoc* includedFrom, bool owned = false);
+    /// Parses a file or gzip data read chunk by chunk.
+    bool parseStream(ByteSource& source, bool gzip, const std::string& name, const std::string& directory, int depth);
     bool readArchive(const std::string& name, const FileLoc& loc, const std::string& directory, int depth);
 
     Target& m_target;
@@ -65,9 +64,6 @@ private:
 bool parseFile(const std::string& path, Target& target, Diagnostics& diag);
 bool parseString(std::string_view text, const std::string& name, Target& target, Diagnostics& diag);
 
-/// Decompresses gzip data (one or more members). False with `*error` set
-/// on corrupt or truncated input.
-bool gunzip(std::string_view bytes, std::string* out, std::string* error);
 /// True when `bytes` starts with the gzip magic number 1f 8b.
 inline bool isGzip(std::string_view bytes) {
     return bytes.size() >= 2 && static_cast<unsigned char>(bytes[0]) == 0x1f && static_cast<unsigned char>(bytes[1]) == 0x8b;

@@ -10,6 +10,7 @@
 #include "umbra/util/math.h"
 
 #include <array>
+#include <cstdint>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -42,6 +43,11 @@ struct BasisSpec {
 /// 30 deep, stay within the nesting limit but would read 2^30 files.
 constexpr int kDefaultArchiveReads = 10000;
 
+/// Decompressed bytes one gzip RIB stream may expand to unless Option
+/// "limits" "decompressedmb" says otherwise: a few MB of gzip can hold
+/// terabytes of whitespace.
+constexpr uint64_t kDefaultDecompressedBytes = uint64_t(4) << 30;
+
 /// Receives parsed requests. Every method has a default that calls
 /// unhandled(), so a partial target (a test, a tool) overrides only what it
 /// needs; scene::Builder overrides all of them.
@@ -54,6 +60,9 @@ public:
     /// Directories `ReadArchive` searches after the including file's own
     /// directory (Option "searchpath" "archive").
     virtual std::vector<std::string> archiveSearchPath() const { return {}; }
+    /// Decompressed bytes a gzip stream may expand to; read as the stream
+    /// is inflated, so an Option early in a file applies to its rest.
+    virtual uint64_t decompressedByteBudget() const { return kDefaultDecompressedBytes; }
     /// After the last request of the top-level input (not of archives).
     virtual void endOfInput(const FileLoc& loc) {}
     /// The value an `IfBegin`/`ElseIf` reference names ("user:pass",

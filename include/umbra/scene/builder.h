@@ -70,6 +70,7 @@ public:
 
     void unhandled(std::string_view request, const FileLoc& loc) override;
     std::vector<std::string> archiveSearchPath() const override;
+    uint64_t decompressedByteBudget() const override { return m_options.decompressedBytes; }
     void endOfInput(const FileLoc& loc) override;
     bool conditionValue(const std::string& name, ri::ExprValue* out) const override;
 

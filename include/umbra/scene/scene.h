@@ -225,6 +225,8 @@ struct Options {
     /// ReadArchive requests allowed in one frame (Option "limits"
     /// "archivereads"); bounds the work of archives that read each other.
     int archiveReads = ri::kDefaultArchiveReads;
+    /// Bytes a gzip RIB may decompress to (Option "limits" "decompressedmb").
+    uint64_t decompressedBytes = ri::kDefaultDecompressedBytes;
     std::map<std::string, std::string> searchPaths;  // "shader", "texture", "archive", "resource"
     bool statisticsEndOfFrame = false;
     /// Shutter open close; Option "shutter" "offset" is added to both

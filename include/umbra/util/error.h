@@ -7,11 +7,13 @@
 #include <fmt/format.h>
 
 #include <atomic>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <new>
 #include <set>
 #include <string>
 #include <vector>
@@ -103,6 +105,37 @@ private:
 };
 
 [[noreturn]] void checkFailed(const char* expr, const char* file, int line, const std::string& msg);
+
+/// Memory ran out while allocating something large for a request: says
+/// what (`the 1920x1080 film with 16 samples per pixel`), for which request
+/// (its location) and how many bytes, where a bare std::bad_alloc says
+/// nothing. The `umbra` command reports it as its last error.
+class OutOfMemory : public std::bad_alloc {
+public:
+    OutOfMemory(FileLoc loc, const std::string& what, uint64_t bytes)
+        : m_loc(std::move(loc)), m_message(fmt::format("out of memory allocating {} ({} bytes)", what, bytes)) {}
+    const FileLoc& loc() const { return m_loc; }
+    /// "out of memory allocating <what> (<bytes> bytes)"
+    const char* what() const noexcept override { return m_message.c_str(); }
+
+private:
+    FileLoc m_loc;
+    std::string m_message;
+};
+
+/// Runs `allocate()`; a std::bad_alloc from it (not already an
+/// OutOfMemory, which names something more precise) becomes an OutOfMemory
+/// naming `what`, `bytes` and `loc`.
+template <typename Allocate>
+decltype(auto) allocating(const FileLoc& loc, uint64_t bytes, const std::string& what, Allocate&& allocate) {
+    try {
+        return allocate();
+    } catch (const OutOfMemory&) {
+        throw;
+    } catch (const std::bad_alloc&) {
+        throw OutOfMemory(loc, what, bytes);
+    }
+}
 
 }  // namespace umbra
 

@@ -15,6 +15,7 @@
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#include <zlib.h>
 
 #include <algorithm>
 #include <cmath>
@@ -49,15 +50,10 @@ std::string readText(const std::string& path) {
     return ss.str();
 }
 
-/// Writes `rib` to dir/name and renders it with `umbra render --threads 2`
-/// in a child process limited to 1 GiB of address space.
-ChildRun renderInChild(const ScratchDir& dir, const std::string& name, const std::string& rib) {
-    const std::string ribPath = dir.file(name);
-    const std::string logPath = dir.file(name + ".log");
-    {
-        std::ofstream out(ribPath);
-        out << rib;
-    }
+/// Renders the scene at `ribPath` with `umbra render --threads 2` in a
+/// child process limited to 1 GiB of address space.
+ChildRun runInChild(const std::string& ribPath) {
+    const std::string logPath = ribPath + ".log";
     const pid_t pid = fork();
     if (pid == 0) {
         rlimit as{kAddressSpace, kAddressSpace};
@@ -87,6 +83,16 @@ ChildRun renderInChild(const ScratchDir& dir, const std::string& name, const std
     run.status = run.exited ? WEXITSTATUS(status) : WTERMSIG(status);
     run.messages = readText(logPath);
     return run;
+}
+
+/// Writes `rib` to dir/name and renders it in a child process (runInChild).
+ChildRun renderInChild(const ScratchDir& dir, const std::string& name, const std::string& rib) {
+    const std::string ribPath = dir.file(name);
+    {
+        std::ofstream out(ribPath);
+        out << rib;
+    }
+    return runInChild(ribPath);
 }
 
 /// A 64 x 48 perspective frame of `world`, camera 5 units back; its
@@ -336,4 +342,168 @@ TEST(ExitStatus, ZeroWhenRenderedAsAskedNonZeroWhenSomethingAskedForWasNotDone) 
     EXPECT_EQ(missing.status, 1) << missing.describe();
     EXPECT_TRUE(contains(missing.messages, "cannot find shader 'nosuchshader'")) << missing.messages;
     EXPECT_GT(coverage(dir.file("b.exr")), 100.0);  // still drawn, with the default surface
+}
+
+namespace {
+
+/// Deflates `in` into the gzip stream `zs` and ends with a full flush:
+/// what follows refers to nothing before it.
+std::string deflateFlushed(z_stream& zs, std::string_view in) {
+    std::string out;
+    zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in.data()));
+    zs.avail_in = static_cast<uInt>(in.size());
+    do {
+        char buf[1 << 16];
+        zs.next_out = reinterpret_cast<Bytef*>(buf);
+        zs.avail_out = sizeof buf;
+        EXPECT_EQ(deflate(&zs, Z_FULL_FLUSH), Z_OK);
+        out.append(buf, sizeof buf - zs.avail_out);
+    } while (zs.avail_out == 0);
+    return out;
+}
+
+/// Writes a gzip file of `head`, `count` copies of `chunk`, then `tail`,
+/// deflating the chunk once: after a full flush its compressed block
+/// stands alone, so writing it `count` times makes `count` chunks of
+/// text. A MiB of one repeated byte compresses to about 1 KiB.
+void writeGzipBomb(const std::string& path, const std::string& head, const std::string& chunk, int count,
+                   const std::string& tail) {
+    z_stream zs{};
+    ASSERT_EQ(deflateInit2(&zs, 9, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY), Z_OK);
+    std::ofstream out(path, std::ios::binary);
+    out << deflateFlushed(zs, head);
+    const std::string block = deflateFlushed(zs, chunk);
+    for (int k = 0; k < count; ++k) out << block;
+    out << deflateFlushed(zs, tail);
+    deflateEnd(&zs);
+    // The trailer: an empty final block, then the CRC and length of the
+    // whole text (modulo 2^32), as the member would have ended.
+    const uLong chunkCrc = crc32(0, reinterpret_cast<const Bytef*>(chunk.data()), uInt(chunk.size()));
+    uLong crc = crc32(0, reinterpret_cast<const Bytef*>(head.data()), uInt(head.size()));
+    for (int k = 0; k < count; ++k) crc = crc32_combine(crc, chunkCrc, z_off_t(chunk.size()));
+    crc = crc32(crc, reinterpret_cast<const Bytef*>(tail.data()), uInt(tail.size()));
+    const uint64_t length = head.size() + uint64_t(count) * chunk.size() + tail.size();
+    unsigned char trailer[10] = {0x03, 0x00};
+    for (int k = 0; k < 4; ++k) {
+        trailer[2 + k] = static_cast<unsigned char>(crc >> (8 * k));
+        trailer[6 + k] = static_cast<unsigned char>(length >> (8 * k));
+    }
+    out.write(reinterpret_cast<const char*>(trailer), sizeof trailer);
+}
+
+/// One MiB of comment lines.
+std::string commentMiB() {
+    std::string s(size_t(1) << 20, 'c');
+    s.front() = '#';
+    s.back() = '\n';
+    return s;
+}
+
+}  // namespace
+
+TEST(GzipBomb, MoreTextThanTheAddressSpaceIsReadAsAStreamAndRenders) {
+    // 1.1 GiB of comments (1.2 MB of gzip) between the options and the
+    // world: held whole, the text alone would not fit in the child's 1 GiB.
+    ScratchDir dir("gzip-bomb-within");
+    const std::string rib = frame(dir.file("out.exr"), "", "Sphere 1 -1 1 360");
+    const size_t world = rib.find("WorldBegin");
+    const std::string path = dir.file("bomb.rib.gz");
+    writeGzipBomb(path, rib.substr(0, world), commentMiB(), 1100, rib.substr(world));
+    ASSERT_LT(std::filesystem::file_size(path), size_t(2) << 20);
+    const ChildRun run = runInChild(path);
+    ASSERT_TRUE(run.exited) << run.describe();
+    EXPECT_EQ(run.status, 0) << run.describe();
+    EXPECT_GT(coverage(dir.file("out.exr")), 100.0);
+}
+
+TEST(GzipBomb, PastTheDecompressedBudgetStopsWithALocatedError) {
+    // 8 GiB of comments (8.5 MB of gzip) after a budget of 64 MiB: the
+    // error stands on the line where the budget runs out, and nothing is
+    // rendered (the frame was never finished). The Option takes effect
+    // once the next request name ends its parameter list.
+    ScratchDir dir("gzip-bomb-past");
+    const std::string head = "Option \"limits\" \"decompressedmb\" [64]\nIdentity\n";
+    const std::string path = dir.file("bomb.rib.gz");
+    writeGzipBomb(path, head, commentMiB(), 8192, frame(dir.file("out.exr"), "", "Sphere 1 -1 1 360"));
+    const ChildRun run = runInChild(path);
+    ASSERT_TRUE(run.exited) << run.describe();
+    EXPECT_EQ(run.status, 1) << run.describe();
+    // Byte 64 MiB lies 1 MiB - head bytes + 1 into the 64th comment line.
+    const size_t column = (size_t(1) << 20) - head.size() + 1;
+    EXPECT_TRUE(contains(run.messages, fmt::format("{}:66:{}: error: RIB: the decompressed RIB is larger than 64 MiB "
+                                                   "(Option \"limits\" \"decompressedmb\"); the rest of it is not "
+                                                   "read", path, column)))
+        << run.messages;
+    EXPECT_FALSE(std::filesystem::exists(dir.file("out.exr")));
+}
+
+TEST(LargePolygon, AHundredThousandVerticesRenderAsTheSameShapeWrittenAsTriangles) {
+    // A star of 10^5 vertices (radii alternating 1 and 0.6) as one Polygon,
+    // triangulated by the renderer's sweep, against the same star written
+    // plainly as a fan of triangles about its centre. Ear clipping took
+    // over a minute for this polygon.
+    const int n = 100000;
+    std::string points, fanPoints = "0 0 0 ", fanSizes, fanIndices;
+    for (int k = 0; k < n; ++k) {
+        const double a = 2 * M_PI * k / n, r = k % 2 ? 0.6 : 1.0;
+        const std::string p = fmt::format("{} {} 0 ", r * std::cos(a), r * std::sin(a));
+        points += p;
+        fanPoints += p;
+        fanSizes += "3 ";
+        fanIndices += fmt::format("0 {} {} ", k + 1, (k + 1) % n + 1);
+    }
+    ScratchDir dir("large-polygon");
+    const ChildRun one = renderInChild(dir, "star.rib", frame(dir.file("star.exr"), "",
+                                                              "Polygon \"P\" [" + points + "]"));
+    ASSERT_TRUE(one.exited) << one.describe();
+    EXPECT_EQ(one.status, 0) << one.describe();
+    EXPECT_FALSE(contains(one.messages, "warning")) << one.messages;
+    const ChildRun fan = renderInChild(
+        dir, "fan.rib",
+        frame(dir.file("fan.exr"), "",
+              fmt::format("PointsPolygons [{}] [{}] \"P\" [{}]", fanSizes, fanIndices, fanPoints)));
+    ASSERT_TRUE(fan.exited) << fan.describe();
+    const double star = coverage(dir.file("star.exr")), reference = coverage(dir.file("fan.exr"));
+    EXPECT_GT(reference, 200.0);
+    EXPECT_NEAR(star, reference, 0.002 * reference);
+}
+
+TEST(OutOfMemory, NamesWhatWasBeingAllocatedAndForWhichRequest) {
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+    // Without the address-space limit these allocations would succeed and
+    // a 60000 x 60000 frame would render.
+    GTEST_SKIP() << "needs RLIMIT_AS, which sanitizers cannot run under";
+#endif
+    // A 60000 x 60000 film (72 GB) under a 1 GiB address space: the error
+    // names the film, its size and the frame's WorldBegin.
+    ScratchDir dir("out-of-memory");
+    const ChildRun film = renderInChild(dir, "film.rib", R"(Display "big.exr" "openexr" "rgba"
+Format 60000 60000 1
+PixelSamples 4 4
+Projection "perspective" "fov" 40
+Translate 0 0 5
+WorldBegin
+Sphere 1 -1 1 360
+WorldEnd
+)");
+    ASSERT_TRUE(film.exited) << film.describe();
+    EXPECT_EQ(film.status, 1) << film.describe();
+    EXPECT_TRUE(contains(film.messages, dir.file("film.rib") + ":6:1: error: out of memory allocating the 60000x60000 "
+                                        "film with 16 samples per pixel (72000000000 bytes)"))
+        << film.messages;
+    EXPECT_FALSE(std::filesystem::exists(dir.file("big.exr")));
+
+    // 1.5 x 10^8 numbers in one Polygon (300 MB of text from 0.3 MB of
+    // gzip): parsed as doubles they outgrow the address space while the
+    // parser reads them, and the error names the request.
+    const std::string path = dir.file("values.rib.gz");
+    std::string zeros;
+    for (size_t k = 0; k < (size_t(1) << 19); ++k) zeros += "0 ";
+    writeGzipBomb(path, "WorldBegin\nPolygon \"P\" [", zeros, 300, "]\nWorldEnd\n");
+    const ChildRun values = runInChild(path);
+    ASSERT_TRUE(values.exited) << values.describe();
+    EXPECT_EQ(values.status, 1) << values.describe();
+    EXPECT_TRUE(contains(values.messages, path + ":2:1: error: out of memory allocating the values of a Polygon "
+                                          "request ("))
+        << values.messages;
 }

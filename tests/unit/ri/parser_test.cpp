@@ -204,7 +204,60 @@ TEST(Parser, GzipRoundTrip) {
     d2.setSink([](const Diagnostic&) {});
     EXPECT_FALSE(parseString(cut, "cut.rib", none, d2));
     ASSERT_EQ(messages(d2).size(), 1u);
-    EXPECT_EQ(messages(d2)[0], "cut.rib: error: RIB: cannot decompress: gzip data is truncated");
+    // Read as a stream: located where the data stopped, and the request it
+    // cut short (its arguments may go on) is not run.
+    EXPECT_EQ(messages(d2)[0], "cut.rib:2:1: error: RIB: cannot decompress: gzip data is truncated");
+    EXPECT_TRUE(none.log.empty());
+}
+
+/// `text` deflated as gzip members of at most `memberBytes` each, one
+/// after another (as `cat a.gz b.gz` makes).
+std::string gzipMembers(const std::string& text, size_t memberBytes) {
+    std::string out;
+    for (size_t k = 0; k < text.size(); k += memberBytes) out += gzipBytes(text.substr(k, memberBytes));
+    return out;
+}
+
+/// A Target with a small decompressed-byte budget.
+struct BudgetRecorder : Recorder {
+    uint64_t budget = 0;
+    uint64_t decompressedByteBudget() const override { return budget; }
+};
+
+TEST(Parser, GzipIsReadAsAStreamOfMembersWithinTheBudget) {
+    // Requests, a long run of whitespace and a comment split across
+    // members, and an inline archive whose body crosses many reads.
+    std::string text = "Translate 1 2 3\nArchiveBegin \"a\"\n  Sphere 1 -1 1 360\n";
+    text += std::string(3 << 20, ' ') + "\n# " + std::string(1 << 20, 'c') + "\n";
+    text += "ArchiveEnd\nReadArchive \"a\"\nTranslate 4 5 6\n";
+    const std::string gz = gzipMembers(text, 100000);
+    BudgetRecorder fromGz, fromText;
+    fromGz.budget = text.size();  // exactly enough
+    Diagnostics d;
+    d.setRecord(true);
+    d.setSink([](const Diagnostic&) {});
+    ASSERT_TRUE(parseString(gz, "m.rib", fromGz, d)) << fmt::format("{}", fmt::join(messages(d), "\n"));
+    ASSERT_TRUE(parseString(text, "m.rib", fromText, d));
+    EXPECT_EQ(fromGz.log, fromText.log);
+    EXPECT_EQ(fromGz.log, (std::vector<std::string>{"Translate 1 2 3", "ReadArchive", "Sphere@m.rib:3:3",
+                                                    "Translate 4 5 6"}));
+}
+
+TEST(Parser, GzipPastTheBudgetStopsWithALocatedError) {
+    std::string text = "Translate 1 2 3\nWorldBegin\n" + std::string(3 << 20, ' ') + "Translate 4 5 6\n";
+    BudgetRecorder r;
+    r.budget = 1 << 20;
+    Diagnostics d;
+    d.setRecord(true);
+    d.setSink([](const Diagnostic&) {});
+    EXPECT_FALSE(parseString(gzipBytes(text), "bomb.rib", r, d));
+    // WorldBegin's arguments might have gone on past the budget: it is not run.
+    EXPECT_EQ(r.log, (std::vector<std::string>{"Translate 1 2 3"}));
+    // The error stands where the budget ran out: byte 2^20, on line 3.
+    ASSERT_EQ(messages(d).size(), 1u);
+    EXPECT_EQ(messages(d)[0], fmt::format("bomb.rib:3:{}: error: RIB: the decompressed RIB is larger than 1 MiB "
+                                          "(Option \"limits\" \"decompressedmb\"); the rest of it is not read",
+                                          (1 << 20) - 27 + 1));
 }
 
 TEST(Parser, MissingFileIsDetectable) {
