@@ -1,3 +1,4 @@
+#include "umbra/geometry/blobby.h"
 #include "umbra/geometry/curves.h"
 #include "umbra/geometry/deforming.h"
 #include "umbra/geometry/nupatch.h"
@@ -317,6 +318,8 @@ std::vector<PrimitivePtr> makeShape(std::shared_ptr<const scene::PrimitiveRecord
         makeCurves(record, diag, out);
     else if (t == "Points")
         makePoints(record, diag, out);
+    else if (t == "Blobby")
+        makeBlobby(record, diag, out);
     else
         diag.warningOnce("geometry:unsupported:" + t, record->loc, "{}: primitive type not supported yet; ignored", t);
     return out;

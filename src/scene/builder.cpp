@@ -22,7 +22,7 @@ const char* endName(int kind) {
 
 // Geometry requests the renderer does not draw yet: parsed and validated,
 // reported once, and left out of the world.
-constexpr const char* kUnsupportedGeometry[] = {"Blobby", "Procedural", "Geometry"};
+constexpr const char* kUnsupportedGeometry[] = {"Procedural", "Geometry"};
 
 /// The numeric settings of Option (and Attribute) "umbra": the range each
 /// must lie in. Out of range, they would make a depth pass of no pixels, or
