@@ -193,7 +193,18 @@ std::shared_ptr<const BlobbyField> BlobbyField::fromRecord(const scene::Primitiv
                    field->m_leaves);
         return nullptr;
     }
-    if (field->m_feature < kInfinity) field->m_eps = 1e-3f * field->m_feature;
+    if (!field->m_support.empty()) {
+        const Vec3 lo = field->m_support.min, hi = field->m_support.max;
+        const bool finite = std::isfinite(lo.x) && std::isfinite(lo.y) && std::isfinite(lo.z) &&
+                            std::isfinite(hi.x) && std::isfinite(hi.y) && std::isfinite(hi.z) &&
+                            std::isfinite(field->m_feature) && field->m_feature > 0;
+        if (!finite) {
+            diag.error(rec.loc, "Blobby: a leaf's matrix or radius gives a non-finite or zero-sized leaf, expected "
+                                "finite, invertible leaves");
+            return nullptr;
+        }
+        field->m_eps = 1e-3f * field->m_feature;
+    }
     return field;
 }
 
