@@ -12,12 +12,6 @@ using Op = BlobbyField::Op;
 
 // A leaf's field at squared unit distance r2: 1 at the centre, falling to 0
 // with zero slope and curvature at r2 = 1 (Aqsis's 1 - 3r2 + 3r2^2 - r2^3).
-float leafField(float r2) {
-    if (r2 >= 1) return 0;
-    const float s = 1 - r2;
-    return s * s * s;
-}
-
 // Smallest singular value of M's 3x3 part, from below: 1 / |inverse|_F.
 float smallestScale(const Mat4& inverse) {
     double f = 0;
@@ -26,13 +20,11 @@ float smallestScale(const Mat4& inverse) {
     return f > 0 ? float(1 / std::sqrt(f)) : 0;
 }
 
-float segmentDistance2(const Vec3& q, const Vec3& a, const Vec3& b) {
+Vec3 nearestOnSegment(const Vec3& q, const Vec3& a, const Vec3& b) {
     const Vec3 ab = b - a;
     const float len2 = dot(ab, ab);
-    float t = len2 > 0 ? dot(q - a, ab) / len2 : 0;
-    t = std::clamp(t, 0.0f, 1.0f);
-    const Vec3 d = q - (a + ab * t);
-    return dot(d, d);
+    const float t = len2 > 0 ? std::clamp(dot(q - a, ab) / len2, 0.0f, 1.0f) : 0.0f;
+    return a + ab * t;
 }
 
 }  // namespace
@@ -203,77 +195,131 @@ std::shared_ptr<const BlobbyField> BlobbyField::fromRecord(const scene::Primitiv
                                 "finite, invertible leaves");
             return nullptr;
         }
-        field->m_eps = 1e-3f * field->m_feature;
     }
     return field;
 }
 
-float BlobbyField::value(const Vec3& p, float* leafValues) const {
+float BlobbyField::value(const Vec3& p, float* leafValues) const { return evaluate(p, leafValues, nullptr); }
+
+Vec3 BlobbyField::gradient(const Vec3& p) const {
+    Vec3 g;
+    evaluate(p, nullptr, &g);
+    return g;
+}
+
+float BlobbyField::evaluate(const Vec3& p, float* leafValues, Vec3* gradient) const {
+    // Each instruction's value, and with `gradient` its gradient, by the
+    // rules of differentiation for each operation.
     thread_local std::vector<float> r;
+    thread_local std::vector<Vec3> dr;
     r.resize(m_code.size());
+    if (gradient) dr.resize(m_code.size());
+    const bool grad = gradient != nullptr;
     for (size_t k = 0; k < m_code.size(); ++k) {
         const Instruction& ins = m_code[k];
         float v = 0;
+        Vec3 g(0);
+        // A leaf at unit-space offset d (from its centre, or from the
+        // nearest point of its segment): field (1 - |d|^2)^3, gradient
+        // -6 (1 - |d|^2)^2 L^T d in object space, L = leafFromObject.
+        auto leaf = [&](const Vec3& d) {
+            const float r2 = dot(d, d);
+            if (r2 >= 1) return;
+            const float s = 1 - r2;
+            v = s * s * s;
+            if (grad) {
+                const Mat4& L = ins.leafFromObject;
+                const Vec3 lt(L.m[0][0] * d.x + L.m[1][0] * d.y + L.m[2][0] * d.z,
+                              L.m[0][1] * d.x + L.m[1][1] * d.y + L.m[2][1] * d.z,
+                              L.m[0][2] * d.x + L.m[1][2] * d.y + L.m[2][2] * d.z);
+                g = lt * (-6 * s * s);
+            }
+        };
         switch (ins.op) {
         case Op::Constant: v = ins.constant; break;
         case Op::Ellipsoid: {
             const Vec3 q = ins.leafFromObject.point(p);
-            v = leafField(dot(q, q));
+            leaf(q);
             break;
         }
-        case Op::Segment: v = leafField(segmentDistance2(ins.leafFromObject.point(p), ins.a, ins.b)); break;
-        case Op::Skipped: v = 0; break;
+        case Op::Segment: {
+            const Vec3 q = ins.leafFromObject.point(p);
+            leaf(q - nearestOnSegment(q, ins.a, ins.b));
+            break;
+        }
+        case Op::Skipped: break;
         case Op::Add:
-            for (int o : ins.operands) v += r[size_t(o)];
+            for (int o : ins.operands) {
+                v += r[size_t(o)];
+                if (grad) g = g + dr[size_t(o)];
+            }
             break;
         case Op::Multiply:
             v = 1;
-            for (int o : ins.operands) v *= r[size_t(o)];
+            for (int o : ins.operands) {
+                if (grad) g = g * r[size_t(o)] + dr[size_t(o)] * v;
+                v *= r[size_t(o)];
+            }
             break;
         case Op::Max:
-            v = r[size_t(ins.operands[0])];
-            for (int o : ins.operands) v = std::max(v, r[size_t(o)]);
+        case Op::Min: {
+            int best = ins.operands[0];
+            for (int o : ins.operands)
+                if (ins.op == Op::Max ? r[size_t(o)] > r[size_t(best)] : r[size_t(o)] < r[size_t(best)]) best = o;
+            v = r[size_t(best)];
+            if (grad) g = dr[size_t(best)];
             break;
-        case Op::Min:
-            v = r[size_t(ins.operands[0])];
-            for (int o : ins.operands) v = std::min(v, r[size_t(o)]);
+        }
+        case Op::Subtract:
+            v = r[size_t(ins.operands[0])] - r[size_t(ins.operands[1])];
+            if (grad) g = dr[size_t(ins.operands[0])] - dr[size_t(ins.operands[1])];
             break;
-        case Op::Subtract: v = r[size_t(ins.operands[0])] - r[size_t(ins.operands[1])]; break;
         case Op::Divide: {
             // A zero divisor gives 0, as in Aqsis, rather than an infinity.
-            const float d = r[size_t(ins.operands[1])];
-            v = d != 0 ? r[size_t(ins.operands[0])] / d : 0;
+            const float n = r[size_t(ins.operands[0])], d = r[size_t(ins.operands[1])];
+            if (d != 0) {
+                v = n / d;
+                if (grad) g = (dr[size_t(ins.operands[0])] * d - dr[size_t(ins.operands[1])] * n) / (d * d);
+            }
             break;
         }
-        case Op::Negate: v = -r[size_t(ins.operands[0])]; break;
-        case Op::Identity: v = r[size_t(ins.operands[0])]; break;
+        case Op::Negate:
+            v = -r[size_t(ins.operands[0])];
+            if (grad) g = -dr[size_t(ins.operands[0])];
+            break;
+        case Op::Identity:
+            v = r[size_t(ins.operands[0])];
+            if (grad) g = dr[size_t(ins.operands[0])];
+            break;
         }
         r[k] = v;
+        if (grad) dr[k] = g;
         if (leafValues && ins.leaf >= 0) leafValues[ins.leaf] = v;
     }
-    return r.empty() ? 0 : r.back();
-}
-
-Vec3 BlobbyField::gradient(const Vec3& p) const {
-    const float e = m_eps;
-    return Vec3(value(p + Vec3(e, 0, 0)) - value(p - Vec3(e, 0, 0)), value(p + Vec3(0, e, 0)) - value(p - Vec3(0, e, 0)),
-                value(p + Vec3(0, 0, e)) - value(p - Vec3(0, 0, e))) /
-           (2 * e);
+    if (r.empty()) {
+        if (gradient) *gradient = Vec3(0);
+        return 0;
+    }
+    if (gradient) *gradient = dr.back();
+    return r.back();
 }
 
 Vec3 BlobbyField::project(const Vec3& start, float maxStep, Vec3* outward) const {
-    Vec3 p = start;
-    Vec3 g = gradient(p);
+    Vec3 p = start, g;
+    float f = evaluate(p, nullptr, &g);
     for (int it = 0; it < 12; ++it) {
         const float gg = dot(g, g);
-        if (!(gg > 0)) break;
-        Vec3 step = g * ((kBlobbyThreshold - value(p)) / gg);
+        // Converged to float precision of the field (about 1e-7 of its
+        // unit peak), or stuck where the field is flat.
+        if (!(gg > 0) || std::abs(kBlobbyThreshold - f) < 1e-6f) break;
+        Vec3 step = g * ((kBlobbyThreshold - f) / gg);
         const float len = length(step);
         if (len > maxStep) step = step * (maxStep / len);
+        Vec3 gNew;
+        const float fNew = evaluate(p + step, nullptr, &gNew);
         p = p + step;
-        const Vec3 gNew = gradient(p);
+        f = fNew;
         if (dot(gNew, gNew) > 0) g = gNew;
-        if (len < 1e-6f * maxStep) break;
     }
     if (outward) *outward = dot(g, g) > 0 ? -normalize(g) : Vec3(0, 0, 1);
     return p;

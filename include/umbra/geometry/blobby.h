@@ -58,7 +58,8 @@ public:
     /// The field at object-space `p`; `leafValues` (nleaf entries), when
     /// given, receives each leaf's own field there.
     float value(const Vec3& p, float* leafValues = nullptr) const;
-    /// The field's gradient at `p` (central differences).
+    /// The field's gradient at `p` (exact: each leaf's and operation's
+    /// derivative; where max or min is tied, the first operand's).
     Vec3 gradient(const Vec3& p) const;
     /// Moves `p` onto the surface by Newton steps along the gradient, each
     /// step at most `maxStep` long. Returns the point; `outward` (unit,
@@ -73,11 +74,12 @@ public:
     float featureSize() const { return m_feature; }
 
 private:
+    float evaluate(const Vec3& p, float* leafValues, Vec3* gradient) const;
+
     std::vector<Instruction> m_code;
     int m_leaves = 0;
     Bound3 m_support;
     float m_feature = kInfinity;
-    float m_eps = 1e-4f;
 };
 
 /// The coarse triangles of a Blobby and what its pieces share.

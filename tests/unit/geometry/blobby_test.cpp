@@ -86,6 +86,35 @@ TEST(Blobby, OperationsCombineLeavesAsTheSpecSays) {
     EXPECT_EQ(f->value(Vec3(0.1f, 0, 0)), 0.0f);
 }
 
+TEST(Blobby, GradientIsTheFieldsDerivative) {
+    // Every operation, a sheared ellipsoid and a turned segment blob: the
+    // gradient against central differences of the field (in double steps
+    // large enough for float values).
+    std::vector<float> floats = {1.4f, 0.3f, 0, 0, 0, 1.1f, 0.2f, 0, 0.1f, 0, 0.9f, 0, -0.2f, 0.1f, 0, 1};
+    const std::vector<float> seg = {-0.4f, 0, 0, 0.4f, 0.2f, 0, 0.9f, 0, 1, 0, 0, -1, 0, 0, 0, 0, 0, 1, 0, 0.3f, 0, 0,
+                                    1};
+    floats.insert(floats.end(), seg.begin(), seg.end());
+    floats.push_back(0.6f);
+    for (const std::vector<int>& ops : std::vector<std::vector<int>>{
+             {0, 3, 0, 1, 2}, {1, 3, 0, 1, 2}, {2, 2, 0, 1}, {3, 2, 0, 1}, {4, 0, 1}, {5, 0, 2}, {6, 0}, {7, 1}}) {
+        std::vector<int> code = {1001, 0, 1002, 16, 1000, 39};
+        code.insert(code.end(), ops.begin(), ops.end());
+        auto f = field(blobby(3, code, floats));
+        ASSERT_TRUE(f);
+        for (const Vec3& p : {Vec3(0.1f, 0.2f, 0.05f), Vec3(-0.3f, -0.1f, 0.2f), Vec3(0.35f, 0.3f, -0.1f)}) {
+            const float e = 1e-3f;
+            const Vec3 fd((f->value(p + Vec3(e, 0, 0)) - f->value(p - Vec3(e, 0, 0))) / (2 * e),
+                          (f->value(p + Vec3(0, e, 0)) - f->value(p - Vec3(0, e, 0))) / (2 * e),
+                          (f->value(p + Vec3(0, 0, e)) - f->value(p - Vec3(0, 0, e))) / (2 * e));
+            const Vec3 g = f->gradient(p);
+            const float scale = std::max(1.0f, length(fd));
+            EXPECT_NEAR(g.x, fd.x, 2e-3f * scale) << "opcode " << ops[0];
+            EXPECT_NEAR(g.y, fd.y, 2e-3f * scale) << "opcode " << ops[0];
+            EXPECT_NEAR(g.z, fd.z, 2e-3f * scale) << "opcode " << ops[0];
+        }
+    }
+}
+
 TEST(Blobby, SegmentBlobFieldFallsWithDistanceFromTheSegment) {
     // Ends (-1, 0, 0) and (1, 0, 0), radius 0.8, identity matrix.
     std::vector<float> seg = {-1, 0, 0, 1, 0, 0, 0.8f, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
