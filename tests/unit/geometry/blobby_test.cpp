@@ -156,10 +156,11 @@ TEST(Blobby, DicedSphereLiesOnTheThresholdWithOutwardNormalsAndWinding) {
     EXPECT_NEAR(area, 4 * kPi, 4 * kPi * 0.005);
 }
 
-TEST(Blobby, VertexValuesBlendByEachLeafsShareOfTheField) {
+TEST(Blobby, VertexAndVaryingValuesBlendByEachLeafsShareOfTheField) {
     const Vec3 c0(-0.6f, 0, 0), c1(0.6f, 0, 0);
     auto rec = blobby(2, {1001, 0, 1001, 16, 0, 2, 0, 1}, concat(sphereLeaf(2, c0), sphereLeaf(2, c1)),
-                      {testsupport::floatParam("Cs", ri::ParamType::Color, {1, 0, 0, 0, 0, 1}, ri::StorageClass::Vertex)});
+                      {testsupport::floatParam("Cs", ri::ParamType::Color, {1, 0, 0, 0, 0, 1}, ri::StorageClass::Vertex),
+                       testsupport::floatParam("st", ri::ParamType::Float, {0, 1, 2, 5}, ri::StorageClass::Varying, 2)});
     Diagnostics diag;
     auto pieces = splitToDiceable(makePrimitives(rec, diag));
     EXPECT_EQ(diag.errorCount(), 0);
@@ -168,7 +169,9 @@ TEST(Blobby, VertexValuesBlendByEachLeafsShareOfTheField) {
     for (const auto& piece : pieces) {
         Grid g = piece->dice(3, 3);
         const GridVar* cs = g.find("Cs");
-        ASSERT_TRUE(cs && cs->perVertex);
+        const GridVar* gs = g.find("s");
+        const GridVar* gt = g.find("t");
+        ASSERT_TRUE(cs && cs->perVertex && gs && gt);
         for (int k = 0; k < g.vertexCount(); ++k) {
             const Vec3 p = g.P[size_t(k)];
             const double w0 = sphereField(p, 2, c0), w1 = sphereField(p, 2, c1);
@@ -176,6 +179,9 @@ TEST(Blobby, VertexValuesBlendByEachLeafsShareOfTheField) {
             EXPECT_NEAR(cs->at(k)[0], w0 / (w0 + w1), 1e-4);
             EXPECT_NEAR(cs->at(k)[2], w1 / (w0 + w1), 1e-4);
             EXPECT_NEAR(cs->at(k)[1], 0, 1e-6);
+            // "st" feeds s and t, each blended alike.
+            EXPECT_NEAR(gs->at(k)[0], 2 * w1 / (w0 + w1), 2e-4);
+            EXPECT_NEAR(gt->at(k)[0], (w0 + 5 * w1) / (w0 + w1), 5e-4);
             ++checked;
         }
     }
