@@ -250,3 +250,20 @@ TEST(Blobby, PolygonisationIsCappedWithAWarning) {
     ASSERT_EQ(prims.size(), 1u);
     EXPECT_NEAR(prims[0]->bound().max.x, 1, 0.1);
 }
+
+TEST(Blobby, DeformationBlurIsWarnedAndTheFirstShapeRenders) {
+    auto rec = blobby(1, {1001, 0}, sphereLeaf(2, {}));
+    rec->shapeTimes = {0, 1};
+    scene::PrimitiveRecord moved = *blobby(1, {1001, 0}, sphereLeaf(2, {1, 0, 0}));
+    rec->shapes.push_back(moved);
+    Diagnostics diag;
+    diag.setRecord(true);
+    diag.setQuiet(true);
+    auto prims = makePrimitives(rec, diag);
+    ASSERT_EQ(prims.size(), 1u);
+    EXPECT_EQ(prims[0]->shapeCount(), 1);
+    EXPECT_NEAR(prims[0]->bound().max.x, 1, 0.1);  // the first shape, centred at the origin
+    ASSERT_EQ(diag.recorded().size(), 1u);
+    EXPECT_EQ(diag.recorded()[0].str(), "test.rib:3:1: warning: Blobby: deformation blur (MotionBegin around a "
+                                        "Blobby) is not supported; the first shape renders unblurred");
+}
