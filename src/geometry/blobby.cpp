@@ -99,7 +99,8 @@ std::shared_ptr<const BlobbyField> BlobbyField::fromRecord(const scene::Primitiv
             if (!f || !invert(f, &M, &ins.leafFromObject, "ellipsoid")) return nullptr;
             ins.op = Op::Ellipsoid;
             ins.leaf = field->m_leaves++;
-            field->m_support.extend(transformBound(M, unit));
+            ins.support = transformBound(M, unit);
+            field->m_support.extend(ins.support);
             field->m_feature = std::min(field->m_feature, 0.5f * smallestScale(ins.leafFromObject));
             break;
         }
@@ -125,7 +126,8 @@ std::shared_ptr<const BlobbyField> BlobbyField::fromRecord(const scene::Primitiv
             b.extend(Vec3(f[3], f[4], f[5]));
             b.min = b.min - Vec3(radius);
             b.max = b.max + Vec3(radius);
-            field->m_support.extend(transformBound(M, b));
+            ins.support = transformBound(M, b);
+            field->m_support.extend(ins.support);
             field->m_feature = std::min(field->m_feature, 0.5f * smallestScale(ins.leafFromObject));
             break;
         }
@@ -222,6 +224,11 @@ float BlobbyField::evaluate(const Vec3& p, float* leafValues, Vec3* gradient) co
         // A leaf at unit-space offset d (from its centre, or from the
         // nearest point of its segment): field (1 - |d|^2)^3, gradient
         // -6 (1 - |d|^2)^2 L^T d in object space, L = leafFromObject.
+        // Outside its support box a leaf is exactly 0: skip its transform.
+        auto outside = [&] {
+            const Bound3& b = ins.support;
+            return p.x < b.min.x || p.y < b.min.y || p.z < b.min.z || p.x > b.max.x || p.y > b.max.y || p.z > b.max.z;
+        };
         auto leaf = [&](const Vec3& d) {
             const float r2 = dot(d, d);
             if (r2 >= 1) return;
@@ -238,11 +245,13 @@ float BlobbyField::evaluate(const Vec3& p, float* leafValues, Vec3* gradient) co
         switch (ins.op) {
         case Op::Constant: v = ins.constant; break;
         case Op::Ellipsoid: {
+            if (outside()) break;
             const Vec3 q = ins.leafFromObject.point(p);
             leaf(q);
             break;
         }
         case Op::Segment: {
+            if (outside()) break;
             const Vec3 q = ins.leafFromObject.point(p);
             leaf(q - nearestOnSegment(q, ins.a, ins.b));
             break;

@@ -47,6 +47,7 @@ public:
         float constant = 0;           // Constant
         Mat4 leafFromObject;          // Ellipsoid, Segment: into the leaf's unit space
         Vec3 a, b;                    // Segment end points (leaf space, divided by the radius)
+        Bound3 support;               // Ellipsoid, Segment: object-space box outside which the leaf is 0
         std::vector<int> operands;    // instruction indices of earlier results
     };
 
