@@ -10,6 +10,10 @@ namespace {
 
 using Op = BlobbyField::Op;
 
+// The smallest share of its coarse triangle's (u, v) domain a piece may
+// have before split() drops it instead (24 halvings).
+constexpr float kMinPieceArea = 1.0f / float(1 << 24);
+
 // A leaf's field at squared unit distance r2: 1 at the centre, falling to 0
 // with zero slope and curvature at r2 = 1 (Aqsis's 1 - 3r2 + 3r2^2 - r2^3).
 // Smallest singular value of M's 3x3 part, from below: 1 / |inverse|_F.
@@ -317,20 +321,23 @@ Vec3 BlobbyField::project(const Vec3& start, float maxStep, Vec3* outward) const
     Vec3 p = start, g;
     float f = evaluate(p, nullptr, &g);
     for (int it = 0; it < 12; ++it) {
-        const float gg = dot(g, g);
         // Converged to float precision of the field (about 1e-7 of its
-        // unit peak), or stuck where the field is flat.
-        if (!(gg > 0) || std::abs(kBlobbyThreshold - f) < 1e-6f) break;
-        Vec3 step = g * ((kBlobbyThreshold - f) / gg);
-        const float len = length(step);
-        if (len > maxStep) step = step * (maxStep / len);
+        // unit peak), or stuck where the field is flat (outside every
+        // leaf, or at a leaf's rim where its slope vanishes): a tiny
+        // gradient would make an infinite step.
+        const float gl = length(g);
+        if (!(gl > 1e-12f && gl < 1e30f) || std::abs(kBlobbyThreshold - f) < 1e-6f) break;
+        const float dist = std::clamp((kBlobbyThreshold - f) / gl, -maxStep, maxStep);
+        const Vec3 next = p + g * (dist / gl);
         Vec3 gNew;
-        const float fNew = evaluate(p + step, nullptr, &gNew);
-        p = p + step;
+        const float fNew = evaluate(next, nullptr, &gNew);
+        if (!std::isfinite(fNew)) break;
+        p = next;
         f = fNew;
-        if (dot(gNew, gNew) > 0) g = gNew;
+        if (length(gNew) > 1e-12f && length(gNew) < 1e30f) g = gNew;
     }
-    if (outward) *outward = dot(g, g) > 0 ? -normalize(g) : Vec3(0, 0, 1);
+    const float gl = length(g);
+    if (outward) *outward = gl > 1e-12f && gl < 1e30f ? g * (-1 / gl) : Vec3(0, 0, 1);
     return p;
 }
 
@@ -347,16 +354,17 @@ std::shared_ptr<BlobbyMeshData> polygonizeBlobby(const scene::PrimitiveRecord& r
     float h = field->featureSize() / 3;
     const Vec3 ext = support.diagonal();
     const float longest = std::max({ext.x, ext.y, ext.z});
-    // Cost is a field evaluation per lattice vertex and leaf: cap both the
-    // cells along an axis and the evaluations (about 2e7).
-    const double budget = 2e7 / std::max(field->leafCount(), 1);
+    // Cost is a visit of every leaf per lattice vertex (most end at the
+    // leaf's support box): cap both the cells along an axis and the visits
+    // (2e8, about a second).
+    const double budget = 2e8 / std::max(field->leafCount(), 1);
     float hMin = longest / float(std::max(maxCells - 2, 1));
     const double cellsAtMin = double(ext.x / hMin + 3) * double(ext.y / hMin + 3) * double(ext.z / hMin + 3);
     if (cellsAtMin > budget) hMin *= float(std::cbrt(cellsAtMin / budget));
     if (h < hMin) {
         diag.warning(rec.loc,
                      "Blobby: its smallest leaf asks for a {:.3g}-unit polygonisation lattice; capped at {:.3g} "
-                     "(at most {} cells along an axis and 2e7 field evaluations): leaves or gaps smaller than "
+                     "(at most {} cells along an axis and 2e8 leaf visits): leaves or gaps smaller than "
                      "that may be lost",
                      h, hMin, maxCells);
         h = hMin;
@@ -487,6 +495,12 @@ Bound3 BlobbyPiece::bound() const {
 }
 
 void BlobbyPiece::split(bool splitU, std::vector<PrimitivePtr>& out) const {
+    // Projection is discontinuous where a coarse triangle spans a gap the
+    // lattice missed (points on either side go to different sheets): no
+    // split makes such a piece small on screen. Past 2^-24 of the
+    // triangle's parameter area it is dropped (a pinhole at most) rather
+    // than split without end.
+    if ((m_range.u1 - m_range.u0) * (m_range.v1 - m_range.v0) < kMinPieceArea) return;
     for (int k = 0; k < 2; ++k)
         out.push_back(std::make_unique<BlobbyPiece>(recordPtr(), m_data, m_triangle, m_range.half(splitU, k == 1)));
 }
