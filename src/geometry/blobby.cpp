@@ -202,7 +202,123 @@ std::shared_ptr<const BlobbyField> BlobbyField::fromRecord(const scene::Primitiv
             return nullptr;
         }
     }
+    field->buildBlocks();
     return field;
+}
+
+std::vector<BlobbyField::Instruction> BlobbyField::reduce(const std::vector<Instruction>& code,
+                                                          const Bound3& region) {
+    // zero[k]: instruction k is 0 throughout the region; map[k]: its index
+    // in the reduced code.
+    std::vector<char> zero(code.size(), 0);
+    std::vector<int> map(code.size(), -1);
+    std::vector<Instruction> out;
+    int zeroConstant = -1;
+    auto ref = [&](int o) {
+        if (!zero[size_t(o)]) return map[size_t(o)];
+        if (zeroConstant < 0) {
+            Instruction c;
+            c.op = Op::Constant;
+            zeroConstant = int(out.size());
+            out.push_back(c);
+        }
+        return zeroConstant;
+    };
+    for (size_t k = 0; k < code.size(); ++k) {
+        const Instruction& ins = code[k];
+        Instruction r = ins;
+        r.operands.clear();
+        bool isZero = false;
+        auto z = [&](int i) { return zero[size_t(ins.operands[size_t(i)])] != 0; };
+        switch (ins.op) {
+        case Op::Constant: isZero = ins.constant == 0; break;
+        case Op::Ellipsoid:
+        case Op::Segment: {
+            const Bound3& b = ins.support;
+            isZero = b.max.x < region.min.x || b.max.y < region.min.y || b.max.z < region.min.z ||
+                     b.min.x > region.max.x || b.min.y > region.max.y || b.min.z > region.max.z;
+            break;
+        }
+        case Op::Skipped: isZero = true; break;
+        case Op::Add:
+            for (int o : ins.operands)
+                if (!zero[size_t(o)]) r.operands.push_back(map[size_t(o)]);
+            isZero = r.operands.empty();
+            break;
+        case Op::Multiply:
+            for (int o : ins.operands) {
+                isZero |= zero[size_t(o)] != 0;
+                r.operands.push_back(map[size_t(o)]);
+            }
+            break;
+        case Op::Max:
+        case Op::Min:
+            isZero = true;
+            for (int o : ins.operands) isZero &= zero[size_t(o)] != 0;
+            if (!isZero)
+                for (int o : ins.operands) r.operands.push_back(ref(o));
+            break;
+        case Op::Subtract:
+            isZero = z(0) && z(1);
+            if (!isZero) {
+                if (z(1)) {
+                    r.op = Op::Identity;
+                    r.operands = {map[size_t(ins.operands[0])]};
+                } else if (z(0)) {
+                    r.op = Op::Negate;
+                    r.operands = {map[size_t(ins.operands[1])]};
+                } else {
+                    r.operands = {map[size_t(ins.operands[0])], map[size_t(ins.operands[1])]};
+                }
+            }
+            break;
+        case Op::Divide:
+            // 0 / d is 0, and so is n / 0 (Aqsis's rule).
+            isZero = z(0) || z(1);
+            if (!isZero) r.operands = {map[size_t(ins.operands[0])], map[size_t(ins.operands[1])]};
+            break;
+        case Op::Negate:
+        case Op::Identity:
+            isZero = z(0);
+            if (!isZero) r.operands = {map[size_t(ins.operands[0])]};
+            break;
+        }
+        zero[k] = isZero;
+        if (!isZero) {
+            map[k] = int(out.size());
+            out.push_back(std::move(r));
+        }
+    }
+    // The field is the last instruction; when it is 0 here, so is the code.
+    if (code.empty() || zero.back()) return {};
+    if (map.back() != int(out.size()) - 1) {
+        Instruction last;
+        last.op = Op::Identity;
+        last.operands = {map.back()};
+        out.push_back(last);
+    }
+    return out;
+}
+
+void BlobbyField::buildBlocks() {
+    m_outside = reduce(m_code, Bound3(Vec3(kInfinity), Vec3(kInfinity)));
+    if (m_support.empty()) return;
+    // About two leaves per block, at most 16 blocks along an axis.
+    const int n = std::clamp(int(std::ceil(std::cbrt(2.0 * m_leaves))), 1, 16);
+    const Vec3 ext = m_support.diagonal();
+    for (int a = 0; a < 3; ++a) m_blockCount[a] = ext[a] > 0 ? n : 1;
+    m_blockSize = Vec3(ext.x / float(m_blockCount[0]), ext.y / float(m_blockCount[1]), ext.z / float(m_blockCount[2]));
+    m_blocks.resize(size_t(m_blockCount[0]) * size_t(m_blockCount[1]) * size_t(m_blockCount[2]));
+    size_t k = 0;
+    for (int z = 0; z < m_blockCount[2]; ++z)
+        for (int y = 0; y < m_blockCount[1]; ++y)
+            for (int x = 0; x < m_blockCount[0]; ++x) {
+                const Vec3 lo = m_support.min + Vec3(float(x), float(y), float(z)) * m_blockSize;
+                // Blocks overlap by a sliver so rounding in locating a point
+                // can never pick a block whose reduced code misses a leaf.
+                const Vec3 pad = m_blockSize * 1e-3f;
+                m_blocks[k++] = reduce(m_code, Bound3(lo - pad, lo + m_blockSize + pad));
+            }
 }
 
 float BlobbyField::value(const Vec3& p, float* leafValues) const { return evaluate(p, leafValues, nullptr); }
@@ -216,13 +332,27 @@ Vec3 BlobbyField::gradient(const Vec3& p) const {
 float BlobbyField::evaluate(const Vec3& p, float* leafValues, Vec3* gradient) const {
     // Each instruction's value, and with `gradient` its gradient, by the
     // rules of differentiation for each operation.
+    const std::vector<Instruction>* program = &m_outside;
+    if (!m_blocks.empty()) {
+        int c[3];
+        bool in = true;
+        for (int a = 0; a < 3; ++a) {
+            const float t = (p[a] - m_support.min[a]) / m_blockSize[a];
+            in &= t >= 0 && t <= float(m_blockCount[a]);
+            c[a] = std::clamp(int(in ? t : 0), 0, m_blockCount[a] - 1);
+        }
+        if (in) program = &m_blocks[(size_t(c[2]) * size_t(m_blockCount[1]) + size_t(c[1])) * size_t(m_blockCount[0]) +
+                                    size_t(c[0])];
+    }
+    const std::vector<Instruction>& code = *program;
+    if (leafValues) std::fill(leafValues, leafValues + m_leaves, 0.0f);
     thread_local std::vector<float> r;
     thread_local std::vector<Vec3> dr;
-    r.resize(m_code.size());
-    if (gradient) dr.resize(m_code.size());
+    r.resize(code.size());
+    if (gradient) dr.resize(code.size());
     const bool grad = gradient != nullptr;
-    for (size_t k = 0; k < m_code.size(); ++k) {
-        const Instruction& ins = m_code[k];
+    for (size_t k = 0; k < code.size(); ++k) {
+        const Instruction& ins = code[k];
         float v = 0;
         Vec3 g(0);
         // A leaf at unit-space offset d (from its centre, or from the

@@ -76,8 +76,18 @@ public:
 
 private:
     float evaluate(const Vec3& p, float* leafValues, Vec3* gradient) const;
+    /// The code with every instruction that is identically 0 inside
+    /// `region` folded away (exact there).
+    static std::vector<Instruction> reduce(const std::vector<Instruction>& code, const Bound3& region);
+    void buildBlocks();
 
     std::vector<Instruction> m_code;
+    /// The support cut into blocks, each with its reduced code, so a point
+    /// visits only the leaves near it; m_outside for points beyond them.
+    std::vector<std::vector<Instruction>> m_blocks;
+    std::vector<Instruction> m_outside;
+    int m_blockCount[3] = {0, 0, 0};
+    Vec3 m_blockSize{1, 1, 1};
     int m_leaves = 0;
     Bound3 m_support;
     float m_feature = kInfinity;

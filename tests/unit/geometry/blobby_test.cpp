@@ -267,3 +267,43 @@ TEST(Blobby, DeformationBlurIsWarnedAndTheFirstShapeRenders) {
     EXPECT_EQ(diag.recorded()[0].str(), "test.rib:3:1: warning: Blobby: deformation blur (MotionBegin around a "
                                         "Blobby) is not supported; the first shape renders unblurred");
 }
+
+TEST(Blobby, ManyLeavesGiveTheFieldOfEveryLeafWhereverThePoint) {
+    // 60 leaves on a helix under add, max and a subtract: the field at
+    // points inside, between and beyond them, against the sum written here
+    // (each point evaluates only the leaves near it).
+    std::vector<float> floats;
+    std::vector<Vec3> centres;
+    std::vector<int> leafCode, all;
+    for (int k = 0; k < 60; ++k) {
+        const Vec3 c(std::cos(0.4f * float(k)) * 2, std::sin(0.4f * float(k)) * 2, 0.1f * float(k) - 3);
+        centres.push_back(c);
+        const auto leaf = sphereLeaf(0.7f, c);
+        floats.insert(floats.end(), leaf.begin(), leaf.end());
+        leafCode.insert(leafCode.end(), {1001, 16 * k});
+        all.push_back(k);
+    }
+    auto code = [&](int op) {
+        std::vector<int> c = leafCode;
+        c.insert(c.end(), {op, 60});
+        c.insert(c.end(), all.begin(), all.end());
+        c.insert(c.end(), {4, 60, 7});  // (add or max) minus leaf 7
+        return c;
+    };
+    for (int op : {0, 2}) {
+        auto f = field(blobby(60, code(op), floats));
+        ASSERT_TRUE(f);
+        std::vector<float> leaves(60);
+        for (int i = 0; i < 400; ++i) {
+            const Vec3 p(std::sin(1.7f * float(i)) * 2.6f, std::cos(2.3f * float(i)) * 2.6f, 0.017f * float(i) - 3.4f);
+            double combined = op == 0 ? 0 : -1;
+            for (const Vec3& c : centres) {
+                const double v = sphereField(p, 0.7f, c);
+                combined = op == 0 ? combined + v : std::max(combined, v);
+            }
+            const double expected = combined - sphereField(p, 0.7f, centres[7]);
+            EXPECT_NEAR(f->value(p, leaves.data()), expected, 1e-5) << i;
+            for (int k = 0; k < 60; ++k) EXPECT_NEAR(leaves[size_t(k)], sphereField(p, 0.7f, centres[size_t(k)]), 1e-5);
+        }
+    }
+}
