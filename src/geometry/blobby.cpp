@@ -255,8 +255,15 @@ std::vector<BlobbyField::Instruction> BlobbyField::reduce(const std::vector<Inst
         case Op::Min:
             isZero = true;
             for (int o : ins.operands) isZero &= zero[size_t(o)] != 0;
-            if (!isZero)
-                for (int o : ins.operands) r.operands.push_back(ref(o));
+            if (!isZero) {
+                // One 0 stands for all of them: max(0, 0, x) = max(0, x).
+                bool zeroAdded = false;
+                for (int o : ins.operands) {
+                    if (zero[size_t(o)] && zeroAdded) continue;
+                    zeroAdded |= zero[size_t(o)] != 0;
+                    r.operands.push_back(ref(o));
+                }
+            }
             break;
         case Op::Subtract:
             isZero = z(0) && z(1);
@@ -309,7 +316,11 @@ void BlobbyField::buildBlocks() {
     for (int a = 0; a < 3; ++a) m_blockCount[a] = ext[a] > 0 ? n : 1;
     m_blockSize = Vec3(ext.x / float(m_blockCount[0]), ext.y / float(m_blockCount[1]), ext.z / float(m_blockCount[2]));
     m_blocks.resize(size_t(m_blockCount[0]) * size_t(m_blockCount[1]) * size_t(m_blockCount[2]));
-    size_t k = 0;
+    // Code that folds badly (e.g. many constants) could take much memory
+    // in every block: past 64 MB of folded code in all, points run the
+    // whole code instead.
+    size_t k = 0, bytes = 0;
+    constexpr size_t kMaxBytes = size_t(64) << 20;
     for (int z = 0; z < m_blockCount[2]; ++z)
         for (int y = 0; y < m_blockCount[1]; ++y)
             for (int x = 0; x < m_blockCount[0]; ++x) {
@@ -317,7 +328,13 @@ void BlobbyField::buildBlocks() {
                 // Blocks overlap by a sliver so rounding in locating a point
                 // can never pick a block whose reduced code misses a leaf.
                 const Vec3 pad = m_blockSize * 1e-3f;
-                m_blocks[k++] = reduce(m_code, Bound3(lo - pad, lo + m_blockSize + pad));
+                m_blocks[k] = reduce(m_code, Bound3(lo - pad, lo + m_blockSize + pad));
+                for (const Instruction& ins : m_blocks[k]) bytes += sizeof(Instruction) + 4 * ins.operands.size();
+                ++k;
+                if (bytes > kMaxBytes) {
+                    m_blocks.clear();
+                    return;
+                }
             }
 }
 
@@ -332,7 +349,7 @@ Vec3 BlobbyField::gradient(const Vec3& p) const {
 float BlobbyField::evaluate(const Vec3& p, float* leafValues, Vec3* gradient) const {
     // Each instruction's value, and with `gradient` its gradient, by the
     // rules of differentiation for each operation.
-    const std::vector<Instruction>* program = &m_outside;
+    const std::vector<Instruction>* program = m_blocks.empty() ? &m_code : &m_outside;
     if (!m_blocks.empty()) {
         int c[3];
         bool in = true;
