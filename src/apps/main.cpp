@@ -1,8 +1,8 @@
 // The `umbra` command: render RIB files, compile shaders, inspect depth maps.
 //
 //   umbra render SCENE.rib [MORE.rib ...] [--threads N] [--progress]
-//                [--stats FILE.json] [--bucket-size N] [--quiet] [--no-shadows]
-//                [--frames SPEC] [--resume]
+//                [--stats FILE.json|FILE.jsonl] [--bucket-size N] [--quiet] [--no-shadows]
+//                [--frames SPEC] [--resume] [--no-map-reuse]
 //   umbra SCENE.rib ...                      (same as `umbra render`)
 //   umbra slc [--listing] [-I DIR] FILE.sl ... (compile shaders, report errors)
 //   umbra info [--json] MAP                  (depth-map storage figures)
@@ -46,10 +46,13 @@ int main(int argc, char** argv) {
     render->add_option("files", ribFiles, "RIB files, rendered in order")->required();
     render->add_option("--threads", settings.threads, "Worker threads (default: all cores)")->check(CLI::NonNegativeNumber);
     render->add_flag("--progress", settings.progress, "Show progress: buckets done, elapsed, ETA");
-    render->add_option("--stats", statsPath, "Write statistics of the run as JSON");
+    render->add_option("--stats", statsPath, "Write statistics as JSON (FILE.json: one document at the end; FILE.jsonl: a line per frame as it ends)");
     render->add_option("--bucket-size", settings.bucketSize, "Bucket size in pixels (default 16)")->check(CLI::Range(1, 4096));
     render->add_flag("--quiet", settings.quiet, "Print errors only");
     render->add_flag("--no-shadows", settings.noShadows, "Turn every depth pass and shadow() lookup off");
+    bool noMapReuse = false;
+    render->add_flag("--no-map-reuse", noMapReuse,
+                     "Render every automatic depth map again, even when an earlier frame's has the same content");
     render->add_flag("--resume,--skip-existing", settings.resume,
                      "Skip frames whose every Display file is a complete image (truncated ones are rendered again)");
     std::string framesSpec;
@@ -112,6 +115,7 @@ int main(int argc, char** argv) {
         umbra::FrameSet::parse(framesSpec, &frames, &error);  // checked above
         settings.frames = frames;
     }
+    settings.reuseMaps = !noMapReuse;
 
     umbra::Diagnostics diag;
     diag.setQuiet(settings.quiet);

@@ -19,7 +19,8 @@
 //                            TIFF otherwise, as RenderMan's "file" is TIFF
 //   "framebuffer"            umbra has no window: the image is written to a
 //                            file named after the display, by its extension,
-//                            ".tif" appended when it has none of the above
+//                            ".tif" appended when it has none of the above,
+//                            unless another Display writes that file
 //   "zfile", "shadow"        depth maps, handed to the DepthWriter hook
 // Modes: letters out of r g b a z ("rgb", "rgba", "rgbaz", "z", "a", ...),
 // or one AOV (see parseDisplayMode). Channel names: R G B A Z; an AOV of three
@@ -126,10 +127,15 @@ std::optional<Format> formatOfExtension(const std::string& path) {
 
 }  // namespace
 
+/// Drivers that write the file their Display names; any other driver (a
+/// window such as "framebuffer", or one umbra lacks) falls back to a file.
+static bool writesItsOwnFile(const std::string& driver) {
+    const std::string d = lower(driver);
+    return d == "file" || d == "tiff" || d == "openexr" || d == "exr" || d == "png" || d == "zfile" || d == "shadow";
+}
+
 std::string displayFilePath(const scene::DisplayRecord& display) {
-    const std::string driver = lower(display.driver);
-    for (const char* d : {"zfile", "shadow", "tiff", "openexr", "exr", "png", "file"})
-        if (driver == d) return display.name;
+    if (writesItsOwnFile(display.driver)) return display.name;
     return formatOfExtension(display.name) ? display.name : display.name + ".tif";
 }
 
@@ -281,8 +287,26 @@ int Film::findAov(const std::string& name) const {
 
 bool Film::write(const std::vector<scene::DisplayRecord>& displays, const scene::Options& options,
                  const OutputMetadata& metadata, Diagnostics& diag, const DepthWriter& depthWriter) const {
+    // Scenes pair a file with a window showing the same image under the
+    // same name (Display "out.tif" "file" ..., then "+out.tif"
+    // "framebuffer"): the window's stand-in file must not overwrite the
+    // file the user asked for.
+    std::vector<std::string> filesAskedFor;
+    for (const scene::DisplayRecord& d : displays)
+        if (writesItsOwnFile(d.driver)) filesAskedFor.push_back(d.name);
     bool ok = true;
-    for (const scene::DisplayRecord& d : displays) ok = writeDisplay(d, options, metadata, diag, depthWriter) && ok;
+    for (const scene::DisplayRecord& d : displays) {
+        if (!writesItsOwnFile(d.driver)) {
+            const std::string standIn = displayFilePath(d);
+            if (std::find(filesAskedFor.begin(), filesAskedFor.end(), standIn) != filesAskedFor.end()) {
+                diag.warningOnce("display-driver:" + lower(d.driver), d.loc,
+                                 "display driver \"{}\": umbra has no window, and \"{}\" is written by another "
+                                 "Display; this one is skipped", d.driver, standIn);
+                continue;
+            }
+        }
+        ok = writeDisplay(d, options, metadata, diag, depthWriter) && ok;
+    }
     return ok;
 }
 

@@ -5,8 +5,10 @@
 #include "umbra/geometry/patch.h"
 #include "umbra/geometry/polygon.h"
 #include "umbra/geometry/primitive.h"
+#include "umbra/geometry/procedural.h"
 #include "umbra/geometry/quadric.h"
 #include "umbra/geometry/subdivision.h"
+#include "umbra/geometry/teapot.h"
 
 #include <numeric>
 
@@ -261,6 +263,33 @@ void makePatches(const RecordPtr& rec, Diagnostics& diag, std::vector<PrimitiveP
         }
 }
 
+/// `Geometry "teapot"`: the Newell teapot's Bezier patches, whatever the
+/// current Basis (the patches are Bezier data).
+void makeTeapot(const RecordPtr& rec, Diagnostics& diag, std::vector<PrimitivePtr>& out) {
+    auto attrs = std::make_shared<scene::Attributes>(rec->attributes ? *rec->attributes : scene::Attributes());
+    attrs->uBasis = attrs->vBasis = scene::Basis::bezier();
+    for (int patch = 0; patch < kTeapotPatchCount; ++patch) {
+        auto piece = std::make_shared<scene::PrimitiveRecord>();
+        piece->type = "Patch";
+        piece->stringArgs = {"bicubic"};
+        ri::Param P;
+        P.decl.name = "P";
+        P.decl.storage = ri::StorageClass::Vertex;
+        P.decl.type = ri::ParamType::Point;
+        P.loc = rec->loc;
+        for (int k = 0; k < 16; ++k) {
+            const Vec3 c = teapotControlPoint(patch, k);
+            P.floats.insert(P.floats.end(), {c.x, c.y, c.z});
+        }
+        piece->params.add(std::move(P));
+        piece->worldFromObject = rec->worldFromObject;
+        piece->worldFromObjectMotion = rec->worldFromObjectMotion;
+        piece->attributes = attrs;
+        piece->loc = rec->loc;
+        makePatches(piece, diag, out);
+    }
+}
+
 }  // namespace
 
 namespace {
@@ -305,6 +334,20 @@ std::vector<PrimitivePtr> makePrimitives(std::shared_ptr<const scene::PrimitiveR
     return makeShape(std::move(record), diag);
 }
 
+std::vector<PrimitivePtr> makePrimitives(std::shared_ptr<const scene::PrimitiveRecord> record, Diagnostics& diag,
+                                         const std::shared_ptr<ProceduralContext>& procedurals) {
+    if (!record || !isProceduralRecord(*record)) return makePrimitives(std::move(record), diag);
+    std::vector<PrimitivePtr> out;
+    if (!record->shapes.empty())
+        diag.warningOnce("procedural:motion", record->loc, "Procedural: a MotionBegin block around a procedural is "
+                         "not supported; its first shape is expanded");
+    if (procedurals)
+        out.push_back(std::make_unique<Procedural>(std::move(record), procedurals));
+    else
+        diag.warningOnce("procedural:nocontext", record->loc, "Procedural: expanded only when rendering (skipped)");
+    return out;
+}
+
 namespace {
 
 std::vector<PrimitivePtr> makeShape(std::shared_ptr<const scene::PrimitiveRecord> record, Diagnostics& diag) {
@@ -318,7 +361,7 @@ std::vector<PrimitivePtr> makeShape(std::shared_ptr<const scene::PrimitiveRecord
         makePolygons(record, diag, out);
     else if (t == "Patch" || t == "PatchMesh")
         makePatches(record, diag, out);
-    else if (t == "SubdivisionMesh")
+    else if (t == "SubdivisionMesh" || t == "HierarchicalSubdivisionMesh")
         makeSubdivisionMesh(record, diag, out);
     else if (t == "NuPatch")
         makeNuPatches(record, diag, out);
@@ -328,6 +371,8 @@ std::vector<PrimitivePtr> makeShape(std::shared_ptr<const scene::PrimitiveRecord
         makePoints(record, diag, out);
     else if (t == "Blobby")
         makeBlobby(record, diag, out);
+    else if (t == "Geometry" && !record->stringArgs.empty() && record->stringArgs[0] == "teapot")
+        makeTeapot(record, diag, out);
     else
         diag.warningOnce("geometry:unsupported:" + t, record->loc, "{}: primitive type not supported yet; ignored", t);
     return out;

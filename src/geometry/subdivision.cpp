@@ -21,6 +21,10 @@ using SurfaceFactory = osd::Bfr::RefinerSurfaceFactory<SurfaceCache>;
 using Surface = osd::Bfr::Surface<float>;
 
 constexpr int kApproxSmooth = 4;
+// A range of at most kFlatFaces faces splits into its faces; a larger one
+// into kSplitWays ranges (Morton order makes each a region of space).
+constexpr int kFlatFaces = 64;
+constexpr int kSplitWays = 16;
 
 /// One face-varying primitive variable as an OpenSubdiv face-varying
 /// channel: the record's per-corner values welded where a vertex's corners
@@ -42,6 +46,17 @@ struct SubdivMeshData {
     bool loop = false;
     std::unique_ptr<osd::Far::TopologyRefiner> refiner;
     std::unique_ptr<SurfaceFactory> factory;
+    /// Per base face: the bound of the vertices of the faces around its
+    /// corners (its one-ring), which holds its limit surface. Made once, so
+    /// that a range's bound is a union of these and the split tree of a
+    /// mesh of F faces costs F log F unions, not F log F one-ring walks.
+    std::vector<Bound3> faceRingBound;
+    /// The base faces in Morton order of their one-ring bounds' centres.
+    /// SubdivMesh ranges index this, so halving a range halves a region of
+    /// space: the pieces' bounds stay tight and occlusion culling works as
+    /// it does for separate patches (in the order faces are written, a
+    /// half of a torus is a band all round it).
+    std::vector<int> faceOrder;
 
     Vec3 point(int v) const { return {points[size_t(v) * 3], points[size_t(v) * 3 + 1], points[size_t(v) * 3 + 2]}; }
 };
@@ -57,6 +72,42 @@ namespace {
 
 using RecordPtr = std::shared_ptr<const scene::PrimitiveRecord>;
 
+// A regular Catmull-Clark face's limit surface is one bicubic polynomial
+// patch (boundary faces too: their phantom points keep it one). Its Bezier
+// control points, found from 4 x 4 limit points, lie much closer to it
+// than the 16 B-spline points around it, so their box bounds the face more
+// tightly and more of the faces behind others are culled unshaded. The
+// box is padded for rounding and clipped to the B-spline points' box,
+// which always holds.
+Bound3 tighterRegularBound(const SubdivFaceSurfaces& s) {
+    // Rows: the Bezier points from the values at t = 0, 1/3, 2/3, 1 (the
+    // inverse of the cubic Bernstein matrix at those t).
+    static constexpr float kFromValues[4][4] = {
+        {1, 0, 0, 0}, {-5.0f / 6, 3, -1.5f, 1.0f / 3}, {1.0f / 3, -1.5f, 3, -5.0f / 6}, {0, 0, 0, 1}};
+    Vec3 values[4][4];
+    for (int j = 0; j < 4; ++j)
+        for (int i = 0; i < 4; ++i) {
+            const float uv[2] = {float(i) / 3, float(j) / 3};
+            s.vertex.Evaluate(uv, s.patchPoints.data(), 3, &values[j][i].x);
+        }
+    Vec3 rows[4][4];  // u converted, per row of values
+    for (int j = 0; j < 4; ++j)
+        for (int k = 0; k < 4; ++k) {
+            Vec3 c(0.0f);
+            for (int i = 0; i < 4; ++i) c = c + values[j][i] * kFromValues[k][i];
+            rows[j][k] = c;
+        }
+    Bound3 b;
+    for (int l = 0; l < 4; ++l)
+        for (int k = 0; k < 4; ++k) {
+            Vec3 c(0.0f);
+            for (int j = 0; j < 4; ++j) c = c + rows[j][k] * kFromValues[l][j];
+            b.extend(c);
+        }
+    const Vec3 pad(1e-4f * std::max({s.hull.diagonal().x, s.hull.diagonal().y, s.hull.diagonal().z}));
+    return Bound3(vmax(b.min - pad, s.hull.min), vmin(b.max + pad, s.hull.max));
+}
+
 std::shared_ptr<const SubdivFaceSurfaces> makeFaceSurfaces(const SubdivMeshData& m, int face) {
     auto s = std::make_shared<SubdivFaceSurfaces>();
     if (!m.factory->InitVertexSurface<float>(face, &s->vertex)) return nullptr;  // a hole, or no limit surface
@@ -67,6 +118,12 @@ std::shared_ptr<const SubdivFaceSurfaces> makeFaceSurfaces(const SubdivMeshData&
     s->vertex.PreparePatchPoints(m.points.data(), 3, s->patchPoints.data(), 3);
     for (size_t k = 0; k + 2 < s->patchPoints.size(); k += 3)
         s->hull.extend(Vec3(s->patchPoints[k], s->patchPoints[k + 1], s->patchPoints[k + 2]));
+    // Evaluation rounds (a boundary face's limit reaches its hull's face
+    // plus a few float steps): pad by a rounding margin.
+    const Vec3 d = s->hull.diagonal();
+    const Vec3 pad(1e-5f * std::max({d.x, d.y, d.z}));
+    s->hull = Bound3(s->hull.min - pad, s->hull.max + pad);
+    if (!m.loop && s->vertex.IsRegular()) s->hull = tighterRegularBound(*s);
     return s;
 }
 
@@ -87,30 +144,20 @@ Vec3 cross3(const float a[3], const float b[3]) {
 
 SubdivMesh::SubdivMesh(RecordPtr record, std::shared_ptr<const SubdivMeshData> mesh, int firstFace, int endFace)
     : Primitive(std::move(record)), m_mesh(std::move(mesh)), m_first(firstFace), m_end(endFace) {
-    // The limit surface of a face lies in the convex hull of the points
-    // that influence it, which are among the vertices of the faces around
-    // its corners (its one-ring).
-    const osd::Far::TopologyLevel& level = m_mesh->refiner->GetLevel(0);
-    for (int f = m_first; f < m_end; ++f) {
-        const auto fv = level.GetFaceVertices(f);
-        for (int k = 0; k < fv.size(); ++k) {
-            const auto ring = level.GetVertexFaces(fv[k]);
-            for (int r = 0; r < ring.size(); ++r) {
-                const auto rv = level.GetFaceVertices(ring[r]);
-                for (int q = 0; q < rv.size(); ++q) m_bound.extend(m_mesh->point(rv[q]));
-            }
-        }
-    }
+    for (int k = m_first; k < m_end; ++k) m_bound.extend(m_mesh->faceRingBound[size_t(m_mesh->faceOrder[size_t(k)])]);
 }
 
 void SubdivMesh::split(bool, std::vector<PrimitivePtr>& out) const {
-    if (m_end - m_first > 1) {
-        const int mid = m_first + (m_end - m_first) / 2;
-        out.push_back(std::make_unique<SubdivMesh>(recordPtr(), m_mesh, m_first, mid));
-        out.push_back(std::make_unique<SubdivMesh>(recordPtr(), m_mesh, mid, m_end));
+    const int count = m_end - m_first;
+    if (count <= kFlatFaces) {
+        for (int k = m_first; k < m_end; ++k) appendFace(recordPtr(), m_mesh, m_mesh->faceOrder[size_t(k)], out);
         return;
     }
-    appendFace(recordPtr(), m_mesh, m_first, out);
+    for (int part = 0; part < kSplitWays; ++part) {
+        const int first = m_first + int(int64_t(count) * part / kSplitWays);
+        const int end = m_first + int(int64_t(count) * (part + 1) / kSplitWays);
+        if (end > first) out.push_back(std::make_unique<SubdivMesh>(recordPtr(), m_mesh, first, end));
+    }
 }
 
 Grid SubdivMesh::dice(int, int) const {
@@ -313,42 +360,57 @@ struct Tags {
 
 bool readTags(const scene::PrimitiveRecord& rec, int nfaces, long npoints, Tags& t, Diagnostics& diag) {
     using Opt = osd::Sdc::Options;
+    const std::string& what = rec.type;
     // RenderMan's default: no boundary interpolation (boundary faces have no
     // limit surface and are not drawn).
     t.options.SetVtxBoundaryInterpolation(Opt::VTX_BOUNDARY_NONE);
     t.options.SetFVarLinearInterpolation(Opt::FVAR_LINEAR_CORNERS_ONLY);
-    const size_t ntags = rec.stringArgs.size() - 1;
-    if (ntags == 0) return true;
+    // HierarchicalSubdivisionMesh gives three counts per tag (integers,
+    // floats, strings) and its string arguments after the tag names; the
+    // plain request gives two counts and no strings.
+    const bool hierarchical = what == "HierarchicalSubdivisionMesh";
+    const size_t countsPerTag = hierarchical ? 3 : 2;
+    static const std::vector<int> kNone;
+    const std::vector<int>& nargs = rec.intArrays.size() > 2 ? rec.intArrays[2] : kNone;
+    const size_t ntags = hierarchical ? nargs.size() / 3 : rec.stringArgs.size() - 1;
+    if (ntags == 0 && (!hierarchical || nargs.empty())) return true;
     if (rec.intArrays.size() < 3) {
-        diag.error(rec.loc, "SubdivisionMesh: {} tags but no nargs", ntags);
+        diag.error(rec.loc, "{}: {} tags but no nargs", what, ntags);
         return false;
     }
-    const std::vector<int>& nargs = rec.intArrays[2];
-    static const std::vector<int> kNone;
     const std::vector<int>& ints = rec.intArrays.size() > 3 ? rec.intArrays[3] : kNone;
     const std::vector<float>& floats = rec.floatArgs;
-    if (nargs.size() != 2 * ntags) {
-        diag.error(rec.loc, "SubdivisionMesh: nargs has {} values, expected {} (an integer and a float count per tag)",
-                   nargs.size(), 2 * ntags);
+    if (nargs.size() != countsPerTag * ntags || rec.stringArgs.size() < 1 + ntags) {
+        if (hierarchical)
+            diag.error(rec.loc, "{}: nargs has {} values for {} tag names and string arguments, expected three counts "
+                       "per tag (integers, floats, strings)", what, nargs.size(), rec.stringArgs.size() - 1);
+        else
+            diag.error(rec.loc, "{}: nargs has {} values, expected {} (an integer and a float count per tag)", what,
+                       nargs.size(), countsPerTag * ntags);
         return false;
     }
-    size_t ip = 0, fp = 0;
+    const size_t nstrings = rec.stringArgs.size() - 1 - ntags;
+    size_t ip = 0, fp = 0, sp = 0;
+    bool propagateCorners = false;
     for (size_t k = 0; k < ntags; ++k) {
         const std::string& name = rec.stringArgs[k + 1];
-        const int ni = nargs[2 * k], nf = nargs[2 * k + 1];
-        if (ni < 0 || nf < 0 || ip + size_t(ni) > ints.size() || fp + size_t(nf) > floats.size()) {
-            diag.error(rec.loc, "SubdivisionMesh: tag \"{}\" asks for {} integers and {} floats, more than given", name,
-                       ni, nf);
+        const int ni = nargs[countsPerTag * k], nf = nargs[countsPerTag * k + 1];
+        const int ns = hierarchical ? nargs[countsPerTag * k + 2] : 0;
+        if (ni < 0 || nf < 0 || ns < 0 || ip + size_t(ni) > ints.size() || fp + size_t(nf) > floats.size() ||
+            sp + size_t(ns) > nstrings) {
+            diag.error(rec.loc, "{}: tag \"{}\" asks for {} integers, {} floats and {} strings, more than given",
+                       what, name, ni, nf, ns);
             return false;
         }
         const int* iv = ints.data() + ip;
         const float* fv = floats.data() + fp;
         ip += size_t(ni);
         fp += size_t(nf);
+        sp += size_t(ns);
         auto badVertex = [&](int c) {
             for (int q = 0; q < c; ++q)
                 if (iv[q] < 0 || iv[q] >= npoints) {
-                    diag.error(rec.loc, "SubdivisionMesh: tag \"{}\" names vertex {}, outside 0..{}", name, iv[q],
+                    diag.error(rec.loc, "{}: tag \"{}\" names vertex {}, outside 0..{}", what, name, iv[q],
                                npoints - 1);
                     return true;
                 }
@@ -359,7 +421,7 @@ bool readTags(const scene::PrimitiveRecord& rec, int nfaces, long npoints, Tags&
             if (mode == 0) t.options.SetVtxBoundaryInterpolation(Opt::VTX_BOUNDARY_NONE);
             else if (mode == 1) t.options.SetVtxBoundaryInterpolation(Opt::VTX_BOUNDARY_EDGE_AND_CORNER);
             else if (mode == 2) t.options.SetVtxBoundaryInterpolation(Opt::VTX_BOUNDARY_EDGE_ONLY);
-            else diag.warning(rec.loc, "SubdivisionMesh: interpolateboundary {} unknown (expected 0, 1 or 2); ignored", mode);
+            else diag.warning(rec.loc, "{}: interpolateboundary {} unknown (expected 0, 1 or 2); ignored", what, mode);
         } else if (name == "facevaryinginterpolateboundary") {
             // The integer codes of OpenSubdiv's own RIB shape reader.
             static const Opt::FVarLinearInterpolation kModes[] = {
@@ -368,12 +430,12 @@ bool readTags(const scene::PrimitiveRecord& rec, int nfaces, long npoints, Tags&
             const int mode = ni > 0 ? iv[0] : 1;
             if (mode >= 0 && mode <= 5) t.options.SetFVarLinearInterpolation(kModes[mode]);
             else
-                diag.warning(rec.loc, "SubdivisionMesh: facevaryinginterpolateboundary {} unknown (expected 0 to 5); ignored",
+                diag.warning(rec.loc, "{}: facevaryinginterpolateboundary {} unknown (expected 0 to 5); ignored", what,
                              mode);
         } else if (name == "crease") {
             if (ni < 2 || (nf != 1 && nf != ni - 1)) {
-                diag.error(rec.loc, "SubdivisionMesh: crease expects 2 or more vertices and 1 sharpness (or one per "
-                                    "edge), got {} and {}", ni, nf);
+                diag.error(rec.loc, "{}: crease expects 2 or more vertices and 1 sharpness (or one per "
+                                    "edge), got {} and {}", what, ni, nf);
                 return false;
             }
             if (badVertex(ni)) return false;
@@ -384,8 +446,8 @@ bool readTags(const scene::PrimitiveRecord& rec, int nfaces, long npoints, Tags&
             }
         } else if (name == "corner") {
             if (ni < 1 || (nf != 1 && nf != ni)) {
-                diag.error(rec.loc, "SubdivisionMesh: corner expects vertices and 1 sharpness (or one per vertex), "
-                                    "got {} and {}", ni, nf);
+                diag.error(rec.loc, "{}: corner expects vertices and 1 sharpness (or one per vertex), "
+                                    "got {} and {}", what, ni, nf);
                 return false;
             }
             if (badVertex(ni)) return false;
@@ -396,17 +458,27 @@ bool readTags(const scene::PrimitiveRecord& rec, int nfaces, long npoints, Tags&
         } else if (name == "hole") {
             for (int q = 0; q < ni; ++q) {
                 if (iv[q] < 0 || iv[q] >= nfaces) {
-                    diag.error(rec.loc, "SubdivisionMesh: hole names face {}, outside 0..{}", iv[q], nfaces - 1);
+                    diag.error(rec.loc, "{}: hole names face {}, outside 0..{}", what, iv[q], nfaces - 1);
                     return false;
                 }
                 t.holes.push_back(iv[q]);
             }
+        } else if (name == "facevaryingpropagatecorners") {
+            propagateCorners = ni > 0 && iv[0] != 0;
+        } else if (name == "vertexedit" || name == "edgeedit" || name == "faceedit") {
+            diag.warningOnce("subdiv:hierarchical-edit", rec.loc,
+                             "{}: hierarchical edits (\"{}\") are not supported; the mesh is drawn without them", what,
+                             name);
         } else {
             std::string key = "subdiv:tag:";
             key += name;
-            diag.warningOnce(key, rec.loc, "SubdivisionMesh: tag \"{}\" not supported; ignored", name);
+            diag.warningOnce(key, rec.loc, "{}: tag \"{}\" not supported; ignored", what, name);
         }
     }
+    // PRMan's facevaryingpropagatecorners sharpens the corners that the
+    // "corners plus one" rule makes, which is OpenSubdiv's CORNERS_PLUS2.
+    if (propagateCorners && t.options.GetFVarLinearInterpolation() == Opt::FVAR_LINEAR_CORNERS_PLUS1)
+        t.options.SetFVarLinearInterpolation(Opt::FVAR_LINEAR_CORNERS_PLUS2);
     return true;
 }
 
@@ -437,12 +509,42 @@ FVarChannelData weld(const PrimVar& v, int var, const std::vector<int>& vertices
     return c;
 }
 
+// Indices of `bounds` sorted by the Morton code of their centres in the
+// box of all of them (10 bits an axis); ties keep the given order.
+std::vector<int> mortonOrder(const std::vector<Bound3>& bounds) {
+    Bound3 all;
+    for (const Bound3& b : bounds) all.extend(b);
+    const Vec3 size = vmax(all.diagonal(), Vec3(1e-30f));
+    auto spread = [](uint32_t v) {  // 10 bits to every third of 30
+        v = (v | (v << 16)) & 0x030000FFu;
+        v = (v | (v << 8)) & 0x0300F00Fu;
+        v = (v | (v << 4)) & 0x030C30C3u;
+        v = (v | (v << 2)) & 0x09249249u;
+        return v;
+    };
+    auto cell = [](float t) {  // NaN (a point at infinity) goes to cell 0
+        const float x = t * 1024.0f;
+        return x >= 1023.0f ? 1023u : (x >= 0.0f ? uint32_t(x) : 0u);
+    };
+    std::vector<std::pair<uint32_t, int>> keyed(bounds.size());
+    for (size_t f = 0; f < bounds.size(); ++f) {
+        const Vec3 c = (bounds[f].min + bounds[f].max) * 0.5f - all.min;
+        keyed[f] = {spread(cell(c.x / size.x)) | (spread(cell(c.y / size.y)) << 1) | (spread(cell(c.z / size.z)) << 2),
+                    int(f)};
+    }
+    std::stable_sort(keyed.begin(), keyed.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    std::vector<int> order(bounds.size());
+    for (size_t k = 0; k < keyed.size(); ++k) order[k] = keyed[k].second;
+    return order;
+}
+
 }  // namespace
 
 void makeSubdivisionMesh(const RecordPtr& rec, Diagnostics& diag, std::vector<PrimitivePtr>& out) {
+    const std::string& what = rec->type;
     const auto& arrays = rec->intArrays;
     if (rec->stringArgs.empty() || arrays.size() < 2) {
-        diag.error(rec->loc, "SubdivisionMesh: expected a scheme, nvertices and vertices");
+        diag.error(rec->loc, "{}: expected a scheme, nvertices and vertices", what);
         return;
     }
     const std::string& scheme = rec->stringArgs[0];
@@ -451,7 +553,7 @@ void makeSubdivisionMesh(const RecordPtr& rec, Diagnostics& diag, std::vector<Pr
     else if (scheme == "loop") type = osd::Sdc::SCHEME_LOOP;
     else if (scheme == "bilinear") type = osd::Sdc::SCHEME_BILINEAR;
     else {
-        diag.error(rec->loc, "SubdivisionMesh: scheme \"{}\" unknown (expected \"catmull-clark\", \"loop\" or \"bilinear\")",
+        diag.error(rec->loc, "{}: scheme \"{}\" unknown (expected \"catmull-clark\", \"loop\" or \"bilinear\")", what,
                    scheme);
         return;
     }
@@ -463,25 +565,25 @@ void makeSubdivisionMesh(const RecordPtr& rec, Diagnostics& diag, std::vector<Pr
     mesh->faceCornerStart.push_back(0);
     for (size_t f = 0; f < nverts.size(); ++f) {
         if (nverts[f] < 3) {
-            diag.error(rec->loc, "SubdivisionMesh: face {} has {} vertices, expected at least 3", f, nverts[f]);
+            diag.error(rec->loc, "{}: face {} has {} vertices, expected at least 3", what, f, nverts[f]);
             return;
         }
         if (mesh->loop && nverts[f] != 3) {
-            diag.error(rec->loc, "SubdivisionMesh: \"loop\" needs triangles; face {} has {} vertices", f, nverts[f]);
+            diag.error(rec->loc, "{}: \"loop\" needs triangles; face {} has {} vertices", what, f, nverts[f]);
             return;
         }
         total += nverts[f];
         mesh->faceCornerStart.push_back(int(total));
     }
     if (nverts.empty() || long(verts.size()) != total) {
-        diag.error(rec->loc, "SubdivisionMesh: vertices has {} indices, expected {} (the sum of nvertices)",
+        diag.error(rec->loc, "{}: vertices has {} indices, expected {} (the sum of nvertices)", what,
                    verts.size(), total);
         return;
     }
     long npoints = 0;
     for (size_t k = 0; k < verts.size(); ++k) {
         if (verts[k] < 0) {
-            diag.error(rec->loc, "SubdivisionMesh: vertex index {} at position {} is negative", verts[k], k);
+            diag.error(rec->loc, "{}: vertex index {} at position {} is negative", what, verts[k], k);
             return;
         }
         npoints = std::max(npoints, long(verts[k]) + 1);
@@ -534,9 +636,26 @@ void makeSubdivisionMesh(const RecordPtr& rec, Diagnostics& diag, std::vector<Pr
     using Factory = osd::Far::TopologyRefinerFactory<osd::Far::TopologyDescriptor>;
     mesh->refiner.reset(Factory::Create(desc, Factory::Options(type, tags.options)));
     if (!mesh->refiner) {
-        diag.error(rec->loc, "SubdivisionMesh: OpenSubdiv rejects the mesh's topology");
+        diag.error(rec->loc, "{}: OpenSubdiv rejects the mesh's topology", what);
         return;
     }
+    // The limit surface of a face lies in the convex hull of the points
+    // that influence it, which are among the vertices of the faces around
+    // its corners (its one-ring).
+    const osd::Far::TopologyLevel& level = mesh->refiner->GetLevel(0);
+    mesh->faceRingBound.resize(nverts.size());
+    for (int f = 0; f < int(nverts.size()); ++f) {
+        Bound3& b = mesh->faceRingBound[size_t(f)];
+        const auto fv = level.GetFaceVertices(f);
+        for (int k = 0; k < fv.size(); ++k) {
+            const auto ring = level.GetVertexFaces(fv[k]);
+            for (int r = 0; r < ring.size(); ++r) {
+                const auto rv = level.GetFaceVertices(ring[r]);
+                for (int q = 0; q < rv.size(); ++q) b.extend(mesh->point(rv[q]));
+            }
+        }
+    }
+    mesh->faceOrder = mortonOrder(mesh->faceRingBound);
     SurfaceFactory::Options factoryOptions;
     factoryOptions.SetApproxLevelSmooth(kApproxSmooth);
     mesh->factory = std::make_unique<SurfaceFactory>(*mesh->refiner, factoryOptions);

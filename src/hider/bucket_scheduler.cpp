@@ -1,4 +1,5 @@
 #include "umbra/hider/bucket_scheduler.h"
+#include "umbra/hider/bucket_work.h"
 
 #include "umbra/util/cpu_time.h"
 #include "umbra/util/interrupt.h"
@@ -13,6 +14,7 @@
 #include <atomic>
 #include <cmath>
 #include <mutex>
+#include <optional>
 
 namespace umbra::hider {
 
@@ -32,6 +34,10 @@ MicroGrid ShadedGrid::view() const {
     g.id = id;
     g.ownSecondLayer = ownSecondLayer;
     g.discs = discs;
+    g.csgLeaf = csgLeaf;
+    g.dissolveFrom = dissolveFrom;
+    g.dissolveBelow = dissolveBelow;
+    g.leaving = leaving.empty() ? nullptr : leaving.data();
     if (keyTimes.size() > 1) {
         g.keyCount = int(keyTimes.size());
         g.keyTimes = keyTimes.data();
@@ -68,11 +74,11 @@ struct Node {
     enum class State { Culled, Split, Grid };
     /// Whether the node was planned (split, diced and shaded, or culled):
     /// one bucket's thread does it; others wait, or first visit the rest
-    /// of their bucket (see Frame::visit).
+    /// of their bucket (see Frame::walk).
     enum Resolution : int { kUnresolved, kResolving, kResolved };
     std::atomic<int> resolution{kUnresolved};
     State state = State::Culled;
-    std::vector<std::unique_ptr<Node>> children;  // sorted near to far
+    std::vector<std::unique_ptr<Node>> children;
     std::unique_ptr<ShadedGrid> grid;
     std::atomic<int> visitsLeft{0};
 
@@ -149,8 +155,6 @@ struct Frame {
                 else
                     ++stats.culled;
             }
-            std::sort(node.children.begin(), node.children.end(),
-                      [](const auto& a, const auto& b) { return nearerFirst(a.get(), b.get()); });
             node.state = Node::State::Split;
             return;
         }
@@ -194,62 +198,71 @@ struct Frame {
         return node.resolution.load(std::memory_order_acquire) == Node::kResolved;
     }
 
-    /// A visit postponed because another thread was resolving the node,
-    /// with the pieces' ancestors it keeps alive until then.
-    struct Deferred {
-        Node* node;
-        std::vector<Node*> ancestors;  // outermost first, each holding one extra visit
+    /// One bucket's walk: a queue of the nodes to visit, nearest first
+    /// across the whole tree of pieces (a split node's pieces join the
+    /// queue beside every other node instead of being walked depth first),
+    /// so a piece behind the pieces of a sibling meets them already
+    /// sampled and is culled by occlusion before it is diced and shaded.
+    struct Walk {
+        std::vector<Node*> queue;    // a heap, the nearest node on top
+        std::vector<Node*> waiting;  // nodes another thread was resolving
+        std::vector<Node*> visited;  // in visit order: parents before their pieces
     };
 
-    /// Samples a node (or its pieces) into the bucket. A node another
-    /// thread is resolving goes to `deferred`, when given, and the bucket
-    /// goes on with its other nodes instead of waiting: neighbouring
-    /// buckets share their large primitives, so both threads often reach
-    /// one at once. The order nodes are sampled in does not change a pixel
-    /// (ties are decided by the full sample key; only occlusion culling,
-    /// which is exact, sees the order). `ancestors` is the path from the
-    /// bucket's top-level node down to `node`'s parent.
-    void visit(Node& node, int bx, int by, SampleBuffer& buffer, SchedulerStats& stats,
-               std::vector<Deferred>* deferred, std::vector<Node*>& ancestors) {
-        if (buffer.occluded(node.bound)) {
-            ++stats.occlusionCulled;
-        } else {
-            if (!resolved(node, stats)) {
-                if (deferred) {
-                    // Its ancestors must outlive the postponed visit: releasing
-                    // a parent frees its pieces.
-                    for (Node* a : ancestors) ++a->visitsLeft;
-                    deferred->push_back({&node, ancestors});
-                    return;  // visited (and counted) later
+    /// Samples the nodes covering a bucket (and their pieces) into it. A
+    /// node another thread is resolving waits in `walk.waiting` while the
+    /// bucket goes on with its other nodes: neighbouring buckets share
+    /// their large primitives, so both threads often reach one at once.
+    /// The order nodes are sampled in does not change a pixel (ties are
+    /// decided by the full sample key; only occlusion culling, which is
+    /// exact, sees the order). Every node visited keeps its visit (and so
+    /// its pieces) until the bucket ends; then the visits are let go,
+    /// pieces before their parents.
+    void walk(const std::vector<Node*>& nodes, int bx, int by, SampleBuffer& buffer, SchedulerStats& stats,
+              Walk& w) {
+        auto nearestOnTop = [](const Node* a, const Node* b) { return nearerFirst(b, a); };
+        w.queue.assign(nodes.begin(), nodes.end());
+        std::make_heap(w.queue.begin(), w.queue.end(), nearestOnTop);
+        size_t nextWaiting = 0;
+        while (!w.queue.empty() || nextWaiting < w.waiting.size()) {
+            Node* node;
+            const bool fromQueue = !w.queue.empty();
+            if (fromQueue) {
+                std::pop_heap(w.queue.begin(), w.queue.end(), nearestOnTop);
+                node = w.queue.back();
+                w.queue.pop_back();
+            } else {
+                node = w.waiting[nextWaiting++];
+            }
+            if (buffer.occluded(node->bound)) {
+                ++stats.occlusionCulled;
+                w.visited.push_back(node);
+                continue;
+            }
+            if (!resolved(*node, stats)) {
+                if (fromQueue) {
+                    w.waiting.push_back(node);  // visited once the queue is empty
+                    continue;
                 }
                 int r;
-                while ((r = node.resolution.load(std::memory_order_acquire)) != Node::kResolved)
-                    node.resolution.wait(r, std::memory_order_acquire);
+                while ((r = node->resolution.load(std::memory_order_acquire)) != Node::kResolved)
+                    node->resolution.wait(r, std::memory_order_acquire);
             }
-            if (node.state == Node::State::Grid) {
-                buffer.sample(node.grid->view());
-            } else if (node.state == Node::State::Split) {
-                ancestors.push_back(&node);
-                for (auto& child : node.children)
-                    if (child->covers(bx, by)) visit(*child, bx, by, buffer, stats, deferred, ancestors);
-                ancestors.pop_back();
+            w.visited.push_back(node);
+            if (node->state == Node::State::Grid) {
+                buffer.sample(node->grid->view());
+            } else if (node->state == Node::State::Split) {
+                for (auto& child : node->children)
+                    if (child->covers(bx, by)) {
+                        w.queue.push_back(child.get());
+                        std::push_heap(w.queue.begin(), w.queue.end(), nearestOnTop);
+                    }
             }
         }
-        if (--node.visitsLeft == 0) release(node);
-    }
-
-    /// Visits the postponed nodes (mostly resolved by now; waiting for the
-    /// rest) and lets go of their ancestors, innermost first.
-    void visitDeferred(std::vector<Deferred>& deferred, int bx, int by, SampleBuffer& buffer, SchedulerStats& stats) {
-        std::vector<Node*> path;
-        for (size_t k = 0; k < deferred.size(); ++k) {
-            Deferred& d = deferred[k];
-            path = d.ancestors;
-            visit(*d.node, bx, by, buffer, stats, nullptr, path);
-            for (auto a = d.ancestors.rbegin(); a != d.ancestors.rend(); ++a)
-                if (--(*a)->visitsLeft == 0) release(**a);
-        }
-        deferred.clear();
+        w.waiting.clear();
+        for (auto it = w.visited.rbegin(); it != w.visited.rend(); ++it)
+            if (--(*it)->visitsLeft == 0) release(**it);
+        w.visited.clear();
     }
 };
 
@@ -287,6 +300,19 @@ SchedulerStats BucketScheduler::render(const std::vector<geometry::PrimitivePtr>
             for (int bx = node->bx0; bx <= node->bx1; ++bx) perBucket[size_t(by * frame.bucketsX + bx)].push_back(node.get());
     }
 
+    // Progress by work: each bucket's share from the raster area its
+    // primitives cover (an empty sky is done at once, and says so).
+    std::optional<WorkFraction> work;
+    if (m_settings.progress) {
+        std::vector<Bound3> bounds;
+        bounds.reserve(roots.size());
+        for (const auto& node : roots)
+            if (node) bounds.push_back(node->bound);
+        const BucketLayout layout{film.x0(), film.y0(), film.x1(), film.y1(), bw, bh};
+        const double emptyPixelWork = m_settings.sampling.mode == HiderMode::Depth ? 0.0 : kEmptyPixelWorkColour;
+        work.emplace(estimateBucketWork(layout, bounds, emptyPixelWork));
+    }
+
     // Workers take buckets in scanline order, so the grids alive at any time
     // are those of a band of buckets, not of the whole frame.
     std::atomic<int> next{0}, done{0};
@@ -295,8 +321,7 @@ SchedulerStats BucketScheduler::render(const std::vector<geometry::PrimitivePtr>
         const double cpu0 = threadCpuSeconds();
         SampleBuffer buffer;
         SchedulerStats stats;
-        std::vector<Frame::Deferred> deferred;
-        std::vector<Node*> ancestors;
+        Frame::Walk walk;
         for (int b; (b = next++) < bucketCount;) {
             if (interrupted()) break;  // the pass's film is then not written
             int bx = b % frame.bucketsX, by = b / frame.bucketsX;
@@ -314,14 +339,12 @@ SchedulerStats BucketScheduler::render(const std::vector<geometry::PrimitivePtr>
             // sparse shadow map) need no samples at all.
             if (!nodes.empty() || config.mode != HiderMode::Depth) {
                 buffer.reset(config);
-                std::sort(nodes.begin(), nodes.end(), nearerFirst);
-                for (Node* node : nodes) frame.visit(*node, bx, by, buffer, stats, &deferred, ancestors);
-                frame.visitDeferred(deferred, bx, by, buffer, stats);
+                frame.walk(nodes, bx, by, buffer, stats, walk);
                 buffer.resolve(film);
             }
             ++stats.buckets;
             int d = ++done;
-            if (m_settings.progress) m_settings.progress(d, bucketCount);
+            if (work) m_settings.progress(d, bucketCount, work->finish(b));
         }
         stats.workerCpuSeconds = threadCpuSeconds() - cpu0;
         stats.blur = buffer.blurStats();

@@ -5,6 +5,7 @@
 #include "umbra/film/film.h"
 #include "umbra/util/error.h"
 #include "umbra/util/lanes.h"
+#include "umbra/util/rng.h"
 
 #include <algorithm>
 #include <cmath>
@@ -283,12 +284,32 @@ void SampleBuffer::reset(const SampleBufferConfig& c) {
         m_ci.clear();
         m_alpha.clear();
         m_aov.clear();
-        m_fragHead.clear();
+        if (c.csg)
+            m_fragHead.assign(n, -1);
+        else
+            m_fragHead.clear();
     }
     m_frags.clear();
     m_fragAov.clear();
+    m_csgFragments = 0;
+    m_dissolveReady = false;
+    m_csgRay.reset(c.csg ? size_t(c.csg->size()) : 0);
+    m_csgNext.assign(c.csg ? size_t(c.csg->size()) : 0, 0);
     m_pixelMax.assign(size_t(m_rw) * size_t(m_rh), kInfinity);
     m_pixelDirty.assign(size_t(m_rw) * size_t(m_rh), 0);
+}
+
+float SampleBuffer::dissolveValue(int sx, int sy, uint32_t frameSeed) {
+    return hashToUnit(hashKeys(uint32_t(sx), uint32_t(sy), frameSeed, 0x10dU));
+}
+
+void SampleBuffer::prepareDissolve() {
+    if (m_dissolveReady) return;
+    m_dissolve.resize(size_t(m_sw) * size_t(m_sh) + 3);  // read in groups of four
+    for (int sy = 0; sy < m_sh; ++sy)
+        for (int sx = 0; sx < m_sw; ++sx)
+            m_dissolve[size_t(sy) * size_t(m_sw) + size_t(sx)] = dissolveValue(m_sx0 + sx, m_sy0 + sy, m_cfg.frameSeed);
+    m_dissolveReady = true;
 }
 
 int SampleBuffer::sampleIndex(int px, int py, int s) const {
@@ -317,6 +338,7 @@ void SampleBuffer::sample(const MicroGrid& g) {
     if (g.nu <= 0 || g.nv <= 0 || !g.P) return;
     UMBRA_CHECK(!g.aov || g.aovCount == m_cfg.aovCount, "grid has {} AOV floats, the buffer {}", g.aovCount,
                 m_cfg.aovCount);
+    if (g.dissolves()) prepareDissolve();
     if (g.keyCount > 1 || m_cfg.lens) {
         sampleBlurred(g);
         return;
@@ -446,7 +468,7 @@ void SampleBuffer::rasterizeQuad(const MicroGrid& g, const HitContext& ctx, int 
     // Four samples of a row at a time (positions are padded so the last
     // group may read past the end); lanes past sx1 are masked off.
     bool wrote = false;
-    const bool nearestOnly = ctx.depthMode && m_cfg.depthLayers == 1;
+    const bool nearestOnly = ctx.depthMode && m_cfg.depthLayers == 1 && g.csgLeaf < 0;  // CSG hits go to record()
     for (int sy = sy0; sy <= sy1; ++sy) {
         const size_t row = size_t(sy) * size_t(m_sw);
         for (int sx = sx0; sx <= sx1; sx += 4) {
@@ -480,6 +502,10 @@ void SampleBuffer::rasterizeQuad(const MicroGrid& g, const HitContext& ctx, int 
                 if (g.discs && hits) {
                     const F4 dx = x - discX, dy = y - discY;
                     hits &= laneMask(dx * dx + dy * dy <= discR2);
+                }
+                if (g.dissolves() && hits) {
+                    const F4 u = load4(&m_dissolve[s]);
+                    hits &= laneMask((u >= g.dissolveFrom) & (u < g.dissolveBelow));
                 }
                 if (g.trim && hits) {
                     float w1[4], w2[4];
@@ -656,7 +682,7 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
     ++m_blur.micropolygons;
 
     const uint32_t mp = uint32_t(j * g.nu + i);
-    const bool nearestOnly = ctx.depthMode && m_cfg.depthLayers == 1;
+    const bool nearestOnly = ctx.depthMode && m_cfg.depthLayers == 1 && g.csgLeaf < 0;  // CSG hits go to record()
     const float* depthOf = ctx.inverseDepth;
     auto depthAt = [&](size_t v) { return depthOf ? depthOf[v] : g.P[v].z; };
     bool wrote = false;
@@ -729,6 +755,7 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
                 t.i1 = corner[b];
                 t.i2 = corner[c];
                 t.sub = 2 * mp + uint32_t(h);
+                if (g.dissolves() && !(m_dissolve[s] >= g.dissolveFrom && m_dissolve[s] < g.dissolveBelow)) continue;
                 if (g.trim) {
                     const float w1s[4] = {b1, 0, 0, 0}, w2s[4] = {b2, 0, 0, 0};
                     if (!trimKept(g, t, w1s, w2s, 1)) continue;
@@ -890,38 +917,46 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
     if (wrote) markDirty(sx0, sy0, sx1, sy1);
 }
 
+inline bool SampleBuffer::recordDepth(size_t s, float z, uint64_t gid, uint32_t sub, bool ownSecondLayer) {
+    if (keyLess(z, gid, sub, m_z[s], m_id[s], m_sub[s])) {
+        // The nearest hit from another grid than the new nearest is the
+        // old nearest (it was nearer than everything else); a surface
+        // that is its own second layer is nearer still.
+        if (m_cfg.depthLayers > 1 && ownSecondLayer) {
+            m_z2[s] = z;
+            m_id2[s] = gid;
+            m_sub2[s] = sub;
+        } else if (m_cfg.depthLayers > 1 && m_z[s] != kInfinity && m_id[s] != gid) {
+            m_z2[s] = m_z[s];
+            m_id2[s] = m_id[s];
+            m_sub2[s] = m_sub[s];
+        }
+        m_z[s] = z;
+        m_id[s] = gid;
+        m_sub[s] = sub;
+        return true;
+    }
+    if (m_cfg.depthLayers > 1 && (gid != m_id[s] || ownSecondLayer) &&
+        keyLess(z, gid, sub, m_z2[s], m_id2[s], m_sub2[s])) {
+        m_z2[s] = z;
+        m_id2[s] = gid;
+        m_sub2[s] = sub;
+        return true;
+    }
+    return false;
+}
+
 bool SampleBuffer::record(const MicroGrid& g, const HitContext& ctx, const Tri& t, size_t s, float z, float b1,
                           float b2) {
     const uint64_t gid = g.id;
     const uint32_t sub = t.sub;
 
     if (ctx.depthMode) {
-        if (keyLess(z, gid, sub, m_z[s], m_id[s], m_sub[s])) {
-            // The nearest hit from another grid than the new nearest is the
-            // old nearest (it was nearer than everything else); a surface
-            // that is its own second layer is nearer still.
-            if (m_cfg.depthLayers > 1 && g.ownSecondLayer) {
-                m_z2[s] = z;
-                m_id2[s] = gid;
-                m_sub2[s] = sub;
-            } else if (m_cfg.depthLayers > 1 && m_z[s] != kInfinity && m_id[s] != gid) {
-                m_z2[s] = m_z[s];
-                m_id2[s] = m_id[s];
-                m_sub2[s] = m_sub[s];
-            }
-            m_z[s] = z;
-            m_id[s] = gid;
-            m_sub[s] = sub;
-            return true;
+        if (g.csgLeaf >= 0) {
+            recordCsgDepth(g, t, s, z);
+            return false;
         }
-        if (m_cfg.depthLayers > 1 && (gid != m_id[s] || g.ownSecondLayer) &&
-            keyLess(z, gid, sub, m_z2[s], m_id2[s], m_sub2[s])) {
-            m_z2[s] = z;
-            m_id2[s] = gid;
-            m_sub2[s] = sub;
-            return true;
-        }
-        return false;
+        return recordDepth(s, z, gid, sub, g.ownSecondLayer);
     }
 
     if (!keyLess(z, gid, sub, m_z[s], m_id[s], m_sub[s])) return false;  // behind the opaque hit
@@ -946,7 +981,7 @@ bool SampleBuffer::record(const MicroGrid& g, const HitContext& ctx, const Tri& 
         const float* a2 = g.aov + size_t(t.i2) * size_t(aovN);
         for (int k = 0; k < aovN; ++k) dst[k] = a0[k] + b1 * (a1[k] - a0[k]) + b2 * (a2[k] - a0[k]);
     };
-    if (isOpaque) {
+    if (isOpaque && g.csgLeaf < 0) {
         m_z[s] = z;
         m_id[s] = gid;
         m_sub[s] = sub;
@@ -970,6 +1005,10 @@ bool SampleBuffer::record(const MicroGrid& g, const HitContext& ctx, const Tri& 
     f.oi = oi;
     f.next = m_fragHead[s];
     f.aovBase = -1;
+    f.opaque = isOpaque;
+    f.leaving = g.leaving && g.leaving[sub / 2];
+    f.csgLeaf = g.csgLeaf;
+    m_csgFragments += g.csgLeaf >= 0;
     if (hasAov) {
         f.aovBase = int32_t(m_fragAov.size());
         m_fragAov.resize(m_fragAov.size() + size_t(aovN));
@@ -977,7 +1016,105 @@ bool SampleBuffer::record(const MicroGrid& g, const HitContext& ctx, const Tri& 
     }
     m_fragHead[s] = int32_t(m_frags.size());
     m_frags.push_back(f);
-    return false;  // transparent fragments do not change the occlusion bound
+    return false;  // transparent fragments and CSG hits do not change the occlusion bound
+}
+
+void SampleBuffer::recordCsgDepth(const MicroGrid& g, const Tri& t, size_t s, float z) {
+    // Nothing behind the farthest depth kept can change the map.
+    const bool twoLayers = m_cfg.depthLayers > 1;
+    if (!keyLess(z, g.id, t.sub, twoLayers ? m_z2[s] : m_z[s], twoLayers ? m_id2[s] : m_id[s],
+                 twoLayers ? m_sub2[s] : m_sub[s]))
+        return;
+    Fragment f{};
+    f.z = z;
+    f.sub = t.sub;
+    f.id = g.id;
+    f.next = m_fragHead[s];
+    f.aovBase = -1;
+    f.opaque = true;
+    f.leaving = g.leaving && g.leaving[t.sub / 2];
+    f.csgLeaf = g.csgLeaf;
+    m_fragHead[s] = int32_t(m_frags.size());
+    m_frags.push_back(f);
+    ++m_csgFragments;
+}
+
+void SampleBuffer::resolveCsg(size_t s) {
+    const CsgForest& forest = *m_cfg.csg;
+    const bool depthMode = m_cfg.mode == HiderMode::Depth;
+    // Every CSG hit (those behind the opaque hit still tell which leaves the
+    // ray is in) and the ordinary fragments in front of the opaque hit, in
+    // the total key order.
+    m_order.clear();
+    for (int32_t f = m_fragHead[s]; f >= 0; f = m_frags[size_t(f)].next) {
+        const Fragment& fr = m_frags[size_t(f)];
+        if (fr.csgLeaf >= 0 || keyLess(fr.z, fr.id, fr.sub, m_z[s], m_id[s], m_sub[s])) m_order.push_back(f);
+    }
+    std::sort(m_order.begin(), m_order.end(), [&](int32_t a, int32_t b) {
+        const Fragment &fa = m_frags[size_t(a)], &fb = m_frags[size_t(b)];
+        return keyLess(fa.z, fa.id, fa.sub, fb.z, fb.id, fb.sub);
+    });
+    // Whether the ray is inside a leaf just after one of its hits: inside
+    // when the leaf's next hit leaves it, else (no later hit) when this one
+    // enters. Counting entries and exits instead would let one sample that
+    // slips through a crack between grids, or hits a shared edge twice, turn
+    // a whole solid inside out along the rest of the ray; looking ahead only
+    // misjudges the stretch before the missed hit. Before its first hit the
+    // ray is inside a leaf that its first hit leaves (the eye inside it).
+    // m_csgNext, walking back: 0 no later hit, 1 it enters, 2 it leaves.
+    m_csgAfter.resize(m_order.size());
+    for (size_t k = m_order.size(); k-- > 0;) {
+        const Fragment& fr = m_frags[size_t(m_order[k])];
+        if (fr.csgLeaf < 0) continue;
+        uint8_t& next = m_csgNext[size_t(fr.csgLeaf)];
+        m_csgAfter[k] = next != 0 ? next == 2 : !fr.leaving;
+        next = fr.leaving ? 2 : 1;
+    }
+    for (int32_t f : m_order) {
+        const int leaf = m_frags[size_t(f)].csgLeaf;
+        if (leaf < 0 || m_csgNext[size_t(leaf)] == 0) continue;
+        if (m_csgNext[size_t(leaf)] == 2) forest.setLeaf(leaf, true, m_csgRay);  // the eye is inside it
+        m_csgNext[size_t(leaf)] = 0;
+    }
+    size_t kept = 0;
+    for (size_t k = 0; k < m_order.size(); ++k) {
+        const int32_t f = m_order[k];
+        const Fragment& fr = m_frags[size_t(f)];
+        if (fr.csgLeaf < 0) {
+            m_order[kept++] = f;
+            continue;
+        }
+        if (!depthMode && !keyLess(fr.z, fr.id, fr.sub, m_z[s], m_id[s], m_sub[s])) break;  // behind the opaque hit
+        if (!forest.setLeaf(fr.csgLeaf, m_csgAfter[k], m_csgRay)) continue;  // not on the result's boundary
+        if (depthMode) {
+            recordDepth(s, fr.z, fr.id, fr.sub, false);
+            continue;
+        }
+        if (!fr.opaque) {
+            m_order[kept++] = f;
+            continue;
+        }
+        // The first opaque boundary hides everything behind it: it becomes
+        // the sample's opaque hit.
+        m_z[s] = fr.z;
+        m_id[s] = fr.id;
+        m_sub[s] = fr.sub;
+        m_ci[s] = fr.ci;
+        m_alpha[s] = fr.matte ? 0.0f : 1.0f;
+        const int aovN = m_cfg.aovCount;
+        if (aovN > 0) {
+            float* dst = &m_aov[s * size_t(aovN)];
+            if (fr.aovBase >= 0)
+                std::copy_n(&m_fragAov[size_t(fr.aovBase)], aovN, dst);
+            else
+                std::fill_n(dst, aovN, 0.0f);
+        }
+        break;
+    }
+    // Ordinary fragments after the break lie behind the new opaque hit.
+    m_order.resize(kept);
+    for (int32_t f = m_fragHead[s]; f >= 0; f = m_frags[size_t(f)].next)
+        if (m_frags[size_t(f)].csgLeaf >= 0) forest.clearPath(m_frags[size_t(f)].csgLeaf, m_csgRay);
 }
 
 void SampleBuffer::markDirty(int sx0, int sy0, int sx1, int sy1) {
@@ -1056,6 +1193,10 @@ void SampleBuffer::resolve(film::Film& film) {
         }
         return m;
     };
+    // Depth mode: the CSG trees' visible surfaces join the nearest depths.
+    if (m_cfg.mode == HiderMode::Depth && m_csgFragments > 0)
+        for (size_t s = 0; s < n; ++s)
+            if (m_fragHead[s] >= 0) resolveCsg(s);
     if (m_cfg.mode == HiderMode::Depth && xs == 1 && ys == 1) {
         // One sample a pixel (automatic maps): every reduction of a single
         // depth is that depth, so rows are copied.
@@ -1122,16 +1263,21 @@ void SampleBuffer::resolve(film::Film& film) {
             for (int k = 0; k < aovN; ++k) out[4 + k] = opAov[k];
             continue;
         }
-        // Fragments in front of the opaque hit, sorted by the total key order.
-        m_order.clear();
-        for (int32_t f = m_fragHead[s]; f >= 0; f = m_frags[size_t(f)].next) {
-            const Fragment& fr = m_frags[size_t(f)];
-            if (keyLess(fr.z, fr.id, fr.sub, m_z[s], m_id[s], m_sub[s])) m_order.push_back(f);
+        // Fragments in front of the opaque hit, sorted by the total key
+        // order; of CSG hits, those on their result's boundary.
+        if (m_csgFragments > 0) {
+            resolveCsg(s);
+        } else {
+            m_order.clear();
+            for (int32_t f = m_fragHead[s]; f >= 0; f = m_frags[size_t(f)].next) {
+                const Fragment& fr = m_frags[size_t(f)];
+                if (keyLess(fr.z, fr.id, fr.sub, m_z[s], m_id[s], m_sub[s])) m_order.push_back(f);
+            }
+            std::sort(m_order.begin(), m_order.end(), [&](int32_t a, int32_t b) {
+                const Fragment &fa = m_frags[size_t(a)], &fb = m_frags[size_t(b)];
+                return keyLess(fa.z, fa.id, fa.sub, fb.z, fb.id, fb.sub);
+            });
         }
-        std::sort(m_order.begin(), m_order.end(), [&](int32_t a, int32_t b) {
-            const Fragment &fa = m_frags[size_t(a)], &fb = m_frags[size_t(b)];
-            return keyLess(fa.z, fa.id, fa.sub, fb.z, fb.id, fb.sub);
-        });
         Color ci(0.0f), oi(0.0f);
         float alpha = 0.0f;
         std::fill(m_scratchAov.begin(), m_scratchAov.end(), 0.0f);

@@ -11,6 +11,7 @@
 #include "umbra/trace/occlusion_scene.h"
 
 #include <atomic>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -24,6 +25,9 @@ struct PreparedAttributes {
     const scene::Attributes* attributes = nullptr;
     std::shared_ptr<const shading::ShaderInstance> surface, displacement, atmosphere;
     std::vector<const shading::ShaderInstance*> lights;
+    /// Level of detail: the samples that draw these primitives in every
+    /// pass (hider::MicroGrid::dissolveFrom/Below); below <= from: none.
+    float dissolveFrom = 0, dissolveBelow = 1;
 };
 
 /// One render pass: the camera pass, or a light's depth pass.
@@ -74,6 +78,22 @@ struct FrameState {
     uint32_t frameSeed = 0;
     shading::ShadingSystem* shading = nullptr;
     std::map<const scene::Attributes*, PreparedAttributes> attributes;
+    /// The prepared shaders of `attrs`: those of the world's primitives
+    /// (`attributes`, made before any bucket runs and never changed while
+    /// passes run), else those of an attribute set a procedural made while
+    /// a pass ran, prepared on first use under a lock (`prepareLate`).
+    const PreparedAttributes& prepared(const scene::Attributes& attrs) const;
+    /// Instantiates a late attribute set's shaders.
+    std::function<void(PreparedAttributes&)> prepareLate;
+    /// The world's light instances, once made (after the depth passes):
+    /// late attribute sets get theirs on their first use after that.
+    const std::vector<std::shared_ptr<const shading::ShaderInstance>>* lights = nullptr;
+    struct LateAttributes {
+        PreparedAttributes prepared;
+        bool shaded = false, lit = false;
+    };
+    mutable std::mutex lateMutex;
+    mutable std::map<const scene::Attributes*, std::unique_ptr<LateAttributes>> late;
     std::vector<std::string> aovNames;  // film AOV channels in order
     std::vector<int> aovComponents;
     bool noShadows = false;
@@ -95,6 +115,8 @@ struct FrameState {
     const std::vector<geometry::PrimitivePtr>* primitives = nullptr;
     mutable std::once_flag occlusionOnce;
     mutable std::unique_ptr<trace::OcclusionScene> occlusion;
+    /// The world's CSG trees (WorldRecord::solids), which the hider resolves.
+    hider::CsgForest csg;
 };
 
 /// The renderState a ShadingGrid carries to RendererServices.

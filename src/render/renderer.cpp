@@ -7,11 +7,13 @@
 
 #include "render/frame.h"
 #include "render/light_view.h"
+#include "render/map_reuse.h"
 #include "render/progress.h"
 #include "render/services.h"
 #include "render/surface_pipeline.h"
 
 #include "umbra/film/film.h"
+#include "umbra/geometry/procedural.h"
 #include "umbra/render/make_files.h"
 #include "umbra/hider/bucket_scheduler.h"
 #include "umbra/ri/parser.h"
@@ -27,12 +29,15 @@
 
 #include <optional>
 
+#include <fcntl.h>
 #include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
@@ -47,6 +52,8 @@ namespace {
 /// by less than percentage-closer filtering blurs it, and its depth by a
 /// quarter of a texel's width, far less than the bias such maps need.
 constexpr float kDepthFlatness = 0.25f;
+
+constexpr const char* kUmbraVersion = "0.1.0";
 
 double peakResidentMiB() {
     rusage ru{};
@@ -138,6 +145,7 @@ struct LightMap {
     nlohmann::json passes = nlohmann::json::array();
     std::shared_ptr<ShadowMap> map;
     std::optional<MapWrite> write;
+    std::shared_future<bool> written;  // its file's writer's result, for later frames reusing it
     bool failed = false;
     double buildSeconds = 0;  // making it usable: building from memory, writes done at once
 };
@@ -153,6 +161,12 @@ struct Renderer::Impl {
     std::unique_ptr<MapCatalog> maps;
     std::unique_ptr<Services> services;
     nlohmann::json frames = nlohmann::json::array();
+    std::function<void(const nlohmann::json&)> frameSink;
+    /// Records a finished frame's statistics.
+    void addFrame(nlohmann::json f) {
+        frames.push_back(std::move(f));
+        if (frameSink) frameSink(frames.back());
+    }
     /// Runs a map-file write, adding its thread's CPU time to the frame's.
     template <typename Write> bool timedMapWrite(Write write) {
         const double cpu0 = threadCpuSeconds();
@@ -168,6 +182,17 @@ struct Renderer::Impl {
     /// background or not (nanoseconds; writers add to it from their threads).
     std::atomic<uint64_t> mapFileCpuNanoseconds{0};
     int backgroundMapWrites = 0;
+
+    /// The latest automatic map of each light handle, for later frames whose
+    /// map would have the same content (docs/shadows.md).
+    struct ReusableMap {
+        MapContent content;
+        std::string path;
+        std::shared_future<bool> written;
+    };
+    std::map<std::string, ReusableMap> reusableMaps;
+    /// What decides the texels of `job`'s map in this frame.
+    MapContent mapContentOf(const FrameState& frame, const scene::LightRecord& light, const LightMapJob& job);
 
     /// Every pass and the output run in this arena: no more threads than
     /// --threads. One arena for the renderer's life, so its workers stay
@@ -204,6 +229,13 @@ struct Renderer::Impl {
             pa.surface = instance(a->surface, shading::ShaderKind::Surface);
             pa.displacement = instance(a->displacement, shading::ShaderKind::Displacement);
             pa.atmosphere = instance(a->atmosphere, shading::ShaderKind::Volume);
+            if (a->hasDetail) {
+                // Every pass draws what the camera's view chooses, so a
+                // shadow is cast by the representation that is seen.
+                const scene::Options& o = frame.world->options;
+                const float detail = rasterDetail(a->detailCorners, hider::Camera::fromOptions(o), o.relativeDetail);
+                std::tie(pa.dissolveFrom, pa.dissolveBelow) = dissolveWindow(detail, a->detailRange);
+            }
             frame.attributes.emplace(a, std::move(pa));
         }
     }
@@ -250,7 +282,11 @@ Renderer::Renderer(const RenderSettings& settings, Diagnostics& diag)
 Renderer::~Renderer() = default;
 
 nlohmann::json Renderer::statistics() const {
-    return {{"umbra_version", "0.1.0"}, {"frames", m_impl->frames}};
+    return {{"schema", kStatisticsSchema}, {"umbra_version", kUmbraVersion}, {"frames", m_impl->frames}};
+}
+
+void Renderer::onFrameStatistics(std::function<void(const nlohmann::json&)> sink) {
+    m_impl->frameSink = std::move(sink);
 }
 
 void Renderer::renderWorld(const scene::WorldRecord& world) {
@@ -302,6 +338,8 @@ void Renderer::make(const scene::MakeRecord& make) {
     noteFailure(m_fileFrame >= 0 ? m_fileFrame : m_frame, before);
     // A map made again under a name already read is read again.
     if (make.request == "MakeShadow") m_impl->maps->invalidate(make.output);
+    // A map file made again is no longer the content an automatic map recorded.
+    std::erase_if(m_impl->reusableMaps, [&](const auto& entry) { return entry.second.path == make.output; });
 }
 
 void Renderer::Impl::runImager(const FrameState& frame, const Pass& pass, const scene::ShaderRecord& record,
@@ -354,6 +392,7 @@ PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const st
     ss.sampling.nearClip = pass.camera.nearClip;
     ss.sampling.perspective = pass.camera.perspective;
     ss.sampling.farClip = pass.camera.farClip;
+    ss.sampling.csg = frame.csg.empty() ? nullptr : &frame.csg;
     // Every pass of a blurred frame gives its samples times: moving casters
     // blur their depth maps' texels too (docs/motion.md).
     ss.sampling.motion = frame.motionBlur();
@@ -394,7 +433,7 @@ PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const st
     }
     ss.maxEyeSplits = options.eyeSplits;
     Progress progress(settings.progress, label);
-    ss.progress = [&](int done, int total) { progress.update(done, total); };
+    ss.progress = [&](int done, int total, double workDone) { progress.update(done, total, workDone); };
 
     SurfacePipeline pipeline(frame, pass, *services, diag, film);
     hider::BucketScheduler scheduler(ss, pipeline);
@@ -433,7 +472,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
         }
         if (complete) {
             if (!settings.quiet) fmt::print(stderr, "umbra: {} is complete, skipped\n", frameName(world));
-            frames.push_back({{"frame", world.frameNumber}, {"skipped", true}});
+            addFrame({{"frame", world.frameNumber}, {"skipped", true}});
             return;
         }
     }
@@ -468,12 +507,33 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     frame.shutterClose = options.shutter[1] + options.shutterOffset;
     frame.shading = shading.get();
     frame.noShadows = settings.noShadows;
+    for (const scene::SolidRecord& solid : world.solids) {
+        using Op = hider::CsgForest::Op;
+        const Op op = solid.operation == "union"          ? Op::Union
+                      : solid.operation == "intersection" ? Op::Intersection
+                      : solid.operation == "difference"   ? Op::Difference
+                                                          : Op::Primitive;
+        frame.csg.add(op, solid.parent);
+    }
     services->setFrame(&frame);
     services->resetStats();
 
+    // Procedurals measure their detail in the camera's view, whichever pass
+    // expands them.
+    hider::Camera detailCamera = hider::Camera::fromOptions(options);
+    if (options.cameraMotion) detailCamera.cameraFromWorld = options.cameraMotion->at(frame.shutterOpen);
+    auto procedurals = std::make_shared<geometry::ProceduralContext>(
+        world, detailCamera.cameraFromWorld, detailCamera.rasterFromCamera(), detailCamera.perspective, diag);
+    frame.prepareLate = [this](PreparedAttributes& pa) {
+        const scene::Attributes& a = *pa.attributes;
+        if (a.surface) pa.surface = shading->instantiate(*a.surface, shading::ShaderKind::Surface);
+        if (a.displacement) pa.displacement = shading->instantiate(*a.displacement, shading::ShaderKind::Displacement);
+        if (a.atmosphere) pa.atmosphere = shading->instantiate(*a.atmosphere, shading::ShaderKind::Volume);
+    };
+
     std::vector<geometry::PrimitivePtr> prims;
     for (const auto& rec : world.primitives) {
-        auto made = geometry::makePrimitives(std::make_shared<const scene::PrimitiveRecord>(rec), diag);
+        auto made = geometry::makePrimitives(std::make_shared<const scene::PrimitiveRecord>(rec), diag, procedurals);
         for (auto& p : made) prims.push_back(std::move(p));
     }
 
@@ -495,16 +555,57 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     };
     std::vector<std::optional<LightMapJob>> jobs(world.lights.size());
     std::vector<LightMap> made(world.lights.size());
+    // A planned map whose content matches the map this light had in an
+    // earlier frame is that map: not rendered again, its file read as is.
+    std::vector<MapContent> contents(world.lights.size());
+    std::vector<std::string> reuseReasons(world.lights.size());
+    std::vector<bool> reused(world.lights.size(), false);
+    bool reuseOn = settings.reuseMaps;
+    if (auto it = options.user.find("umbra:reusemaps"); it != options.user.end())
+        reuseOn = reuseOn && (!it->second.ints.empty() ? it->second.ints[0] != 0 : it->second.floatAt(0, 1) != 0);
+    auto handleOf = [](const scene::LightRecord& light) { return light.handle.empty() ? std::string("light") : light.handle; };
     Stopwatch firstPassClock;
     if (!settings.noShadows) {
-        for (size_t i = 0; i < world.lights.size(); ++i)
-            if (automatic(world.lights[i])) jobs[i] = planLightMap(frame, world.lights[i], prims);
+        for (size_t i = 0; i < world.lights.size(); ++i) {
+            if (!automatic(world.lights[i])) continue;
+            jobs[i] = planLightMap(frame, world.lights[i], prims);
+            if (!jobs[i]) continue;
+            contents[i] = mapContentOf(frame, world.lights[i], *jobs[i]);
+            auto before = reusableMaps.find(handleOf(world.lights[i]));
+            if (before != reusableMaps.end() && !(before->second.written.valid() && before->second.written.get())) {
+                reuseReasons[i] = "earlier map not written";
+                continue;
+            }
+            reuseReasons[i] = reuseReason(before != reusableMaps.end() ? &before->second.content : nullptr, contents[i]);
+            if (reuseReasons[i] != kSameContent) continue;
+            if (!reuseOn) {
+                reuseReasons[i] = "reuse off";
+                continue;
+            }
+            reused[i] = true;
+            made[i].path = before->second.path;
+        }
         arena->execute([&] {
             tbb::task_group group;
             for (size_t i = 0; i < jobs.size(); ++i)
-                if (jobs[i]) group.run([&, i] { made[i] = makeLightMap(frame, *jobs[i], prims); });
+                if (jobs[i] && !reused[i]) group.run([&, i] { made[i] = makeLightMap(frame, *jobs[i], prims); });
             group.wait();
         });
+    }
+    nlohmann::json mapRecords = nlohmann::json::array();
+    for (size_t i = 0; i < jobs.size(); ++i) {
+        if (!jobs[i]) continue;
+        const std::string handle = handleOf(world.lights[i]);
+        if (!reused[i]) {
+            if (made[i].map && !made[i].failed)
+                reusableMaps[handle] = {contents[i], made[i].path, made[i].written};
+            else
+                reusableMaps.erase(handle);
+        }
+        mapRecords.push_back({{"light", handle},
+                              {"path", made[i].path},
+                              {"reused", bool(reused[i])},
+                              {"reason", reuseReasons[i]}});
     }
     const double firstPassWall = firstPassClock.wall(), firstPassCpu = firstPassClock.cpu();
     std::vector<std::shared_ptr<const shading::ShaderInstance>> lights(world.lights.size());
@@ -534,6 +635,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
         lights[i] = shading->instantiate(withMap, shading::ShaderKind::Light);
     }
     attachLights(lights, frame);
+    frame.lights = &lights;
 
     // Second pass: the camera. A frame whose displays are all depth ("z")
     // is a depth pass itself (RenderMan's two-RIB shadow workflow).
@@ -589,6 +691,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
         DepthImage image = depthImageOf(f, pass, depthFilterOf(options, d.loc), dualOffsetOf(options));
         bool ok = d.driver == "zfile" ? writeZFile(d.name, image, diag, d.loc) : writeDepthMap(d.name, image, diag, d.loc);
         maps->invalidate(d.name);
+        std::erase_if(reusableMaps, [&](const auto& entry) { return entry.second.path == d.name; });
         return ok;
     };
     // Output converts rows in parallel: on no more threads than --threads.
@@ -623,6 +726,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
         {"first_pass", {{"wall_seconds", firstPassWall}, {"cpu_seconds", firstPassCpu}}},
         {"peak_memory_mib", peakResidentMiB()},
         {"passes", passes},
+        {"maps", mapRecords},
         {"micropolygons_per_second", camera.wall > 0 ? double(camera.counters.micropolygons) / camera.wall : 0.0},
         {"shading", {{"seconds", shadingSeconds}, {"share_of_cpu", cpu > 0 ? shadingSeconds / cpu : 0.0}}},
         {"shadow",
@@ -652,9 +756,16 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
           {"bound_growth", frame.stillBoundPixels.load() > 0
                                ? double(frame.blurredBoundPixels.load()) / double(frame.stillBoundPixels.load())
                                : 1.0}}},
+        {"procedurals",
+         {{"expanded", procedurals->expanded.load()},
+          {"archives_read", procedurals->archivesRead.load()},
+          {"program_requests", procedurals->programRequests.load()},
+          {"dso_calls", procedurals->dsoCalls.load()},
+          {"failed", procedurals->failures.load()},
+          {"primitives_made", procedurals->primitivesMade.load()}}},
         {"errors", diag.errorCount() - errorsBefore},
     };
-    frames.push_back(f);
+    addFrame(f);
     if (options.statisticsEndOfFrame && !settings.quiet) {
         fmt::print(stderr,
                    "umbra: statistics of {}\n"
@@ -799,8 +910,57 @@ LightMap Renderer::Impl::makeLightMap(FrameState& frame, LightMapJob& job,
         }
     }
     made.path = path;
+    made.written = written;
     made.buildSeconds = buildClock.wall();
     return made;
+}
+
+MapContent Renderer::Impl::mapContentOf(const FrameState& frame, const scene::LightRecord& light,
+                                        const LightMapJob& job) {
+    const scene::Options& options = frame.world->options;
+    MapContent content;
+    content.size = job.size;
+    Hasher settingsHash, viewHash;
+    settingsHash.i32(int(job.filter)).f32(job.dualOffset).flag(job.cube);
+    settingsHash.i32(settings.bucketSize).i32(options.bucketSize[0]).i32(options.bucketSize[1]);
+    settingsHash.i32(options.gridSize).i32(options.eyeSplits).i32(depthLayersOf(options, job.filter));
+    settingsHash.f32(frame.shutterOpen).f32(frame.shutterClose).flag(frame.castersMove);
+    settingsHash.f32(options.shutterOpening[0]).f32(options.shutterOpening[1]);
+    // Options of umbra's own and the user's may steer depth passes; those
+    // that cannot change a texel are left out so changing them keeps maps.
+    for (const auto& [name, p] : options.user)
+        if (name != "umbra:shadowmapsize" && name != "umbra:tilecachemb" && name != "umbra:reusemaps")
+            settingsHash.str(name).floats(p.floats).ints(p.ints).strings(p.strings);
+    viewHash.str(light.shader.name);
+    for (const Pass& pass : job.passes) {
+        settingsHash.i32(int(pass.cull)).f32(pass.minShadingRate).f32(pass.flatness).flag(pass.discOnly);
+        settingsHash.flag(pass.openSurfacesAreOwnSecondLayer).i32(pass.timeTile);
+        const hider::Camera& c = pass.camera;
+        viewHash.flag(c.perspective).f32(c.tanHalfFov).bytes(c.screenWindow, sizeof c.screenWindow);
+        viewHash.i32(c.xResolution).i32(c.yResolution).f32(c.nearClip).f32(c.farClip).matrix(c.cameraFromWorld);
+    }
+    content.settings = settingsHash.value();
+    content.view = viewHash.value();
+    // A displacement shader may place points in named coordinate systems:
+    // a displaced caster's shape follows them. The standard spaces are the
+    // depth pass's own (Services::getMatrix), whatever the camera does.
+    Hasher coordinateSystems;
+    for (const auto& [name, m] : frame.world->coordinateSystems)
+        if (name != "world" && name != "camera") coordinateSystems.str(name).matrix(m);
+    // The frame's seed reaches a depth pass through sample times, and
+    // displacement shaders may read other per-frame state (Shader::variesByFrame): such maps are this frame's alone.
+    bool seeded = frame.motionBlur();
+    for (const auto& rec : frame.world->primitives) {
+        if (!rec.attributes || !rec.attributes->castsShadows) continue;
+        Digest caster = casterDigest(rec);
+        if (auto it = frame.attributes.find(rec.attributes.get()); it != frame.attributes.end() && it->second.displacement) {
+            seeded |= it->second.displacement->shader().variesByFrame();
+            caster = Hasher().digest(caster).digest(coordinateSystems.value()).value();
+        }
+        content.casters.push_back(caster);
+    }
+    if (seeded) content.seed = frame.frameSeed;
+    return content;
 }
 
 int Renderer::Impl::depthLayersOf(const scene::Options& options, DepthFilter filter) {
@@ -855,6 +1015,34 @@ int renderFiles(const std::vector<std::string>& files, const RenderSettings& set
     const RenderSettings& settings = settingsIn;
     Renderer renderer(settings, diag);
     bool ok = true;
+    // --stats FILE.jsonl: one line per frame, appended as the frame ends by
+    // a single write to a file opened for appending, so a line is never cut
+    // or interleaved, even with other umbra processes (a farm's tasks)
+    // appending to the same file.
+    const bool statsLines = statsPath.size() > 6 && statsPath.compare(statsPath.size() - 6, 6, ".jsonl") == 0;
+    int statsFd = -1;
+    if (statsLines) {
+        std::string target, why;
+        if (!resolveOutputPath(statsPath, &target, &why)) {
+            diag.error(FileLoc::inFile(statsPath), "--stats: cannot write the statistics file: {}", why);
+            return 1;
+        }
+        statsFd = ::open(target.c_str(), O_WRONLY | O_APPEND | O_CREAT | O_CLOEXEC, 0644);
+        if (statsFd < 0) {
+            diag.error(FileLoc::inFile(statsPath), "--stats: cannot open the statistics file: {}", std::strerror(errno));
+            return 1;
+        }
+        renderer.onFrameStatistics([&](const nlohmann::json& frame) {
+            nlohmann::json line = {{"schema", kStatisticsSchema}, {"umbra_version", kUmbraVersion}};
+            line.update(frame);
+            const std::string text = line.dump() + "\n";
+            if (::write(statsFd, text.data(), text.size()) != ssize_t(text.size())) {
+                diag.error(FileLoc::inFile(statsPath), "--stats: cannot append frame {} to the statistics file: {}",
+                           frame.value("frame", -1), std::strerror(errno));
+                ok = false;
+            }
+        });
+    }
     // Reads one RIB file; `frame` >= 0 when it is that frame's own file.
     auto read = [&](const std::string& file, int frame) {
         scene::Builder builder(renderer, diag);
@@ -902,10 +1090,10 @@ int renderFiles(const std::vector<std::string>& files, const RenderSettings& set
                    fmt::join(names, ", "));
     }
     std::string statsTarget, statsWhy;
-    if (!statsPath.empty() && !resolveOutputPath(statsPath, &statsTarget, &statsWhy)) {
+    if (!statsPath.empty() && !statsLines && !resolveOutputPath(statsPath, &statsTarget, &statsWhy)) {
         diag.error(FileLoc::inFile(statsPath), "--stats: cannot write the statistics file: {}", statsWhy);
         ok = false;
-    } else if (!statsPath.empty()) {
+    } else if (!statsPath.empty() && !statsLines) {
         std::string tmp = statsTarget + ".tmp";
         std::ofstream out(tmp);
         out << renderer.statistics().dump(2) << "\n";
@@ -915,6 +1103,10 @@ int renderFiles(const std::vector<std::string>& files, const RenderSettings& set
             std::remove(tmp.c_str());
             ok = false;
         }
+    }
+    if (statsFd >= 0 && ::close(statsFd) != 0) {
+        diag.error(FileLoc::inFile(statsPath), "--stats: cannot write the statistics file: {}", std::strerror(errno));
+        ok = false;
     }
     if (renderer.failedFrames() > 0) ok = false;
     if (diag.errorCount() > 0) ok = false;

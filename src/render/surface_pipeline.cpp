@@ -7,11 +7,55 @@
 
 namespace umbra::render {
 
+const PreparedAttributes& FrameState::prepared(const scene::Attributes& attrs) const {
+    if (auto it = attributes.find(&attrs); it != attributes.end()) return it->second;
+    std::lock_guard<std::mutex> lock(lateMutex);
+    std::unique_ptr<LateAttributes>& entry = late[&attrs];
+    if (!entry) entry = std::make_unique<LateAttributes>();
+    PreparedAttributes& pa = entry->prepared;
+    if (!entry->shaded) {
+        pa.attributes = &attrs;
+        if (prepareLate) prepareLate(pa);
+        entry->shaded = true;
+    }
+    // Depth passes need no lights; the camera pass, which starts after the
+    // lights are made, gets them here before any of its grids uses them.
+    if (!entry->lit && lights) {
+        for (int l : attrs.lights)
+            if (l >= 0 && size_t(l) < lights->size() && (*lights)[size_t(l)]) pa.lights.push_back((*lights)[size_t(l)].get());
+        entry->lit = true;
+    }
+    return pa;
+}
+
 bool normalsFlip(const scene::Attributes& attrs, const Mat4& cameraFromObject) {
     // dPdu x dPdv measured in camera space is the family's outward normal
     // when cameraFromObject keeps handedness; a mirroring transform reverses
     // it, and so does an inside-out orientation (RI spec 3.2 §4.2).
     return attrs.insideOut != (cameraFromObject.det3() < 0);
+}
+
+float rasterDetail(const std::array<Vec3, 8>& worldCorners, const hider::Camera& camera, float relativeDetail) {
+    float x0 = kInfinity, y0 = kInfinity, x1 = -kInfinity, y1 = -kInfinity;
+    for (const Vec3& w : worldCorners) {
+        const Vec3 c = camera.cameraFromWorld.point(w);
+        if (camera.perspective && !(c.z > 0)) return kInfinity;
+        const Vec3 r = camera.rasterOf(c);
+        x0 = std::min(x0, r.x);
+        x1 = std::max(x1, r.x);
+        y0 = std::min(y0, r.y);
+        y1 = std::max(y1, r.y);
+    }
+    return (x1 - x0) * (y1 - y0) * relativeDetail;
+}
+
+std::pair<float, float> dissolveWindow(float detail, const std::array<float, 4>& range) {
+    const float minVisible = range[0], lower = range[1], upper = range[2], maxVisible = range[3];
+    // An infinite maxvisible keeps even an infinite detail (a box around the eye).
+    if (!(detail >= minVisible) || (detail >= maxVisible && maxVisible < kInfinity)) return {0.0f, 0.0f};
+    if (detail < lower) return {1.0f - (detail - minVisible) / (lower - minVisible), 1.0f};
+    if (detail >= upper && upper < kInfinity) return {0.0f, std::min(1.0f, (maxVisible - detail) / (maxVisible - upper))};
+    return {0.0f, 1.0f};
 }
 
 SurfacePipeline::SurfacePipeline(FrameState& frame, const Pass& pass, Services& services, Diagnostics& diag,
@@ -119,7 +163,7 @@ dice::DiceParams SurfacePipeline::diceParams(const geometry::Primitive& prim) co
     // size (1/z is linear across it): one micropolygon per piece. Other
     // surfaces dice no finer than the pass's flatness needs. Both unless a
     // displacement shader may bend the surface.
-    if (m_pass.depthOnly && !m_frame.attributes.at(&attrs).displacement) {
+    if (m_pass.depthOnly && !m_frame.prepared(attrs).displacement) {
         if (prim.flatQuad())
             p.shadingRate = kInfinity;
         else
@@ -177,7 +221,10 @@ dice::DiceParams SurfacePipeline::diceParams(const geometry::Primitive& prim) co
 }
 
 bool SurfacePipeline::takesPart(const scene::Attributes& attrs) const {
-    return m_pass.depthOnly ? attrs.castsShadows : attrs.visibleToCamera;
+    if (!(m_pass.depthOnly ? attrs.castsShadows : attrs.visibleToCamera)) return false;
+    if (!attrs.hasDetail) return true;
+    const PreparedAttributes& pa = m_frame.attributes.at(&attrs);
+    return pa.dissolveBelow > pa.dissolveFrom;  // some level of detail draws it
 }
 
 Bound3 SurfacePipeline::rasterBound(const geometry::Primitive& prim) {
@@ -264,7 +311,7 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
     if (g.ownNormals && attrs.insideOut)
         for (Vec3& nrm : g.N) nrm = -nrm;
 
-    const PreparedAttributes& pa = m_frame.attributes.at(&attrs);
+    const PreparedAttributes& pa = m_frame.prepared(attrs);
     const bool flip = normalsFlip(attrs, c);
     // A depth pass needs only positions; it runs the shading system just for
     // displacement.
@@ -353,7 +400,17 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
         }
     }
     out.culled.clear();
-    if (attrs.sides == 1 && m_pass.cull != Pass::Cull::None && !cullFacing(*keyed, keys, flip, out)) return false;
+    // A CSG leaf's surfaces are never culled by facing: the ray leaving a
+    // solid through its far side is what makes the cut surfaces of a
+    // difference visible.
+    out.csgLeaf = rec.solid;
+    out.dissolveFrom = pa.dissolveFrom;
+    out.dissolveBelow = pa.dissolveBelow;
+    out.leaving.clear();
+    if (rec.solid >= 0)
+        markLeaving(P, flip, out);
+    else if (attrs.sides == 1 && m_pass.cull != Pass::Cull::None && !cullFacing(*keyed, keys, flip, out))
+        return false;
 
     out.ownSecondLayer = m_pass.depthOnly && m_pass.openSurfacesAreOwnSecondLayer && attrs.sides == 2;
     if (m_pass.depthOnly) {
@@ -387,6 +444,23 @@ void SurfacePipeline::noteBlur(const hider::ShadedGrid& out) const {
     m_frame.blurredGrids.fetch_add(1, std::memory_order_relaxed);
     m_frame.stillBoundPixels.fetch_add(uint64_t(std::min(area(still), 1e15)), std::memory_order_relaxed);
     m_frame.blurredBoundPixels.fetch_add(uint64_t(std::min(area(blurred), 1e15)), std::memory_order_relaxed);
+}
+
+void SurfacePipeline::markLeaving(const std::vector<Vec3>& P, bool flip, hider::ShadedGrid& out) const {
+    // As cullFacing() at the shutter's opening: a micropolygon whose outward
+    // normal faces away from the eye is where the ray leaves the solid.
+    const int nu = out.nu, nv = out.nv, nu1 = nu + 1;
+    const bool perspective = m_pass.camera.perspective;
+    out.leaving.assign(size_t(nu) * size_t(nv), 0);
+    for (int j = 0; j < nv; ++j)
+        for (int i = 0; i < nu; ++i) {
+            const Vec3& a = P[size_t(j * nu1 + i)];
+            const Vec3& d = P[size_t((j + 1) * nu1 + i + 1)];
+            Vec3 n = cross(d - a, P[size_t((j + 1) * nu1 + i)] - P[size_t(j * nu1 + i + 1)]);
+            Vec3 centre = (a + d) * 0.5f;
+            float toward = perspective ? dot(n, centre) : n.z;  // > 0: faces away (unflipped)
+            out.leaving[size_t(j * nu + i)] = (flip ? toward < 0 : toward > 0) ? 1 : 0;
+        }
 }
 
 bool SurfacePipeline::cullFacing(const std::vector<Vec3>& keyed, size_t keys, bool flip,

@@ -14,6 +14,17 @@
 
 namespace umbra::render {
 
+/// Level of detail (RI spec 3.2 Detail, DetailRange, RelativeDetail): the
+/// detail of a Detail box is the area, in raster pixels, of the rectangle
+/// bounding its corners' projection, times RelativeDetail; +infinity when a
+/// corner is at or behind the eye (docs/rib.md, "Level of detail").
+float rasterDetail(const std::array<Vec3, 8>& worldCorners, const hider::Camera& camera, float relativeDetail);
+/// The dissolve window [from, below) of a representation whose DetailRange
+/// is `range` at that detail: none outside [minvisible, maxvisible), all of
+/// [0, 1) between the transitions, and in a transition the share of the
+/// samples given by the linear ramp, [1 - w, 1) fading in, [0, w) fading out.
+std::pair<float, float> dissolveWindow(float detail, const std::array<float, 4>& range);
+
 /// The one orientation rule: whether dPdu x dPdv, measured in the space of
 /// `cameraFromObject`, must be negated to give the primitive's outward
 /// normal (Ng, calculatenormal(), facing culls).
@@ -55,6 +66,9 @@ private:
     /// Marks the micropolygons the pass culls by facing (see Pass::Cull);
     /// false when none is left.
     bool cullFacing(const std::vector<Vec3>& keyed, size_t keys, bool flip, hider::ShadedGrid& out) const;
+    /// CSG leaves: marks the micropolygons (of the camera-space grid P)
+    /// whose outward normal faces away from the eye (hider::MicroGrid::leaving).
+    void markLeaving(const std::vector<Vec3>& P, bool flip, hider::ShadedGrid& out) const;
     /// Adds a blurred grid's bound growth to the frame's statistics.
     void noteBlur(const hider::ShadedGrid& out) const;
 

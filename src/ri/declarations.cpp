@@ -35,7 +35,7 @@ constexpr const char* kStandard[] = {
     // umbra's own options (docs/shadows.md).
     "uniform integer shadowmapsize", "uniform float dualoffset", "uniform integer tilecachemb",
     "uniform string depthcull", "uniform float depthshadingrate",
-    "uniform integer depthlayers",
+    "uniform integer depthlayers", "uniform integer reusemaps",
     // Option "searchpath", "limits", "statistics".
     "uniform string shader", "uniform string texture", "uniform string archive",
     "uniform string procedural", "uniform string resource", "uniform string display",
@@ -61,6 +61,7 @@ constexpr const char* kByClass[] = {
     "Option shutter uniform float[2] opening", "Option shutter uniform float[2] shutteropening",
     "Option shadow uniform float bias", "Option limits uniform integer brickmemory",
     "Option limits uniform integer geocachememory", "Option limits uniform integer proceduralmemory",
+    "Option limits uniform float proceduraltime",  // honoured: RunProgram's answer time
     "Option limits uniform integer deepshadowtiles", "Option limits uniform integer deepshadowmemory",
     "Option statistics uniform string xmlfilename", "Option trace uniform integer maxdepth",
     "Option trace uniform float specularthreshold",

@@ -283,6 +283,8 @@ const RequestSpec kRequests[] = {
     {"PatchMesh", "sisis", "type nu uwrap nv vwrap", true, geometry},
     {"NuPatch", "iiFffiiFff", "nu uorder uknot umin umax nv vorder vknot vmin vmax", true, geometry},
     {"SubdivisionMesh", "sII|SIIF", "scheme nvertices vertices tags nargs intargs floatargs", true, geometry},
+    {"HierarchicalSubdivisionMesh", "sII|SIIFS", "scheme nvertices vertices tags nargs intargs floatargs stringargs",
+     true, geometry},
     {"Points", "", "", true, geometry},
     {"Curves", "sIs", "type nvertices wrap", true, geometry},
     {"Blobby", "iIFS", "nleaf code floats strings", true, geometry},

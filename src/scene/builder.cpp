@@ -20,9 +20,26 @@ const char* endName(int kind) {
     return k[kind];
 }
 
-// Geometry requests the renderer does not draw yet: parsed and validated,
-// reported once, and left out of the world.
-constexpr const char* kUnsupportedGeometry[] = {"Procedural", "Geometry"};
+/// How deep SolidBegin operations may nest (docs/rib.md, Limits).
+constexpr int kMaxSolidNesting = 256;
+
+/// The procedural primitives of RI spec 3.2 §5.7, and the strings each
+/// needs at least: the archive; the program (with its command line) and
+/// the data block written to it; the DSO and the data block it converts.
+struct ProceduralKind {
+    const char* name;
+    size_t strings;
+    const char* what;
+};
+constexpr ProceduralKind kProceduralKinds[] = {
+    {"DelayedReadArchive", 1, "[\"archive.rib\"]"},
+    {"RunProgram", 2, "[\"program args\" \"datablock\"]"},
+    {"DynamicLoad", 2, "[\"dso\" \"datablock\"]"},
+};
+
+/// Named objects other renderers draw for `Geometry "name"` (PRMan,
+/// Aqsis, Pixie): umbra draws the teapot and warns for the others.
+constexpr const char* kOtherGeometryNames[] = {"bunny", "cube", "sphere", "torus", "envsphere"};
 
 /// The numeric settings of Option (and Attribute) "umbra": the range each
 /// must lie in. Out of range, they would make a depth pass of no pixels, or
@@ -38,6 +55,7 @@ constexpr UmbraNumber kUmbraNumbers[] = {
     {"depthlayers", 1, 2, "1 or 2"},
     {"depthshadingrate", 0, 1e6, "a rate of 0 (the surfaces' own) or more"},
     {"dualoffset", 0, 1e6, "an offset of 0 or more"},
+    {"reusemaps", 0, 1, "0 (render every automatic map) or 1"},
 };
 
 /// Whether `p`, a parameter of Option or Attribute "umbra", holds a value
@@ -196,6 +214,8 @@ void Builder::reportOpenBlocks(size_t first, const char* request, const FileLoc&
 void Builder::endOfInput(const FileLoc& loc) {
     reportOpenBlocks(0, nullptr, loc);
     m_blocks.clear();
+    // A procedural's RIB ends inside the world it expands into.
+    if (m_procedural) return;
     m_world.reset();
     m_objectHandle.clear();
 }
@@ -357,10 +377,43 @@ void Builder::solidBegin(const std::string& operation, const FileLoc& loc) {
                      "\"intersection\" or \"difference\")", operation);
     }
     push(Block::Solid, loc);
-    if (operation != "primitive")
-        unsupported("csg", loc, "SolidBegin: CSG operations are not supported; the solids are rendered as if "
-                    "\"union\" (parsed and recorded in Attributes::solid)");
     mutableAttributes().solid = operation;
+    const bool known = operation == "primitive" || operation == "union" || operation == "intersection" ||
+                       operation == "difference";
+    if (!known || !m_world) return;
+    if (!m_objectHandle.empty()) {
+        if (operation != "primitive")
+            unsupported("csg-object", loc, "SolidBegin: CSG inside ObjectBegin is not supported; the object's "
+                        "solids are drawn as if \"union\"");
+        return;
+    }
+    // A top-level primitive solid is ordinary geometry; one inside another
+    // is part of it (a primitive solid holds only surfaces).
+    if (m_state.solid < 0 && operation == "primitive") return;
+    if (m_state.solid >= 0 && m_world->solids[size_t(m_state.solid)].operation == "primitive") {
+        m_diag.warning(loc, "SolidBegin: \"{}\" inside the \"primitive\" solid begun at {} (expected only "
+                       "geometry there; its surfaces are part of that solid)", operation,
+                       m_world->solids[size_t(m_state.solid)].loc.str());
+        return;
+    }
+    // Each hit a sample resolves walks up its leaf's ancestors: a bounded
+    // depth keeps a pathological file from costing depth x hits per sample.
+    int depth = 0;
+    for (int n = m_state.solid; n >= 0; n = m_world->solids[size_t(n)].parent) ++depth;
+    if (depth >= kMaxSolidNesting) {
+        m_diag.error(loc, "SolidBegin: CSG nested deeper than {} solids (its surfaces are part of the enclosing "
+                     "solid)", kMaxSolidNesting);
+        return;
+    }
+    m_world->solids.push_back(SolidRecord{operation, m_state.solid, loc});
+    m_state.solid = int(m_world->solids.size()) - 1;
+}
+
+int Builder::solidLeaf(const FileLoc& loc) {
+    if (m_state.solid < 0 || !m_world) return -1;
+    if (m_world->solids[size_t(m_state.solid)].operation == "primitive") return m_state.solid;
+    m_world->solids.push_back(SolidRecord{"primitive", m_state.solid, loc});
+    return int(m_world->solids.size()) - 1;
 }
 
 void Builder::solidEnd(const FileLoc& loc) {
@@ -404,8 +457,10 @@ void Builder::objectInstance(const std::string& handle, const FileLoc& loc) {
     // Pieces share attributes: the instance's where the definition set
     // none, else one merge per distinct state inside the definition.
     std::map<const Attributes*, std::shared_ptr<const Attributes>> merged;
+    const int leaf = solidLeaf(loc);  // an instance is one solid
     for (const ObjectPrim& op : it->second) {
         PrimitiveRecord r = op.record;
+        r.solid = leaf;
         r.worldFromObject = m_state.transform * op.objectFromPrim;
         if (m_state.motion) {
             auto moving = std::make_shared<MotionTransform>(*m_state.motion);
@@ -1063,7 +1118,12 @@ void Builder::colorSamples(const std::vector<float>& nRGB, const std::vector<flo
 }
 
 void Builder::relativeDetail(float v, const FileLoc& loc) {
-    unsupported("detail", loc, "RelativeDetail: level of detail is not supported (ignored)");
+    if (!optionsAllowed("RelativeDetail", loc)) return;
+    if (!(v > 0) || !std::isfinite(v)) {
+        m_diag.error(loc, "RelativeDetail: expected a positive number, got {} (ignored)", v);
+        return;
+    }
+    m_options.relativeDetail = v;
 }
 
 void Builder::attribute(const std::string& name, ri::ParamList params, const FileLoc& loc) {
@@ -1204,11 +1264,26 @@ void Builder::bound(const std::array<float, 6>& b, const FileLoc& loc) {
 }
 
 void Builder::detail(const std::array<float, 6>& b, const FileLoc& loc) {
-    unsupported("detail", loc, "Detail: level of detail is not supported (ignored)");
+    if (!(b[0] <= b[1] && b[2] <= b[3] && b[4] <= b[5])) {
+        m_diag.error(loc, "Detail: expected a bound xmin xmax ymin ymax zmin zmax with each min <= max (ignored)");
+        return;
+    }
+    Attributes& a = mutableAttributes();
+    a.hasDetail = true;
+    for (int k = 0; k < 8; ++k)
+        a.detailCorners[size_t(k)] = m_state.transform.point(Vec3(b[k & 1], b[2 + ((k >> 1) & 1)], b[4 + (k >> 2)]));
 }
 
 void Builder::detailRange(const std::array<float, 4>& r, const FileLoc& loc) {
-    unsupported("detail", loc, "DetailRange: level of detail is not supported (every range is drawn)");
+    if (!(r[0] >= 0 && r[0] <= r[1] && r[1] <= r[2] && r[2] <= r[3])) {
+        m_diag.error(loc, "DetailRange: expected 0 <= minvisible <= lowertransition <= uppertransition <= "
+                     "maxvisible (ignored)");
+        return;
+    }
+    if (!m_state.attrs->hasDetail)
+        m_diag.warningOnce("detailrange-without-detail", loc,
+                           "DetailRange: no Detail bound is set, so the range cannot be measured (drawn always)");
+    mutableAttributes().detailRange = r;
 }
 
 void Builder::geometricApproximation(const std::string& type, float value, const FileLoc& loc) {
@@ -1262,6 +1337,11 @@ bool Builder::lightAllowed(const char* request, const std::string& name, const s
 
 void Builder::lightSource(const std::string& name, const std::string& handle, ri::ParamList params,
                           const FileLoc& loc) {
+    if (m_procedural) {
+        m_diag.error(loc, "LightSource: not allowed in a procedural primitive's RIB, whose lights are the world's "
+                     "(ignored)");
+        return;
+    }
     if (!lightAllowed("LightSource", name, handle, params, loc)) return;
     if (skipMotionSample()) return;
     LightRecord l;
@@ -1369,11 +1449,16 @@ void Builder::trimCurve(const ri::RequestArgs& args, const FileLoc& loc) {
 
 void Builder::primitive(const std::string& type, ri::RequestArgs args, ri::ParamList params, const FileLoc& loc) {
     if (!requireWorld(type, loc)) return;
-    for (const char* u : kUnsupportedGeometry)
-        if (type == u) {
-            unsupported(type, loc, fmt::format("{}: not supported by the renderer (parsed and skipped)", type));
-            return;
-        }
+    if (type == "Procedural" && !proceduralValid(args, loc)) return;
+    if (type == "Geometry" && (args.strings.empty() || args.strings[0] != "teapot")) {
+        const std::string name = args.strings.empty() ? std::string() : args.strings[0];
+        const bool known = std::find_if(std::begin(kOtherGeometryNames), std::end(kOtherGeometryNames),
+                                        [&](const char* n) { return name == n; }) != std::end(kOtherGeometryNames);
+        unsupported("Geometry:" + name, loc,
+                    fmt::format("Geometry \"{}\": {}; umbra draws only \"teapot\" (skipped)", name,
+                                known ? "drawn by some other renderers" : "unknown"));
+        return;
+    }
     PrimitiveRecord r;
     r.type = type;
     r.floatArgs = std::move(args.floats);
@@ -1398,6 +1483,65 @@ void Builder::primitive(const std::string& type, ri::RequestArgs args, ri::Param
     emitPrimitive(std::move(r));
 }
 
+bool Builder::proceduralValid(const ri::RequestArgs& args, const FileLoc& loc) {
+    const std::string name = args.strings.empty() ? std::string() : args.strings[0];
+    const ProceduralKind* kind = nullptr;
+    for (const ProceduralKind& k : kProceduralKinds)
+        if (name == k.name) kind = &k;
+    if (!kind) {
+        m_diag.error(loc, "Procedural: unknown procedural \"{}\" (expected \"DelayedReadArchive\", \"RunProgram\" or "
+                     "\"DynamicLoad\"; skipped)", name);
+        return false;
+    }
+    // The parser gives the name, then the args array's strings.
+    if (args.strings.size() < 1 + kind->strings) {
+        if (kind->strings == 2 && args.strings.size() == 2) return boundValid(args, loc);  // no data block: ""
+        m_diag.error(loc, "Procedural \"{}\": expected the arguments {}, got {} strings (skipped)", name, kind->what,
+                     args.strings.size() - 1);
+        return false;
+    }
+    return boundValid(args, loc);
+}
+
+bool Builder::boundValid(const ri::RequestArgs& args, const FileLoc& loc) {
+    const std::vector<float>& b = args.floats;
+    if (b.size() != 6) {
+        m_diag.error(loc, "Procedural: expected a bound of 6 floats [xmin xmax ymin ymax zmin zmax], got {} (skipped)",
+                     b.size());
+        return false;
+    }
+    for (int a = 0; a < 3; ++a)
+        if (!(b[size_t(2 * a)] <= b[size_t(2 * a + 1)])) {
+            m_diag.error(loc, "Procedural: the bound's {} range [{} {}] is empty or not a number (expected min <= max; "
+                         "skipped)", "xyz"[a], b[size_t(2 * a)], b[size_t(2 * a + 1)]);
+            return false;
+        }
+    return true;
+}
+
+void Builder::beginProcedural(const WorldRecord& world, const PrimitiveRecord& procedural) {
+    m_options = world.options;
+    m_frame = world.frameNumber;
+    m_world = std::make_unique<WorldRecord>();
+    m_world->frameNumber = world.frameNumber;
+    m_world->options = world.options;
+    m_world->coordinateSystems = world.coordinateSystems;
+    m_world->lights = world.lights;
+    m_world->loc = world.loc;
+    m_lightHandles.clear();
+    for (size_t i = 0; i < world.lights.size(); ++i) m_lightHandles[world.lights[i].handle] = int(i);
+    m_procedural = true;
+    // The record keeps its reference, so the first attribute request copies
+    // (mutableAttributes) and the procedural's own attributes never change.
+    m_state.attrs = std::const_pointer_cast<Attributes>(procedural.attributes);
+    m_state.transform = procedural.worldFromObject;
+    m_state.motion = procedural.worldFromObjectMotion;
+}
+
+std::vector<PrimitiveRecord> Builder::takePrimitives() {
+    return m_world ? std::move(m_world->primitives) : std::vector<PrimitiveRecord>();
+}
+
 void Builder::placeRecord(PrimitiveRecord& r) const {
     r.worldFromObject = m_state.transform;
     r.worldFromObjectMotion = m_state.motion;
@@ -1414,6 +1558,7 @@ void Builder::emitPrimitive(PrimitiveRecord r) {
         m_objects[m_objectHandle].push_back(std::move(op));
         return;
     }
+    r.solid = solidLeaf(r.loc);
     m_world->primitives.push_back(std::move(r));
 }
 

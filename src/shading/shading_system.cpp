@@ -3,6 +3,7 @@
 #include "umbra/shading/shading_system.h"
 #include "umbra/util/search_path.h"
 
+#include "builtins.h"
 #include "vm.h"
 
 
@@ -79,6 +80,15 @@ const ShaderParamInfo* Shader::param(const std::string& name) const {
     return nullptr;
 }
 std::string Shader::listing() const { return m_code->listing(); }
+bool Shader::variesByFrame() const {
+    for (const Instr& in : m_code->code) {
+        if (in.op != Op::Call) continue;
+        const Bi id = Bi(in.sub);
+        if (id == Bi::RandomF || id == Bi::RandomT || id == Bi::Shadow || id == Bi::Shadow4 || id == Bi::Option)
+            return true;
+    }
+    return false;
+}
 
 // --- ShadingGrid ----------------------------------------------------------
 

@@ -117,6 +117,35 @@ WorldEnd
     }
 }
 
+TEST(Lenient, AViewerShowingTheFilesImageDoesNotOverwriteIt) {
+    // Exporters and examples pair a file with a window on the same name:
+    // `Display "out.tif" "file" "rgba"` then `Display "+out.tif"
+    // "framebuffer" "rgb"`. Without a window, the viewer's stand-in file
+    // must not replace the file asked for: out.tif keeps its alpha and is
+    // the image of the scene without the viewer.
+    ScratchDir dir("viewer-same-name");
+    const std::string name = dir.file("out.tif");
+    auto scene = [&](const std::string& viewer) {
+        return fmt::format(R"(
+Format 32 24 1
+Display "{0}" "file" "rgba"
+{1}
+WorldBegin
+Surface "constant"
+Translate 0 0 5
+Sphere 1 -1 1 360
+WorldEnd
+)",
+                           name, viewer);
+    };
+    Rendered plain = renderScene(scene(""), name);
+    Rendered both = renderScene(scene(fmt::format("Display \"+{}\" \"framebuffer\" \"rgb\"", name)), name);
+    EXPECT_EQ(both.errors, 0);
+    EXPECT_EQ(both.warnings, 1);
+    ASSERT_EQ(both.image.channels, 4);
+    EXPECT_EQ(maxAbsDiff(both.image, plain.image, 4), 0.0);
+}
+
 TEST(Lenient, LightShadersReadTheSurfacesNormalAsNs) {
     // Ns in a light shader is the shaded point's normal (PRMan, Pixie and
     // Aqsis give it): a light making Cl from it equals the surface doing so.

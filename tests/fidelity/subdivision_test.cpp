@@ -88,6 +88,16 @@ WorldEnd
         EXPECT_TRUE(test::readImage(image, &img));
         return img;
     }
+
+    /// The errors a world holding `geometry` reports.
+    int renderErrors(const std::string& geometry) {
+        const std::string rib = fmt::format("Display \"{}\" \"file\" \"rgba\" Format 16 16 1 WorldBegin {} WorldEnd",
+                                            dir.file("errors.tif"), geometry);
+        Diagnostics diag;
+        diag.setQuiet(true);
+        test::renderRib(rib, diag);
+        return diag.errorCount();
+    }
 };
 
 /// Covered area in screen units (alpha summed over pixels).
@@ -159,6 +169,31 @@ TEST(Subdivision, CubeSilhouetteAreaMatchesTheLimitSurface) {
         for (int x = 0; x < img.width; ++x)
             if (img.at(x, y, 3) > 0.5f && img.at(x, y, 1) > 0.1f) ++green;
     EXPECT_EQ(green, 0);
+}
+
+TEST(Subdivision, HierarchicalMeshIsTheMeshItsTagsDescribe) {
+    // Exporters write HierarchicalSubdivisionMesh: three counts per tag
+    // (integers, floats, strings) and the string arguments last. Its
+    // crease, corner and hole tags are the plain request's; a hierarchical
+    // edit is warned about and left out, so the picture is the plain mesh's.
+    Scene scene;
+    const test::Image plain = scene.render(subdivCube(
+        "[\"crease\" \"corner\" \"hole\" \"interpolateboundary\"] [3 1 1 1 1 0 0 0] [4 5 7 2 2] [2.5 10]"));
+    const std::string hierarchical = fmt::format(
+        "HierarchicalSubdivisionMesh \"catmull-clark\" {} "
+        "[\"crease\" \"vertexedit\" \"corner\" \"hole\" \"interpolateboundary\"] "
+        "[3 1 0  3 3 2  1 1 0  1 0 0  0 0 0] [4 5 7  1 1 3  2 2] [2.5  0.1 0.2 0.3  10] "
+        "[\"add\" \"value\"] {}",
+        cubeArrays(), cubeP());
+    const test::Image hier = scene.render(hierarchical);
+    ASSERT_EQ(hier.width, plain.width);
+    EXPECT_EQ(test::maxAbsDiff(hier, plain, 4), 0.0);
+    // The tags took effect: the holed, creased cube is not the plain cube.
+    EXPECT_GT(test::maxAbsDiff(hier, scene.render(subdivCube()), 4), 0.5);
+
+    // Counts that do not come in threes are a located error.
+    EXPECT_EQ(scene.renderErrors(fmt::format("HierarchicalSubdivisionMesh \"catmull-clark\" {} [\"hole\"] [1 0] [2] "
+                                             "[] [] {}", cubeArrays(), cubeP())), 1);
 }
 
 TEST(Subdivision, OutwardSideIsThatOfThePolygonsOfTheControlMesh) {

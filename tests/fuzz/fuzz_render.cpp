@@ -7,7 +7,8 @@
 // The budget (applied to each world before it is rendered): at most a
 // 32 x 24 frame, 2 x 2 samples, 64^2 maps, 32 primitives, 4 lights, a
 // shading rate of at least 1, one thread. Outputs are written in a scratch
-// directory the fuzzer works in; MakeTexture and the like are dropped.
+// directory the fuzzer works in; MakeTexture and the like are dropped, as
+// are RunProgram and DynamicLoad procedurals.
 
 #include "umbra/render/renderer.h"
 #include "umbra/ri/parser.h"
@@ -20,6 +21,7 @@
 #include <map>
 #include <string_view>
 #include <unistd.h>
+#include <vector>
 
 namespace {
 
@@ -45,6 +47,11 @@ public:
         int k = 0;
         for (scene::DisplayRecord& d : o.displays)
             d.name = "out" + std::to_string(k++) + std::filesystem::path(d.name).extension().string();
+        // Fuzzed RunProgram and DynamicLoad procedurals would run any
+        // program or library on the machine: dropped, as MakeTexture is.
+        std::erase_if(w.primitives, [](const scene::PrimitiveRecord& p) {
+            return p.type == "Procedural" && !p.stringArgs.empty() && p.stringArgs[0] != "DelayedReadArchive";
+        });
         if (w.primitives.size() > 32) w.primitives.resize(32);
         if (w.lights.size() > 4) w.lights.resize(4);
         std::map<const scene::Attributes*, std::shared_ptr<const scene::Attributes>> coarse;

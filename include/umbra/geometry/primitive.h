@@ -99,4 +99,11 @@ private:
 /// returning nothing for them.
 std::vector<PrimitivePtr> makePrimitives(std::shared_ptr<const scene::PrimitiveRecord> record, Diagnostics& diag);
 
+class ProceduralContext;
+/// makePrimitives() that also makes `Procedural` records into procedural
+/// primitives (geometry/procedural.h) expanding in `procedurals`' world;
+/// without a context they are skipped with a warning.
+std::vector<PrimitivePtr> makePrimitives(std::shared_ptr<const scene::PrimitiveRecord> record, Diagnostics& diag,
+                                         const std::shared_ptr<ProceduralContext>& procedurals);
+
 }  // namespace umbra::geometry

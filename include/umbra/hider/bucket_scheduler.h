@@ -48,6 +48,9 @@ struct ShadedGrid {
     uint64_t id = 0;
     bool ownSecondLayer = false;  // see MicroGrid
     bool discs = false;       // see MicroGrid
+    int csgLeaf = -1;         // see MicroGrid
+    std::vector<uint8_t> leaving;  // per micropolygon, see MicroGrid; empty: none
+    float dissolveFrom = 0, dissolveBelow = 1;  // see MicroGrid
     Bound3 bound;             // of P
 
     MicroGrid view() const;
@@ -104,8 +107,9 @@ struct SchedulerSettings {
     SampleBufferConfig sampling;
     int filterMargin = 1;         // pixels sampled around each bucket (ceil of filter radius)
     int maxEyeSplits = 10;
-    /// Called after each bucket with (done, total); from worker threads.
-    std::function<void(int, int)> progress;
+    /// Called after each bucket with (buckets done, buckets, share of the
+    /// estimated work done: hider/bucket_work.h); from worker threads.
+    std::function<void(int, int, double)> progress;
 };
 
 /// Renders a list of primitives into a film, bucket by bucket.

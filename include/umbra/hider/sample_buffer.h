@@ -24,6 +24,7 @@
 // samples a micropolygon's bound overlaps form a rectangle of indices.
 
 #include "umbra/geometry/trim.h"
+#include "umbra/hider/csg.h"
 #include "umbra/util/math.h"
 
 #include <cstdint>
@@ -100,6 +101,21 @@ struct MicroGrid {
     /// AOVs are those shaded once for the grid.
     int keyCount = 1;
     const float* keyTimes = nullptr;
+    /// CSG (hider/csg.h): the leaf of SampleBufferConfig::csg whose surface
+    /// this is, or -1 for ordinary geometry. Every hit of a leaf is kept
+    /// until resolve() finds the visible ones, so leaves neither occlude nor
+    /// are culled by facing; `leaving` marks, per micropolygon, those whose
+    /// outward normal faces away from the eye (null: none).
+    int csgLeaf = -1;
+    const uint8_t* leaving = nullptr;
+    /// Level of detail's cross-fade (a stochastic dissolve): each sample
+    /// has a fixed value u in [0, 1) (SampleBuffer::dissolveValue), and the
+    /// grid is drawn only at samples with dissolveFrom <= u < dissolveBelow.
+    /// A representation fading out keeps [0, w), one fading in [1 - w, 1),
+    /// so two whose weights sum to 1 share the samples without overlap.
+    float dissolveFrom = 0, dissolveBelow = 1;
+
+    bool dissolves() const { return dissolveFrom > 0 || dissolveBelow < 1; }
 
     int vertexCount() const { return (nu + 1) * (nv + 1); }
 };
@@ -151,6 +167,9 @@ struct SampleBufferConfig {
     bool lens = false;
     float lensScaleX = 0, lensScaleY = 0;
     float inverseFocalDistance = 0;
+    /// The world's CSG trees, which MicroGrid::csgLeaf indexes; borrowed,
+    /// null when the world has none.
+    const CsgForest* csg = nullptr;
 };
 
 /// Counters of the blurred sampling path (motion blur, depth of field).
@@ -168,6 +187,11 @@ struct BlurStats {
 /// composites them front to back. Depth mode keeps the nearest hit z1 and
 /// z2 = the nearest hit that comes from a different grid (MicroGrid::id) than
 /// the nearest one: the next surface behind, not a seam of the same grid.
+///
+/// CSG leaves' hits (MicroGrid::csgLeaf) are kept in the fragment list, in
+/// depth mode too, whatever their opacity; resolve() walks them front to
+/// back with the others and keeps only those on the boundary of their tree's
+/// result (hider/csg.h), the first opaque one hiding what is behind.
 ///
 /// Determinism: every hit is ordered by the key (z, grid id, triangle index
 /// in the grid), a total order, so which hit wins and the order fragments are
@@ -217,6 +241,11 @@ public:
     /// lens disc (depth of field), for the buffer's settings `config`.
     static float sampleTime(int px, int py, int s, const SampleBufferConfig& config);
     static Vec2 sampleLens(int px, int py, int s, const SampleBufferConfig& config);
+    /// The dissolve value of the sample in global stratum column sx, row sy
+    /// (sample s of pixel (px, py) is column px * xs + s % xs, row
+    /// py * ys + s / xs): a hash of the stratum and the frame seed, so
+    /// uncorrelated with the sample's position and the same in every bucket.
+    static float dissolveValue(int sx, int sy, uint32_t frameSeed);
 
     const BlurStats& blurStats() const { return m_blur; }
 
@@ -237,6 +266,9 @@ private:
         int32_t next;
         int32_t aovBase;  // into m_fragAov, or -1
         bool matte;
+        bool opaque;      // a CSG hit that hides what is behind it when visible
+        bool leaving;     // a CSG hit leaving its leaf's volume
+        int32_t csgLeaf;  // -1: an ordinary transparent fragment
     };
     struct Tri;
     struct HitContext;
@@ -262,6 +294,16 @@ private:
     /// A depth pass's nearest hit: keeps depth z of grid gid, triangle sub
     /// at sample s when nearer by the full key; true if kept.
     bool takeNearest(size_t s, float z, uint64_t gid, uint32_t sub);
+    /// A depth pass's hit (record()'s depth mode): z1, and z2 from another
+    /// grid (or from a grid that is its own second layer); true if kept.
+    bool recordDepth(size_t s, float z, uint64_t gid, uint32_t sub, bool ownSecondLayer);
+    /// A depth pass's hit of a CSG leaf: kept as a fragment for resolveCsg.
+    void recordCsgDepth(const MicroGrid& g, const Tri& t, size_t s, float z);
+    /// Walks sample s's fragments front to back, leaving in m_order the
+    /// ordinary ones and the CSG hits on their tree's boundary up to the
+    /// first opaque one, which becomes the sample's opaque hit (colour
+    /// mode); depth mode merges the boundary hits into z1 and z2 instead.
+    void resolveCsg(size_t s);
     void markDirty(int sx0, int sy0, int sx1, int sy1);
     /// Pixel (px, py) of the region: the max opaque (depth mode: second)
     /// depth of its samples, recomputed if marked dirty.
@@ -316,6 +358,11 @@ private:
     std::unique_ptr<SamplePattern> m_pattern;          // positions of one period
     std::unique_ptr<PatternFilterWeights> m_weights;   // the film filter's weights over it
 
+    std::vector<float> m_dissolve;   // per sample: dissolveValue(), made when a dissolving grid first arrives
+    bool m_dissolveReady = false;
+    /// Makes m_dissolve for this bucket if not done yet.
+    void prepareDissolve();
+
     std::vector<float> m_inverseDepth;  // perspective: 1/z per vertex (and key) of the grid being sampled
 
     std::vector<Fragment> m_frags;
@@ -330,6 +377,10 @@ private:
     std::vector<float> m_res;        // per sample: r g b a, aov...
     std::vector<float> m_acc;        // per bucket pixel: r g b a aov... (non-separable filters: and the weight)
     std::vector<int32_t> m_order;    // fragment sort scratch
+    size_t m_csgFragments = 0;       // CSG hits recorded since reset()
+    CsgRayState m_csgRay;            // resolveCsg: where the ray being walked is
+    std::vector<uint8_t> m_csgNext;  // resolveCsg: per leaf, its next hit along the ray (0 none, 1 enters, 2 leaves)
+    std::vector<uint8_t> m_csgAfter; // resolveCsg: per sorted fragment, whether the ray is inside its leaf after it
     std::vector<float> m_scratchAov;
 };
 

@@ -26,6 +26,9 @@ struct RenderSettings {
     bool progress = false;      // live progress on stderr
     bool quiet = false;         // no statistics summary
     bool noShadows = false;     // every shadow() lookup and depth pass off (Reeves' Table 1 baseline)
+    /// Automatic maps of an earlier frame stand in for a frame's own when
+    /// their content would be the same (`--no-map-reuse` turns it off).
+    bool reuseMaps = true;
     /// `--resume`: frames whose every Display file is a complete image
     /// (film::imageFileComplete) are not rendered again.
     bool resume = false;
@@ -69,6 +72,9 @@ public:
 
     /// Statistics of every frame rendered so far (docs/statistics.md).
     nlohmann::json statistics() const;
+    /// Called with each frame's statistics as the frame ends (rendered or
+    /// skipped), e.g. to append them to a JSON-lines file.
+    void onFrameStatistics(std::function<void(const nlohmann::json&)> sink);
     /// Number of worlds that failed to render (a non-zero exit).
     int failedFrames() const { return m_failed; }
     /// The numbers of the frames that failed, in render order, each once
@@ -92,6 +98,10 @@ private:
 /// one file per frame of `settings.frames`, which it then requires. A failed
 /// frame does not stop the others; a summary line names the failed frames.
 /// Returns the process exit code: 0 on success, 1 on any error.
+/// The version of the statistics' layout, in every line of a `--stats
+/// FILE.jsonl`: raised when a field changes meaning or is removed.
+inline constexpr int kStatisticsSchema = 1;
+
 int renderFiles(const std::vector<std::string>& files, const RenderSettings& settings,
                 const std::string& statsPath, Diagnostics& diag);
 

@@ -57,6 +57,15 @@ public:
     const Attributes& attributes() const { return *m_state.attrs; }
     const Mat4& currentTransform() const { return m_state.transform; }
     bool inWorld() const { return m_world != nullptr; }
+
+    /// Makes this (fresh) builder take the requests of a procedural
+    /// primitive's RIB (RI spec 3.2 §5.7): inside `world`, with its options,
+    /// coordinate systems and light handles, and the graphics state of the
+    /// `Procedural` request (its attributes and transform). World, frame
+    /// and option requests are errors there, as are new lights.
+    void beginProcedural(const WorldRecord& world, const PrimitiveRecord& procedural);
+    /// The primitives made since beginProcedural, in request order.
+    std::vector<PrimitiveRecord> takePrimitives();
     /// Orientation as a handedness: true when "outside" is left-handed.
 
     void unhandled(std::string_view request, const FileLoc& loc) override;
@@ -183,6 +192,7 @@ private:
         /// The current transform over the shutter when a motion block moved
         /// it; null: `transform` is all of it.
         std::shared_ptr<const MotionTransform> motion;
+        int solid = -1;  // the innermost open CSG node (WorldRecord::solids); -1: none
     };
     /// What an open MotionBegin block has collected: one transform or one
     /// primitive per time.
@@ -228,6 +238,9 @@ private:
     /// The record of a primitive request, with the current transform and
     /// attributes (and its motion).
     void placeRecord(PrimitiveRecord& r) const;
+    /// Checks a Procedural request's name, strings and bound.
+    bool proceduralValid(const ri::RequestArgs& args, const FileLoc& loc);
+    bool boundValid(const ri::RequestArgs& args, const FileLoc& loc);
     /// Adds a finished primitive record to the world or the object being defined.
     void emitPrimitive(PrimitiveRecord r);
     bool currentIsLeft(const Mat4& transform) const;
@@ -240,6 +253,9 @@ private:
     /// at most kMaxListedOpenBlocks of them, then one line for the rest.
     void reportOpenBlocks(size_t first, const char* request, const FileLoc& loc);
     void unsupported(const std::string& key, const FileLoc& loc, const std::string& what);
+    /// The CSG leaf a primitive given now belongs to (a new "primitive"
+    /// node when the innermost solid is an operation); -1 outside CSG.
+    int solidLeaf(const FileLoc& loc);
     std::string expandSearchPath(const std::string& kind, const std::string& value) const;
 
     SceneSink& m_sink;
@@ -277,6 +293,7 @@ private:
     std::unique_ptr<MotionBlock> m_motion;  // the open motion block, if any
     int m_archiveReads = 0;              // ReadArchive requests of the current frame (or before the first)
     bool m_archiveBudgetReported = false;
+    bool m_procedural = false;           // beginProcedural: the contents of a procedural primitive
     std::map<std::string, std::string> m_defaultSearchPaths;
 };
 

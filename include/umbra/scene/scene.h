@@ -13,6 +13,7 @@
 #include "umbra/util/motion.h"
 
 #include <array>
+#include <limits>
 #include <map>
 #include <memory>
 #include <string>
@@ -98,6 +99,14 @@ struct Attributes {
     bool castsShadows = true;
     /// Attribute "dice" "binary": grids diced into powers of two.
     bool binaryDice = false;
+    /// Level of detail: the Detail box's corners in world space (set when
+    /// hasDetail), and the DetailRange minvisible, lowertransition,
+    /// uppertransition, maxvisible the primitives are drawn over
+    /// (docs/rib.md, "Level of detail").
+    bool hasDetail = false;
+    std::array<Vec3, 8> detailCorners{};
+    std::array<float, 4> detailRange{0, 0, std::numeric_limits<float>::infinity(),
+                                     std::numeric_limits<float>::infinity()};
     /// The current TrimCurve (null: none); it applies to NuPatch only.
     std::shared_ptr<const TrimCurveRecord> trimCurves;
     /// Every other `Attribute "class" "name" value` by "class:name", for the
@@ -135,8 +144,21 @@ struct PrimitiveRecord {
     std::vector<PrimitiveRecord> shapes;
     std::shared_ptr<const Attributes> attributes;
     FileLoc loc;
+    /// CSG: the "primitive" solid (index into WorldRecord::solids) whose
+    /// closed boundary this surface is part of; -1 outside CSG trees.
+    int solid = -1;
 
     bool moving() const { return (worldFromObjectMotion && worldFromObjectMotion->moving()) || !shapes.empty(); }
+};
+
+/// One node of a CSG tree (RI spec 3.2 §5.8): a SolidBegin block inside a
+/// union, intersection or difference, or such an operation itself. A
+/// primitive given directly inside an operation is a "primitive" node of
+/// its own; a top-level SolidBegin "primitive" is no tree (ordinary geometry).
+struct SolidRecord {
+    std::string operation;  // "primitive", "union", "intersection" or "difference"
+    int parent = -1;        // index into WorldRecord::solids, before this one; -1 for a tree's root
+    FileLoc loc;
 };
 
 /// A light source or area light, with its transform.
@@ -177,6 +199,7 @@ struct Options {
     std::string pixelFilter = "gaussian";
     float filterWidth[2] = {2, 2};
     float exposureGain = 1.0f, exposureGamma = 1.0f;
+    float relativeDetail = 1.0f;             // RelativeDetail: scales every level-of-detail measure
     // Quantize "rgba" one min max dither; (0,0,0,0) means floating point.
     float quantizeOne = 255, quantizeMin = 0, quantizeMax = 255, quantizeDither = 0.5f;
     float zQuantizeOne = 0, zQuantizeMin = 0, zQuantizeMax = 0, zQuantizeDither = 0;
@@ -228,6 +251,7 @@ struct WorldRecord {
     Options options;
     std::vector<LightRecord> lights;
     std::vector<PrimitiveRecord> primitives;
+    std::vector<SolidRecord> solids;          // CSG trees, parents first
     /// CoordinateSystem names -> worldFromNamed, including "world".
     std::map<std::string, Mat4> coordinateSystems;
     FileLoc loc;                              // the WorldBegin

@@ -50,6 +50,11 @@ public:
     const ShaderParamInfo* param(const std::string& name) const;
     /// Human-readable bytecode listing (`umbra slc --listing`).
     std::string listing() const;
+    /// Whether its results can change from frame to frame for the same
+    /// geometry and parameters: it calls random() (seeded per frame),
+    /// shadow() (stochastic, and maps made per frame) or option() (e.g.
+    /// "FrameNumber").
+    bool variesByFrame() const;
     const CompiledShader& code() const { return *m_code; }
 
 private:

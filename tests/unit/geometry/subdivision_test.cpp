@@ -293,6 +293,61 @@ TEST(Subdivision, NGonsMatchTheirFirstLevelQuads) {
     EXPECT_LT(worst, 1e-3f);
 }
 
+TEST(Subdivision, WholeFaceBoundsHoldTheirLimitSurfaceAndHugRegularFaces) {
+    // A bumpy 6 x 6 sheet with its boundary interpolated (regular interior,
+    // boundary and corner faces) and the creased, holed cube (irregular
+    // faces): every whole face's bound holds its limit surface sampled
+    // finely, and a regular face's bound is tighter than the box of its 16
+    // B-spline points, which is what it was before.
+    std::vector<float> P;
+    std::vector<int> nverts, verts;
+    const int n = 6;
+    for (int j = 0; j <= n; ++j)
+        for (int i = 0; i <= n; ++i) P.insert(P.end(), {float(i), float(j), 0.8f * std::sin(float(i * 7 + j * 3))});
+    for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+            nverts.push_back(4);
+            verts.insert(verts.end(), {j * (n + 1) + i, j * (n + 1) + i + 1, (j + 1) * (n + 1) + i + 1, (j + 1) * (n + 1) + i});
+        }
+    Diagnostics diag;
+    auto sheet = diceablePieces(
+        subdivRecord("catmull-clark", nverts, verts, P, {"interpolateboundary"}, {0, 0}), diag);
+    auto cube = diceablePieces(subdivRecord("catmull-clark", kCubeNverts, kCubeVerts, kCubeP, {"crease", "corner", "hole"},
+                                            {3, 1, 1, 1, 1, 0}, {4, 5, 7, 2, 2}, {2.5f, 10.0f}),
+                               diag);
+    EXPECT_EQ(diag.errorCount(), 0);
+    ASSERT_EQ(sheet.size(), size_t(n * n));
+    int tighter = 0;
+    for (const auto* pieces : {&sheet, &cube})
+        for (const auto& piece : *pieces) {
+            const auto* face = dynamic_cast<const SubdivFace*>(piece.get());
+            ASSERT_NE(face, nullptr);
+            const Bound3 b = face->bound();
+            for (int j = 0; j <= 16; ++j)
+                for (int i = 0; i <= 16; ++i) {
+                    const Vec3 p = face->evaluate(i / 16.0f, j / 16.0f);
+                    EXPECT_TRUE(p.x >= b.min.x && p.y >= b.min.y && p.z >= b.min.z && p.x <= b.max.x &&
+                                p.y <= b.max.y && p.z <= b.max.z)
+                        << "face " << face->face() << " at " << i << "," << j;
+                }
+            // The box of the face's control points: the vertices of the
+            // faces around an interior face of the sheet.
+            if (pieces == &sheet) {
+                const int f = face->face(), fi = f % n, fj = f / n;
+                if (fi == 0 || fj == 0 || fi == n - 1 || fj == n - 1) continue;
+                Bound3 control;
+                for (int j = fj - 1; j <= fj + 2; ++j)
+                    for (int i = fi - 1; i <= fi + 2; ++i) {
+                        const size_t v = size_t(j * (n + 1) + i) * 3;
+                        control.extend(Vec3(P[v], P[v + 1], P[v + 2]));
+                    }
+                const Vec3 d = b.diagonal(), c = control.diagonal();
+                if (d.x * d.y * d.z < 0.5f * c.x * c.y * c.z) ++tighter;
+            }
+        }
+    EXPECT_EQ(tighter, (n - 2) * (n - 2));
+}
+
 TEST(Subdivision, FaceVaryingStIsContinuousAcrossSharedEdges) {
     // Two quads side by side sharing the edge 1-4; st agree along it and
     // differ (a seam) at the far corners of the right quad.

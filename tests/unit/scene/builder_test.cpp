@@ -295,10 +295,49 @@ TEST(Builder, CoordinateSystems) {
 }
 
 TEST(Builder, UnsupportedRequestsWarnOnce) {
-    auto r = run("WorldBegin Sphere 1 -1 1 360\n\nGeometry \"teapot\" Geometry \"teapot\" WorldEnd");
+    auto r = run("WorldBegin Sphere 1 -1 1 360\n\nClippingPlane 0 0 1 0 0 -1 ClippingPlane 0 0 1 0 0 -1 WorldEnd");
     EXPECT_EQ(r->messages(), (std::vector<std::string>{
-        "s.rib:3:1: warning: Geometry: not supported by the renderer (parsed and skipped)"}));
+        "s.rib:3:1: warning: ClippingPlane: not supported (ignored)"}));
     ASSERT_EQ(r->sink.worlds.at(0).primitives.size(), 1u);
+}
+
+TEST(Builder, ProceduralsAreRecordedWithTheirBoundAndStrings) {
+    auto r = run("WorldBegin Translate 1 0 0 Color [1 0 0]\n"
+                 "Procedural \"DelayedReadArchive\" [\"a.rib\"] [-1 1 -2 2 -3 3]\n"
+                 "Procedural \"RunProgram\" [\"gen.py -v\" \"0.5\"] [0 1 0 1 0 1]\n"
+                 "Geometry \"teapot\" WorldEnd");
+    EXPECT_TRUE(r->messages().empty());
+    const auto& prims = r->sink.worlds.at(0).primitives;
+    ASSERT_EQ(prims.size(), 3u);
+    EXPECT_EQ(prims[0].type, "Procedural");
+    EXPECT_EQ(prims[0].stringArgs, (std::vector<std::string>{"DelayedReadArchive", "a.rib"}));
+    EXPECT_EQ(prims[0].floatArgs, (std::vector<float>{-1, 1, -2, 2, -3, 3}));
+    expectNear(prims[0].worldFromObject.point({}), {1, 0, 0});
+    EXPECT_EQ(prims[0].attributes->color.y, 0.0f);
+    EXPECT_EQ(prims[1].stringArgs, (std::vector<std::string>{"RunProgram", "gen.py -v", "0.5"}));
+    EXPECT_EQ(prims[2].type, "Geometry");
+}
+
+TEST(Builder, MalformedProceduralsAndUnknownGeometryAreReportedAtTheRequest) {
+    auto r = run("WorldBegin\n"
+                 "Procedural \"Teleport\" [\"x\"] [0 1 0 1 0 1]\n"
+                 "Procedural \"DelayedReadArchive\" [] [0 1 0 1 0 1]\n"
+                 "Procedural \"DelayedReadArchive\" [\"a.rib\"] [0 1 0 1]\n"
+                 "Procedural \"DelayedReadArchive\" [\"a.rib\"] [1 0 0 1 0 1]\n"
+                 "Geometry \"bunny\" Geometry \"bunny\"\n"
+                 "Geometry \"kettle\"\n"
+                 "WorldEnd");
+    EXPECT_EQ(r->messages(), (std::vector<std::string>{
+        "s.rib:2:1: error: Procedural: unknown procedural \"Teleport\" (expected \"DelayedReadArchive\", "
+        "\"RunProgram\" or \"DynamicLoad\"; skipped)",
+        "s.rib:3:1: error: Procedural \"DelayedReadArchive\": expected the arguments [\"archive.rib\"], got 0 strings "
+        "(skipped)",
+        "s.rib:4:1: error: Procedural: expected a bound of 6 floats [xmin xmax ymin ymax zmin zmax], got 4 (skipped)",
+        "s.rib:5:1: error: Procedural: the bound's x range [1 0] is empty or not a number (expected min <= max; "
+        "skipped)",
+        "s.rib:6:1: warning: Geometry \"bunny\": drawn by some other renderers; umbra draws only \"teapot\" (skipped)",
+        "s.rib:7:1: warning: Geometry \"kettle\": unknown; umbra draws only \"teapot\" (skipped)"}));
+    EXPECT_TRUE(r->sink.worlds.at(0).primitives.empty());
 }
 
 TEST(Builder, MotionBlocksAroundTransformsMoveTheCurrentTransform) {
