@@ -1,3 +1,4 @@
+#include "umbra/geometry/blobby.h"
 #include "umbra/geometry/curves.h"
 #include "umbra/geometry/deforming.h"
 #include "umbra/geometry/nupatch.h"
@@ -334,6 +335,14 @@ std::vector<PrimitivePtr> makeShape(std::shared_ptr<const scene::PrimitiveRecord
 std::vector<PrimitivePtr> makeDeforming(const RecordPtr& record, Diagnostics& diag) {
     std::vector<std::vector<PrimitivePtr>> shapes;
     shapes.push_back(makeShape(record, diag));
+    if (record->type == "Blobby") {
+        // Each shape's surface is polygonised on its own, so their pieces
+        // do not pair up: blurring them would move one triangle to another.
+        diag.warningOnce("blobby:deform", record->loc,
+                         "Blobby: deformation blur (MotionBegin around a Blobby) is not supported; the first shape "
+                         "renders unblurred");
+        return std::move(shapes[0]);
+    }
     for (const scene::PrimitiveRecord& s : record->shapes) {
         shapes.push_back(makeShape(std::make_shared<const scene::PrimitiveRecord>(s), diag));
         if (shapes.back().size() != shapes[0].size()) {
@@ -393,6 +402,8 @@ std::vector<PrimitivePtr> makeShape(std::shared_ptr<const scene::PrimitiveRecord
         makeCurves(record, diag, out);
     else if (t == "Points")
         makePoints(record, diag, out);
+    else if (t == "Blobby")
+        makeBlobby(record, diag, out);
     else if (t == "Geometry" && !record->stringArgs.empty() && record->stringArgs[0] == "teapot")
         makeTeapot(record, diag, out);
     else

@@ -25,10 +25,6 @@ const char* endName(int kind) {
 /// How deep SolidBegin operations may nest (docs/rib.md, Limits).
 constexpr int kMaxSolidNesting = 256;
 
-// Geometry requests the renderer does not draw yet: parsed and validated,
-// reported once, and left out of the world.
-constexpr const char* kUnsupportedGeometry[] = {"Blobby"};
-
 /// The procedural primitives of RI spec 3.2 §5.7, and the strings each
 /// needs at least: the archive; the program (with its command line) and
 /// the data block written to it; the DSO and the data block it converts.
@@ -1470,11 +1466,6 @@ void Builder::trimCurve(const ri::RequestArgs& args, const FileLoc& loc) {
 
 void Builder::primitive(const std::string& type, ri::RequestArgs args, ri::ParamList params, const FileLoc& loc) {
     if (!requireWorld(type, loc)) return;
-    for (const char* u : kUnsupportedGeometry)
-        if (type == u) {
-            unsupported(type, loc, fmt::format("{}: not supported by the renderer (parsed and skipped)", type));
-            return;
-        }
     if (type == "Procedural" && !proceduralValid(args, loc)) return;
     if (type == "Geometry" && (args.strings.empty() || args.strings[0] != "teapot")) {
         const std::string name = args.strings.empty() ? std::string() : args.strings[0];

@@ -295,9 +295,9 @@ TEST(Builder, CoordinateSystems) {
 }
 
 TEST(Builder, UnsupportedRequestsWarnOnce) {
-    auto r = run("WorldBegin Sphere 1 -1 1 360\n\nBlobby 0 [] [] [] Blobby 0 [] [] [] WorldEnd");
+    auto r = run("WorldBegin Sphere 1 -1 1 360\n\nClippingPlane 0 0 1 0 0 -1 ClippingPlane 0 0 1 0 0 -1 WorldEnd");
     EXPECT_EQ(r->messages(), (std::vector<std::string>{
-        "s.rib:3:1: warning: Blobby: not supported by the renderer (parsed and skipped)"}));
+        "s.rib:3:1: warning: ClippingPlane: not supported (ignored)"}));
     ASSERT_EQ(r->sink.worlds.at(0).primitives.size(), 1u);
 }
 

@@ -1,0 +1,309 @@
+// Blobby implicit surfaces: the field against its closed form (written
+// again here), the diced surface on the threshold with outward normals and
+// windings, per-leaf values blended by field weight, and malformed code
+// reported at the request's location.
+
+#include "geometry_test_util.h"
+
+#include "umbra/geometry/blobby.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+using namespace umbra;
+using namespace umbra::geometry;
+using namespace umbra::testutil;
+
+namespace {
+
+constexpr float kT = 0.421875f;  // 0.75^3: a lone leaf's surface at half its unit radius
+
+std::shared_ptr<scene::PrimitiveRecord> blobby(int nleaf, std::vector<int> code, std::vector<float> floats,
+                                               std::vector<ri::Param> params = {}) {
+    auto r = record("Blobby", std::move(floats), std::move(params));
+    r->intArgs = {nleaf};
+    r->intArgs.insert(r->intArgs.end(), code.begin(), code.end());
+    r->intArrays = {std::move(code)};
+    r->stringArgs = {""};
+    return r;
+}
+
+// A sphere leaf of unit-space scale s centred at c, in RIB order.
+std::vector<float> sphereLeaf(float s, Vec3 c) { return {s, 0, 0, 0, 0, s, 0, 0, 0, 0, s, 0, c.x, c.y, c.z, 1}; }
+
+std::vector<float> concat(std::vector<float> a, const std::vector<float>& b) {
+    a.insert(a.end(), b.begin(), b.end());
+    return a;
+}
+
+// The leaf field written independently: (1 - r^2)^3 inside the unit ball.
+double bump(double r2) { return r2 < 1 ? std::pow(1 - r2, 3) : 0; }
+double sphereField(const Vec3& p, float s, Vec3 c) {
+    const Vec3 d = (p - c) / s;
+    return bump(double(dot(d, d)));
+}
+
+std::shared_ptr<const BlobbyField> field(const std::shared_ptr<scene::PrimitiveRecord>& r) {
+    Diagnostics diag;
+    auto f = BlobbyField::fromRecord(*r, diag);
+    EXPECT_EQ(diag.errorCount(), 0);
+    return f;
+}
+
+}  // namespace
+
+TEST(Blobby, OperationsCombineLeavesAsTheSpecSays) {
+    const Vec3 c0(-0.3f, 0, 0), c1(0.4f, 0.1f, 0);
+    const auto leaves = concat(concat(sphereLeaf(1.5f, c0), sphereLeaf(1.2f, c1)), {0.25f});
+    struct Case {
+        std::vector<int> ops;  // after the three leaves (instructions 0, 1, 2)
+        double (*expect)(double a, double b, double k);
+    };
+    const Case cases[] = {
+        {{0, 3, 0, 1, 2}, [](double a, double b, double k) { return a + b + k; }},
+        {{1, 2, 0, 1}, [](double a, double b, double) { return a * b; }},
+        {{2, 2, 0, 1}, [](double a, double b, double) { return std::max(a, b); }},
+        {{3, 2, 0, 1}, [](double a, double b, double) { return std::min(a, b); }},
+        {{4, 0, 1}, [](double a, double b, double) { return a - b; }},
+        {{5, 0, 2}, [](double a, double, double k) { return a / k; }},
+        {{6, 1}, [](double, double b, double) { return -b; }},
+        {{7, 0}, [](double a, double, double) { return a; }},
+    };
+    for (const Case& c : cases) {
+        std::vector<int> code = {1001, 0, 1001, 16, 1000, 32};
+        code.insert(code.end(), c.ops.begin(), c.ops.end());
+        auto f = field(blobby(3, code, leaves));
+        ASSERT_TRUE(f);
+        for (float x = -1.2f; x <= 1.2f; x += 0.1f) {
+            const Vec3 p(x, 0.05f, -0.1f);
+            const double a = sphereField(p, 1.5f, c0), b = sphereField(p, 1.2f, c1);
+            EXPECT_NEAR(f->value(p), c.expect(a, b, 0.25), 1e-5) << "opcode " << c.ops[0] << " at x " << x;
+        }
+    }
+    // A zero divisor gives 0 (Aqsis), never an infinity.
+    auto f = field(blobby(2, {1001, 0, 1000, 16, 5, 0, 1}, concat(sphereLeaf(1, {}), {0.0f})));
+    EXPECT_EQ(f->value(Vec3(0.1f, 0, 0)), 0.0f);
+}
+
+TEST(Blobby, GradientIsTheFieldsDerivative) {
+    // Every operation, a sheared ellipsoid and a turned segment blob: the
+    // gradient against central differences of the field (in double steps
+    // large enough for float values).
+    std::vector<float> floats = {1.4f, 0.3f, 0, 0, 0, 1.1f, 0.2f, 0, 0.1f, 0, 0.9f, 0, -0.2f, 0.1f, 0, 1};
+    const std::vector<float> seg = {-0.4f, 0, 0, 0.4f, 0.2f, 0, 0.9f, 0, 1, 0, 0, -1, 0, 0, 0, 0, 0, 1, 0, 0.3f, 0, 0,
+                                    1};
+    floats.insert(floats.end(), seg.begin(), seg.end());
+    floats.push_back(0.6f);
+    for (const std::vector<int>& ops : std::vector<std::vector<int>>{
+             {0, 3, 0, 1, 2}, {1, 3, 0, 1, 2}, {2, 2, 0, 1}, {3, 2, 0, 1}, {4, 0, 1}, {5, 0, 2}, {6, 0}, {7, 1}}) {
+        std::vector<int> code = {1001, 0, 1002, 16, 1000, 39};
+        code.insert(code.end(), ops.begin(), ops.end());
+        auto f = field(blobby(3, code, floats));
+        ASSERT_TRUE(f);
+        for (const Vec3& p : {Vec3(0.1f, 0.2f, 0.05f), Vec3(-0.3f, -0.1f, 0.2f), Vec3(0.35f, 0.3f, -0.1f)}) {
+            const float e = 1e-3f;
+            const Vec3 fd((f->value(p + Vec3(e, 0, 0)) - f->value(p - Vec3(e, 0, 0))) / (2 * e),
+                          (f->value(p + Vec3(0, e, 0)) - f->value(p - Vec3(0, e, 0))) / (2 * e),
+                          (f->value(p + Vec3(0, 0, e)) - f->value(p - Vec3(0, 0, e))) / (2 * e));
+            const Vec3 g = f->gradient(p);
+            const float scale = std::max(1.0f, length(fd));
+            EXPECT_NEAR(g.x, fd.x, 2e-3f * scale) << "opcode " << ops[0];
+            EXPECT_NEAR(g.y, fd.y, 2e-3f * scale) << "opcode " << ops[0];
+            EXPECT_NEAR(g.z, fd.z, 2e-3f * scale) << "opcode " << ops[0];
+        }
+    }
+}
+
+TEST(Blobby, SegmentBlobFieldFallsWithDistanceFromTheSegment) {
+    // Ends (-1, 0, 0) and (1, 0, 0), radius 0.8, identity matrix.
+    std::vector<float> seg = {-1, 0, 0, 1, 0, 0, 0.8f, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    auto f = field(blobby(1, {1002, 0}, seg));
+    ASSERT_TRUE(f);
+    for (float y : {0.0f, 0.2f, 0.5f, 0.79f}) {
+        EXPECT_NEAR(f->value(Vec3(0.3f, y, 0)), bump(double(y * y) / 0.64), 1e-5);
+        // Beyond an end the distance is to the end point.
+        EXPECT_NEAR(f->value(Vec3(1.3f, y, 0)), bump(double(0.09f + y * y) / 0.64), 1e-5);
+    }
+}
+
+TEST(Blobby, DicedSphereLiesOnTheThresholdWithOutwardNormalsAndWinding) {
+    const Vec3 c(0.2f, -0.1f, 0.3f);
+    Diagnostics diag;
+    auto prims = makePrimitives(blobby(1, {1001, 0}, sphereLeaf(2, c)), diag);
+    ASSERT_EQ(prims.size(), 1u);
+    EXPECT_FALSE(prims[0]->diceable());
+    auto pieces = splitToDiceable(std::move(prims));
+    ASSERT_GT(pieces.size(), 8u);
+    double area = 0;
+    for (const auto& piece : pieces) {
+        Grid g = piece->dice(4, 4);
+        ASSERT_TRUE(g.ownNormals);
+        const Bound3 b = piece->bound();
+        for (int k = 0; k < g.vertexCount(); ++k) {
+            const Vec3 p = g.P[size_t(k)];
+            // The surface of scale 2 is the sphere of radius 1 about c.
+            EXPECT_NEAR(length(p - c), 1.0f, 1e-4f);
+            EXPECT_GT(dot(g.N[size_t(k)], normalize(p - c)), 0.999f);
+            EXPECT_TRUE(inside(b, p, 1e-5f));
+        }
+        // dPdu x dPdv, the geometric normal, points outward too.
+        const Vec3 p00 = g.P[size_t(g.index(0, 0))], p20 = g.P[size_t(g.index(2, 0))];
+        const Vec3 p02 = g.P[size_t(g.index(0, 2))];
+        EXPECT_GT(dot(cross(p20 - p00, p02 - p00), p00 - c), 0);
+        area += gridArea(piece->dice(16, 16));
+    }
+    EXPECT_NEAR(area, 4 * kPi, 4 * kPi * 0.005);
+}
+
+TEST(Blobby, VertexAndVaryingValuesBlendByEachLeafsShareOfTheField) {
+    const Vec3 c0(-0.6f, 0, 0), c1(0.6f, 0, 0);
+    auto rec = blobby(2, {1001, 0, 1001, 16, 0, 2, 0, 1}, concat(sphereLeaf(2, c0), sphereLeaf(2, c1)),
+                      {testsupport::floatParam("Cs", ri::ParamType::Color, {1, 0, 0, 0, 0, 1}, ri::StorageClass::Vertex),
+                       testsupport::floatParam("st", ri::ParamType::Float, {0, 1, 2, 5}, ri::StorageClass::Varying, 2)});
+    Diagnostics diag;
+    auto pieces = splitToDiceable(makePrimitives(rec, diag));
+    EXPECT_EQ(diag.errorCount(), 0);
+    ASSERT_FALSE(pieces.empty());
+    int checked = 0;
+    for (const auto& piece : pieces) {
+        Grid g = piece->dice(3, 3);
+        const GridVar* cs = g.find("Cs");
+        const GridVar* gs = g.find("s");
+        const GridVar* gt = g.find("t");
+        ASSERT_TRUE(cs && cs->perVertex && gs && gt);
+        for (int k = 0; k < g.vertexCount(); ++k) {
+            const Vec3 p = g.P[size_t(k)];
+            const double w0 = sphereField(p, 2, c0), w1 = sphereField(p, 2, c1);
+            EXPECT_NEAR(w0 + w1, kT, 1e-4);  // on the surface of the sum
+            EXPECT_NEAR(cs->at(k)[0], w0 / (w0 + w1), 1e-4);
+            EXPECT_NEAR(cs->at(k)[2], w1 / (w0 + w1), 1e-4);
+            EXPECT_NEAR(cs->at(k)[1], 0, 1e-6);
+            // "st" feeds s and t, each blended alike.
+            EXPECT_NEAR(gs->at(k)[0], 2 * w1 / (w0 + w1), 2e-4);
+            EXPECT_NEAR(gt->at(k)[0], (w0 + 5 * w1) / (w0 + w1), 5e-4);
+            ++checked;
+        }
+    }
+    EXPECT_GT(checked, 100);
+}
+
+TEST(Blobby, MalformedCodeIsReportedAtTheRequest) {
+    struct Case {
+        int nleaf;
+        std::vector<int> code;
+        size_t floats;
+        const char* message;
+    };
+    const Case cases[] = {
+        {1, {1001, 0}, 15, "test.rib:3:1: error: Blobby: instruction 0 (ellipsoid) reads floats 0..15, but the floats "
+                           "array has 15"},
+        {1, {1001}, 16, "test.rib:3:1: error: Blobby: the code array ends inside instruction 0, expected the float "
+                        "index of an ellipsoid's matrix"},
+        {2, {1001, 0, 0, 2, 0, 1}, 16, "test.rib:3:1: error: Blobby: instruction 1 refers to instruction 1, expected "
+                                       "one of 0..0"},
+        {2, {1001, 0}, 16, "test.rib:3:1: error: Blobby: nleaf is 2, but the code has 1 leaves (opcodes 1000-1003)"},
+        {1, {1001, 0, 42}, 16, "test.rib:3:1: error: Blobby: unknown opcode 42 at code position 2, expected 0-7 "
+                               "(operations) or 1000-1003 (leaves)"},
+        {1, {1001, 0, 0, 0}, 16, "test.rib:3:1: error: Blobby: instruction 1 has 0 operands, expected at least 1"},
+    };
+    for (const Case& c : cases) {
+        Diagnostics diag;
+        diag.setRecord(true);
+        diag.setQuiet(true);
+        std::vector<float> floats(c.floats, 0.0f);
+        for (size_t k = 0; k < std::min<size_t>(16, floats.size()); k += 5) floats[k] = 1;
+        EXPECT_TRUE(makePrimitives(blobby(c.nleaf, c.code, floats), diag).empty());
+        ASSERT_EQ(diag.recorded().size(), 1u);
+        EXPECT_EQ(diag.recorded()[0].str(), c.message);
+    }
+}
+
+TEST(Blobby, DepthMapPlaneIsWarnedAndTheRestRenders) {
+    // RI spec 3.2's example: an ellipsoid added to a repelling plane.
+    auto rec = blobby(2, {1001, 0, 1003, 0, 16, 0, 2, 0, 1},
+                      {1.5f, 0, 0, 0, 0, 1.5f, 0, 0, 0, 0, 1.5f, 0, 0, 0, -.1f, 1, .4f, .01f, .3f, .08f});
+    rec->stringArgs = {"flat.zfile"};
+    Diagnostics diag;
+    diag.setRecord(true);
+    diag.setQuiet(true);
+    auto prims = makePrimitives(rec, diag);
+    EXPECT_EQ(prims.size(), 1u);
+    ASSERT_EQ(diag.recorded().size(), 1u);
+    EXPECT_EQ(diag.recorded()[0].str(), "test.rib:3:1: warning: Blobby: depth-map repelling planes (opcode 1003, "
+                                  "\"flat.zfile\") are not supported; the leaf contributes nothing to the field");
+}
+
+TEST(Blobby, PolygonisationIsCappedWithAWarning) {
+    // A leaf a thousand times smaller than the other would ask for a
+    // lattice of thousands of cells along each axis.
+    auto rec = blobby(2, {1001, 0, 1001, 16, 0, 2, 0, 1},
+                      concat(sphereLeaf(2, {}), sphereLeaf(0.002f, {3, 0, 0})));
+    Diagnostics diag;
+    diag.setRecord(true);
+    diag.setQuiet(true);
+    auto prims = makePrimitives(rec, diag);
+    ASSERT_EQ(diag.recorded().size(), 1u);
+    EXPECT_NE(diag.recorded()[0].str().find("test.rib:3:1: warning: Blobby: its smallest leaf asks for"), std::string::npos)
+        << diag.recorded()[0].str();
+    // The big leaf is still there.
+    ASSERT_EQ(prims.size(), 1u);
+    EXPECT_NEAR(prims[0]->bound().max.x, 1, 0.1);
+}
+
+TEST(Blobby, DeformationBlurIsWarnedAndTheFirstShapeRenders) {
+    auto rec = blobby(1, {1001, 0}, sphereLeaf(2, {}));
+    rec->shapeTimes = {0, 1};
+    scene::PrimitiveRecord moved = *blobby(1, {1001, 0}, sphereLeaf(2, {1, 0, 0}));
+    rec->shapes.push_back(moved);
+    Diagnostics diag;
+    diag.setRecord(true);
+    diag.setQuiet(true);
+    auto prims = makePrimitives(rec, diag);
+    ASSERT_EQ(prims.size(), 1u);
+    EXPECT_EQ(prims[0]->shapeCount(), 1);
+    EXPECT_NEAR(prims[0]->bound().max.x, 1, 0.1);  // the first shape, centred at the origin
+    ASSERT_EQ(diag.recorded().size(), 1u);
+    EXPECT_EQ(diag.recorded()[0].str(), "test.rib:3:1: warning: Blobby: deformation blur (MotionBegin around a "
+                                        "Blobby) is not supported; the first shape renders unblurred");
+}
+
+TEST(Blobby, ManyLeavesGiveTheFieldOfEveryLeafWhereverThePoint) {
+    // 60 leaves on a helix under add, max and a subtract: the field at
+    // points inside, between and beyond them, against the sum written here
+    // (each point evaluates only the leaves near it).
+    std::vector<float> floats;
+    std::vector<Vec3> centres;
+    std::vector<int> leafCode, all;
+    for (int k = 0; k < 60; ++k) {
+        const Vec3 c(std::cos(0.4f * float(k)) * 2, std::sin(0.4f * float(k)) * 2, 0.1f * float(k) - 3);
+        centres.push_back(c);
+        const auto leaf = sphereLeaf(0.7f, c);
+        floats.insert(floats.end(), leaf.begin(), leaf.end());
+        leafCode.insert(leafCode.end(), {1001, 16 * k});
+        all.push_back(k);
+    }
+    auto code = [&](int op) {
+        std::vector<int> c = leafCode;
+        c.insert(c.end(), {op, 60});
+        c.insert(c.end(), all.begin(), all.end());
+        c.insert(c.end(), {4, 60, 7});  // (add or max) minus leaf 7
+        return c;
+    };
+    for (int op : {0, 2}) {
+        auto f = field(blobby(60, code(op), floats));
+        ASSERT_TRUE(f);
+        std::vector<float> leaves(60);
+        for (int i = 0; i < 400; ++i) {
+            const Vec3 p(std::sin(1.7f * float(i)) * 2.6f, std::cos(2.3f * float(i)) * 2.6f, 0.017f * float(i) - 3.4f);
+            double combined = op == 0 ? 0 : -1;
+            for (const Vec3& c : centres) {
+                const double v = sphereField(p, 0.7f, c);
+                combined = op == 0 ? combined + v : std::max(combined, v);
+            }
+            const double expected = combined - sphereField(p, 0.7f, centres[7]);
+            EXPECT_NEAR(f->value(p, leaves.data()), expected, 1e-5) << i;
+            for (int k = 0; k < 60; ++k) EXPECT_NEAR(leaves[size_t(k)], sphereField(p, 0.7f, centres[size_t(k)]), 1e-5);
+        }
+    }
+}
