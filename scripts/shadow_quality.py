@@ -38,13 +38,23 @@ import zlib
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCENE_DIR = os.path.join(ROOT, 'scenes', 'quality')
-SCENES = ['table', 'lshape', 'tori', 'slab', 'sphere']
+SCENES = ['table', 'lshape', 'tori', 'slab', 'sphere', 'grazing5', 'grazing10', 'grazing20', 'spheres',
+          'torus_cylinder', 'stool_sides2', 'patches', 'mirror_camera', 'mirror_light']
 SCENE_TITLES = {
     'table': 'Table with legs touching the floor (Wang & Molnar Fig. 4)',
     'lshape': 'L-shaped solid, directional light (Weiskopf & Ertl Fig. 5)',
     'tori': 'Two linked tori (Weiskopf & Ertl Fig. 6)',
     'slab': 'Thin slab, 0.03 thick (Wang & Molnar Fig. 7)',
     'sphere': 'Sphere over a plane (Reeves et al. 1987)',
+    'grazing5': 'Cube and post on a floor, distant light 5° above it',
+    'grazing10': 'Cube and post on a floor, distant light 10° above it',
+    'grazing20': 'Cube and post on a floor, distant light 20° above it',
+    'spheres': 'Sphere resting on a larger sphere, spotlight',
+    'torus_cylinder': 'Torus standing on a cylinder lying on the floor, distant light',
+    'stool_sides2': 'Stool with legs touching the floor and a resting cube, all Sides 2, spotlight',
+    'patches': 'Open two-sided patch receivers (bicubic ground, bilinear wall) under a thin Sides 2 slab, spotlight',
+    'mirror_camera': 'Table and cube, camera mirrored by Scale 1 1 -1 before its transform, spotlight',
+    'mirror_light': 'Sphere and cube on a floor, spotlight declared under Scale -1 1 1',
 }
 # (filter, culling): no culling for every filter, plus the paper's choice:
 # Wang & Molnar cull light-facing surfaces for second depth; Weiskopf & Ertl
@@ -240,12 +250,13 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument('--umbra', default=os.path.join(ROOT, 'build', 'bin', 'umbra'))
     ap.add_argument('--quick', action='store_true', help='sizes 128 and 256 only, two scenes (smoke test)')
+    ap.add_argument('--sizes', type=int, nargs='+', help='map sizes (default 128 ... 2048)')
     ap.add_argument('--docs', default=os.path.join(ROOT, 'docs'))
     ap.add_argument('--keep', help='keep renders in this folder')
     args = ap.parse_args()
     umbra = os.path.abspath(args.umbra)
     scenes = SCENES[:2] if args.quick else SCENES
-    sizes = SIZES[:2] if args.quick else SIZES
+    sizes = args.sizes or (SIZES[:2] if args.quick else SIZES)
     work = os.path.abspath(args.keep) if args.keep else tempfile.mkdtemp(prefix='umbra-quality-')
     os.makedirs(work, exist_ok=True)
     figdir = os.path.join(args.docs, 'figures', 'quality')
@@ -371,6 +382,39 @@ def write_report(docs, figdir, scenes, sizes, refs, results, seconds):
       f'{tot_dual:.2f}; with back culling midpoint leaks '
       f'{sum(results[(sc, "midpoint", "back", sz, 0.0)]["leak"] for sc in solids for sz in sizes):.2f} vs dual '
       f'{sum(results[(sc, "dual", "back", sz, 0.0)]["leak"] for sc in solids for sz in sizes):.2f}.')
+    p('')
+
+    p('## Where each filter holds')
+    p('')
+    p(f'Bias 0, maps from 256² up; a scene counts against a filter when acne or leak exceeds the '
+      f'{NOISE_FLOOR:g}% noise floor at any of those sizes (worst size named).')
+    p('')
+    for filt, cull in CONFIGS:
+        fails = []
+        for sc in solids:
+            worst = max(big, key=lambda sz: results[(sc, filt, cull, sz, 0.0)]['acne'] +
+                        results[(sc, filt, cull, sz, 0.0)]['leak'])
+            r = results[(sc, filt, cull, worst, 0.0)]
+            if r['acne'] > NOISE_FLOOR or r['leak'] > NOISE_FLOOR:
+                fails.append(f"{sc} ({r['acne']:.2f}% acne, {r['leak']:.2f}% leak at {worst}²)")
+        holds = [sc for sc in solids if not any(f.startswith(sc + ' ') for f in fails)]
+        p(f'* `{filt}`, cull {cull}: holds on {len(holds)} of {len(solids)} scenes' +
+          (f' ({", ".join(holds)})' if holds and fails else '') +
+          ('; does not hold on ' + '; '.join(fails) if fails else '') + '.')
+    p('')
+    p('Worst scene per cell over all scenes (acne % / leak %, scene), bias 0 and min at its best bias:')
+    p('')
+    p('| filter | cull | ' + ' | '.join(f'{s}²' for s in sizes) + ' |')
+    p('|---|---|' + '---|' * len(sizes))
+
+    def worst_cell(keys):
+        k = max(keys, key=lambda k: (results[k]['acne'] + results[k]['leak'], k[0]))
+        return f"{results[k]['acne']:.2f} / {results[k]['leak']:.2f} ({k[0]})"
+    for filt, cull in CONFIGS:
+        p(f'| {filt} | {cull} | ' + ' | '.join(worst_cell([(sc, filt, cull, sz, 0.0) for sc in solids])
+                                              for sz in sizes) + ' |')
+    p('| min@best | none | ' + ' | '.join(
+        worst_cell([(sc, 'min', 'none', sz, best_bias(results, sc, sz)) for sc in solids]) for sz in sizes) + ' |')
     p('')
 
     p('## Findings for the renderer')
