@@ -312,6 +312,7 @@ private:
     std::vector<float> m_z2;         // depth mode: second depth ...
     std::vector<uint64_t> m_id2;     // ... its grid id and triangle
     std::vector<uint32_t> m_sub2;
+    std::vector<uint8_t> m_wind;     // depth mode, two layers: the nearest hit's triangle is reversed
 
     std::unique_ptr<SamplePattern> m_pattern;          // positions of one period
     std::unique_ptr<PatternFilterWeights> m_weights;   // the film filter's weights over it
