@@ -9,6 +9,12 @@ polygons wind so that the outward normal is (v1-v0) x (v2-v0) in a
 right-handed frame, which umbra's default left-handed "outside"
 orientation treats as the front; quadrics are capped with disks. Floors
 are open Sides 2 surfaces.
+
+The first five scenes follow the papers' figures. The rest are written the
+way users' and exporters' RIB is: everything Sides 2, receivers that are
+open patches, lights at grazing angles, objects resting on each other, a
+camera mirrored by `Scale 1 1 -1` before its transform and a light declared
+under a mirroring transform.
 """
 import math
 import os
@@ -67,11 +73,11 @@ def floor(half, y=0.0):
                 ' '.join(num(c) for c in p) for p in [(-half, y, -half), (-half, y, half), (half, y, half), (half, y, -half)])
 
 
-def solid(name, body):
+def solid(name, body, sides=1):
     return ('  AttributeBegin\n'
             '    Attribute "identifier" "name" ["%s"]\n'
-            '    Sides 1\n%s\n'
-            '  AttributeEnd\n') % (name, body)
+            '    Sides %d\n%s\n'
+            '  AttributeEnd\n') % (name, sides, body)
 
 
 def capped_cylinder(radius, height, indent='    '):
@@ -87,6 +93,25 @@ def camera(distance, pitch, yaw, target):
     and turned by `yaw` degrees about the vertical axis."""
     return (f'Translate 0 0 {num(distance)}\nRotate {num(-pitch)} 1 0 0\nRotate {num(yaw)} 0 1 0\n'
             f'Translate {num(-target[0])} {num(-target[1])} {num(-target[2])}')
+
+
+def mirrored_camera(distance, pitch, yaw, target):
+    """The view camera() gives of the world mirrored in z, written as
+    exporters write it: `Scale 1 1 -1` to a right-handed camera space, then
+    a rigid camera transform (the world's z runs the other way)."""
+    return (f'Scale 1 1 -1\nTranslate 0 0 {num(-distance)}\nRotate {num(pitch)} 1 0 0\nRotate {num(-yaw)} 0 1 0\n'
+            f'Translate {num(-target[0])} {num(-target[1])} {num(target[2])}')
+
+
+def distant_from(elevation, azimuth, distance=5.0):
+    """A point `distance` from the origin seen `elevation` degrees above the
+    floor, `azimuth` degrees from +x towards +z."""
+    e, a = math.radians(elevation), math.radians(azimuth)
+    return [distance * math.cos(e) * math.cos(a), distance * math.sin(e), distance * math.cos(e) * math.sin(a)]
+
+
+def vec(v):
+    return '[' + ' '.join(num(c) for c in v) + ']'
 
 
 def scene(path, title, camera, light, world, frame_note):
@@ -167,6 +192,102 @@ def main():
           camera(7.0, 32, 0, (0.3, 0.1, -0.6)),
           'LightSource "qspot" "key" "from" [-3 4.5 1.5] "to" [0 0.5 0] "coneangle" [0.45] "shadowname" ["auto"]',
           world, '# The sphere\'s terminator is where first-depth maps show acne.')
+
+    user_scenes()
+
+
+def user_scenes():
+    # A distant light 5, 10 and 20 degrees above an open floor: a cube resting
+    # on it (contact along four edges) and a post, Sides 1 as modellers close
+    # solids. At 5 degrees a map texel spans 11 times its width on the floor.
+    for elevation in (5, 10, 20):
+        world = floor(3.0) + solid('cube', polygons(box(-1.6, -0.9, 0.0, 0.7, -0.9, -0.2))) + \
+            solid('post', polygons(box(-1.2, -1.05, 0.0, 1.2, 0.5, 0.65)))
+        scene(os.path.join(HERE, f'grazing{elevation}.rib'),
+              f'A distant light {elevation} degrees above an open floor: a cube resting on it and a post.',
+              camera(7.0, 35, 10, (0.2, 0.0, -0.3)),
+              f'LightSource "qdistant" "key" "from" {vec(distant_from(elevation, 160))} "to" [0 0 0] '
+              '"shadowname" ["auto"]',
+              world, '# Grazing light: the floor is nearly edge-on to the map.')
+
+    # A sphere resting on a larger sphere (a point contact between two curved
+    # surfaces), both on the floor; spotlight.
+    world = floor(3.0) + solid('spheres', '    TransformBegin Translate 0 0.8 0 Sphere 0.8 -0.8 0.8 360 TransformEnd\n'
+                                          '    TransformBegin Translate 0 1.95 0 Sphere 0.35 -0.35 0.35 360 TransformEnd')
+    scene(os.path.join(HERE, 'spheres.rib'),
+          'A sphere resting on a larger sphere resting on an open floor; spotlight from the side.',
+          camera(7.0, 25, 15, (0.2, 0.6, -0.6)),
+          'LightSource "qspot" "key" "from" [-3.5 3.5 1.2] "to" [0 0.9 0] "coneangle" [0.5] "shadowname" ["auto"]',
+          world, '# The small sphere shadows the large one\'s curved top; contact at single points.')
+
+    # A torus standing on a cylinder lying on its side (curved receiver, point
+    # contacts), the cylinder resting on the floor along a line; distant light.
+    world = floor(3.0) + solid('cylinder', '    TransformBegin Translate 0 0.6 -1.1\n' +
+                               capped_cylinder(0.6, 2.2, '      ') + '\n    TransformEnd') + \
+        solid('torus', '    TransformBegin Translate 0 1.9 0 Rotate 90 0 1 0 Torus 0.55 0.15 0 360 360 TransformEnd')
+    scene(os.path.join(HERE, 'torus_cylinder.rib'),
+          'A torus standing on a capped cylinder lying on an open floor; distant light from the side.',
+          camera(7.0, 28, 25, (0, 0.8, -0.4)),
+          f'LightSource "qdistant" "key" "from" {vec(distant_from(40, 70))} "to" [0 0 0] "shadowname" ["auto"]',
+          world, '# The torus casts onto the cylinder\'s curved wall; the cylinder onto the floor.')
+
+    # A stool (four legs touching the floor) and a cube resting on the floor,
+    # all Sides 2 as many exporters write every surface; spotlight.
+    legs = []
+    for x in (-0.7, 0.6):
+        for z in (-0.7, 0.6):
+            legs += box(x, x + 0.1, 0.0, 0.8, z, z + 0.1)
+    world = floor(3.0) + solid('seat', polygons(box(-0.8, 0.8, 0.8, 0.88, -0.8, 0.8)), 2) + \
+        solid('legs', polygons(legs), 2) + solid('cube', polygons(box(1.0, 1.6, 0.0, 0.6, -1.4, -0.8)), 2)
+    scene(os.path.join(HERE, 'stool_sides2.rib'),
+          'A stool whose legs touch the floor and a cube resting on it, every surface Sides 2; spotlight.',
+          camera(7.5, 35, -20, (0.2, 0.0, -0.7)),
+          'LightSource "qspot" "key" "from" [2.5 4 2.8] "to" [0 0.3 0] "coneangle" [0.55] "shadowname" ["auto"]',
+          world, '# Two-sided solids: the map sees their back faces as surfaces too.')
+
+    # Receivers that are open two-sided patches: a gently curved bicubic
+    # ground and a bilinear wall, with a thin Sides 2 slab over them; spotlight.
+    rows = []
+    for j in range(4):
+        for i in range(4):
+            x, z = -3 + 2 * i, -3 + 2 * j
+            y = 0.25 * math.sin(0.9 * x + 0.3) * math.cos(0.6 * z) - 0.1
+            rows.append(f'{num(x)} {num(y)} {num(z)}')
+    ground = ('  AttributeBegin\n    Attribute "identifier" "name" ["ground"]\n    Sides 2\n'
+              '    Patch "bicubic" "P" [' + '  '.join(rows) + ']\n'
+              '    Patch "bilinear" "P" [-3 -0.2 2.2  3 -0.2 2.2  -3 2 2.2  3 2 2.2]\n  AttributeEnd\n')
+    world = ground + solid('slab', '    TransformBegin Translate 0.2 0.75 -0.4 Rotate 12 0 0 1 Rotate -8 1 0 0\n' +
+                           polygons(box(-0.9, 0.9, -0.015, 0.015, -0.7, 0.7), '      ') + '\n    TransformEnd', 2)
+    scene(os.path.join(HERE, 'patches.rib'),
+          'Open two-sided patch receivers (a curved bicubic ground, a bilinear wall) under a thin Sides 2 slab.',
+          camera(7.0, 30, 5, (0, 0.3, -0.6)),
+          'LightSource "qspot" "key" "from" [-1.5 4.5 -3.5] "to" [0 0.3 0.4] "coneangle" [0.55] "shadowname" ["auto"]',
+          world, '# Curved open receivers and a slab thinner than a texel\'s depth step.')
+
+    # The table and a cube behind a camera mirrored as exporters write it.
+    table_legs = []
+    for x in (-1.05, 0.95):
+        for z in (-0.65, 0.55):
+            table_legs += box(x, x + 0.1, 0.0, 1.0, z, z + 0.1)
+    world = floor(3.0) + solid('tabletop', polygons(box(-1.2, 1.2, 1.0, 1.1, -0.75, 0.75))) + \
+        solid('legs', polygons(table_legs)) + solid('cube', polygons(box(1.4, 2.0, 0.0, 0.6, 0.9, 1.5)))
+    scene(os.path.join(HERE, 'mirror_camera.rib'),
+          'The table and a cube resting on the floor, camera mirrored by Scale 1 1 -1 before its transform.',
+          mirrored_camera(7.5, 40, 15, (0, 0.0, -0.8)),
+          'LightSource "qspot" "key" "from" [2.2 5 -2.6] "to" [0 0.4 0] "coneangle" [0.55] "shadowname" ["auto"]',
+          world, '# A right-handed world seen through a mirroring camera, as exporters write it.')
+
+    # A sphere resting on the floor and a cube resting on a plane, the
+    # spotlight declared under a mirroring transform (its "from" and "to" are
+    # mirrored back to the same place).
+    world = floor(3.0) + solid('sphere', '    TransformBegin Translate -0.6 0.6 0.2 Sphere 0.6 -0.6 0.6 360 TransformEnd') + \
+        solid('cube', polygons(box(0.5, 1.2, 0.0, 0.7, -0.9, -0.2)))
+    scene(os.path.join(HERE, 'mirror_light.rib'),
+          'A sphere and a cube resting on the floor; the spotlight is declared under Scale -1 1 1.',
+          camera(7.0, 35, -10, (0, 0.2, -0.5)),
+          'TransformBegin\n  Scale -1 1 1\n  LightSource "qspot" "key" "from" [2.5 4.5 1.8] "to" [0 0.3 0] '
+          '"coneangle" [0.5] "shadowname" ["auto"]\n  TransformEnd',
+          world, '# A mirrored light transform: the map is made in a mirrored light space.')
 
 
 if __name__ == '__main__':

@@ -73,6 +73,7 @@ struct SampleBuffer::Tri {
     float invArea;    // 1 / (e0 + e1 + e2), the edge functions' sum (twice the area) at every point
     float d0, d1, d2; // what depth is interpolated from: z, or 1/z under perspective
     bool valid;
+    bool reversed;    // wound clockwise in raster space as the grid gave it
 
     /// `depthOf` (may be null: z itself) gives the per-vertex quantity
     /// that is linear in raster space.
@@ -89,6 +90,7 @@ struct SampleBuffer::Tri {
         // Degenerate (or NaN, or too small to invert) triangles cover nothing.
         valid = area != 0.0f && std::isfinite(area) && std::isfinite(invArea);
         if (!valid) return;
+        reversed = area < 0;
         if (area < 0) {
             std::swap(p1, p2);
             std::swap(i1, i2);
@@ -276,11 +278,13 @@ void SampleBuffer::reset(const SampleBufferConfig& c) {
         m_z2.clear();
         m_id2.clear();
         m_sub2.clear();
+        m_wind.clear();
     } else {
         // The second layer only when it is kept.
         m_z2.assign(c.depthLayers > 1 ? n + 3 : 0, kInfinity);
         m_id2.resize(c.depthLayers > 1 ? n : 0);
         m_sub2.resize(c.depthLayers > 1 ? n : 0);
+        m_wind.resize(c.depthLayers > 1 ? n : 0);
         m_ci.clear();
         m_alpha.clear();
         m_aov.clear();
@@ -756,6 +760,7 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
                 t.i2 = corner[c];
                 t.sub = 2 * mp + uint32_t(h);
                 if (g.dissolves() && !(m_dissolve[s] >= g.dissolveFrom && m_dissolve[s] < g.dissolveBelow)) continue;
+                t.reversed = area < 0;
                 if (g.trim) {
                     const float w1s[4] = {b1, 0, 0, 0}, w2s[4] = {b2, 0, 0, 0};
                     if (!trimKept(g, t, w1s, w2s, 1)) continue;
@@ -917,16 +922,26 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
     if (wrote) markDirty(sx0, sy0, sx1, sy1);
 }
 
-inline bool SampleBuffer::recordDepth(size_t s, float z, uint64_t gid, uint32_t sub, bool ownSecondLayer) {
+inline bool SampleBuffer::recordDepth(size_t s, float z, uint64_t gid, uint32_t sub, bool reversed,
+                                      bool ownSecondLayer) {
+    // Hits of one grid are one layer, except where the grid folds over the
+    // light's silhouette (a quadric's rim inside one grid): there a
+    // micropolygon wound the other way in raster space is the surface's far
+    // side, the second layer the map needs (else the floor behind the rim
+    // becomes it and the shadow's outline leaks).
+    const bool layers = m_cfg.depthLayers > 1;
+    auto otherLayer = [&](uint64_t id, uint32_t otherSub, bool otherReversed) {
+        return id != gid || (otherReversed != reversed && otherSub / 2 != sub / 2);
+    };
     if (keyLess(z, gid, sub, m_z[s], m_id[s], m_sub[s])) {
-        // The nearest hit from another grid than the new nearest is the
-        // old nearest (it was nearer than everything else); a surface
-        // that is its own second layer is nearer still.
-        if (m_cfg.depthLayers > 1 && ownSecondLayer) {
+        // The nearest hit from another layer than the new nearest is the
+        // old nearest (it was nearer than everything else); a surface that
+        // is its own second layer is nearer still.
+        if (layers && ownSecondLayer) {
             m_z2[s] = z;
             m_id2[s] = gid;
             m_sub2[s] = sub;
-        } else if (m_cfg.depthLayers > 1 && m_z[s] != kInfinity && m_id[s] != gid) {
+        } else if (layers && m_z[s] != kInfinity && otherLayer(m_id[s], m_sub[s], m_wind[s] != 0)) {
             m_z2[s] = m_z[s];
             m_id2[s] = m_id[s];
             m_sub2[s] = m_sub[s];
@@ -934,9 +949,10 @@ inline bool SampleBuffer::recordDepth(size_t s, float z, uint64_t gid, uint32_t 
         m_z[s] = z;
         m_id[s] = gid;
         m_sub[s] = sub;
+        if (layers) m_wind[s] = reversed;
         return true;
     }
-    if (m_cfg.depthLayers > 1 && (gid != m_id[s] || ownSecondLayer) &&
+    if (layers && (otherLayer(m_id[s], m_sub[s], m_wind[s] != 0) || ownSecondLayer) &&
         keyLess(z, gid, sub, m_z2[s], m_id2[s], m_sub2[s])) {
         m_z2[s] = z;
         m_id2[s] = gid;
@@ -956,7 +972,7 @@ bool SampleBuffer::record(const MicroGrid& g, const HitContext& ctx, const Tri& 
             recordCsgDepth(g, t, s, z);
             return false;
         }
-        return recordDepth(s, z, gid, sub, g.ownSecondLayer);
+        return recordDepth(s, z, gid, sub, t.reversed, g.ownSecondLayer);
     }
 
     if (!keyLess(z, gid, sub, m_z[s], m_id[s], m_sub[s])) return false;  // behind the opaque hit
@@ -1087,7 +1103,7 @@ void SampleBuffer::resolveCsg(size_t s) {
         if (!depthMode && !keyLess(fr.z, fr.id, fr.sub, m_z[s], m_id[s], m_sub[s])) break;  // behind the opaque hit
         if (!forest.setLeaf(fr.csgLeaf, m_csgAfter[k], m_csgRay)) continue;  // not on the result's boundary
         if (depthMode) {
-            recordDepth(s, fr.z, fr.id, fr.sub, false);
+            recordDepth(s, fr.z, fr.id, fr.sub, fr.leaving, false);
             continue;
         }
         if (!fr.opaque) {

@@ -295,8 +295,10 @@ private:
     /// at sample s when nearer by the full key; true if kept.
     bool takeNearest(size_t s, float z, uint64_t gid, uint32_t sub);
     /// A depth pass's hit (record()'s depth mode): z1, and z2 from another
-    /// grid (or from a grid that is its own second layer); true if kept.
-    bool recordDepth(size_t s, float z, uint64_t gid, uint32_t sub, bool ownSecondLayer);
+    /// layer: another grid, a micropolygon of the same grid wound the other
+    /// way (`reversed`: the far side of a rim inside one grid), or a grid
+    /// that is its own second layer; true if kept.
+    bool recordDepth(size_t s, float z, uint64_t gid, uint32_t sub, bool reversed, bool ownSecondLayer);
     /// A depth pass's hit of a CSG leaf: kept as a fragment for resolveCsg.
     void recordCsgDepth(const MicroGrid& g, const Tri& t, size_t s, float z);
     /// Walks sample s's fragments front to back, leaving in m_order the
@@ -354,6 +356,7 @@ private:
     std::vector<float> m_z2;         // depth mode: second depth ...
     std::vector<uint64_t> m_id2;     // ... its grid id and triangle
     std::vector<uint32_t> m_sub2;
+    std::vector<uint8_t> m_wind;     // depth mode, two layers: the nearest hit's triangle is reversed
 
     std::unique_ptr<SamplePattern> m_pattern;          // positions of one period
     std::unique_ptr<PatternFilterWeights> m_weights;   // the film filter's weights over it
