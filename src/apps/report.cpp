@@ -338,7 +338,7 @@ double tickStep(double top) {
 /// A bar chart in SVG: one slot per label, the series stacked or side by side.
 std::string barChart(const std::string& title, const std::string& unit, const std::vector<std::string>& labels,
                      const std::vector<Series>& series, bool stacked) {
-    constexpr double kWidth = 1100, kHeight = 320, kLeft = 80, kRight = 20, kTop = 40, kBottom = 50;
+    constexpr double kWidth = 1100, kHeight = 280, kLeft = 80, kRight = 20, kTop = 40, kBottom = 50;
     const double plotW = kWidth - kLeft - kRight, plotH = kHeight - kTop - kBottom;
     const size_t n = labels.size();
     double top = 0;
