@@ -74,6 +74,17 @@ public:
         const json* v = find(obj, key, json::value_t::number_float, "a number");
         return v ? v->get<double>() : fallback;
     }
+    /// Frame numbers, thread counts and resolutions: whole numbers an int holds.
+    int integer(const json& obj, const char* key, int fallback) const {
+        const json* v = find(obj, key, json::value_t::number_float, "a whole number");
+        if (!v) return fallback;
+        return checkedInt(*v, key);
+    }
+    int checkedInt(const json& v, const char* key) const {
+        if (!v.is_number_integer() || v.get<double>() < -2147483648.0 || v.get<double>() > 2147483647.0)
+            fail(fmt::format("expected a whole number for \"{}\", got {}", key, v.dump()));
+        return v.get<int>();
+    }
     std::string string(const json& obj, const char* key) const {
         const json* v = find(obj, key, json::value_t::string, "a string");
         return v ? v->get<std::string>() : std::string();
@@ -97,17 +108,16 @@ Frame readFrame(const json& obj, const FieldReader& r, std::string where, int in
     if (!obj.is_object()) r.fail(fmt::format("expected a frame object, got {}", obj.type_name()));
     Frame f;
     f.where = std::move(where);
-    f.number = int(r.number(obj, "frame", index));
+    f.number = r.integer(obj, "frame", index);
     f.skipped = r.boolean(obj, "skipped");
     if (f.skipped) return f;
-    if (const json* res = r.array(obj, "resolution"); res && res->size() == 2 && (*res)[0].is_number() &&
-                                                       (*res)[1].is_number()) {
-        f.width = (*res)[0].get<int>();
-        f.height = (*res)[1].get<int>();
+    if (const json* res = r.array(obj, "resolution"); res && res->size() == 2) {
+        f.width = r.checkedInt((*res)[0], "resolution");
+        f.height = r.checkedInt((*res)[1], "resolution");
     }
     f.wall = r.number(obj, "wall_seconds");
     f.cpu = r.number(obj, "cpu_seconds");
-    f.threads = std::max(1, int(r.number(obj, "threads", 1)));
+    f.threads = std::max(1, r.integer(obj, "threads", 1));
     f.peakMemoryMib = r.number(obj, "peak_memory_mib");
     if (const json* fp = r.object(obj, "first_pass")) f.firstPass = r.number(*fp, "wall_seconds");
     if (const json* passes = r.array(obj, "passes"))
@@ -533,13 +543,14 @@ std::vector<Section> buildSections(const std::vector<Frame>& all, const std::vec
         std::stable_sort(sorted.begin(), sorted.end(), [](const Frame* a, const Frame* b) { return a->wall > b->wall; });
         sorted.resize(std::min<size_t>(sorted.size(), 10));
         Table t{{"frame", "wall (s)", "first pass (s)", "camera pass (s)", "other (s)", "CPU (s)", "peak memory (MiB)",
-                 "statistics"},
-                {true, true, true, true, true, true, true, false},
+                 "resolution", "statistics"},
+                {true, true, true, true, true, true, true, false, false},
                 {}};
         for (const Frame* f : sorted)
             t.rows.push_back({std::to_string(f->number), fmtSeconds(f->wall), fmtSeconds(f->firstPass),
                               fmtSeconds(f->camera), fmtSeconds(f->other()), fmtSeconds(f->cpu),
-                              fmt::format("{:.1f}", f->peakMemoryMib), f->where});
+                              fmt::format("{:.1f}", f->peakMemoryMib),
+                              f->width > 0 ? fmt::format("{}x{}", f->width, f->height) : "—", f->where});
         s.tables.push_back({"", std::move(t)});
         sections.push_back(std::move(s));
     }

@@ -195,6 +195,7 @@ TEST(Report, TablesHoldTheNumbersOfARealRendersStatistics) {
     for (int i = 0; i < 3; ++i) {
         EXPECT_EQ(slow[i][0], std::to_string(frames[i]["frame"].get<int>()));
         EXPECT_EQ(slow[i][3], camera(frames[i]));
+        EXPECT_EQ(slow[i][7], "64x48");
     }
 
     // The tile cache's sequence totals.
@@ -304,6 +305,7 @@ TEST(Report, BadInputIsALocatedErrorAndLeavesTheOldReport) {
         {"frames.json", "{\"frames\": 3}", "frames.json", "expected \"frames\" to be an array, got number"},
         {"frame.json", "{\"frames\": [{\"frame\": 1}, 7]}", "frame.json", "frames[1]: expected a frame object"},
         {"empty.json", "\n", "empty.json:1:1", "got an empty file"},
+        {"huge.jsonl", "{\"frame\": 1e300}\n", "huge.jsonl:1:1", "expected a whole number for \"frame\", got 1e+300"},
     };
     for (const Case& c : cases) {
         writeFile(dir.file(c.file), c.text);
