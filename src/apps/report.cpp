@@ -371,18 +371,21 @@ std::string barChart(const std::string& title, const std::string& unit, const st
                            "<text x=\"{:.1f}\" y=\"18\">{}</text>\n",
                            lx, it->color, lx + 16, escapeHtml(it->name));
     }
-    if (n == 0 || top <= 0) {
-        svg += fmt::format("<text x=\"{:.0f}\" y=\"{:.0f}\" fill=\"#666666\">no data</text>\n", kLeft + plotW / 2 - 25,
-                           kTop + plotH / 2);
+    // Sums past the largest double (absurd statistics) have no scale to draw.
+    if (n == 0 || top <= 0 || !std::isfinite(top)) {
+        svg += fmt::format("<text x=\"{:.0f}\" y=\"{:.0f}\" fill=\"#666666\">{}</text>\n", kLeft + plotW / 2 - 25,
+                           kTop + plotH / 2, n == 0 || top <= 0 ? "no data" : "values too large to plot");
         return svg + "</svg>\n";
     }
     const double step = tickStep(top);
     const double yMax = std::ceil(top / step) * step;
     auto y = [&](double v) { return kTop + plotH * (1 - v / yMax); };
-    for (double v = 0; v <= yMax + step / 2; v += step)
+    for (int k = 0; k * step <= yMax + step / 2; ++k) {
+        const double v = k * step;
         svg += fmt::format("<line x1=\"{}\" y1=\"{:.1f}\" x2=\"{}\" y2=\"{:.1f}\" stroke=\"#e0e0e0\"/>"
                            "<text x=\"{}\" y=\"{:.1f}\" text-anchor=\"end\">{:g}</text>\n",
                            kLeft, y(v), kLeft + plotW, y(v), kLeft - 6, y(v) + 4, v);
+    }
     svg += fmt::format("<text x=\"16\" y=\"{:.0f}\" transform=\"rotate(-90 16 {:.0f})\" text-anchor=\"middle\">{}</text>\n",
                        kTop + plotH / 2, kTop + plotH / 2, escapeHtml(unit));
     const double slot = plotW / double(n);

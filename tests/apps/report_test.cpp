@@ -420,3 +420,15 @@ TEST(Report, ChromiumDrawsEveryPlot) {
         lastRow = row;
     }
 }
+
+TEST(Report, NumbersPastTheLargestDoubleStillGiveAReport) {
+    // Hits and misses that sum past the largest double once made the plot's
+    // tick loop step by infinity forever.
+    ScratchDir dir("report-huge");
+    writeFile(dir.file("huge.jsonl"),
+              "{\"frame\": 1, \"wall_seconds\": 1.5e308, \"shadow\": {\"tile_cache\": {\"hits\": 1e308, \"misses\": 1e308}}}\n"
+              "{\"frame\": 2, \"wall_seconds\": 1e308}\n");
+    const ChildRun run = runUmbra(dir, {"report", "huge.jsonl", "-o", "rep"});
+    ASSERT_EQ(run.status, 0) << run.messages;
+    EXPECT_NE(readFile(dir.file("rep/report.html")).find("values too large to plot"), std::string::npos);
+}
