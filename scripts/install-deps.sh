@@ -8,6 +8,7 @@ packages=(
   libcli11-dev nlohmann-json3-dev libfmt-dev zlib1g-dev libdeflate-dev libtiff-dev libpng-dev
   libgtest-dev libbenchmark-dev libembree-dev libre2-dev libosd-dev
   clang libclang-rt-14-dev
+  chromium
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -10,6 +10,7 @@
 //   umbra txmake --shadow IN.z OUT.shd
 //   umbra txmake --envlatl IN.tif OUT.env
 //   umbra txmake --envcube PX NX PY NY PZ NZ OUT.env [--fov DEGREES]
+//   umbra report STATS.json[l] ... -o DIR     (report.md and report.html of --stats files)
 
 #include "umbra/render/make_files.h"
 #include "umbra/render/renderer.h"
@@ -17,6 +18,7 @@
 #include "umbra/util/frame_set.h"
 
 #include "apps/commands.h"
+#include "apps/report.h"
 #include "umbra/util/interrupt.h"
 
 #include <CLI/CLI.hpp>
@@ -29,7 +31,7 @@
 int main(int argc, char** argv) {
     // `umbra scene.rib` is `umbra render scene.rib`.
     std::vector<std::string> args(argv, argv + argc);
-    static const char* kCommands[] = {"render", "slc", "info", "txmake", "-h", "--help", "--version"};
+    static const char* kCommands[] = {"render", "slc", "info", "txmake", "report", "-h", "--help", "--version"};
     bool hasCommand = false;
     if (args.size() > 1)
         for (const char* c : kCommands) hasCommand |= args[1] == c;
@@ -101,6 +103,12 @@ int main(int argc, char** argv) {
     txmake->add_option("--twidth", tx.twidth, "Filter width in t")->check(CLI::PositiveNumber);
     txmake->add_option("--fov", tx.fov, "Cube faces' full field of view, degrees (default 90)");
 
+    std::vector<std::string> reportFiles;
+    std::string reportDir;
+    auto* report = app.add_subcommand("report", "Write a profiling report (report.md, report.html) of --stats files");
+    report->add_option("files", reportFiles, "Statistics: .json documents or JSON lines, in frame order")->required();
+    report->add_option("-o,--output", reportDir, "Directory the report is written to")->required();
+
     std::vector<char*> cargs;
     for (auto& a : args) cargs.push_back(a.data());
     try {
@@ -132,6 +140,7 @@ int main(int argc, char** argv) {
         if (*slc) return umbra::apps::compileShaders(slcFiles, slcIncludes, listing, diag);
         if (*info) return umbra::apps::describeMap(mapPath, json, diag);
         if (*txmake) return umbra::apps::txmake(tx, diag);
+        if (*report) return umbra::apps::writeReport(reportFiles, reportDir, diag);
     } catch (const umbra::OutOfMemory& e) {
         // What was being allocated, for which request: the render stops
         // here, its outputs unwritten.
