@@ -76,10 +76,15 @@ def fmt(values):
     return " ".join("%.6g" % v for v in values)
 
 
-def torus_placements():
+def placed_tori(mesh):
+    """The mesh request at each of the TORI x TORI places, then WorldEnd."""
+    out = []
     for a in range(TORI):
         for b in range(TORI):
-            yield (a - (TORI - 1) / 2) * 2.6, (b - (TORI - 1) / 2) * 2.6, 20 * a + 13 * b
+            x, y, rot = (a - (TORI - 1) / 2) * 2.6, (b - (TORI - 1) / 2) * 2.6, 20 * a + 13 * b
+            out.append("AttributeBegin\nTranslate %g %g 0\nRotate %g 1 1 0\n%sAttributeEnd\n" % (x, y, rot, mesh))
+    out.append("WorldEnd\n")
+    return "".join(out)
 
 
 def subdiv_scene(name, creases_and_displacement):
@@ -104,12 +109,7 @@ def subdiv_scene(name, creases_and_displacement):
     out.append('Surface "plastic"\n')
     mesh = 'SubdivisionMesh "catmull-clark" [%s] [%s] %s "P" [%s]\n' % (
         nverts, " ".join(map(str, verts)), tags, fmt(c for p in pts for c in p))
-    for x, y, rot in torus_placements():
-        out.append("AttributeBegin\nTranslate %g %g 0\nRotate %g 1 1 0\n" % (x, y, rot))
-        out.append(mesh)
-        out.append("AttributeEnd\n")
-    out.append("WorldEnd\n")
-    return "".join(out)
+    return "".join(out) + placed_tori(mesh)
 
 
 def bspline_scene(name):
@@ -118,12 +118,7 @@ def bspline_scene(name):
     out = [HEADER.format(name=name, distance=19), 'Surface "plastic"\nBasis "b-spline" 1 "b-spline" 1\n']
     # PatchMesh is u-major: u runs fastest, as the torus points do (i fastest).
     mesh = 'PatchMesh "bicubic" %d "periodic" %d "periodic" "P" [%s]\n' % (n, n, fmt(c for p in pts for c in p))
-    for x, y, rot in torus_placements():
-        out.append("AttributeBegin\nTranslate %g %g 0\nRotate %g 1 1 0\n" % (x, y, rot))
-        out.append(mesh)
-        out.append("AttributeEnd\n")
-    out.append("WorldEnd\n")
-    return "".join(out)
+    return "".join(out) + placed_tori(mesh)
 
 
 def hair_scene(name):
