@@ -9,11 +9,29 @@
 
 namespace umbra::render {
 
-std::shared_ptr<ShadowMap> MapCatalog::get(const std::string& name) {
+std::shared_ptr<ShadowMap> MapCatalog::get(const std::string& name, const MapCaller& caller) {
     std::lock_guard<std::mutex> lock(m_mutex);
     auto it = m_maps.find(name);
     if (it != m_maps.end()) return it->second;
-    auto map = ShadowMap::open(name, m_diag, FileLoc::inFile(name), m_cache);
+    // What opening says (why the map cannot be read) is reported where the
+    // lookup was asked for, with the call that asked.
+    Diagnostics opening;
+    opening.setRecord(true);
+    opening.setSink([](const Diagnostic&) {});
+    auto map = ShadowMap::open(name, opening, FileLoc::inFile(name), m_cache);
+    const FileLoc where = caller.primitive ? *caller.primitive : FileLoc();
+    const FileLoc calledAt =
+        caller.shaderFile ? FileLoc::inFile(*caller.shaderFile, caller.line, caller.column) : FileLoc();
+    for (const Diagnostic& d : opening.recorded()) {
+        if (!where.file && !calledAt.file) {
+            m_diag.report(d.severity, d.loc, d.message);
+            continue;
+        }
+        std::string message = d.message;
+        if (calledAt.file) message += fmt::format(" (shadow() at {})", calledAt.str());
+        if (!map && d.severity >= Severity::Error) message += "; its lookups are lit";
+        m_diag.report(d.severity, where.file ? where : calledAt, std::move(message));
+    }
     m_maps[name] = map;
     return map;
 }
@@ -110,7 +128,7 @@ bool Services::shadow(const shading::ShadingGrid& grid, const shading::ShadowQue
         return true;
     }
     if (q.mapName == "raytrace") return raytrace(st, q, result);
-    auto map = m_maps.get(q.mapName);
+    auto map = m_maps.get(q.mapName, {st.record ? &st.record->loc : nullptr, q.callFile, q.callLine, q.callColumn});
     if (!map) return false;
 
     ShadowBatch batch;
@@ -132,6 +150,11 @@ bool Services::shadow(const shading::ShadingGrid& grid, const shading::ShadowQue
     std::lock_guard<std::mutex> lock(m_statsMutex);
     m_stats += stats;
     return true;
+}
+
+FileLoc Services::primitiveLocation(const shading::ShadingGrid& grid) {
+    const GridState& st = stateOf(grid);
+    return st.record ? st.record->loc : FileLoc();
 }
 
 void Services::applyDefaultBias(const ShadowMap& map, ShadowParams& params) const {

@@ -15,13 +15,23 @@
 
 namespace umbra::render {
 
+/// Who asks for a map: the RIB location of the primitive whose shader
+/// called shadow(), and that call in the shader's source (file, line,
+/// column). Pointers, so that a lookup of an open map copies nothing.
+struct MapCaller {
+    const FileLoc* primitive = nullptr;
+    const std::string* shaderFile = nullptr;
+    int line = 0, column = 0;
+};
+
 /// Shadow maps opened by name for a render, shared by every light and thread.
 class MapCatalog {
 public:
     MapCatalog(Diagnostics& diag, std::shared_ptr<TileCache> cache) : m_diag(diag), m_cache(std::move(cache)) {}
     /// The map called `name` (opened on first use), or null after reporting
-    /// once that it cannot be read.
-    std::shared_ptr<ShadowMap> get(const std::string& name);
+    /// once that it cannot be read, at the first caller's primitive and
+    /// naming its shadow() call (as unreadable textures are reported).
+    std::shared_ptr<ShadowMap> get(const std::string& name, const MapCaller& caller = {});
     /// Forgets a map so the next get() reopens it (a depth pass rewrote it).
     void invalidate(const std::string& name);
     /// Registers a map rendered in this frame under `name` ("auto" maps).
@@ -43,6 +53,7 @@ public:
 
     bool getMatrix(const shading::ShadingGrid& grid, const std::string& space, Mat4* currentFromSpace) override;
     bool shadow(const shading::ShadingGrid& grid, const shading::ShadowQuery& query, float* result) override;
+    FileLoc primitiveLocation(const shading::ShadingGrid& grid) override;
     bool attribute(const shading::ShadingGrid& grid, const std::string& name, shading::ShadeValue* out) override;
     bool option(const std::string& name, shading::ShadeValue* out) override;
 

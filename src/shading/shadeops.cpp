@@ -473,6 +473,18 @@ TextureOptions textureOptions(Exec& x, Args& A, int pairsAt, float* swidth, floa
     return opt;
 }
 
+/// A texture or environment map that a lookup could not read: one error per
+/// file, the rule shadow maps follow (docs/shading-language.md), located at
+/// the primitive whose shader asked and naming the call; its lookups read 0.
+void reportUnreadable(Exec& x, const Instr& in, const char* call, const std::string& name) {
+    const FileLoc callSite = FileLoc::inFile(x.cs->fileName, in.loc.line, in.loc.col);
+    FileLoc where = x.ctx->services && x.ctx->grid ? x.ctx->services->primitiveLocation(*x.ctx->grid) : FileLoc();
+    if (!where.file) where = callSite;
+    x.ctx->system->diagnostics().errorOnce("lookup:" + name, where,
+                                           "{}(): cannot read \"{}\" (the call at {}); its lookups read 0", call, name,
+                                           callSite.str());
+}
+
 void texture(Exec& x, const Instr& in, Args& A, bool color, bool fourPoint) {
     TextureBackend* ts = x.ctx->system->textures();
     if (A.s(0).empty()) {  // no texture named: 0, as RenderMan
@@ -522,9 +534,7 @@ void texture(Exec& x, const Instr& in, Args& A, bool color, bool fourPoint) {
         if (color) put(d, i, Vec3(r[0], r[1], r[2]));
         else d[i] = r[0];
     });
-    if (!ok)
-        x.ctx->system->diagnostics().warningOnce("shading:texture:" + name, FileLoc::inFile(x.cs->fileName, in.loc.line, in.loc.col),
-                                                 "cannot read texture '{}'", name);
+    if (!ok) reportUnreadable(x, in, "texture", name);
 }
 
 void environment(Exec& x, const Instr& in, Args& A, bool color) {
@@ -546,9 +556,7 @@ void environment(Exec& x, const Instr& in, Args& A, bool color) {
         if (color) put(d, i, Vec3(out[0], out[1], out[2]));
         else d[i] = out[0];
     });
-    if (!ok)
-        x.ctx->system->diagnostics().warningOnce("shading:env:" + name, FileLoc::inFile(x.cs->fileName, in.loc.line, in.loc.col),
-                                                 "cannot read environment map '{}'", name);
+    if (!ok) reportUnreadable(x, in, "environment", name);
 }
 
 void shadow(Exec& x, const Instr& in, Args& A, bool four) {
@@ -635,6 +643,9 @@ void shadow(Exec& x, const Instr& in, Args& A, bool four) {
         }
     }
     q.seed = x.randomSeed(in);
+    q.callFile = &x.cs->fileName;
+    q.callLine = in.loc.line;
+    q.callColumn = in.loc.col;
     // No map: unshadowed (the renderer reports it).
     if (!x.ctx->services->shadow(*x.ctx->grid, q, result.data())) return;
     for (size_t k = 0; k < count; ++k) d[x.active[k]] = fixNan(result[k]);

@@ -5,6 +5,7 @@
 // through this interface, so the shading module never includes the
 // renderer's headers.
 
+#include "umbra/util/error.h"
 #include "umbra/util/math.h"
 
 #include <cstdint>
@@ -37,6 +38,10 @@ struct ShadeValue {
 /// positions and vectors are in "current" (camera) space.
 struct ShadowQuery {
     std::string mapName;
+    /// The shadow() call in its shader's source (file, line, column), for
+    /// messages; the file is the compiled shader's, alive while it runs.
+    const std::string* callFile = nullptr;
+    int callLine = 0, callColumn = 0;
     /// Number of points and their vertex indices in the grid.
     int count = 0;
     const int* indices = nullptr;
@@ -87,6 +92,10 @@ public:
     /// Returning false means "no such map": shadow() then yields 0
     /// (unshadowed) and the renderer reports the failure (once).
     virtual bool shadow(const ShadingGrid& grid, const ShadowQuery& query, float* result) { return false; }
+
+    /// Where the grid's primitive was given (its RIB file:line:column), for
+    /// messages about what its shaders looked up; unknown by default.
+    virtual FileLoc primitiveLocation(const ShadingGrid& grid) { return {}; }
 
     /// attribute("name", var), option("name", var), rendererinfo("name", var):
     /// fill `out` (its type is what the shader asked for) and return true,

@@ -71,6 +71,10 @@ public:
     }
     /// Reports only the first time `key` is seen (e.g. "unsupported request X").
     template <typename... Args>
+    void errorOnce(const std::string& key, const FileLoc& loc, fmt::format_string<Args...> f, Args&&... args) {
+        if (firstTime(key)) report(Severity::Error, loc, fmt::format(f, std::forward<Args>(args)...));
+    }
+    template <typename... Args>
     void warningOnce(const std::string& key, const FileLoc& loc, fmt::format_string<Args...> f, Args&&... args) {
         if (firstTime(key)) report(Severity::Warning, loc, fmt::format(f, std::forward<Args>(args)...));
     }

@@ -558,7 +558,9 @@ TEST(Language, TextureThroughOpenImageIO) {
         expectNear(g.Ci[size_t(i)], Vec3(0.25f, 0.5f, 0.75f), 1e-4f);
         expectNear(g.Oi[size_t(i)], Vec3(0.5f, 0, 0), 1e-4f);
     }
-    EXPECT_EQ(h.diag.warningCount(), 1) << h.messages();  // the missing map, once
+    // The missing texture: one error (the rule of unreadable maps), once.
+    EXPECT_EQ(h.diag.errorCount(), 1) << h.messages();
+    EXPECT_EQ(h.diag.warningCount(), 0) << h.messages();
     fs::remove_all(dir);
 }
 
