@@ -30,8 +30,11 @@ echo "== ThreadSanitizer (concurrent tile cache and bucket scheduler)"
 cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DUMBRA_SANITIZE=thread -DUMBRA_BENCHMARKS=OFF >/dev/null
 tsan_targets=()
+# The list is read whole: `grep -q` stopping at the first match made ninja
+# die of SIGPIPE, and under pipefail the later targets were silently left out.
+targets_list=$(cmake --build build-tsan --target help)
 for t in test_shadow test_render; do
-  if cmake --build build-tsan --target help | grep -q "^$t:"; then tsan_targets+=("$t"); fi
+  if grep -q "^$t:" <<<"$targets_list"; then tsan_targets+=("$t"); fi
 done
 if [ ${#tsan_targets[@]} -gt 0 ]; then
   cmake --build build-tsan -j"$jobs" --target "${tsan_targets[@]}"
