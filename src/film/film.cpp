@@ -38,6 +38,7 @@
 
 #include "umbra/film/film.h"
 #include "umbra/util/file.h"
+#include "umbra/util/parallel.h"
 
 #include "image_file.h"
 
@@ -57,7 +58,6 @@
 #include <unistd.h>
 
 #include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 namespace umbra::film {
 
@@ -559,7 +559,7 @@ bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Option
     // Uninitialised: every value is written below, by the row's thread.
     std::unique_ptr<float[]> data(new float[npix * size_t(nch)]);
     // Rows in parallel: the frame's serial tail, and every pixel stands alone.
-    tbb::parallel_for(tbb::blocked_range<int>(m_y0, y1(), 16), [&](const tbb::blocked_range<int>& rows) {
+    parallelForRange(tbb::blocked_range<int>(m_y0, y1(), 16), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y < rows.end(); ++y) {
         for (int x = m_x0; x < x1(); ++x) {
             size_t base = index(x, y) * size_t(nch);

@@ -11,7 +11,7 @@
 
 #include "image_file.h"
 
-#include <tbb/parallel_for.h>
+#include "umbra/util/parallel.h"
 #include <tiffio.h>
 #include <libdeflate.h>
 
@@ -201,7 +201,7 @@ bool writeTiff(const ImageData& image, std::FILE* file, std::string* error) {
         // would produce, with zlib's framing and the same horizontal predictor.
         std::vector<std::vector<unsigned char>> packed(nStrips);
         std::atomic<bool> deflateFailed{false};
-        tbb::parallel_for(uint32_t(0), nStrips, [&](uint32_t s) {
+        parallelFor(uint32_t(0), nStrips, [&](uint32_t s) {
             const uint32_t rows = rowsOf(s);
             std::vector<unsigned char> raw(rowValues * rows * size_t(bytesPerSample));
             pack(s * rowsPerStrip, rows, raw.data());

@@ -3,11 +3,11 @@
 
 #include "umbra/util/cpu_time.h"
 #include "umbra/util/interrupt.h"
+#include "umbra/util/parallel.h"
 #include "umbra/util/rng.h"
 
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/global_control.h>
-#include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
@@ -286,7 +286,7 @@ SchedulerStats BucketScheduler::render(const std::vector<geometry::PrimitivePtr>
     // In the caller's arena: the renderer's, which bounds the threads and
     // may run other passes beside this one.
     int threads = m_settings.threads > 0 ? m_settings.threads : tbb::this_task_arena::max_concurrency();
-    tbb::parallel_for(size_t(0), prims.size(), [&](size_t i) {
+    parallelFor(size_t(0), prims.size(), [&](size_t i) {
         Node& node = roots[i];
         node.prim = prims[i].get();
         node.id = uint64_t(i) + 1;
@@ -327,7 +327,7 @@ SchedulerStats BucketScheduler::render(const std::vector<geometry::PrimitivePtr>
     // are those of a band of buckets, not of the whole frame.
     std::atomic<int> next{0}, done{0};
     std::mutex statsMutex;
-    tbb::parallel_for(0, threads, [&](int) {
+    parallelFor(0, threads, [&](int) {
         const double cpu0 = threadCpuSeconds();
         SampleBuffer buffer;
         SchedulerStats stats;

@@ -3,6 +3,7 @@
 #include "umbra/util/file.h"
 #include "umbra/util/frame_set.h"
 #include "umbra/util/interrupt.h"
+#include "umbra/util/parallel.h"
 #include "umbra/util/search_path.h"
 
 #include "render/frame.h"
@@ -23,9 +24,7 @@
 
 #include <fmt/chrono.h>
 #include <fmt/ranges.h>
-#include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
-#include <tbb/task_group.h>
 
 #include <optional>
 
@@ -350,7 +349,7 @@ void Renderer::Impl::runImager(const FrameState& frame, const Pass& pass, const 
     state.frame = &frame;
     state.pass = &pass;
     const int width = film.width();
-    tbb::parallel_for(film.y0(), film.y1(), [&](int y) {
+    parallelFor(film.y0(), film.y1(), [&](int y) {
         shading::ShadingGrid g;
         g.resize(width, 1);
         g.alpha.resize(size_t(width));
@@ -603,8 +602,8 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
             reused[i] = true;
             made[i].path = before->second.path;
         }
-        arena->execute([&] {
-            tbb::task_group group;
+        runInArena(*arena, [&] {
+            TaskGroup group;
             for (size_t i = 0; i < jobs.size(); ++i)
                 if (jobs[i] && !reused[i]) group.run([&, i] { made[i] = makeLightMap(frame, *jobs[i], prims); });
             group.wait();
@@ -691,8 +690,8 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
         options, aovs, depthFrame ? depthFilmOf(options, depthFilterOf(options, options.loc)) : film::FilmContent::Colour,
         diag);
     PassResult camera;
-    arena->execute([&] { camera = runPass(frame, pass, prims, film, world.frameNumber >= 0 ? frameName(world) : std::string("image")); });
-    if (options.imager && !depthFrame) arena->execute([&] { runImager(frame, pass, *options.imager, film); });
+    runInArena(*arena, [&] { camera = runPass(frame, pass, prims, film, world.frameNumber >= 0 ? frameName(world) : std::string("image")); });
+    if (options.imager && !depthFrame) runInArena(*arena, [&] { runImager(frame, pass, *options.imager, film); });
     passes.push_back({{"name", pass.name},
                       {"wall_seconds", camera.wall},
                       {"cpu_seconds", camera.cpu},
@@ -719,7 +718,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
         diag.error(options.loc, "{}: interrupted by signal {}; its images were not written", frameName(world),
                    interruptSignal());
     else
-        arena->execute([&] { wrote = film.write(displays, options, meta, diag, depthWriter); });
+        runInArena(*arena, [&] { wrote = film.write(displays, options, meta, diag, depthWriter); });
     // The frame is done when its maps' files are; a failed write (reported
     // by the writer, naming the file) fails the frame.
     Stopwatch waitClock;

@@ -1,8 +1,7 @@
 #include "umbra/trace/occlusion_scene.h"
+#include "umbra/util/parallel.h"
 
 #include <embree3/rtcore.h>
-#include <tbb/parallel_for.h>
-#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 #include <cmath>
@@ -49,8 +48,8 @@ struct Tessellator {
             if (regular) {
                 const int cu = splitU ? (nu + 1) / 2 : nu, cv = splitU ? nv : (nv + 1) / 2;
                 std::vector<Chunk> a, b;
-                tbb::parallel_invoke([&] { fixedRate(*halves[0], cu, cv, error, tol, depth + 1, a); },
-                                     [&] { fixedRate(*halves[1], cu, cv, error, tol, depth + 1, b); });
+                parallelInvoke([&] { fixedRate(*halves[0], cu, cv, error, tol, depth + 1, a); },
+                               [&] { fixedRate(*halves[1], cu, cv, error, tol, depth + 1, b); });
                 appendChunks(out, a);
                 appendChunks(out, b);
                 return;
@@ -73,8 +72,8 @@ struct Tessellator {
             std::vector<geometry::PrimitivePtr> pieces;
             p.split(depth % 2 == 0, pieces);
             std::vector<std::vector<Chunk>> parts(pieces.size());
-            tbb::parallel_for(size_t(0), pieces.size(),
-                              [&](size_t i) { adaptive(*pieces[i], tol, depth + 1, parts[i]); });
+            parallelFor(size_t(0), pieces.size(),
+                        [&](size_t i) { adaptive(*pieces[i], tol, depth + 1, parts[i]); });
             for (auto& part : parts) appendChunks(out, part);
             return;
         }
@@ -290,7 +289,7 @@ OcclusionScene::OcclusionScene(const std::vector<geometry::PrimitivePtr>& primit
                                const TessellationOptions& options, Diagnostics* diag) {
     const Tessellator tess{options, diag};
     std::vector<std::vector<Chunk>> parts(primitives.size());
-    tbb::parallel_for(size_t(0), primitives.size(), [&](size_t i) {
+    parallelFor(size_t(0), primitives.size(), [&](size_t i) {
         const geometry::Primitive& p = *primitives[i];
         if (!p.attributes().castsShadows) return;
         const float tol = tess.tolerance(p);
@@ -321,7 +320,7 @@ OcclusionScene::OcclusionScene(const std::vector<geometry::PrimitivePtr>& primit
     m_vertices.assign(m_vertexCount * 3 + 1, 0.0f);
     m_indices.resize(triStart.back());
     std::vector<Bound3> bounds(chunks.size());
-    tbb::parallel_for(size_t(0), chunks.size(), [&](size_t k) {
+    parallelFor(size_t(0), chunks.size(), [&](size_t k) {
         const Chunk& c = *chunks[k];
         float* v = m_vertices.data() + vertexStart[k] * 3;
         for (const Vec3& q : c.P) {
