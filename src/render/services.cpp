@@ -1,9 +1,10 @@
 #include "render/services.h"
 
+#include "umbra/util/cpu_time.h"
+
 #include <fmt/format.h>
 
-#include <chrono>
-
+#include <algorithm>
 #include <cstdlib>
 #include <vector>
 
@@ -143,10 +144,11 @@ bool Services::shadow(const shading::ShadingGrid& grid, const shading::ShadowQue
     ShadowParams params = paramsOf(q, m_diag);
     if (params.bias == 0 && params.bias0 == 0 && params.bias1 == 0) applyDefaultBias(*map, params);
     ShadowStats stats;
-    auto t0 = std::chrono::steady_clock::now();
+    // The thread's CPU clock, not the wall's: a lookup preempted on a busy
+    // machine is not charged for the time it waited.
+    const double t0 = threadCpuSeconds();
     map->lookup(batch, params, result, stats);
-    m_lookupNanoseconds += uint64_t(
-        std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - t0).count());
+    m_lookupNanoseconds += uint64_t(std::max(0.0, threadCpuSeconds() - t0) * 1e9);
     std::lock_guard<std::mutex> lock(m_statsMutex);
     m_stats += stats;
     return true;

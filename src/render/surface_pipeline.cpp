@@ -1,8 +1,8 @@
 #include "render/surface_pipeline.h"
 
+#include "umbra/util/cpu_time.h"
 #include "umbra/util/rng.h"
 
-#include <chrono>
 #include <cmath>
 
 namespace umbra::render {
@@ -335,10 +335,10 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
             request.lights = pa.lights;
             request.outputs = m_frame.aovNames;
         }
-        auto t0 = std::chrono::steady_clock::now();
+        // The thread's CPU clock (a preempted grid is not charged for the wait).
+        const double t0 = threadCpuSeconds();
         m_frame.shading->shade(sg, request, m_services);
-        m_frame.shadingNanoseconds += uint64_t(
-            std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - t0).count());
+        m_frame.shadingNanoseconds += uint64_t(std::max(0.0, threadCpuSeconds() - t0) * 1e9);
         positions = &sg.P;
     }
     const std::vector<Vec3>& P = *positions;
