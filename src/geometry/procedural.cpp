@@ -172,7 +172,7 @@ bool ProceduralContext::runProgram(const std::string& command, const std::string
             slot = std::make_unique<Program>();
             std::vector<std::string> argv = splitBlanks(command);
             if (argv.empty()) {
-                m_diag.warning(loc, "Procedural \"RunProgram\": no program named (skipped)");
+                m_diag.error(loc, "Procedural \"RunProgram\": no program named (skipped)");
                 slot->dead = true;
             } else {
                 // Beside the RIB, on the "procedural" search path, else $PATH.
@@ -183,7 +183,7 @@ bool ProceduralContext::runProgram(const std::string& command, const std::string
                 int toChild[2], fromChild[2];
                 if (socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, toChild) != 0 ||
                     pipe2(fromChild, O_CLOEXEC) != 0) {
-                    m_diag.warning(loc, "Procedural \"RunProgram\": cannot make pipes for \"{}\" (skipped)", command);
+                    m_diag.error(loc, "Procedural \"RunProgram\": cannot make pipes for \"{}\" (skipped)", command);
                     slot->dead = true;
                 } else {
                     posix_spawn_file_actions_t actions;
@@ -201,7 +201,7 @@ bool ProceduralContext::runProgram(const std::string& command, const std::string
                     slot->in = toChild[0];
                     slot->out = fromChild[0];
                     if (rc != 0) {
-                        m_diag.warning(loc, "Procedural \"RunProgram\": cannot run \"{}\": {} (skipped)", argv[0],
+                        m_diag.error(loc, "Procedural \"RunProgram\": cannot run \"{}\": {} (skipped)", argv[0],
                                        std::strerror(rc));
                         slot->stop(false);
                         slot->dead = true;
@@ -217,7 +217,7 @@ bool ProceduralContext::runProgram(const std::string& command, const std::string
     std::lock_guard<std::mutex> lock(program->mutex);
     if (program->dead) return false;
     auto fail = [&](const std::string& why) {
-        m_diag.warning(loc, "Procedural \"RunProgram\": \"{}\" {}; its geometry is skipped", command, why);
+        m_diag.error(loc, "Procedural \"RunProgram\": \"{}\" {}; its geometry is skipped", command, why);
         program->stop(true);
         program->dead = true;
         return false;
@@ -301,14 +301,14 @@ bool Procedural::runDso(const std::string& name, const std::string& data, const 
     std::string found = findFile(name, directory, path);
     if (found.empty()) found = findFile(name + ".so", directory, path);
     if (found.empty()) {
-        ctx.diag().warning(loc, "Procedural \"DynamicLoad\": cannot find \"{}\" (beside the RIB file or on the "
+        ctx.diag().error(loc, "Procedural \"DynamicLoad\": cannot find \"{}\" (beside the RIB file or on the "
                            "\"procedural\" search path); its geometry is skipped", name);
         return false;
     }
     if (found.find('/') == std::string::npos) found = "./" + found;  // not a library name for dlopen's search
     void* dso = dlopen(found.c_str(), RTLD_NOW | RTLD_LOCAL);
     if (!dso) {
-        ctx.diag().warning(loc, "Procedural \"DynamicLoad\": cannot load \"{}\": {}; its geometry is skipped", found,
+        ctx.diag().error(loc, "Procedural \"DynamicLoad\": cannot load \"{}\": {}; its geometry is skipped", found,
                            dlerror());
         return false;
     }
@@ -319,7 +319,7 @@ bool Procedural::runDso(const std::string& name, const std::string& data, const 
     auto subdivide = reinterpret_cast<Subdivide>(dlsym(dso, "Subdivide"));
     auto release = reinterpret_cast<Free>(dlsym(dso, "Free"));
     if (!convert || !subdivide || !release) {
-        ctx.diag().warning(loc, "Procedural \"DynamicLoad\": \"{}\" lacks {} (the RI spec's entry points are "
+        ctx.diag().error(loc, "Procedural \"DynamicLoad\": \"{}\" lacks {} (the RI spec's entry points are "
                            "ConvertParameters, Subdivide and Free, with C linkage); its geometry is skipped", found,
                            !convert ? "ConvertParameters" : !subdivide ? "Subdivide" : "Free");
         dlclose(dso);
