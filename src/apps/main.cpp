@@ -2,7 +2,7 @@
 //
 //   umbra render SCENE.rib [MORE.rib ...] [--threads N] [--progress]
 //                [--stats FILE.json|FILE.jsonl] [--bucket-size N] [--quiet] [--no-shadows]
-//                [--frames SPEC] [--resume] [--no-map-reuse]
+//                [--frames SPEC] [--resume] [--no-map-reuse] [--map-cache DIR]
 //   umbra SCENE.rib ...                      (same as `umbra render`)
 //   umbra slc [--listing] [-I DIR] FILE.sl ... (compile shaders, report errors)
 //   umbra info [--json] MAP                  (depth-map storage figures)
@@ -55,6 +55,9 @@ int main(int argc, char** argv) {
     bool noMapReuse = false;
     render->add_flag("--no-map-reuse", noMapReuse,
                      "Render every automatic depth map again, even when an earlier frame's has the same content");
+    render->add_option("--map-cache", settings.mapCache,
+                       "Directory of automatic depth maps shared between processes by their content digest "
+                       "(read instead of rendered when present; rendered ones are added)");
     render->add_flag("--resume,--skip-existing", settings.resume,
                      "Skip frames whose every Display file is a complete image (truncated ones are rendered again)");
     std::string framesSpec;

@@ -194,6 +194,10 @@ struct Renderer::Impl {
     /// What decides the texels of `job`'s map in this frame.
     MapContent mapContentOf(const FrameState& frame, const scene::LightRecord& light, const LightMapJob& job);
 
+    /// Copies the map file `from` into the map cache as `to`, atomically
+    /// (a warning when it cannot: the frame itself is complete).
+    void addToMapCache(const std::string& from, const std::string& to);
+
     /// Every pass and the output run in this arena: no more threads than
     /// --threads. One arena for the renderer's life, so its workers stay
     /// with it from pass to pass.
@@ -578,6 +582,9 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     std::vector<MapContent> contents(world.lights.size());
     std::vector<std::string> reuseReasons(world.lights.size());
     std::vector<bool> reused(world.lights.size(), false);
+    // --map-cache: where each map's content would be in the shared cache
+    // (empty: no cache, or a map of this frame's seed alone).
+    std::vector<std::string> cachePaths(world.lights.size());
     bool reuseOn = settings.reuseMaps;
     if (auto it = options.user.find("umbra:reusemaps"); it != options.user.end())
         reuseOn = reuseOn && (!it->second.ints.empty() ? it->second.ints[0] != 0 : it->second.floatAt(0, 1) != 0);
@@ -589,19 +596,26 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
             jobs[i] = planLightMap(frame, world.lights[i], prims);
             if (!jobs[i]) continue;
             contents[i] = mapContentOf(frame, world.lights[i], *jobs[i]);
+            if (!settings.mapCache.empty())
+                if (std::optional<Digest> key = cacheDigest(contents[i]))
+                    cachePaths[i] = (std::filesystem::path(settings.mapCache) / (key->hex() + ".shd")).string();
             auto before = reusableMaps.find(handleOf(world.lights[i]));
-            if (before != reusableMaps.end() && !(before->second.written.valid() && before->second.written.get())) {
+            if (before != reusableMaps.end() && !(before->second.written.valid() && before->second.written.get()))
                 reuseReasons[i] = "earlier map not written";
-                continue;
+            else
+                reuseReasons[i] =
+                    reuseReason(before != reusableMaps.end() ? &before->second.content : nullptr, contents[i]);
+            if (reuseReasons[i] == kSameContent && !reuseOn) reuseReasons[i] = "reuse off";
+            if (reuseReasons[i] == kSameContent) {
+                reused[i] = true;
+                made[i].path = before->second.path;
+            } else if (reuseOn && !cachePaths[i].empty() && std::filesystem::exists(cachePaths[i])) {
+                // Another process (or an earlier run) made this map: files
+                // enter the cache complete, by rename.
+                reused[i] = true;
+                reuseReasons[i] = "map cache";
+                made[i].path = cachePaths[i];
             }
-            reuseReasons[i] = reuseReason(before != reusableMaps.end() ? &before->second.content : nullptr, contents[i]);
-            if (reuseReasons[i] != kSameContent) continue;
-            if (!reuseOn) {
-                reuseReasons[i] = "reuse off";
-                continue;
-            }
-            reused[i] = true;
-            made[i].path = before->second.path;
         }
         arena->execute([&] {
             tbb::task_group group;
@@ -619,6 +633,10 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
                 reusableMaps[handle] = {contents[i], made[i].path, made[i].written};
             else
                 reusableMaps.erase(handle);
+        } else if (reuseReasons[i] == "map cache") {
+            std::promise<bool> present;
+            present.set_value(true);
+            reusableMaps[handle] = {contents[i], made[i].path, present.get_future().share()};
         }
         mapRecords.push_back({{"light", handle},
                               {"path", made[i].path},
@@ -729,6 +747,14 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     }
     mapWrites.clear();
     mapWriteWaitSeconds = waitClock.wall();
+    // --map-cache: each map rendered here, its file complete, enters the
+    // cache under a temporary name and is renamed, so another process
+    // never reads a partial map (two making the same one write the same
+    // bytes; the last rename wins).
+    for (size_t i = 0; i < jobs.size(); ++i)
+        if (jobs[i] && !reused[i] && !cachePaths[i].empty() && !made[i].failed && made[i].written.valid() &&
+            made[i].written.get())
+            addToMapCache(made[i].path, cachePaths[i]);
 
     double wall = frameClock.wall(), cpu = frameClock.cpu();
     ShadowStats shadowStats = services->shadowStats();
@@ -937,6 +963,19 @@ LightMap Renderer::Impl::makeLightMap(FrameState& frame, LightMapJob& job,
     return made;
 }
 
+void Renderer::Impl::addToMapCache(const std::string& from, const std::string& to) {
+    namespace fs = std::filesystem;
+    static std::atomic<unsigned> serial{0};
+    const std::string tmp = fmt::format("{}.tmp.{}.{}", to, ::getpid(), serial++);
+    std::error_code ec;
+    fs::copy_file(from, tmp, fs::copy_options::overwrite_existing, ec);
+    if (!ec) fs::rename(tmp, to, ec);
+    if (ec) {
+        fs::remove(tmp);
+        diag.warning(FileLoc::inFile(to), "--map-cache: cannot add \"{}\" to the cache: {}", from, ec.message());
+    }
+}
+
 MapContent Renderer::Impl::mapContentOf(const FrameState& frame, const scene::LightRecord& light,
                                         const LightMapJob& job) {
     const scene::Options& options = frame.world->options;
@@ -1035,6 +1074,18 @@ float Renderer::Impl::dualOffsetOf(const scene::Options& options) {
 int renderFiles(const std::vector<std::string>& files, const RenderSettings& settingsIn, const std::string& statsPath,
                 Diagnostics& diag) {
     const RenderSettings& settings = settingsIn;
+    if (!settings.mapCache.empty()) {
+        // The cache is made if missing; one that cannot be written is an
+        // error before any frame (a farm task would otherwise render every
+        // map it was meant to share).
+        std::error_code ec;
+        std::filesystem::create_directories(settings.mapCache, ec);
+        if (ec || ::access(settings.mapCache.c_str(), W_OK | X_OK) != 0) {
+            diag.error(FileLoc::inFile(settings.mapCache), "--map-cache: cannot use \"{}\" as the map cache: {}",
+                       settings.mapCache, ec ? ec.message() : std::string(std::strerror(errno)));
+            return 1;
+        }
+    }
     Renderer renderer(settings, diag);
     bool ok = true;
     // --stats FILE.jsonl: one line per frame, appended as the frame ends by
