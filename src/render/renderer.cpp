@@ -37,6 +37,7 @@
 #include <chrono>
 #include <cerrno>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <ctime>
 #include <filesystem>
@@ -80,6 +81,30 @@ std::string nowDateTime() {
     std::time_t t = std::time(nullptr);
     std::tm tm{};
     localtime_r(&t, &tm);
+    return fmt::format("{:%Y:%m:%d %H:%M:%S}", tm);
+}
+
+/// The reproducible-builds convention (reproducible-builds.org/specs/
+/// source-date-epoch): $SOURCE_DATE_EPOCH, seconds since 1970 UTC, is the
+/// date images carry, in UTC, and no render time is written, so a frame
+/// rendered on a farm is byte for byte the one rendered at a desk. Nothing
+/// when unset; a warning (and the render's own date) when not a number.
+std::optional<std::string> sourceDateTime(Diagnostics& diag) {
+    const char* text = std::getenv("SOURCE_DATE_EPOCH");
+    if (!text || !*text) return std::nullopt;
+    char* end = nullptr;
+    errno = 0;
+    const long long seconds = std::strtoll(text, &end, 10);
+    if (errno != 0 || *end != '\0' || seconds < 0 || seconds > 253402300799LL) {  // up to 9999-12-31
+        diag.warningOnce("SOURCE_DATE_EPOCH", FileLoc{},
+                         "SOURCE_DATE_EPOCH=\"{}\" is not a count of seconds since 1970; images carry the date "
+                         "and time of the render",
+                         text);
+        return std::nullopt;
+    }
+    const std::time_t t = std::time_t(seconds);
+    std::tm tm{};
+    gmtime_r(&t, &tm);
     return fmt::format("{:%Y:%m:%d %H:%M:%S}", tm);
 }
 
@@ -719,8 +744,12 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
                       {"samples", camera.samples}});
 
     film::OutputMetadata meta;
-    meta.renderSeconds = frameClock.wall();
-    meta.dateTime = nowDateTime();
+    if (std::optional<std::string> date = sourceDateTime(diag)) {
+        meta.dateTime = *date;  // and no render time: reproducible files
+    } else {
+        meta.renderSeconds = frameClock.wall();
+        meta.dateTime = nowDateTime();
+    }
     meta.cameraFromWorld = pass.camera.cameraFromWorld;
     meta.ndcFromWorld = pass.camera.ndcFromScreen() * pass.camera.screenFromCamera() * pass.camera.cameraFromWorld;
     film::DepthWriter depthWriter = [&](const scene::DisplayRecord& d, const film::Film& f) {
