@@ -462,6 +462,61 @@ TEST(MapCache, SharedBetweenProcessesByContent) {
     EXPECT_EQ(both[1]["maps"][0]["path"], shared);
 }
 
+TEST(MapCache, ConcurrentProcessesShareOneCacheSafely) {
+    // Three processes start at once on frames of one shot with an empty
+    // cache: each may render the map or read it (whichever comes first),
+    // but none fails, none reads part of a map, no temporary name is left,
+    // and every image is the single process's.
+    std::vector<FrameSetup> frames(3);
+    for (size_t i = 0; i < frames.size(); ++i) frames[i].cameraZ = 5 + 0.5f * float(i);
+    ScratchDir farm("map-cache-concurrent"), single("map-cache-concurrent-single");
+    for (const ScratchDir* dir : {&farm, &single}) writeFile(dir->file("seq.rib"), sequenceRib(frames));
+    std::string messages;
+    ASSERT_EQ(runUmbra(single, {"seq.rib"}, &messages), 0) << messages;
+    std::vector<pid_t> children;
+    for (int n = 1; n <= 3; ++n) {
+        const pid_t pid = fork();
+        if (pid == 0) {
+            if (chdir(farm.file("").c_str()) != 0) _exit(126);
+            const std::string log = fmt::format("run{}.log", n);
+            const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+            if (fd >= 0) {
+                dup2(fd, 1);
+                dup2(fd, 2);
+            }
+            setenv("UMBRA_SHADER_PATH", UMBRA_SOURCE_DIR "/shaders_dsl", 1);
+            std::vector<std::string> args{"umbra", "render", "--threads", "1", "--frames", std::to_string(n),
+                                          "--map-cache", "maps", "--stats", fmt::format("task{}.jsonl", n), "seq.rib"};
+            std::vector<char*> argv;
+            for (auto& a : args) argv.push_back(a.data());
+            argv.push_back(nullptr);
+            execv(UMBRA_APP, argv.data());
+            _exit(127);
+        }
+        children.push_back(pid);
+    }
+    for (size_t i = 0; i < children.size(); ++i) {
+        int status = 0;
+        ASSERT_EQ(waitpid(children[i], &status, 0), children[i]);
+        std::ifstream log(farm.file(fmt::format("run{}.log", i + 1)));
+        std::stringstream text;
+        text << log.rdbuf();
+        EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << text.str();
+    }
+    std::vector<std::string> cached;
+    for (const auto& entry : std::filesystem::directory_iterator(farm.file("maps")))
+        cached.push_back(entry.path().filename().string());
+    ASSERT_EQ(cached.size(), 1u) << fmt::format("{}", fmt::join(cached, " "));
+    for (int n = 1; n <= 3; ++n) {
+        const auto lines = readLines(farm.file(fmt::format("task{}.jsonl", n)));
+        ASSERT_EQ(lines.size(), 1u);
+        const std::string reason = lines[0]["maps"][0]["reason"].get<std::string>();
+        EXPECT_TRUE(reason == "first frame" || reason == "map cache") << reason;
+        const std::string image = fmt::format("out.{:04d}.tif", n);
+        EXPECT_EQ(test::maxAbsDiff(imageOf(farm.file(image)), imageOf(single.file(image)), 4), 0.0) << image;
+    }
+}
+
 TEST(MapCache, FrameSeededMapsAreNeverShared) {
     ScratchDir dir("map-cache-seeded");
     writeShaders(dir);
