@@ -108,6 +108,38 @@ std::optional<std::string> sourceDateTime(Diagnostics& diag) {
     return fmt::format("{:%Y:%m:%d %H:%M:%S}", tm);
 }
 
+/// Option "statistics" "endofframe" [2]: after the summary, each pass,
+/// each automatic map, and the shadow lookups' and tile cache's counters,
+/// from the frame's statistics record.
+void printDetailedStatistics(const nlohmann::json& f) {
+    std::string text = "  passes\n";
+    for (const auto& p : f["passes"]) {
+        const auto& c = p["counts"];
+        text += fmt::format("    {:<20} {:8.3f} s wall {:8.3f} s cpu  {} buckets, {} grids, {} micropolygons, {} samples\n",
+                            p["name"].get<std::string>(), p["wall_seconds"].get<double>(),
+                            p["cpu_seconds"].get<double>(), c["buckets"].get<uint64_t>(), c["grids"].get<uint64_t>(),
+                            c["micropolygons"].get<uint64_t>(), p["samples"].get<uint64_t>());
+    }
+    if (!f["maps"].empty()) text += "  maps\n";
+    for (const auto& m : f["maps"])
+        text += fmt::format("    {:<20} {} ({}) {}\n", m["light"].get<std::string>(),
+                            m["reused"].get<bool>() ? "reused" : "rendered", m["reason"].get<std::string>(),
+                            m["path"].get<std::string>());
+    const auto& s = f["shadow"];
+    const auto& t = s["tile_cache"];
+    text += fmt::format("  lookups     {} points ({} outside the map), {} samples, {} tile fetches, {:.3f} s\n",
+                        s["points"].get<uint64_t>(), s["outside"].get<uint64_t>(), s["samples"].get<uint64_t>(),
+                        s["tile_fetches"].get<uint64_t>(), s["lookup_seconds"].get<double>());
+    text += fmt::format("  tile cache  {} lookups, {} hits, {} misses, {} tiles read, {} evictions, {:.1f} MiB peak\n",
+                        t["lookups"].get<uint64_t>(), t["hits"].get<uint64_t>(), t["misses"].get<uint64_t>(),
+                        t["tiles_read"].get<uint64_t>(), t["evictions"].get<uint64_t>(),
+                        double(t["peak_bytes"].get<uint64_t>()) / (1 << 20));
+    text += fmt::format("  map files   {:.3f} s writing, {:.3f} s waiting, {} in the background\n",
+                        s["map_write_seconds"].get<double>(), s["map_write_wait_seconds"].get<double>(),
+                        s["background_map_writes"].get<int>());
+    fmt::print(stderr, "{}", text);
+}
+
 nlohmann::json schedulerJson(const hider::SchedulerStats& s) {
     return {{"primitives", s.primitives}, {"culled", s.culled},     {"occlusion_culled", s.occlusionCulled},
             {"splits", s.splits},         {"grids", s.grids},       {"micropolygons", s.micropolygons},
@@ -855,6 +887,8 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
                    camera.counters.buckets, camera.counters.culled, camera.counters.occlusionCulled,
                    camera.counters.peakGridsAlive, shadowStats.points, shadowStats.culledLit,
                    shadowStats.culledShadowed, shadowStats.filtered, peakResidentMiB());
+        if (options.statisticsEndOfFrame >= 2) printDetailedStatistics(f);
+        if (options.statisticsEndOfFrame >= 3) fmt::print(stderr, "  record      {}\n", f.dump(2));
     }
     services->setFrame(nullptr);
     if (!wrote || diag.aborted()) ++failed;
