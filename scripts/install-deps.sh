@@ -9,6 +9,7 @@ packages=(
   libgtest-dev libbenchmark-dev libembree-dev libre2-dev libosd-dev
   clang libclang-rt-14-dev
   chromium
+  slurm-wlm munge
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -2,7 +2,7 @@
 //
 //   umbra render SCENE.rib [MORE.rib ...] [--threads N] [--progress]
 //                [--stats FILE.json|FILE.jsonl] [--bucket-size N] [--quiet] [--no-shadows]
-//                [--frames SPEC] [--resume] [--no-map-reuse]
+//                [--frames SPEC] [--resume] [--no-map-reuse] [--map-cache DIR]
 //   umbra SCENE.rib ...                      (same as `umbra render`)
 //   umbra slc [--listing] [-I DIR] FILE.sl ... (compile shaders, report errors)
 //   umbra info [--json] MAP                  (depth-map storage figures)
@@ -11,6 +11,8 @@
 //   umbra txmake --envlatl IN.tif OUT.env
 //   umbra txmake --envcube PX NX PY NY PZ NZ OUT.env [--fov DEGREES]
 //   umbra report STATS.json[l] ... -o DIR     (report.md and report.html of --stats files)
+//   umbra farm submit [--frames SPEC] [--chunk N] [--partition P] [--retries N] [--cpus N]
+//                     [--dry-run] SCENE.rib -o FARMDIR   (render on Slurm, docs/farm.md)
 
 #include "umbra/render/make_files.h"
 #include "umbra/render/renderer.h"
@@ -18,6 +20,7 @@
 #include "umbra/util/frame_set.h"
 
 #include "apps/commands.h"
+#include "apps/farm.h"
 #include "apps/report.h"
 #include "umbra/util/interrupt.h"
 
@@ -31,7 +34,7 @@
 int main(int argc, char** argv) {
     // `umbra scene.rib` is `umbra render scene.rib`.
     std::vector<std::string> args(argv, argv + argc);
-    static const char* kCommands[] = {"render", "slc", "info", "txmake", "report", "-h", "--help", "--version"};
+    static const char* kCommands[] = {"render", "slc", "info", "txmake", "report", "farm", "-h", "--help", "--version"};
     bool hasCommand = false;
     if (args.size() > 1)
         for (const char* c : kCommands) hasCommand |= args[1] == c;
@@ -55,6 +58,9 @@ int main(int argc, char** argv) {
     bool noMapReuse = false;
     render->add_flag("--no-map-reuse", noMapReuse,
                      "Render every automatic depth map again, even when an earlier frame's has the same content");
+    render->add_option("--map-cache", settings.mapCache,
+                       "Directory of automatic depth maps shared between processes by their content digest "
+                       "(read instead of rendered when present; rendered ones are added)");
     render->add_flag("--resume,--skip-existing", settings.resume,
                      "Skip frames whose every Display file is a complete image (truncated ones are rendered again)");
     std::string framesSpec;
@@ -109,6 +115,25 @@ int main(int argc, char** argv) {
     report->add_option("files", reportFiles, "Statistics: .json documents or JSON lines, in frame order")->required();
     report->add_option("-o,--output", reportDir, "Directory the report is written to")->required();
 
+    umbra::apps::FarmArgs farmArgs;
+    auto* farm = app.add_subcommand("farm", "Render frames on a Slurm cluster (docs/farm.md)");
+    farm->require_subcommand(1);
+    auto* farmSubmit = farm->add_subcommand(
+        "submit", "Submit a maps job (the first frame), a job array of frame chunks sharing its depth maps, "
+                  "and a report job");
+    farmSubmit->add_option("scene", farmArgs.scene, "The RIB file (or shot.####.rib with --frames)")->required();
+    farmSubmit->add_option("-o,--output", farmArgs.farmDir,
+                           "Farm directory (on a filesystem every node sees): scripts, logs, maps, stats, report")
+        ->required();
+    farmSubmit->add_option("--frames", farmArgs.frames, "FrameBegin numbers to render (default: all the scene's)");
+    farmSubmit->add_option("--chunk", farmArgs.chunk, "Frames per array task (default 1)")->check(CLI::PositiveNumber);
+    farmSubmit->add_option("--partition", farmArgs.partition, "Slurm partition (default: the cluster's)");
+    farmSubmit->add_option("--retries", farmArgs.retries, "Attempts after a task's first failure (default 2)")
+        ->check(CLI::NonNegativeNumber);
+    farmSubmit->add_option("--cpus", farmArgs.cpus, "CPUs per job, umbra's --threads (default 1)")
+        ->check(CLI::PositiveNumber);
+    farmSubmit->add_flag("--dry-run", farmArgs.dryRun, "Print the job scripts and sbatch commands; submit nothing");
+
     std::vector<char*> cargs;
     for (auto& a : args) cargs.push_back(a.data());
     try {
@@ -141,6 +166,7 @@ int main(int argc, char** argv) {
         if (*info) return umbra::apps::describeMap(mapPath, json, diag);
         if (*txmake) return umbra::apps::txmake(tx, diag);
         if (*report) return umbra::apps::writeReport(reportFiles, reportDir, diag);
+        if (*farmSubmit) return umbra::apps::farmSubmit(farmArgs, diag);
     } catch (const umbra::OutOfMemory& e) {
         // What was being allocated, for which request: the render stops
         // here, its outputs unwritten.

@@ -148,3 +148,18 @@ std::string reuseReason(const MapContent* before, const MapContent& now) {
 }
 
 }  // namespace umbra::render
+
+namespace umbra::render {
+
+std::optional<Digest> cacheDigest(const MapContent& content) {
+    if (content.seed) return std::nullopt;
+    // The release and the cache's layout: a map another umbra made (whose
+    // depth passes may differ) is another map.
+    Hasher h;
+    h.str("umbra 0.1.0 map cache 1").i32(content.size).digest(content.settings).digest(content.view);
+    h.u64(content.casters.size());
+    for (const Digest& d : content.casters) h.digest(d);
+    return h.value();
+}
+
+}  // namespace umbra::render

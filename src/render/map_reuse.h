@@ -73,6 +73,12 @@ Digest casterDigest(const scene::PrimitiveRecord& record);
 /// view is fitted to its casters, so a moved caster moves it too.
 std::string reuseReason(const MapContent* before, const MapContent& now);
 
+/// The one digest naming a map's content in a map cache shared between
+/// processes (`umbra render --map-cache DIR`): every part of `content`
+/// and umbra's version, so a map made by another release is not taken.
+/// Null for a map drawing on the frame's seed: such maps are never shared.
+std::optional<Digest> cacheDigest(const MapContent& content);
+
 /// The reason reuseReason gives when the map can be reused.
 inline constexpr std::string_view kSameContent = "same content";
 

@@ -36,6 +36,7 @@
 #include <chrono>
 #include <cerrno>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <ctime>
 #include <filesystem>
@@ -80,6 +81,62 @@ std::string nowDateTime() {
     std::tm tm{};
     localtime_r(&t, &tm);
     return fmt::format("{:%Y:%m:%d %H:%M:%S}", tm);
+}
+
+/// The reproducible-builds convention (reproducible-builds.org/specs/
+/// source-date-epoch): $SOURCE_DATE_EPOCH, seconds since 1970 UTC, is the
+/// date images carry, in UTC, and no render time is written, so a frame
+/// rendered on a farm is byte for byte the one rendered at a desk. Nothing
+/// when unset; a warning (and the render's own date) when not a number.
+std::optional<std::string> sourceDateTime(Diagnostics& diag) {
+    const char* text = std::getenv("SOURCE_DATE_EPOCH");
+    if (!text || !*text) return std::nullopt;
+    char* end = nullptr;
+    errno = 0;
+    const long long seconds = std::strtoll(text, &end, 10);
+    if (errno != 0 || *end != '\0' || seconds < 0 || seconds > 253402300799LL) {  // up to 9999-12-31
+        diag.warningOnce("SOURCE_DATE_EPOCH", FileLoc{},
+                         "SOURCE_DATE_EPOCH=\"{}\" is not a count of seconds since 1970; images carry the date "
+                         "and time of the render",
+                         text);
+        return std::nullopt;
+    }
+    const std::time_t t = std::time_t(seconds);
+    std::tm tm{};
+    gmtime_r(&t, &tm);
+    return fmt::format("{:%Y:%m:%d %H:%M:%S}", tm);
+}
+
+/// Option "statistics" "endofframe" [2]: after the summary, each pass,
+/// each automatic map, and the shadow lookups' and tile cache's counters,
+/// from the frame's statistics record.
+void printDetailedStatistics(const nlohmann::json& f) {
+    std::string text = "  passes\n";
+    for (const auto& p : f["passes"]) {
+        const auto& c = p["counts"];
+        text += fmt::format("    {:<20} {:8.3f} s wall {:8.3f} s cpu  {} buckets, {} grids, {} micropolygons, {} samples\n",
+                            p["name"].get<std::string>(), p["wall_seconds"].get<double>(),
+                            p["cpu_seconds"].get<double>(), c["buckets"].get<uint64_t>(), c["grids"].get<uint64_t>(),
+                            c["micropolygons"].get<uint64_t>(), p["samples"].get<uint64_t>());
+    }
+    if (!f["maps"].empty()) text += "  maps\n";
+    for (const auto& m : f["maps"])
+        text += fmt::format("    {:<20} {} ({}) {}\n", m["light"].get<std::string>(),
+                            m["reused"].get<bool>() ? "reused" : "rendered", m["reason"].get<std::string>(),
+                            m["path"].get<std::string>());
+    const auto& s = f["shadow"];
+    const auto& t = s["tile_cache"];
+    text += fmt::format("  lookups     {} points ({} outside the map), {} samples, {} tile fetches, {:.3f} s\n",
+                        s["points"].get<uint64_t>(), s["outside"].get<uint64_t>(), s["samples"].get<uint64_t>(),
+                        s["tile_fetches"].get<uint64_t>(), s["lookup_seconds"].get<double>());
+    text += fmt::format("  tile cache  {} lookups, {} hits, {} misses, {} tiles read, {} evictions, {:.1f} MiB peak\n",
+                        t["lookups"].get<uint64_t>(), t["hits"].get<uint64_t>(), t["misses"].get<uint64_t>(),
+                        t["tiles_read"].get<uint64_t>(), t["evictions"].get<uint64_t>(),
+                        double(t["peak_bytes"].get<uint64_t>()) / (1 << 20));
+    text += fmt::format("  map files   {:.3f} s writing, {:.3f} s waiting, {} in the background\n",
+                        s["map_write_seconds"].get<double>(), s["map_write_wait_seconds"].get<double>(),
+                        s["background_map_writes"].get<int>());
+    fmt::print(stderr, "{}", text);
 }
 
 nlohmann::json schedulerJson(const hider::SchedulerStats& s) {
@@ -192,6 +249,10 @@ struct Renderer::Impl {
     std::map<std::string, ReusableMap> reusableMaps;
     /// What decides the texels of `job`'s map in this frame.
     MapContent mapContentOf(const FrameState& frame, const scene::LightRecord& light, const LightMapJob& job);
+
+    /// Copies the map file `from` into the map cache as `to`, atomically
+    /// (a warning when it cannot: the frame itself is complete).
+    void addToMapCache(const std::string& from, const std::string& to);
 
     /// Every pass and the output run in this arena: no more threads than
     /// --threads. One arena for the renderer's life, so its workers stay
@@ -577,6 +638,9 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     std::vector<MapContent> contents(world.lights.size());
     std::vector<std::string> reuseReasons(world.lights.size());
     std::vector<bool> reused(world.lights.size(), false);
+    // --map-cache: where each map's content would be in the shared cache
+    // (empty: no cache, or a map of this frame's seed alone).
+    std::vector<std::string> cachePaths(world.lights.size());
     bool reuseOn = settings.reuseMaps;
     if (auto it = options.user.find("umbra:reusemaps"); it != options.user.end())
         reuseOn = reuseOn && (!it->second.ints.empty() ? it->second.ints[0] != 0 : it->second.floatAt(0, 1) != 0);
@@ -588,19 +652,26 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
             jobs[i] = planLightMap(frame, world.lights[i], prims);
             if (!jobs[i]) continue;
             contents[i] = mapContentOf(frame, world.lights[i], *jobs[i]);
+            if (!settings.mapCache.empty())
+                if (std::optional<Digest> key = cacheDigest(contents[i]))
+                    cachePaths[i] = (std::filesystem::path(settings.mapCache) / (key->hex() + ".shd")).string();
             auto before = reusableMaps.find(handleOf(world.lights[i]));
-            if (before != reusableMaps.end() && !(before->second.written.valid() && before->second.written.get())) {
+            if (before != reusableMaps.end() && !(before->second.written.valid() && before->second.written.get()))
                 reuseReasons[i] = "earlier map not written";
-                continue;
+            else
+                reuseReasons[i] =
+                    reuseReason(before != reusableMaps.end() ? &before->second.content : nullptr, contents[i]);
+            if (reuseReasons[i] == kSameContent && !reuseOn) reuseReasons[i] = "reuse off";
+            if (reuseReasons[i] == kSameContent) {
+                reused[i] = true;
+                made[i].path = before->second.path;
+            } else if (reuseOn && !cachePaths[i].empty() && std::filesystem::exists(cachePaths[i])) {
+                // Another process (or an earlier run) made this map: files
+                // enter the cache complete, by rename.
+                reused[i] = true;
+                reuseReasons[i] = "map cache";
+                made[i].path = cachePaths[i];
             }
-            reuseReasons[i] = reuseReason(before != reusableMaps.end() ? &before->second.content : nullptr, contents[i]);
-            if (reuseReasons[i] != kSameContent) continue;
-            if (!reuseOn) {
-                reuseReasons[i] = "reuse off";
-                continue;
-            }
-            reused[i] = true;
-            made[i].path = before->second.path;
         }
         runInArena(*arena, [&] {
             TaskGroup group;
@@ -618,6 +689,10 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
                 reusableMaps[handle] = {contents[i], made[i].path, made[i].written};
             else
                 reusableMaps.erase(handle);
+        } else if (reuseReasons[i] == "map cache") {
+            std::promise<bool> present;
+            present.set_value(true);
+            reusableMaps[handle] = {contents[i], made[i].path, present.get_future().share()};
         }
         mapRecords.push_back({{"light", handle},
                               {"path", made[i].path},
@@ -700,8 +775,12 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
                       {"samples", camera.samples}});
 
     film::OutputMetadata meta;
-    meta.renderSeconds = frameClock.wall();
-    meta.dateTime = nowDateTime();
+    if (std::optional<std::string> date = sourceDateTime(diag)) {
+        meta.dateTime = *date;  // and no render time: reproducible files
+    } else {
+        meta.renderSeconds = frameClock.wall();
+        meta.dateTime = nowDateTime();
+    }
     meta.cameraFromWorld = pass.camera.cameraFromWorld;
     meta.ndcFromWorld = pass.camera.ndcFromScreen() * pass.camera.screenFromCamera() * pass.camera.cameraFromWorld;
     film::DepthWriter depthWriter = [&](const scene::DisplayRecord& d, const film::Film& f) {
@@ -728,6 +807,14 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     }
     mapWrites.clear();
     mapWriteWaitSeconds = waitClock.wall();
+    // --map-cache: each map rendered here, its file complete, enters the
+    // cache under a temporary name and is renamed, so another process
+    // never reads a partial map (two making the same one write the same
+    // bytes; the last rename wins).
+    for (size_t i = 0; i < jobs.size(); ++i)
+        if (jobs[i] && !reused[i] && !cachePaths[i].empty() && !made[i].failed && made[i].written.valid() &&
+            made[i].written.get())
+            addToMapCache(made[i].path, cachePaths[i]);
 
     double wall = frameClock.wall(), cpu = frameClock.cpu();
     ShadowStats shadowStats = services->shadowStats();
@@ -799,6 +886,8 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
                    camera.counters.buckets, camera.counters.culled, camera.counters.occlusionCulled,
                    camera.counters.peakGridsAlive, shadowStats.points, shadowStats.culledLit,
                    shadowStats.culledShadowed, shadowStats.filtered, peakResidentMiB());
+        if (options.statisticsEndOfFrame >= 2) printDetailedStatistics(f);
+        if (options.statisticsEndOfFrame >= 3) fmt::print(stderr, "  record      {}\n", f.dump(2));
     }
     services->setFrame(nullptr);
     if (!wrote || diag.aborted()) ++failed;
@@ -936,6 +1025,19 @@ LightMap Renderer::Impl::makeLightMap(FrameState& frame, LightMapJob& job,
     return made;
 }
 
+void Renderer::Impl::addToMapCache(const std::string& from, const std::string& to) {
+    namespace fs = std::filesystem;
+    static std::atomic<unsigned> serial{0};
+    const std::string tmp = fmt::format("{}.tmp.{}.{}", to, ::getpid(), serial++);
+    std::error_code ec;
+    fs::copy_file(from, tmp, fs::copy_options::overwrite_existing, ec);
+    if (!ec) fs::rename(tmp, to, ec);
+    if (ec) {
+        fs::remove(tmp);
+        diag.warning(FileLoc::inFile(to), "--map-cache: cannot add \"{}\" to the cache: {}", from, ec.message());
+    }
+}
+
 MapContent Renderer::Impl::mapContentOf(const FrameState& frame, const scene::LightRecord& light,
                                         const LightMapJob& job) {
     const scene::Options& options = frame.world->options;
@@ -1034,6 +1136,18 @@ float Renderer::Impl::dualOffsetOf(const scene::Options& options) {
 int renderFiles(const std::vector<std::string>& files, const RenderSettings& settingsIn, const std::string& statsPath,
                 Diagnostics& diag) {
     const RenderSettings& settings = settingsIn;
+    if (!settings.mapCache.empty()) {
+        // The cache is made if missing; one that cannot be written is an
+        // error before any frame (a farm task would otherwise render every
+        // map it was meant to share).
+        std::error_code ec;
+        std::filesystem::create_directories(settings.mapCache, ec);
+        if (ec || ::access(settings.mapCache.c_str(), W_OK | X_OK) != 0) {
+            diag.error(FileLoc::inFile(settings.mapCache), "--map-cache: cannot use \"{}\" as the map cache: {}",
+                       settings.mapCache, ec ? ec.message() : std::string(std::strerror(errno)));
+            return 1;
+        }
+    }
     Renderer renderer(settings, diag);
     bool ok = true;
     // --stats FILE.jsonl: one line per frame, appended as the frame ends by

@@ -862,7 +862,8 @@ void Builder::option(const std::string& name, ri::ParamList params, const FileLo
         } else if (name == "shutter" && (pn == "opening" || pn == "shutteropening")) {
             setShutterOpening("Option: shutter", p);
         } else if (name == "statistics" && pn == "endofframe") {
-            m_options.statisticsEndOfFrame = params.getInt(pn, 0) != 0;
+            // PRMan's levels: 1-3 print more and more; above 3 is 3.
+            m_options.statisticsEndOfFrame = std::clamp(params.getInt(pn, 0), 0, 3);
         } else if (name == "umbra" && !umbraValueValid("Option", p, m_diag)) {
             continue;
         } else {

@@ -29,6 +29,11 @@ struct RenderSettings {
     /// Automatic maps of an earlier frame stand in for a frame's own when
     /// their content would be the same (`--no-map-reuse` turns it off).
     bool reuseMaps = true;
+    /// `--map-cache DIR`: automatic maps shared between processes (a
+    /// farm's tasks) by their content digest: a map whose digest names a
+    /// file in DIR is read from there instead of rendered; a rendered one
+    /// is copied there (temporary name, then rename). Empty: none.
+    std::string mapCache;
     /// `--resume`: frames whose every Display file is a complete image
     /// (film::imageFileComplete) are not rendered again.
     bool resume = false;

@@ -228,7 +228,10 @@ struct Options {
     /// Bytes a gzip RIB may decompress to (Option "limits" "decompressedmb").
     uint64_t decompressedBytes = ri::kDefaultDecompressedBytes;
     std::map<std::string, std::string> searchPaths;  // "shader", "texture", "archive", "resource"
-    bool statisticsEndOfFrame = false;
+    /// Option "statistics" "endofframe": 0 nothing, 1 a summary of each
+    /// frame on stderr, 2 also every pass, map and the shadow lookups'
+    /// counters, 3 also the frame's whole --stats record (docs/statistics.md).
+    int statisticsEndOfFrame = 0;
     /// Shutter open close; Option "shutter" "offset" is added to both
     /// (PRMan's: motion times stay those of the scene, the shutter moves).
     float shutter[2] = {0, 0};

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -277,4 +278,49 @@ TEST(Frames, MessagesNameWorldsOutsideFramesWithoutMinusOne) {
     EXPECT_EQ(run.messages.find("frame -1"), std::string::npos) << run.messages;
     EXPECT_NE(run.messages.find("the world at still.rib"), std::string::npos) << run.messages;
     EXPECT_NE(run.messages.find("is complete, skipped"), std::string::npos) << run.messages;
+}
+
+TEST(Frames, EndOfFrameStatisticsLevelsPrintMoreAndMore) {
+    // Option "statistics" "endofframe": 1 a summary, 2 also each pass, map
+    // and the lookups' counters, 3 also the whole statistics record; each
+    // checked against the --stats document of the same run.
+    ScratchDir dir("frames-endofframe");
+    for (int level : {0, 1, 2, 3, 7}) {
+        SCOPED_TRACE(fmt::format("level {}", level));
+        writeFile(dir.file("still.rib"),
+                  "Format 32 24 1\nFrameBegin 1\n" +
+                      frameBody(1, "still.tif", fmt::format("Option \"statistics\" \"endofframe\" [{}]", level)) +
+                      "FrameEnd\n");
+        UmbraRun run = runUmbra(dir, {"still.rib", "--stats", "run.json"});
+        ASSERT_EQ(run.status, 0) << run.messages;
+        const std::string& m = run.messages;
+        const nlohmann::json frame = nlohmann::json::parse(readFile(dir.file("run.json")))["frames"][0];
+        EXPECT_EQ(m.find("statistics of frame 1") != std::string::npos, level >= 1) << m;
+        // Level 2: a line per pass with its micropolygons, the map's fate,
+        // and the shadow lookups.
+        for (const auto& pass : frame["passes"]) {
+            const std::string name = pass["name"].get<std::string>();
+            const size_t at = m.find("    " + name + " ");
+            EXPECT_EQ(at != std::string::npos, level >= 2) << name << "\n" << m;
+            if (at == std::string::npos) continue;
+            const std::string line = m.substr(at, m.find('\n', at) - at);
+            EXPECT_NE(line.find(fmt::format(" {} micropolygons", pass["counts"]["micropolygons"].get<uint64_t>())),
+                      std::string::npos)
+                << line;
+        }
+        EXPECT_EQ(m.find("    1                    rendered (first frame) still.0001.1.shd") != std::string::npos,
+                  level >= 2)
+            << m;
+        EXPECT_EQ(m.find(fmt::format("  lookups     {} points", frame["shadow"]["points"].get<uint64_t>())) !=
+                      std::string::npos,
+                  level >= 2)
+            << m;
+        // Level 3: the frame's record itself.
+        const size_t record = m.find("  record      ");
+        ASSERT_EQ(record != std::string::npos, level >= 3) << m;
+        if (record != std::string::npos) {
+            const std::string text = m.substr(record + 14, m.rfind('}') - record - 13);
+            EXPECT_EQ(nlohmann::json::parse(text), frame);
+        }
+    }
 }

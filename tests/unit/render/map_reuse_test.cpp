@@ -10,12 +10,15 @@
 #include <gtest/gtest.h>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
 #include <fcntl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -388,6 +391,164 @@ TEST(MapReuse, ReasonNamesTheFirstDifference) {
     b = a;
     b.seed = 7;
     EXPECT_EQ(render::reuseReason(&a, b), "frame seed changed");
+}
+
+TEST(MapCache, SharedBetweenProcessesByContent) {
+    // A farm's tasks: three processes each render one frame of a shot whose
+    // camera moves and whose light and casters do not, sharing one cache.
+    // The first renders the map and adds it; the others read it, and every
+    // image is the one a single process rendering the whole shot makes.
+    // A fourth frame whose light moved is not served by the cache.
+    std::vector<FrameSetup> frames(4);
+    for (auto& f : frames) f.wobble = 0.05f;
+    frames[1].cameraZ = 5.5f;
+    frames[2].cameraZ = 6;
+    frames[3].lightX = 0.8f;
+    ScratchDir farm("map-cache-farm"), single("map-cache-single");
+    for (const ScratchDir* dir : {&farm, &single}) {
+        writeShaders(*dir);
+        writeFile(dir->file("seq.rib"), sequenceRib(frames));
+    }
+    std::string messages;
+    ASSERT_EQ(runUmbra(single, {"seq.rib"}, &messages), 0) << messages;
+    std::vector<nlohmann::json> tasks;
+    for (int n = 1; n <= 4; ++n) {
+        const std::string stats = fmt::format("task{}.jsonl", n);
+        ASSERT_EQ(runUmbra(farm, {"seq.rib", "--frames", std::to_string(n), "--map-cache", "maps", "--stats", stats},
+                           &messages),
+                  0)
+            << messages;
+        const auto lines = readLines(farm.file(stats));
+        ASSERT_EQ(lines.size(), 1u);
+        ASSERT_EQ(lines[0]["maps"].size(), 1u);
+        tasks.push_back(lines[0]);
+    }
+    std::vector<std::string> cached;
+    for (const auto& entry : std::filesystem::directory_iterator(farm.file("maps")))
+        cached.push_back(entry.path().filename().string());
+    std::sort(cached.begin(), cached.end());
+    // Two maps (the still light's and the moved light's), no temporary left.
+    ASSERT_EQ(cached.size(), 2u) << fmt::format("{}", fmt::join(cached, " "));
+    for (const std::string& name : cached) EXPECT_EQ(name.size(), 32u + 4u) << name;  // <128-bit hex>.shd
+
+    EXPECT_EQ(tasks[0]["maps"][0]["reused"], false);
+    EXPECT_EQ(tasks[0]["maps"][0]["reason"], "first frame");
+    EXPECT_EQ(tasks[0]["passes"].size(), 2u);
+    const std::string shared = tasks[1]["maps"][0]["path"].get<std::string>();
+    EXPECT_EQ(shared.rfind("maps/", 0), 0u) << shared;
+    for (int t : {1, 2}) {
+        SCOPED_TRACE(fmt::format("task {}", t + 1));
+        EXPECT_EQ(tasks[t]["maps"][0]["reused"], true);
+        EXPECT_EQ(tasks[t]["maps"][0]["reason"], "map cache");
+        EXPECT_EQ(tasks[t]["maps"][0]["path"], shared);
+        EXPECT_EQ(tasks[t]["passes"].size(), 1u) << "no depth pass";
+    }
+    EXPECT_EQ(tasks[3]["maps"][0]["reused"], false);
+    EXPECT_EQ(tasks[3]["maps"][0]["reason"], "first frame");
+    for (int n = 1; n <= 4; ++n) {
+        const std::string image = fmt::format("out.{:04d}.tif", n);
+        EXPECT_EQ(test::maxAbsDiff(imageOf(farm.file(image)), imageOf(single.file(image)), 4), 0.0) << image;
+    }
+
+    // Within one process the cached map is reused as its own: frames 2-3
+    // rendered together read the cache once, then reuse it from memory.
+    ASSERT_EQ(runUmbra(farm, {"seq.rib", "--frames", "2-3", "--map-cache", "maps", "--stats", "both.jsonl"}, &messages),
+              0)
+        << messages;
+    const auto both = readLines(farm.file("both.jsonl"));
+    ASSERT_EQ(both.size(), 2u);
+    EXPECT_EQ(both[0]["maps"][0]["reason"], "map cache");
+    EXPECT_EQ(both[1]["maps"][0]["reason"], "same content");
+    EXPECT_EQ(both[1]["maps"][0]["path"], shared);
+}
+
+TEST(MapCache, ConcurrentProcessesShareOneCacheSafely) {
+    // Three processes start at once on frames of one shot with an empty
+    // cache: each may render the map or read it (whichever comes first),
+    // but none fails, none reads part of a map, no temporary name is left,
+    // and every image is the single process's.
+    std::vector<FrameSetup> frames(3);
+    for (size_t i = 0; i < frames.size(); ++i) frames[i].cameraZ = 5 + 0.5f * float(i);
+    ScratchDir farm("map-cache-concurrent"), single("map-cache-concurrent-single");
+    for (const ScratchDir* dir : {&farm, &single}) writeFile(dir->file("seq.rib"), sequenceRib(frames));
+    std::string messages;
+    ASSERT_EQ(runUmbra(single, {"seq.rib"}, &messages), 0) << messages;
+    std::vector<pid_t> children;
+    for (int n = 1; n <= 3; ++n) {
+        const pid_t pid = fork();
+        if (pid == 0) {
+            if (chdir(farm.file("").c_str()) != 0) _exit(126);
+            const std::string log = fmt::format("run{}.log", n);
+            const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+            if (fd >= 0) {
+                dup2(fd, 1);
+                dup2(fd, 2);
+            }
+            setenv("UMBRA_SHADER_PATH", UMBRA_SOURCE_DIR "/shaders_dsl", 1);
+            std::vector<std::string> args{"umbra", "render", "--threads", "1", "--frames", std::to_string(n),
+                                          "--map-cache", "maps", "--stats", fmt::format("task{}.jsonl", n), "seq.rib"};
+            std::vector<char*> argv;
+            for (auto& a : args) argv.push_back(a.data());
+            argv.push_back(nullptr);
+            execv(UMBRA_APP, argv.data());
+            _exit(127);
+        }
+        children.push_back(pid);
+    }
+    for (size_t i = 0; i < children.size(); ++i) {
+        int status = 0;
+        ASSERT_EQ(waitpid(children[i], &status, 0), children[i]);
+        std::ifstream log(farm.file(fmt::format("run{}.log", i + 1)));
+        std::stringstream text;
+        text << log.rdbuf();
+        EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << text.str();
+    }
+    std::vector<std::string> cached;
+    for (const auto& entry : std::filesystem::directory_iterator(farm.file("maps")))
+        cached.push_back(entry.path().filename().string());
+    ASSERT_EQ(cached.size(), 1u) << fmt::format("{}", fmt::join(cached, " "));
+    for (int n = 1; n <= 3; ++n) {
+        const auto lines = readLines(farm.file(fmt::format("task{}.jsonl", n)));
+        ASSERT_EQ(lines.size(), 1u);
+        const std::string reason = lines[0]["maps"][0]["reason"].get<std::string>();
+        EXPECT_TRUE(reason == "first frame" || reason == "map cache") << reason;
+        const std::string image = fmt::format("out.{:04d}.tif", n);
+        EXPECT_EQ(test::maxAbsDiff(imageOf(farm.file(image)), imageOf(single.file(image)), 4), 0.0) << image;
+    }
+}
+
+TEST(MapCache, FrameSeededMapsAreNeverShared) {
+    ScratchDir dir("map-cache-seeded");
+    writeShaders(dir);
+    FrameSetup grainy;
+    grainy.wobble = 0.05f;
+    grainy.displacement = "grain";
+    writeFile(dir.file("seq.rib"), sequenceRib({grainy, grainy}));
+    std::string messages;
+    for (int n = 1; n <= 2; ++n) {
+        ASSERT_EQ(runUmbra(dir, {"seq.rib", "--frames", std::to_string(n), "--map-cache", "maps", "--stats", "run.jsonl"},
+                           &messages),
+                  0)
+            << messages;
+    }
+    const auto lines = readLines(dir.file("run.jsonl"));
+    ASSERT_EQ(lines.size(), 2u);
+    for (const auto& line : lines) {
+        EXPECT_EQ(line["maps"][0]["reused"], false);
+        EXPECT_EQ(line["maps"][0]["reason"], "first frame");
+    }
+    EXPECT_TRUE(std::filesystem::is_empty(dir.file("maps")));
+}
+
+TEST(MapCache, AnUnusableDirectoryIsAnError) {
+    ScratchDir dir("map-cache-bad");
+    writeShaders(dir);
+    writeFile(dir.file("seq.rib"), sequenceRib(std::vector<FrameSetup>(1)));
+    writeFile(dir.file("afile"), "not a directory");
+    std::string messages;
+    EXPECT_EQ(runUmbra(dir, {"seq.rib", "--map-cache", "afile/maps"}, &messages), 1);
+    EXPECT_NE(messages.find("--map-cache: cannot use \"afile/maps\""), std::string::npos) << messages;
+    EXPECT_FALSE(std::filesystem::exists(dir.file("out.0001.tif")));
 }
 
 TEST(FrameStatistics, JsonLinesHaveALinePerFrame) {

@@ -9,7 +9,13 @@
 
 #include <fmt/format.h>
 
+#include <OpenImageIO/imageio.h>
+
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <thread>
 #include <sys/stat.h>
 
 using namespace umbra;
@@ -85,4 +91,60 @@ TEST(OutputFiles, DirectoriesAndFifosAreRefusedAndLeftAlone) {
     int entries = 0;
     for (const auto& e : fs::directory_iterator(dir.file(""))) ++entries, (void)e;
     EXPECT_EQ(entries, 2);
+}
+
+namespace {
+
+std::string bytesOf(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+/// A sphere written as TIFF, OpenEXR and PNG into `dir`, in-process.
+void renderThreeFormats(const ScratchDir& dir) {
+    const std::string rib = fmt::format(R"(Format 32 24 1
+Display "{0}/a.tif" "file" "rgba"
+Display "+{0}/a.exr" "openexr" "rgba"
+Display "+{0}/a.png" "png" "rgba"
+Projection "perspective" "fov" 40
+Translate 0 0 5
+WorldBegin
+Surface "constant"
+Sphere 1 -1 1 360
+WorldEnd
+)", dir.file(""));
+    Diagnostics diag;
+    diag.setQuiet(true);
+    test::renderRib(rib, diag);
+    EXPECT_EQ(diag.errorCount(), 0);
+}
+
+}  // namespace
+
+TEST(OutputFiles, SourceDateEpochMakesFilesReproducible) {
+    // The reproducible-builds convention: with SOURCE_DATE_EPOCH set, the
+    // date images carry is that time (UTC) and no render time is written,
+    // so two renders a second apart write the same bytes.
+    ScratchDir first("output-sde-1"), second("output-sde-2");
+    ::setenv("SOURCE_DATE_EPOCH", "1700000000", 1);  // 2023-11-14 22:13:20 UTC
+    renderThreeFormats(first);
+    std::this_thread::sleep_for(std::chrono::milliseconds(1100));  // another second on the clock
+    renderThreeFormats(second);
+    ::unsetenv("SOURCE_DATE_EPOCH");
+    for (const char* name : {"a.tif", "a.exr", "a.png"}) {
+        SCOPED_TRACE(name);
+        const std::string a = bytesOf(first.file(name)), b = bytesOf(second.file(name));
+        ASSERT_FALSE(a.empty());
+        EXPECT_TRUE(a == b) << "the two renders' files differ";
+        auto in = OIIO::ImageInput::open(first.file(name));
+        ASSERT_TRUE(in);
+        EXPECT_EQ(in->spec().get_string_attribute("DateTime"), "2023:11:14 22:13:20");
+        EXPECT_EQ(in->spec().find_attribute("umbra:rendertime"), nullptr);
+    }
+    // Unset, the files carry the render's own time again.
+    ScratchDir third("output-sde-3");
+    renderThreeFormats(third);
+    auto in = OIIO::ImageInput::open(third.file("a.exr"));
+    ASSERT_TRUE(in);
+    EXPECT_NE(in->spec().find_attribute("umbra:rendertime"), nullptr);
 }

@@ -245,7 +245,7 @@ TEST(Builder, OptionsAttributesAndBasis) {
     EXPECT_EQ(o.bucketSize[0], 32);
     EXPECT_EQ(o.bucketSize[1], 8);
     EXPECT_EQ(o.gridSize, 64);
-    EXPECT_TRUE(o.statisticsEndOfFrame);
+    EXPECT_EQ(o.statisticsEndOfFrame, 1);
     EXPECT_EQ(o.user.at("user:quality").floats, (std::vector<float>{3}));
     const Attributes& a = *w.primitives.at(0).attributes;
     EXPECT_EQ(a.uBasis.m[2][1], Basis::bspline().m[2][1]);
