@@ -130,9 +130,13 @@ TrimRegion::Cover TrimRegion::classify(float u0, float u1, float v0, float v1) c
 
 std::shared_ptr<const TrimRegion> trimRegionOf(const scene::Attributes& attrs) {
     if (!attrs.trimCurves) return nullptr;
-    bool removeInside = true;
+    // The "sense" names the side kept: "inside" (the default) keeps what
+    // lies inside an odd number of loops, as Aqsis and PRMan do; exporters
+    // (Maya, Houdini) write a loop round the whole kept region and one
+    // round each hole. "outside" keeps the rest.
+    bool removeInside = false;
     auto it = attrs.user.find("trimcurve:sense");
-    if (it != attrs.user.end() && !it->second.strings.empty()) removeInside = it->second.strings[0] != "outside";
+    if (it != attrs.user.end() && !it->second.strings.empty()) removeInside = it->second.strings[0] == "outside";
     return TrimRegion::make(*attrs.trimCurves, removeInside);
 }
 

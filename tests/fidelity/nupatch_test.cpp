@@ -58,6 +58,21 @@ std::string circleTrim(double cu, double cv, double r) {
     return fmt::format("TrimCurve [1] [3] {} [0] [1] [9] [{}] [{}] [{}]", kCircleKnots, u, v, w);
 }
 
+/// TrimCurve as exporters write a hole: a loop round the whole (u, v)
+/// square (linear, the kept region's outline) and the circle of radius r
+/// about (cu, cv) inside it.
+std::string boundaryAndHoleTrim(double cu, double cv, double r) {
+    std::string u = "0 1 1 0 0 ", v = "0 0 1 1 0 ", w = "1 1 1 1 1 ";
+    for (const CirclePoint& c : circle()) {
+        u += fmt::format("{} ", (cu + r * c.x) * c.w);
+        v += fmt::format("{} ", (cv + r * c.y) * c.w);
+        w += fmt::format("{} ", c.w);
+    }
+    const std::string circleKnots = kCircleKnots;
+    return fmt::format("TrimCurve [1 1] [2 3] [0 0 1 2 3 4 4 {}] [0 0] [4 1] [5 9] [{}] [{}] [{}]",
+                       circleKnots.substr(1, circleKnots.size() - 2), u, v, w);
+}
+
 /// A flat square NuPatch of side 2a at depth z, (u, v) = [0,1]^2.
 std::string flatSquare(double a, double z) {
     return fmt::format(
@@ -145,14 +160,21 @@ TEST(TrimCurve, CircleRemovesExactlyItsArea) {
     const double a = 0.8, r = 0.3;  // r in (u, v), which spans 2a units
     const double square = 4 * a * a * pixelsPerUnit() * pixelsPerUnit();
     const double hole = double(kPi) * r * r * square;
-    const std::string trim = circleTrim(0.5, 0.5, r);
-    const double kept = renderSquare(dir, trim + " " + flatSquare(a, 5)).channelSum(3);
+    // As exporters write a hole: the outline of the kept region and the
+    // hole's loop. What lies inside an odd number of loops is kept (the
+    // default "sense" "inside", as Aqsis and PRMan); before, umbra removed
+    // it, and such a surface drew only its holes.
+    const double kept = renderSquare(dir, boundaryAndHoleTrim(0.5, 0.5, r) + " " + flatSquare(a, 5)).channelSum(3);
     EXPECT_NEAR(kept / (square - hole), 1.0, 0.005) << kept << " vs " << square - hole;
-    // "sense" "outside" keeps only the disk.
-    const double disk =
+    // One loop alone keeps only its disk (Aqsis draws the same)...
+    const std::string trim = circleTrim(0.5, 0.5, r);
+    const double disk = renderSquare(dir, trim + " " + flatSquare(a, 5)).channelSum(3);
+    EXPECT_NEAR(disk / hole, 1.0, 0.005) << disk << " vs " << hole;
+    // ...and "sense" "outside" keeps the rest.
+    const double outside =
         renderSquare(dir, "Attribute \"trimcurve\" \"sense\" \"outside\" " + trim + " " + flatSquare(a, 5))
             .channelSum(3);
-    EXPECT_NEAR(disk / hole, 1.0, 0.005) << disk << " vs " << hole;
+    EXPECT_NEAR(outside / (square - hole), 1.0, 0.005) << outside << " vs " << square - hole;
     // Off-centre, crossing the knot lines of a finer patch (4 x 4 spans) and
     // seen at a slant (rotated about y): the area scales by cos(angle).
     const std::string fine = "NuPatch 5 2 [0 0 0.25 0.5 0.75 1 1] 0 1 5 2 [0 0 0.25 0.5 0.75 1 1] 0 1 \"P\" [";
@@ -161,7 +183,7 @@ TEST(TrimCurve, CircleRemovesExactlyItsArea) {
         for (int i = 0; i < 5; ++i) pts += fmt::format("{} {} 0 ", -a + 2 * a * i / 4.0, -a + 2 * a * j / 4.0);
     const double cosAngle = std::cos(30 * double(kPi) / 180);
     const double slanted =
-        renderSquare(dir, "Translate 0 0 5 Rotate 30 0 1 0 " + circleTrim(0.4, 0.55, 0.25) + " " + fine + pts + "]")
+        renderSquare(dir, "Translate 0 0 5 Rotate 30 0 1 0 " + boundaryAndHoleTrim(0.4, 0.55, 0.25) + " " + fine + pts + "]")
             .channelSum(3);
     const double expected = (square - double(kPi) * 0.25 * 0.25 * square) * cosAngle;
     EXPECT_NEAR(slanted / expected, 1.0, 0.005) << slanted << " vs " << expected;
@@ -187,7 +209,7 @@ AttributeEnd
 Surface "matte" "Ka" [0]
 Polygon "P" [-1 -1 8  1 -1 8  1 1 8  -1 1 8]
 )",
-                                          circleTrim(0.5, 0.5, r), flatSquare(a, 4));
+                                          boundaryAndHoleTrim(0.5, 0.5, r), flatSquare(a, 4));
     const Image img = renderSquare(dir, world, "Option \"umbra\" \"shadowmapsize\" [400]");
     double lit = 0;
     int centreLit = 0, ringDark = 0;

@@ -28,7 +28,8 @@ constexpr int kTrimSegmentsPerSpan = 64;
 /// that uses them.
 class TrimRegion {
 public:
-    /// Tessellates `rec`; `removeInside` is the "sense" (true: "inside").
+    /// Tessellates `rec`; `removeInside` is the "sense" (true: "outside",
+    /// keeping what is outside the loops; false: "inside", the default).
     static std::shared_ptr<const TrimRegion> make(const scene::TrimCurveRecord& rec, bool removeInside);
 
     /// Whether the surface at parameter (u, v) is kept.

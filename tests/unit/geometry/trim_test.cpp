@@ -92,7 +92,8 @@ TEST(TrimRegion, NestedLoopsAndSense) {
 
 TEST(TrimRegion, NuPatchPiecesKnowWhetherTheTrimReachesThem) {
     // A flat NuPatch of 4 x 4 spans over [0,1]^2 with a hole of radius 0.3
-    // about the centre: the spans touching the middle four knots' square
+    // about the centre ("sense" "outside": one loop alone would keep only
+    // its disk): the spans touching the middle four knots' square
     // (0.25..0.75) are crossed, the corner spans are untouched.
     std::vector<float> P, knots = {0, 0, 0.25f, 0.5f, 0.75f, 1, 1};
     for (int j = 0; j < 5; ++j)
@@ -105,6 +106,9 @@ TEST(TrimRegion, NuPatchPiecesKnowWhetherTheTrimReachesThem) {
     rec->intArgs = {5, 2, 5, 2};
     auto attrs = std::make_shared<scene::Attributes>();
     attrs->trimCurves = std::make_shared<scene::TrimCurveRecord>(circleRecord(0.5f, 0.5f, 0.3f));
+    ri::Param sense;
+    sense.strings = {"outside"};
+    attrs->user["trimcurve:sense"] = sense;
     rec->attributes = attrs;
     Diagnostics diag;
     auto prims = makePrimitives(rec, diag);
