@@ -350,33 +350,36 @@ void Renderer::Impl::runImager(const FrameState& frame, const Pass& pass, const 
     state.frame = &frame;
     state.pass = &pass;
     const int width = film.width();
-    tbb::parallel_for(film.y0(), film.y1(), [&](int y) {
-        shading::ShadingGrid g;
-        g.resize(width, 1);
-        g.alpha.resize(size_t(width));
-        g.renderState = &state;
-        g.seed = uint32_t(y);
-        for (int i = 0; i < width; ++i) {
-            const float* px = film.rgba(film.x0() + i, y);
-            const Vec3 p(float(film.x0() + i) + 0.5f, float(y) + 0.5f, 0.0f);
-            g.P[size_t(i)] = g.I[size_t(i)] = p;
-            g.s[size_t(i)] = g.u[size_t(i)] = p.x;
-            g.t[size_t(i)] = g.v[size_t(i)] = p.y;
-            g.N[size_t(i)] = g.Ng[size_t(i)] = Vec3(0, 0, -1);
-            g.Ci[size_t(i)] = Vec3(px[0], px[1], px[2]);  // premultiplied, as filtered
-            g.Oi[size_t(i)] = Vec3(px[3], px[3], px[3]);
-            g.alpha[size_t(i)] = px[3];
-        }
-        shading->shadeImager(g, *imager, *services);
-        for (int i = 0; i < width; ++i) {
-            float* px = film.rgba(film.x0() + i, y);
-            const Vec3& c = g.Ci[size_t(i)];
-            px[0] = c.x;
-            px[1] = c.y;
-            px[2] = c.z;
-            px[3] = g.alpha[size_t(i)];
-        }
-    });
+    // Every filter layer (displays with filters of their own) is imaged alike.
+    for (int layer = 0; layer < film.filterLayers(); ++layer) {
+        tbb::parallel_for(film.y0(), film.y1(), [&](int y) {
+            shading::ShadingGrid g;
+            g.resize(width, 1);
+            g.alpha.resize(size_t(width));
+            g.renderState = &state;
+            g.seed = uint32_t(y);
+            for (int i = 0; i < width; ++i) {
+                const float* px = film.rgba(layer, film.x0() + i, y);
+                const Vec3 p(float(film.x0() + i) + 0.5f, float(y) + 0.5f, 0.0f);
+                g.P[size_t(i)] = g.I[size_t(i)] = p;
+                g.s[size_t(i)] = g.u[size_t(i)] = p.x;
+                g.t[size_t(i)] = g.v[size_t(i)] = p.y;
+                g.N[size_t(i)] = g.Ng[size_t(i)] = Vec3(0, 0, -1);
+                g.Ci[size_t(i)] = Vec3(px[0], px[1], px[2]);  // premultiplied, as filtered
+                g.Oi[size_t(i)] = Vec3(px[3], px[3], px[3]);
+                g.alpha[size_t(i)] = px[3];
+            }
+            shading->shadeImager(g, *imager, *services);
+            for (int i = 0; i < width; ++i) {
+                float* px = film.rgba(layer, film.x0() + i, y);
+                const Vec3& c = g.Ci[size_t(i)];
+                px[0] = c.x;
+                px[1] = c.y;
+                px[2] = c.z;
+                px[3] = g.alpha[size_t(i)];
+            }
+        });
+    }
 }
 
 PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const std::vector<geometry::PrimitivePtr>& prims,
@@ -386,7 +389,7 @@ PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const st
     ss.bucketSize[0] = settings.bucketSize > 0 ? settings.bucketSize : options.bucketSize[0];
     ss.bucketSize[1] = settings.bucketSize > 0 ? settings.bucketSize : options.bucketSize[1];
     ss.threads = settings.threads;
-    ss.filterMargin = film.filter().margin();
+    ss.filterMargin = film.filterMargin();
     ss.sampling.frameSeed = frame.frameSeed;
     ss.sampling.aovCount = film.aovFloats();
     ss.sampling.nearClip = pass.camera.nearClip;
@@ -689,7 +692,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     }
     film::Film film = film::Film::fromOptions(
         options, aovs, depthFrame ? depthFilmOf(options, depthFilterOf(options, options.loc)) : film::FilmContent::Colour,
-        diag);
+        diag, displays);
     PassResult camera;
     arena->execute([&] { camera = runPass(frame, pass, prims, film, world.frameNumber >= 0 ? frameName(world) : std::string("image")); });
     if (options.imager && !depthFrame) arena->execute([&] { runImager(frame, pass, *options.imager, film); });
