@@ -93,14 +93,21 @@ nlohmann::json schedulerJson(const hider::SchedulerStats& s) {
 }
 
 /// The frame's displays with modes that name a DisplayChannel replaced by
-/// the channel's declaration ("myaov" -> "color myaov"), as PRMan reads them.
+/// the channel's declaration ("myaov" -> "color myaov"), as PRMan reads them;
+/// the channel's pixel filter ("filter", "filterwidth") applies to a
+/// display of it that names none.
 std::vector<scene::DisplayRecord> withDisplayChannels(const scene::Options& options) {
     std::vector<scene::DisplayRecord> displays = options.displays;
     for (auto& d : displays)
         for (const auto& channel : options.displayChannels) {
             const std::string& decl = channel.name;  // e.g. "varying color myaov"
             size_t space = decl.find_last_of(' ');
-            if (space != std::string::npos && decl.substr(space + 1) == d.mode) d.mode = decl;
+            const bool named = decl == d.mode || (space != std::string::npos && decl.substr(space + 1) == d.mode);
+            if (!named) continue;
+            d.mode = decl;
+            if (!d.params.find("filter") && !d.params.find("filterwidth"))
+                for (const char* name : {"filter", "filterwidth"})
+                    if (const ri::Param* p = channel.params.find(name)) d.params.add(*p);
         }
     return displays;
 }

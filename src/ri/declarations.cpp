@@ -93,6 +93,7 @@ constexpr const char* kByClass[] = {
     // Display: PRMan's and Pixie's per-display pixel filter widths (two,
     // or one for both); "filter" is the standard "uniform string filter".
     "Display * uniform float[2] filterwidth", "Display * uniform float filterwidth",
+    "DisplayChannel * uniform float[2] filterwidth", "DisplayChannel * uniform float filterwidth",
     // Hider parameters of PRMan's hidden and raytrace hiders.
     "Hider * uniform integer mpcache", "Hider * uniform integer mpmemory", "Hider * uniform string mpcachedir",
     "Hider * uniform integer samplemotion", "Hider * uniform integer subpixel",

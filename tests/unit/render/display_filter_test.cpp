@@ -153,6 +153,21 @@ TEST(DisplayFilter, AnAovDisplayTakesItsOwnFilterToo) {
             for (int c = 0; c < 3; ++c) apart = std::max(apart, std::fabs(double(got.at(x, y, c)) - box.at(x, y, c)));
     EXPECT_GT(apart, 0.05);
     EXPECT_EQ(want.width, 48);
+
+    // PRMan's other spelling: the filter on the DisplayChannel the display
+    // names.
+    Diagnostics c;
+    c.setQuiet(true);
+    c.setRecord(true);
+    renderAt(frame("PixelFilter \"box\" 1 1",
+                   R"(DisplayChannel "color Ci" "string filter" "gaussian" "filterwidth" [2.5 2])" "\n" +
+                       exr(dir.file("rgba2.exr"), "rgba", "", true) + "\n" + exr(dir.file("ci2.exr"), "Ci")),
+             dir.file("rgba2.exr"), c);
+    EXPECT_EQ(c.errorCount(), 0);
+    EXPECT_TRUE(messages(c, Severity::Warning).empty()) << messages(c, Severity::Warning)[0];
+    Image viaChannel;
+    ASSERT_TRUE(test::readImage(dir.file("ci2.exr"), &viaChannel));
+    EXPECT_LE(maxDiff(viaChannel, wantCi), 1e-6);
 }
 
 TEST(DisplayFilter, DepthStaysUnfilteredBesideAWideColourFilter) {
