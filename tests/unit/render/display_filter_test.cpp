@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <fstream>
 
 using namespace umbra;
 using umbra::test::Image;
@@ -258,4 +259,39 @@ TEST(DisplayFilter, AnUnknownFilterWarnsWithItsLocationAndFallsBackToTheFrameFil
     Image odd;
     ASSERT_TRUE(test::readImage(dir.file("odd.exr"), &odd));
     EXPECT_EQ(maxDiff(odd, main), 0.0);
+}
+
+TEST(DisplayFilter, TheImagerRunsOnEveryDisplaysPixels) {
+    // An Imager shader sees each display's own filtered pixels: with one,
+    // the gaussian display still equals the gaussian frame's image.
+    ScratchDir dir("display-filter-imager");
+    std::ofstream(dir.file("under.sl")) << "imager under(color bg = color(0, 0, 1)) {\n"
+                                           "  Ci += (1 - alpha) * bg;\n"
+                                           "  alpha = 1;\n"
+                                           "}\n";
+    const std::string imager =
+        fmt::format("Option \"searchpath\" \"shader\" [\"{}:&\"]\nImager \"under\"\n", dir.file(""));
+    Diagnostics diag;
+    diag.setQuiet(true);
+    const Image box = renderAt(imager + frame("PixelFilter \"box\" 1 1",
+                                              exr(dir.file("box.exr"), "rgba", "", true) + "\n" +
+                                                  exr(dir.file("g.exr"), "rgba", R"( "filter" "gaussian" "filterwidth" 2)")),
+                               dir.file("box.exr"), diag);
+    EXPECT_EQ(diag.errorCount(), 0);
+    Image gauss;
+    ASSERT_TRUE(test::readImage(dir.file("g.exr"), &gauss));
+    Diagnostics d;
+    d.setQuiet(true);
+    const Image want = renderAt(imager + frame("PixelFilter \"gaussian\" 2 2", exr(dir.file("ref.exr"), "rgba", "", true)),
+                                dir.file("ref.exr"), d);
+    EXPECT_EQ(d.errorCount(), 0);
+    EXPECT_LE(maxDiff(gauss, want), 1e-6);
+    // The imager ran on both: alpha 1 everywhere, the blue backdrop in the
+    // corner nothing covers.
+    for (const Image* img : {&box, static_cast<const Image*>(&gauss)}) {
+        ASSERT_EQ(img->channels, 4);
+        for (int y = 0; y < img->height; ++y)
+            for (int x = 0; x < img->width; ++x) ASSERT_NEAR(img->at(x, y, 3), 1.0f, 1e-6f) << x << "," << y;
+        EXPECT_NEAR(img->at(img->width - 1, 0, 2), 1.0f, 1e-6f);
+    }
 }
