@@ -430,7 +430,11 @@ void makePointSpheres(const std::shared_ptr<const scene::PrimitiveRecord>& rec, 
             if (name == "P" || name == "Pw" || name == "N" || name == "width" || name == "constantwidth" ||
                 !ri::isFloatType(p.decl.type))
                 continue;
-            ri::Param q = p;
+            // Only the point's values are copied: a copy of the whole
+            // array per point cost time and memory quadratic in the points.
+            ri::Param q;
+            q.decl = p.decl;
+            q.loc = p.loc;
             const ri::StorageClass st = p.decl.storage;
             if (st == ri::StorageClass::Varying || st == ri::StorageClass::Vertex ||
                 st == ri::StorageClass::FaceVarying || st == ri::StorageClass::FaceVertex) {
@@ -438,6 +442,8 @@ void makePointSpheres(const std::shared_ptr<const scene::PrimitiveRecord>& rec, 
                 if (e == 0 || p.floats.size() < (size_t(i) + 1) * e) continue;  // counts were checked already
                 q.decl.storage = ri::StorageClass::Constant;
                 q.floats.assign(p.floats.begin() + long(size_t(i) * e), p.floats.begin() + long((size_t(i) + 1) * e));
+            } else {
+                q.floats = p.floats;  // constant or uniform: one value
             }
             sphere->params.add(std::move(q));
         }
