@@ -37,6 +37,7 @@
 // levels of image_file.h (4 for integers, 6 for floats); "zip:N" picks one.
 
 #include "umbra/film/film.h"
+#include "umbra/scene/builder.h"
 #include "umbra/util/file.h"
 #include "umbra/util/parallel.h"
 
@@ -233,6 +234,85 @@ std::vector<AovChannel> aovChannelsFor(const std::vector<scene::DisplayRecord>& 
     return aovs;
 }
 
+namespace {
+
+/// True when a display writes no colour or AOV channel: depth only.
+bool depthOnlyDisplay(const scene::DisplayRecord& display) {
+    const std::string driver = lower(display.driver);
+    if (driver == "zfile" || driver == "shadow") return true;
+    DisplayMode mode;
+    if (!parseDisplayMode(display.mode, &mode, nullptr)) return false;
+    return !mode.isAov() && mode.standard.find_first_of("rgba") == std::string::npos;
+}
+
+}  // namespace
+
+bool sameFilter(const PixelFilter& a, const PixelFilter& b) {
+    return a.kind() == b.kind() && a.xWidth() == b.xWidth() && a.yWidth() == b.yWidth();
+}
+
+std::optional<PixelFilter> displayFilter(const scene::DisplayRecord& display, const PixelFilter& frameFilter,
+                                         Diagnostics* diag) {
+    const ri::Param* name = display.params.find("filter");
+    const ri::Param* width = display.params.find("filterwidth");
+    if (!name && !width) return std::nullopt;
+    const FileLoc& at = name ? name->loc : width->loc;
+    if (depthOnlyDisplay(display)) {
+        // Depth keeps each pixel's nearest sample: RenderMan's "min"
+        // ("zmin") depth filter, which is what is written anyway.
+        const std::string n = name && !name->strings.empty() ? lower(name->stringAt(0)) : std::string();
+        if (diag && n != "min" && n != "zmin")
+            diag->warningOnce("display-filter-depth:" + display.name, at,
+                              "display \"{}\": depth is not filtered (each pixel keeps its nearest sample); its "
+                              "\"filter\"/\"filterwidth\" are ignored",
+                              display.name);
+        return std::nullopt;
+    }
+    std::string kind = frameFilter.name();
+    if (name) {
+        if (name->strings.size() != 1) {
+            if (diag)
+                diag->warning(name->loc, "display \"{}\": \"filter\" expects one filter name; using the frame's "
+                              "PixelFilter \"{}\" {} {}",
+                              display.name, frameFilter.name(), frameFilter.xWidth(), frameFilter.yWidth());
+            return std::nullopt;
+        }
+        kind = name->stringAt(0);
+    }
+    float xw = frameFilter.xWidth(), yw = frameFilter.yWidth();
+    if (width) {
+        std::vector<float> w = width->floats;
+        for (int i : width->ints) w.push_back(float(i));
+        if ((w.size() != 1 && w.size() != 2) || !(w[0] > 0) || !(w.back() > 0) || !std::isfinite(w[0]) ||
+            !std::isfinite(w.back())) {
+            if (diag)
+                diag->warning(width->loc, "display \"{}\": \"filterwidth\" expects one or two positive widths; using "
+                              "the frame's PixelFilter \"{}\" {} {}",
+                              display.name, frameFilter.name(), frameFilter.xWidth(), frameFilter.yWidth());
+            return std::nullopt;
+        }
+        xw = w[0];
+        yw = w.back();
+        if (xw > scene::kMaxFilterWidth || yw > scene::kMaxFilterWidth) {
+            // As PixelFilter's: every bucket samples the widest reach around it.
+            const float cx = std::min(xw, scene::kMaxFilterWidth), cy = std::min(yw, scene::kMaxFilterWidth);
+            if (diag)
+                diag->warning(width->loc, "display \"{}\": \"filterwidth\" {} {} exceeds the maximum of {} pixels; "
+                              "clamped to {} {}",
+                              display.name, xw, yw, scene::kMaxFilterWidth, cx, cy);
+            xw = cx;
+            yw = cy;
+        }
+    }
+    std::optional<PixelFilter> f = PixelFilter::create(kind, xw, yw);
+    if (!f && diag)
+        diag->warning(at, "display \"{}\": unknown pixel filter \"{}\" (expected box, triangle, gaussian, "
+                      "catmull-rom, sinc, lanczos, mitchell, separable-catmull-rom, blackman-harris, disk or bessel); using "
+                      "the frame's PixelFilter \"{}\" {} {}",
+                      display.name, kind, frameFilter.name(), frameFilter.xWidth(), frameFilter.yWidth());
+    return f;
+}
+
 void Film::cropPixels(int xres, int yres, const float crop[4], int* x0, int* x1, int* y0, int* y1) {
     // The tolerance keeps decimal windows like 0.1 (stored as 0.100000001)
     // from losing a pixel whose centre lies exactly on the edge.
@@ -276,7 +356,7 @@ uint64_t Film::bytesFor(int xResolution, int yResolution, const float cropWindow
 }
 
 Film Film::fromOptions(const scene::Options& o, std::vector<AovChannel> aovs, FilmContent content,
-                       Diagnostics& diag) {
+                       Diagnostics& diag, const std::vector<scene::DisplayRecord>& displays) {
     std::optional<PixelFilter> f = PixelFilter::create(o.pixelFilter, o.filterWidth[0], o.filterWidth[1]);
     if (!f) {
         diag.error(o.loc, "unknown pixel filter \"{}\" with widths {} {} (expected box, triangle, gaussian, "
@@ -285,11 +365,54 @@ Film Film::fromOptions(const scene::Options& o, std::vector<AovChannel> aovs, Fi
                    o.pixelFilter, o.filterWidth[0], o.filterWidth[1]);
         f = PixelFilter(FilterKind::Gaussian, 2, 2);
     }
-    const uint64_t bytes = bytesFor(o.xResolution, o.yResolution, o.cropWindow, aovs, content);
+    // Displays with filters of their own: one layer per distinct filter
+    // other than the frame's (depth films have none: depth is not filtered).
+    std::vector<PixelFilter> layers;
+    for (const scene::DisplayRecord& d : displays) {
+        std::optional<PixelFilter> own = displayFilter(d, *f, &diag);
+        if (!own || content != FilmContent::Colour || sameFilter(*own, *f)) continue;
+        if (std::none_of(layers.begin(), layers.end(), [&](const PixelFilter& l) { return sameFilter(l, *own); }))
+            layers.push_back(*own);
+    }
+    uint64_t bytes = bytesFor(o.xResolution, o.yResolution, o.cropWindow, aovs, content);
+    if (!layers.empty()) {
+        int x0, x1, y0, y1;
+        cropPixels(o.xResolution, o.yResolution, o.cropWindow, &x0, &x1, &y0, &y1);
+        uint64_t perLayer = 4;
+        for (const AovChannel& a : aovs) perLayer += uint64_t(std::max(a.components, 0));
+        bytes += uint64_t(layers.size()) * perLayer * uint64_t(x1 - x0) * uint64_t(y1 - y0) * sizeof(float);
+    }
     const std::string what = fmt::format("the {}x{} film with {} samples per pixel", o.xResolution, o.yResolution,
                                          o.pixelSamples[0] * o.pixelSamples[1]);
-    return allocating(o.loc, bytes, what,
-                      [&] { return Film(o.xResolution, o.yResolution, o.cropWindow, *f, std::move(aovs), content); });
+    return allocating(o.loc, bytes, what, [&] {
+        Film film(o.xResolution, o.yResolution, o.cropWindow, *f, std::move(aovs), content);
+        for (const PixelFilter& l : layers) film.addFilterLayer(l);
+        return film;
+    });
+}
+
+int Film::findFilterLayer(const PixelFilter& filter) const {
+    if (sameFilter(filter, m_filter)) return 0;
+    for (size_t i = 0; i < m_layers.size(); ++i)
+        if (sameFilter(filter, m_layers[i].filter)) return int(i) + 1;
+    return -1;
+}
+
+int Film::addFilterLayer(const PixelFilter& filter) {
+    if (int found = findFilterLayer(filter); found >= 0) return found;
+    UMBRA_CHECK(m_content == FilmContent::Colour, "a depth film has no filter layers");
+    const size_t n = size_t(m_width) * size_t(m_height);
+    FilterLayer layer{filter, {}, {}};
+    layer.rgba.resize(4 * n);  // zeros (ZeroedAllocator)
+    layer.aov.resize(n * size_t(m_aovFloats));
+    m_layers.push_back(std::move(layer));
+    return int(m_layers.size());
+}
+
+int Film::filterMargin() const {
+    int m = m_filter.margin();
+    for (const FilterLayer& l : m_layers) m = std::max(m, l.filter.margin());
+    return m;
 }
 
 int Film::findAov(const std::string& name) const {
@@ -390,9 +513,19 @@ bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Option
         zQ.dither = v;
     }
 
-    if (const ri::Param* f = display.params.find("filter"))
-        diag.warningOnce("display-filter", f->loc, "display \"{}\": a display's own \"filter\" is not supported; "
-                         "every display uses the frame's PixelFilter", display.name);
+    // The display's own pixel filter: its layer (reported, when unknown,
+    // where the film was made).
+    int layer = 0;
+    if (std::optional<PixelFilter> own = displayFilter(display, m_filter, nullptr)) {
+        layer = findFilterLayer(*own);
+        if (layer < 0) {
+            diag.warningOnce("display-filter-layer:" + display.name, display.loc,
+                             "display \"{}\": this film was not resolved with the display's own \"{}\" {} {} "
+                             "filter; using the frame's PixelFilter",
+                             display.name, own->name(), own->xWidth(), own->yWidth());
+            layer = 0;
+        }
+    }
     std::vector<ChannelSource> channels;
     if (mode.isAov()) {
         int idx = findAov(mode.aovName);
@@ -563,7 +696,8 @@ bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Option
     for (int y = rows.begin(); y < rows.end(); ++y) {
         for (int x = m_x0; x < x1(); ++x) {
             size_t base = index(x, y) * size_t(nch);
-            const float* p = rgba(x, y);
+            const float* p = rgba(layer, x, y);
+            const float* a = m_aovFloats > 0 ? aov(layer, x, y) : nullptr;
             uint32_t bits = 0;
             for (int c = 0; c < nch; ++c) {
                 const ChannelSource& src = channels[size_t(c)];
@@ -575,7 +709,7 @@ bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Option
                 case ChannelSource::B: v = p[2]; break;
                 case ChannelSource::A: v = p[3]; break;
                 case ChannelSource::Z: v = z(x, y); break;
-                case ChannelSource::Aov: v = aov(x, y)[src.aovFloat]; break;
+                case ChannelSource::Aov: v = a[src.aovFloat]; break;
                 }
                 if (src.exposure && !exposeIdentity) {
                     v *= gain;

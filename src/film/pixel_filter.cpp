@@ -43,9 +43,9 @@ std::optional<PixelFilter> PixelFilter::create(std::string_view name, float xwid
         kind = FilterKind::Triangle;
     else if (name == "gaussian" || name == "RiGaussianFilter")
         kind = FilterKind::Gaussian;
-    else if (name == "catmull-rom" || name == "RiCatmullRomFilter")
+    else if (name == "catmull-rom" || name == "catmullrom" || name == "RiCatmullRomFilter")
         kind = FilterKind::CatmullRom;
-    else if (name == "sinc" || name == "RiSincFilter")
+    else if (name == "sinc" || name == "lanczos" || name == "RiSincFilter")  // PRMan's lanczos: the windowed sinc
         kind = FilterKind::Sinc;
     else if (name == "mitchell" || name == "RiMitchellFilter")
         kind = FilterKind::Mitchell;

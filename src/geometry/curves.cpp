@@ -1,4 +1,6 @@
 #include "umbra/geometry/curves.h"
+#include "umbra/geometry/quadric.h"
+#include "umbra/util/motion.h"
 
 #include <algorithm>
 #include <cmath>
@@ -373,6 +375,91 @@ void makeCurves(const std::shared_ptr<const scene::PrimitiveRecord>& rec, Diagno
             out.push_back(std::make_unique<CurveSegment>(rec, set, int(c), s));
 }
 
+namespace {
+
+/// PRMan's `Points ... "uniform string type" "sphere"`: each point is a
+/// Sphere of radius width/2 centred on it, a record of its own (the Points'
+/// transform times a translation to the point, as `Translate` then
+/// `Sphere r -r r 360` would give) whose primitive variables are the
+/// point's values as constants. Deformation blur moves each sphere with
+/// its point (a moving translation over the shapes' times).
+void makePointSpheres(const std::shared_ptr<const scene::PrimitiveRecord>& rec, const PointSet& set, long n,
+                      Diagnostics& diag, std::vector<PrimitivePtr>& out) {
+    const ri::Param* P = rec->params.find("P");
+    std::vector<const ri::Param*> shapeP;
+    for (const scene::PrimitiveRecord& shape : rec->shapes) {
+        const ri::Param* sp = shape.params.find("P");
+        if (!sp || sp->floats.size() != P->floats.size()) {
+            diag.warningOnce("points-sphere:motion", rec->loc, "Points: a moving shape without the same \"P\" "
+                             "count; the spheres are drawn at the first shape");
+            shapeP.clear();
+            break;
+        }
+        shapeP.push_back(sp);
+    }
+    ClassCounts counts;  // a quadric's: one uniform, four corners
+    counts.uniform = 1;
+    counts.uniformWhat = "one for the surface";
+    counts.vertex = counts.varying = counts.faceVarying = 4;
+    counts.vertexWhat = counts.faceVaryingWhat = "one per corner";
+    for (long i = 0; i < n; ++i) {
+        const float r = 0.5f * set.width(int(i));
+        if (!(r > 0)) continue;  // a point without width draws nothing
+        auto sphere = std::make_shared<scene::PrimitiveRecord>();
+        sphere->type = "Sphere";
+        sphere->floatArgs = {r, -r, r, 360.0f};
+        const Vec3 at(P->floats[size_t(i) * 3], P->floats[size_t(i) * 3 + 1], P->floats[size_t(i) * 3 + 2]);
+        sphere->worldFromObject = rec->worldFromObject * Mat4::translate(at);
+        if (rec->worldFromObjectMotion || !shapeP.empty()) {
+            auto motion = std::make_shared<MotionTransform>(rec->worldFromObjectMotion ? *rec->worldFromObjectMotion
+                                                                                      : MotionTransform(rec->worldFromObject));
+            if (shapeP.empty()) {
+                motion->postMultiply(Mat4::translate(at));
+            } else {
+                std::vector<Mat4> keys{Mat4::translate(at)};
+                for (const ri::Param* sp : shapeP)
+                    keys.push_back(Mat4::translate(
+                        Vec3(sp->floats[size_t(i) * 3], sp->floats[size_t(i) * 3 + 1], sp->floats[size_t(i) * 3 + 2])));
+                motion->postMultiplyMoving(rec->shapeTimes, keys);
+            }
+            sphere->worldFromObjectMotion = std::move(motion);
+        }
+        // The point's primitive variables, as the sphere's constants.
+        for (const ri::Param& p : rec->params.params()) {
+            const std::string& name = p.decl.name;
+            if (name == "P" || name == "Pw" || name == "N" || name == "width" || name == "constantwidth" ||
+                !ri::isFloatType(p.decl.type))
+                continue;
+            // Only the point's values are copied: a copy of the whole
+            // array per point cost time and memory quadratic in the points.
+            ri::Param q;
+            q.decl = p.decl;
+            q.loc = p.loc;
+            const ri::StorageClass st = p.decl.storage;
+            if (st == ri::StorageClass::Varying || st == ri::StorageClass::Vertex ||
+                st == ri::StorageClass::FaceVarying || st == ri::StorageClass::FaceVertex) {
+                const size_t e = size_t(p.decl.elementSize());
+                if (e == 0 || p.floats.size() < (size_t(i) + 1) * e) continue;  // counts were checked already
+                q.decl.storage = ri::StorageClass::Constant;
+                q.floats.assign(p.floats.begin() + long(size_t(i) * e), p.floats.begin() + long((size_t(i) + 1) * e));
+            } else {
+                q.floats = p.floats;  // constant or uniform: one value
+            }
+            sphere->params.add(std::move(q));
+        }
+        sphere->attributes = rec->attributes;
+        sphere->loc = rec->loc;
+        sphere->solid = rec->solid;
+        QuadricShape shape;
+        if (!Quadric::shapeFromRecord(*sphere, &shape, diag)) continue;
+        auto sd = readSurfaceData(*sphere, counts, false, diag);
+        if (!sd) continue;
+        out.push_back(std::make_unique<Quadric>(sphere, shape, std::move(sd)));
+    }
+}
+
+}  // namespace
+
 void makePoints(const std::shared_ptr<const scene::PrimitiveRecord>& rec, Diagnostics& diag,
                 std::vector<PrimitivePtr>& out) {
     long n = -1;
@@ -400,6 +487,21 @@ void makePoints(const std::shared_ptr<const scene::PrimitiveRecord>& rec, Diagno
     int cw = -1;
     if (const PrimVar* w = findVar(*set->data, "constantwidth", &cw); w && set->widthVar < 0)
         set->constantWidth = w->at(0)[0];
+    // PRMan's point types: "particle" (the default) and "disk" without N
+    // are these discs facing the eye; "sphere" true spheres.
+    std::string type = "particle";
+    if (const ri::Param* t = rec->params.find("type"); t && t->decl.type == ri::ParamType::String && !t->strings.empty())
+        type = t->stringAt(0);
+    if (type == "sphere" && rec->params.find("P")) {
+        makePointSpheres(rec, *set, n, diag, out);
+        return;
+    }
+    if (type == "disk" && rec->params.find("N"))
+        diag.warningOnce("points-type:disk-N", rec->loc, "Points: discs oriented by \"N\" (type \"disk\") are not "
+                         "supported; drawn facing the camera");
+    else if (type != "particle" && type != "disk" && type != "sphere")
+        diag.warningOnce("points-type:" + type, rec->loc, "Points: type \"{}\" is not supported (expected "
+                         "\"particle\", \"disk\" or \"sphere\"); drawn as discs facing the camera", type);
     out.push_back(std::make_unique<PointGroup>(rec, std::move(set), 0, int(n)));
 }
 

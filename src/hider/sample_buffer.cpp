@@ -132,7 +132,7 @@ inline bool opaqueColor(const Color& o) { return o.x >= 1.0f && o.y >= 1.0f && o
 }  // namespace
 
 SampleBuffer::SampleBuffer()
-    : m_pattern(std::make_unique<SamplePattern>()), m_weights(std::make_unique<PatternFilterWeights>()) {}
+    : m_pattern(std::make_unique<SamplePattern>()), m_weights() {}
 SampleBuffer::~SampleBuffer() = default;
 SampleBuffer::SampleBuffer(SampleBuffer&&) noexcept = default;
 SampleBuffer& SampleBuffer::operator=(SampleBuffer&&) noexcept = default;
@@ -1188,12 +1188,15 @@ bool SampleBuffer::occluded(const Bound3& b) const {
 }
 
 void SampleBuffer::resolve(film::Film& film) {
-    const film::PixelFilter& filter = film.filter();
     // Depth mode takes minima over each pixel's own samples: no filter, so
     // no margin is needed.
-    UMBRA_CHECK(m_cfg.mode == HiderMode::Depth || (filter.xMargin() <= m_cfg.margin && filter.yMargin() <= m_cfg.margin),
-                "sample buffer margin {} is smaller than the {} filter's reach ({}, {})", m_cfg.margin, filter.name(),
-                filter.xMargin(), filter.yMargin());
+    for (int layer = 0; layer < film.filterLayers(); ++layer) {
+        const film::PixelFilter& filter = film.filter(layer);
+        UMBRA_CHECK(m_cfg.mode == HiderMode::Depth ||
+                        (filter.xMargin() <= m_cfg.margin && filter.yMargin() <= m_cfg.margin),
+                    "sample buffer margin {} is smaller than the {} filter's reach ({}, {})", m_cfg.margin,
+                    filter.name(), filter.xMargin(), filter.yMargin());
+    }
     const int xs = m_cfg.xSamples, ys = m_cfg.ySamples;
     const int bx0 = std::max(m_cfg.x0, film.x0()), bx1 = std::min(m_cfg.x1, film.x1());
     const int by0 = std::max(m_cfg.y0, film.y0()), by1 = std::min(m_cfg.y1, film.y1());
@@ -1258,7 +1261,11 @@ void SampleBuffer::resolve(film::Film& film) {
     // 1. Each sample's composited value: r g b a aov...
     const int aovN = m_cfg.aovCount;
     const int stride = 4 + aovN;
-    const bool colourOnly = aovN == 0 && filter.separable();  // resolveColour()
+    // resolveColour() for each layer whose filter is separable when there
+    // are no AOVs; every sample is composited when some layer needs the
+    // general path.
+    bool colourOnly = aovN == 0;
+    for (int layer = 0; layer < film.filterLayers(); ++layer) colourOnly = colourOnly && film.filter(layer).separable();
     m_res.resize(n * size_t(stride));
     m_scratchAov.resize(size_t(aovN));
     // resolveColour() reads samples without fragments straight from the hit.
@@ -1323,12 +1330,25 @@ void SampleBuffer::resolve(film::Film& film) {
         for (int k = 0; k < aovN; ++k) out[4 + k] = m_scratchAov[size_t(k)];
     }
 
-    const int bw = bx1 - bx0, bh = by1 - by0;
-    if (filter.separable()) m_weights->prepare(*m_pattern, filter);
-    if (colourOnly) {
-        resolveColour(film, bx0, by0, bx1, by1);
-        return;
+    while (m_weights.size() < size_t(film.filterLayers())) m_weights.push_back(std::make_unique<PatternFilterWeights>());
+    for (int layer = 0; layer < film.filterLayers(); ++layer) {
+        const film::PixelFilter& filter = film.filter(layer);
+        PatternFilterWeights& table = *m_weights[size_t(layer)];
+        if (filter.separable()) table.prepare(*m_pattern, filter);
+        if (aovN == 0 && filter.separable())
+            resolveColour(film, layer, table, bx0, by0, bx1, by1);
+        else
+            resolveFiltered(film, layer, table, bx0, by0, bx1, by1);
     }
+}
+
+void SampleBuffer::resolveFiltered(film::Film& film, int layer, const PatternFilterWeights& table, int bx0, int by0,
+                                   int bx1, int by1) {
+    const film::PixelFilter& filter = film.filter(layer);
+    const int xs = m_cfg.xSamples, ys = m_cfg.ySamples;
+    const int aovN = m_cfg.aovCount;
+    const int stride = 4 + aovN;
+    const int bw = bx1 - bx0, bh = by1 - by0;
 
     // 2. Filter: every sample adds its weighted value to the bucket pixels
     // its filter support reaches, in a fixed order (deterministic sums).
@@ -1338,7 +1358,7 @@ void SampleBuffer::resolve(film::Film& film) {
     const int accStride = separable ? stride : stride + 1;  // non-separable: the weight sum too
     m_acc.assign(size_t(bw) * size_t(bh) * size_t(accStride), 0.0f);
     if (separable) {
-        splatSeparable(bx0, by0, bx1, by1, accStride, [&](size_t s) {
+        splatSeparable(table, bx0, by0, bx1, by1, accStride, [&](size_t s) {
             const float* val = &m_res[s * size_t(stride)];
             return [val, stride](float* acc, float w) {
                 for (int k = 0; k < stride; ++k) acc[k] += w * val[k];
@@ -1376,22 +1396,32 @@ void SampleBuffer::resolve(film::Film& film) {
             const float* acc = &m_acc[(size_t(py - by0) * size_t(bw) + size_t(px - bx0)) * size_t(accStride)];
             float inv;
             if (separable) {
-                inv = m_weights->inverseWeightSum(positiveMod(px, kPatternPeriod), positiveMod(py, kPatternPeriod));
+                inv = table.inverseWeightSum(positiveMod(px, kPatternPeriod), positiveMod(py, kPatternPeriod));
             } else {
                 const float wsum = acc[stride];
                 inv = wsum != 0.0f ? 1.0f / wsum : 0.0f;
             }
-            float* rgba = film.rgba(px, py);
+            float* rgba = film.rgba(layer, px, py);
             for (int k = 0; k < 4; ++k) rgba[k] = acc[k] * inv;
-            float* aov = film.aov(px, py);
+            float* aov = film.aov(layer, px, py);
             for (int k = 0; k < aovN; ++k) aov[k] = acc[4 + k] * inv;
-            film.z(px, py) = minOver(m_z, px, py);
+            if (layer == 0) film.z(px, py) = nearestDepth(px, py);
         }
 }
 
+float SampleBuffer::nearestDepth(int px, int py) const {
+    const int xs = m_cfg.xSamples, ys = m_cfg.ySamples;
+    float z = kInfinity;
+    for (int j = 0; j < ys; ++j) {
+        const size_t row = size_t((py - m_ry0) * ys + j) * size_t(m_sw) + size_t((px - m_rx0) * xs);
+        for (int i = 0; i < xs; ++i) z = std::min(z, m_z[row + size_t(i)]);
+    }
+    return z;
+}
+
 template <class Splat>
-void SampleBuffer::splatSeparable(int bx0, int by0, int bx1, int by1, int accStride, Splat splat) {
-    const PatternFilterWeights& table = *m_weights;
+void SampleBuffer::splatSeparable(const PatternFilterWeights& table, int bx0, int by0, int bx1, int by1,
+                                  int accStride, Splat splat) {
     const int xs = m_cfg.xSamples, ys = m_cfg.ySamples;
     const int mx = table.xMargin(), my = table.yMargin();
     const int columns = m_pattern->columns(), rows = m_pattern->rows();
@@ -1429,16 +1459,16 @@ void SampleBuffer::splatSeparable(int bx0, int by0, int bx1, int by1, int accStr
     }
 }
 
-void SampleBuffer::resolveColour(film::Film& film, int bx0, int by0, int bx1, int by1) {
+void SampleBuffer::resolveColour(film::Film& film, int layer, const PatternFilterWeights& table, int bx0, int by0,
+                                 int bx1, int by1) {
     // The common case (no AOVs, a separable filter), written for speed: r g
     // b a travel in one vector. The sums are those of the general path.
-    const int xs = m_cfg.xSamples, ys = m_cfg.ySamples;
     const int bw = bx1 - bx0, bh = by1 - by0;
     m_acc.assign(size_t(bw) * size_t(bh) * 4, 0.0f);
-    splatSeparable(bx0, by0, bx1, by1, 4, [&](size_t s) {
+    splatSeparable(table, bx0, by0, bx1, by1, 4, [&](size_t s) {
         F4 value;
         if (m_fragHead[s] >= 0) {
-            const float* r = &m_res[s * 4];
+            const float* r = &m_res[s * 4];  // composited (aovCount is 0: stride 4)
             value = F4{r[0], r[1], r[2], r[3]};
         } else {
             value = F4{m_ci[s].x, m_ci[s].y, m_ci[s].z, m_alpha[s]};
@@ -1451,16 +1481,10 @@ void SampleBuffer::resolveColour(film::Film& film, int bx0, int by0, int bx1, in
     for (int py = by0; py < by1; ++py)
         for (int px = bx0; px < bx1; ++px) {
             const float* a = &acc[(size_t(py - by0) * size_t(bw) + size_t(px - bx0)) * 4];
-            const float inv =
-                m_weights->inverseWeightSum(positiveMod(px, kPatternPeriod), positiveMod(py, kPatternPeriod));
-            float* rgba = film.rgba(px, py);
+            const float inv = table.inverseWeightSum(positiveMod(px, kPatternPeriod), positiveMod(py, kPatternPeriod));
+            float* rgba = film.rgba(layer, px, py);
             for (int k = 0; k < 4; ++k) rgba[k] = a[k] * inv;
-            float z = kInfinity;
-            for (int j = 0; j < ys; ++j) {
-                const size_t row = size_t((py - m_ry0) * ys + j) * size_t(m_sw) + size_t((px - m_rx0) * xs);
-                for (int i = 0; i < xs; ++i) z = std::min(z, m_z[row + size_t(i)]);
-            }
-            film.z(px, py) = z;
+            if (layer == 0) film.z(px, py) = nearestDepth(px, py);
         }
 }
 

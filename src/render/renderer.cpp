@@ -149,14 +149,21 @@ nlohmann::json schedulerJson(const hider::SchedulerStats& s) {
 }
 
 /// The frame's displays with modes that name a DisplayChannel replaced by
-/// the channel's declaration ("myaov" -> "color myaov"), as PRMan reads them.
+/// the channel's declaration ("myaov" -> "color myaov"), as PRMan reads them;
+/// the channel's pixel filter ("filter", "filterwidth") applies to a
+/// display of it that names none.
 std::vector<scene::DisplayRecord> withDisplayChannels(const scene::Options& options) {
     std::vector<scene::DisplayRecord> displays = options.displays;
     for (auto& d : displays)
         for (const auto& channel : options.displayChannels) {
             const std::string& decl = channel.name;  // e.g. "varying color myaov"
             size_t space = decl.find_last_of(' ');
-            if (space != std::string::npos && decl.substr(space + 1) == d.mode) d.mode = decl;
+            const bool named = decl == d.mode || (space != std::string::npos && decl.substr(space + 1) == d.mode);
+            if (!named) continue;
+            d.mode = decl;
+            if (!d.params.find("filter") && !d.params.find("filterwidth"))
+                for (const char* name : {"filter", "filterwidth"})
+                    if (const ri::Param* p = channel.params.find(name)) d.params.add(*p);
         }
     return displays;
 }
@@ -410,33 +417,36 @@ void Renderer::Impl::runImager(const FrameState& frame, const Pass& pass, const 
     state.frame = &frame;
     state.pass = &pass;
     const int width = film.width();
-    parallelFor(film.y0(), film.y1(), [&](int y) {
-        shading::ShadingGrid g;
-        g.resize(width, 1);
-        g.alpha.resize(size_t(width));
-        g.renderState = &state;
-        g.seed = uint32_t(y);
-        for (int i = 0; i < width; ++i) {
-            const float* px = film.rgba(film.x0() + i, y);
-            const Vec3 p(float(film.x0() + i) + 0.5f, float(y) + 0.5f, 0.0f);
-            g.P[size_t(i)] = g.I[size_t(i)] = p;
-            g.s[size_t(i)] = g.u[size_t(i)] = p.x;
-            g.t[size_t(i)] = g.v[size_t(i)] = p.y;
-            g.N[size_t(i)] = g.Ng[size_t(i)] = Vec3(0, 0, -1);
-            g.Ci[size_t(i)] = Vec3(px[0], px[1], px[2]);  // premultiplied, as filtered
-            g.Oi[size_t(i)] = Vec3(px[3], px[3], px[3]);
-            g.alpha[size_t(i)] = px[3];
-        }
-        shading->shadeImager(g, *imager, *services);
-        for (int i = 0; i < width; ++i) {
-            float* px = film.rgba(film.x0() + i, y);
-            const Vec3& c = g.Ci[size_t(i)];
-            px[0] = c.x;
-            px[1] = c.y;
-            px[2] = c.z;
-            px[3] = g.alpha[size_t(i)];
-        }
-    });
+    // Every filter layer (displays with filters of their own) is imaged alike.
+    for (int layer = 0; layer < film.filterLayers(); ++layer) {
+        parallelFor(film.y0(), film.y1(), [&](int y) {
+            shading::ShadingGrid g;
+            g.resize(width, 1);
+            g.alpha.resize(size_t(width));
+            g.renderState = &state;
+            g.seed = uint32_t(y);
+            for (int i = 0; i < width; ++i) {
+                const float* px = film.rgba(layer, film.x0() + i, y);
+                const Vec3 p(float(film.x0() + i) + 0.5f, float(y) + 0.5f, 0.0f);
+                g.P[size_t(i)] = g.I[size_t(i)] = p;
+                g.s[size_t(i)] = g.u[size_t(i)] = p.x;
+                g.t[size_t(i)] = g.v[size_t(i)] = p.y;
+                g.N[size_t(i)] = g.Ng[size_t(i)] = Vec3(0, 0, -1);
+                g.Ci[size_t(i)] = Vec3(px[0], px[1], px[2]);  // premultiplied, as filtered
+                g.Oi[size_t(i)] = Vec3(px[3], px[3], px[3]);
+                g.alpha[size_t(i)] = px[3];
+            }
+            shading->shadeImager(g, *imager, *services);
+            for (int i = 0; i < width; ++i) {
+                float* px = film.rgba(layer, film.x0() + i, y);
+                const Vec3& c = g.Ci[size_t(i)];
+                px[0] = c.x;
+                px[1] = c.y;
+                px[2] = c.z;
+                px[3] = g.alpha[size_t(i)];
+            }
+        });
+    }
 }
 
 PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const std::vector<geometry::PrimitivePtr>& prims,
@@ -446,7 +456,7 @@ PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const st
     ss.bucketSize[0] = settings.bucketSize > 0 ? settings.bucketSize : options.bucketSize[0];
     ss.bucketSize[1] = settings.bucketSize > 0 ? settings.bucketSize : options.bucketSize[1];
     ss.threads = settings.threads;
-    ss.filterMargin = film.filter().margin();
+    ss.filterMargin = film.filterMargin();
     ss.sampling.frameSeed = frame.frameSeed;
     ss.sampling.aovCount = film.aovFloats();
     ss.sampling.nearClip = pass.camera.nearClip;
@@ -763,7 +773,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     }
     film::Film film = film::Film::fromOptions(
         options, aovs, depthFrame ? depthFilmOf(options, depthFilterOf(options, options.loc)) : film::FilmContent::Colour,
-        diag);
+        diag, displays);
     PassResult camera;
     runInArena(*arena, [&] { camera = runPass(frame, pass, prims, film, world.frameNumber >= 0 ? frameName(world) : std::string("image")); });
     if (options.imager && !depthFrame) runInArena(*arena, [&] { runImager(frame, pass, *options.imager, film); });

@@ -63,7 +63,7 @@ SurfacePipeline::SurfacePipeline(FrameState& frame, const Pass& pass, Services& 
     : m_frame(frame), m_pass(pass), m_services(services), m_diag(diag),
       m_rasterFromCamera(pass.camera.rasterFromCamera()) {
     // Pieces entirely outside the film's pixels and the filter margin are culled.
-    float margin = float(film.filter().margin());
+    float margin = float(film.filterMargin());
     m_rasterWindow[0] = float(film.x0()) - margin;
     m_rasterWindow[1] = float(film.x1()) + margin;
     m_rasterWindow[2] = float(film.y0()) - margin;

@@ -90,6 +90,10 @@ constexpr const char* kByClass[] = {
     "Attribute photon uniform string causticmap", "Attribute photon uniform string globalmap",
     "Attribute render uniform string casts_shadows", "Attribute render uniform integer truedisplacement",
     "Attribute stochastic uniform integer sigma", "Attribute stochastic uniform integer pointfalloff",
+    // Display: PRMan's and Pixie's per-display pixel filter widths (two,
+    // or one for both); "filter" is the standard "uniform string filter".
+    "Display * uniform float[2] filterwidth", "Display * uniform float filterwidth",
+    "DisplayChannel * uniform float[2] filterwidth", "DisplayChannel * uniform float filterwidth",
     // Hider parameters of PRMan's hidden and raytrace hiders.
     "Hider * uniform integer mpcache", "Hider * uniform integer mpmemory", "Hider * uniform string mpcachedir",
     "Hider * uniform integer samplemotion", "Hider * uniform integer subpixel",

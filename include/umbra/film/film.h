@@ -63,6 +63,19 @@ struct OutputMetadata {
     std::optional<Mat4> ndcFromWorld;     // written as worldToNDC on z outputs
 };
 
+/// The pixel filter a display is resolved with: its own `"string filter"`
+/// and `"float[2] filterwidth"` (one float: both widths) when it gives
+/// them, else the frame's. A name without widths takes the frame's
+/// widths; widths without a name, the frame's filter shape. Displays of
+/// depth only ("z", and the "zfile"/"shadow" drivers) are never filtered:
+/// nullopt, as for a display without a filter of its own. An unknown name
+/// or bad widths are reported (when diag is given) as a warning at the
+/// parameter, naming the display, and give nullopt: the frame's filter.
+std::optional<PixelFilter> displayFilter(const scene::DisplayRecord& display, const PixelFilter& frameFilter,
+                                         Diagnostics* diag);
+/// True when two filters weight every sample alike (same shape and widths).
+bool sameFilter(const PixelFilter& a, const PixelFilter& b);
+
 class Film;
 /// Writes a depth-map display ("zfile", "shadow" drivers); the renderer
 /// wires it to the shadow module. Returns false after reporting an error.
@@ -84,14 +97,18 @@ class Film {
 public:
     Film(int xResolution, int yResolution, const float cropWindow[4], PixelFilter filter,
          std::vector<AovChannel> aovs = {}, FilmContent content = FilmContent::Colour);
-    /// From the frame options (resolution, crop window, pixel filter). An
-    /// unknown filter is reported at the options' location and replaced by
-    /// RenderMan's default (gaussian 2 x 2).
-    /// Bytes a film of this size and content allocates (its cropped pixels).
+    /// Bytes a film of this size and content allocates (its cropped pixels,
+    /// filter layers not counted).
     static uint64_t bytesFor(int xResolution, int yResolution, const float cropWindow[4],
                              const std::vector<AovChannel>& aovs, FilmContent content);
+    /// From the frame options (resolution, crop window, pixel filter). An
+    /// unknown filter is reported at the options' location and replaced by
+    /// RenderMan's default (gaussian 2 x 2). `displays`: the frame's
+    /// displays; the colour displays with filters of their own
+    /// (displayFilter) get a filter layer for each distinct filter other
+    /// than the frame's; an unknown one is reported here.
     static Film fromOptions(const scene::Options& options, std::vector<AovChannel> aovs, FilmContent content,
-                            Diagnostics& diag);
+                            Diagnostics& diag, const std::vector<scene::DisplayRecord>& displays = {});
 
     /// The pixels a crop window selects: those whose centres lie in the
     /// window (PRMan's rule), x in [x0, x1), y in [y0, y1), with
@@ -110,7 +127,34 @@ public:
     int width() const { return m_width; }
     int height() const { return m_height; }
     bool contains(int x, int y) const { return x >= m_x0 && y >= m_y0 && x < x1() && y < y1(); }
+    /// The frame's pixel filter: filter layer 0.
     const PixelFilter& filter() const { return m_filter; }
+
+    /// Filter layers: the same samples resolved with another pixel filter,
+    /// for the displays that ask for their own (a colour and an AOV plane
+    /// each; depth is shared, never filtered). Layer 0 is the frame's
+    /// filter, the planes rgba() and aov() reach.
+    int filterLayers() const { return 1 + int(m_layers.size()); }
+    const PixelFilter& filter(int layer) const { return layer == 0 ? m_filter : m_layers[size_t(layer - 1)].filter; }
+    /// Adds a layer for `filter` (unless one has it); returns its index.
+    int addFilterLayer(const PixelFilter& filter);
+    /// The layer whose filter is `filter`, or -1.
+    int findFilterLayer(const PixelFilter& filter) const;
+    /// The widest reach of any layer's filter (see PixelFilter::margin):
+    /// the margin buckets need around their pixels.
+    int filterMargin() const;
+    float* rgba(int layer, int x, int y) {
+        return layer == 0 ? rgba(x, y) : &m_layers[size_t(layer - 1)].rgba[4 * index(x, y)];
+    }
+    const float* rgba(int layer, int x, int y) const {
+        return layer == 0 ? rgba(x, y) : &m_layers[size_t(layer - 1)].rgba[4 * index(x, y)];
+    }
+    float* aov(int layer, int x, int y) {
+        return layer == 0 ? aov(x, y) : m_layers[size_t(layer - 1)].aov.data() + size_t(m_aovFloats) * index(x, y);
+    }
+    const float* aov(int layer, int x, int y) const {
+        return layer == 0 ? aov(x, y) : m_layers[size_t(layer - 1)].aov.data() + size_t(m_aovFloats) * index(x, y);
+    }
 
     const std::vector<AovChannel>& aovs() const { return m_aovs; }
     /// Floats per pixel over all AOVs.
@@ -182,6 +226,11 @@ private:
     };
     std::vector<float, ZeroedAllocator<float>> m_rgba, m_aov;
     std::vector<float> m_z, m_z2;
+    struct FilterLayer {
+        PixelFilter filter;
+        std::vector<float, ZeroedAllocator<float>> rgba, aov;
+    };
+    std::vector<FilterLayer> m_layers;  // layers 1..
 };
 
 /// The file `display` is written to: its name, with ".tif" appended for a

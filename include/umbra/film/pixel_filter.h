@@ -45,7 +45,8 @@ class PixelFilter {
 public:
     /// By RenderMan name: "box", "triangle", "gaussian", "catmull-rom",
     /// "sinc", "mitchell", "separable-catmull-rom", "blackman-harris",
-    /// "disk", "bessel" (also the Ri function names "RiGaussianFilter" etc.). Widths
+    /// "disk", "bessel" (also the Ri function names "RiGaussianFilter" etc.,
+    /// and PRMan's "catmullrom" and "lanczos", the windowed sinc). Widths
     /// must be positive. Unknown names give nullopt; the caller reports.
     static std::optional<PixelFilter> create(std::string_view name, float xwidth, float ywidth);
     PixelFilter(FilterKind kind, float xwidth, float ywidth);

@@ -227,6 +227,8 @@ public:
     /// margin) with the film's pixel filter: r g b a, z (nearest opaque
     /// depth, minimum over the pixel's own samples, unfiltered) and AOVs;
     /// in depth mode z (z1) and z2 (minima over the pixel's own samples).
+    /// Each further filter layer of the film (displays with filters of
+    /// their own) gets r g b a and AOVs filtered with its filter.
     void resolve(film::Film& film);
 
     /// The raster position of sample s (0 .. xs*ys-1, row-major in the
@@ -312,15 +314,25 @@ private:
     float pixelMax(int px, int py) const;
     /// The region's pixels overlapping a raster rectangle; false if none.
     bool pixelRange(float xmin, float ymin, float xmax, float ymax, int* px0, int* py0, int* px1, int* py1) const;
-    /// resolve() for frames without AOVs and a separable filter.
-    void resolveColour(film::Film& film, int bx0, int by0, int bx1, int by1);
+    /// resolve()'s filtering into the film's filter layer `layer` (general
+    /// path: AOVs, or a filter that is not separable); `table` holds a
+    /// separable filter's weights.
+    void resolveFiltered(film::Film& film, int layer, const PatternFilterWeights& table, int bx0, int by0, int bx1,
+                         int by1);
+    /// The nearest opaque depth of pixel (px, py)'s own samples.
+    float nearestDepth(int px, int py) const;
+    /// resolve() for frames without AOVs and a separable filter, into the
+    /// film's filter layer `layer` with `table` (its filter's weights).
+    void resolveColour(film::Film& film, int layer, const PatternFilterWeights& table, int bx0, int by0, int bx1,
+                       int by1);
     /// Adds each sample's weighted value to the accumulators (accStride
     /// floats a pixel in m_acc) of the bucket pixels it reaches, with the
     /// tabulated weights of a separable filter, in the fixed order of the
     /// samples' strata: splat(s) gives the sample's adder, called as
     /// add(pixel's accumulator, weight).
     template <class Splat>
-    void splatSeparable(int bx0, int by0, int bx1, int by1, int accStride, Splat splat);
+    void splatSeparable(const PatternFilterWeights& table, int bx0, int by0, int bx1, int by1, int accStride,
+                        Splat splat);
 
     SampleBufferConfig m_cfg;
     int m_rx0 = 0, m_ry0 = 0;        // sampled region's first pixel (raster)
@@ -359,7 +371,7 @@ private:
     std::vector<uint8_t> m_wind;     // depth mode, two layers: the nearest hit's triangle is reversed
 
     std::unique_ptr<SamplePattern> m_pattern;          // positions of one period
-    std::unique_ptr<PatternFilterWeights> m_weights;   // the film filter's weights over it
+    std::vector<std::unique_ptr<PatternFilterWeights>> m_weights;  // each film filter layer's weights over it
 
     std::vector<float> m_dissolve;   // per sample: dissolveValue(), made when a dissolving grid first arrives
     bool m_dissolveReady = false;

@@ -93,3 +93,53 @@ TEST(CurveSegment, BadVertexCountIsAnError) {
 }
 
 }  // namespace
+
+// PRMan's `Points ... "uniform string type" "sphere"`: one Sphere record per
+// point, its centre the point, its radius half the width, its primitive
+// variables the point's own values as constants (and only those: a copy of
+// every point's values per sphere made memory quadratic in the points).
+TEST(PointSpheres, OneSphereRecordPerPointHoldingOnlyItsOwnValues) {
+    const int n = 500;
+    std::vector<float> P, width, Cs;
+    for (int i = 0; i < n; ++i) {
+        P.insert(P.end(), {float(i), float(2 * i), -float(i)});
+        width.push_back(0.5f + 0.01f * float(i));
+        Cs.insert(Cs.end(), {float(i) / n, 0.5f, 1.0f - float(i) / n});
+    }
+    ri::Param type;
+    type.decl.name = "type";
+    type.decl.type = ri::ParamType::String;
+    type.decl.storage = ri::StorageClass::Uniform;
+    type.strings = {"sphere"};
+    auto rec = testutil::record(
+        "Points", {},
+        {testutil::pointParam(P), testutil::floatParam("width", ri::ParamType::Float, width, ri::StorageClass::Varying),
+         testutil::floatParam("Cs", ri::ParamType::Color, Cs, ri::StorageClass::Varying), type});
+    Diagnostics diag;
+    diag.setQuiet(true);
+    auto prims = makePrimitives(rec, diag);
+    EXPECT_EQ(diag.errorCount(), 0);
+    ASSERT_EQ(prims.size(), size_t(n));
+    size_t stored = 0;
+    for (int i = 0; i < n; ++i) {
+        const scene::PrimitiveRecord& s = prims[size_t(i)]->record();
+        EXPECT_EQ(s.type, "Sphere");
+        const float r = 0.5f * width[size_t(i)];
+        ASSERT_EQ(s.floatArgs.size(), 4u);
+        EXPECT_EQ(s.floatArgs[0], r);
+        EXPECT_EQ(s.floatArgs[1], -r);
+        EXPECT_EQ(s.floatArgs[2], r);
+        EXPECT_EQ(s.floatArgs[3], 360.0f);
+        const Vec3 c = s.worldFromObject.point({0, 0, 0});
+        EXPECT_EQ(c, Vec3(P[size_t(3 * i)], P[size_t(3 * i + 1)], P[size_t(3 * i + 2)])) << i;
+        const ri::Param* cs = s.params.find("Cs");
+        ASSERT_NE(cs, nullptr);
+        EXPECT_EQ(cs->decl.storage, ri::StorageClass::Constant);
+        ASSERT_EQ(cs->floats.size(), 3u);
+        EXPECT_EQ(cs->floats[0], Cs[size_t(3 * i)]);
+        EXPECT_EQ(s.params.find("P"), nullptr);
+        EXPECT_EQ(s.params.find("width"), nullptr);
+        for (const ri::Param& p : s.params.params()) stored += p.floats.capacity();
+    }
+    EXPECT_LE(stored, size_t(n) * 8);  // about 3 floats a sphere, not 3 n
+}
