@@ -10,16 +10,16 @@
 # their pid files on every exit; on failure their logs are printed.
 #
 # Usage: slurm_test.sh /path/to/umbra
-# Exit 77 (ctest's SKIP_RETURN_CODE) when not root; a cluster that cannot
-# be started is a failure, never a skip.
+# A cluster that cannot be started (not root, among other reasons) is a
+# failure that says why, never a skip or a pass (issue 19).
 set -uo pipefail
 
 umbra=${1:?usage: slurm_test.sh /path/to/umbra}
 umbra=$(readlink -f "$umbra")
 
 if [ "$(id -u)" -ne 0 ]; then
-  echo "SKIP: starting slurmctld, slurmd and munged needs root (this is uid $(id -u))"
-  exit 77
+  echo "FAIL: starting slurmctld, slurmd and munged needs root (this is uid $(id -u)); run the suite as root" >&2
+  exit 1
 fi
 
 fail() {
