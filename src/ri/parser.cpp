@@ -1251,6 +1251,10 @@ bool Parser::parseStream(ByteSource& source, bool gzip, const std::string& name,
 }
 
 bool Parser::readArchive(const std::string& name, const FileLoc& loc, const std::string& directory, int depth) {
+    // Inside a frame `--frames` leaves out: neither found nor read (a
+    // sequence's unselected frames cost no archive reading, and their
+    // missing archives are no error).
+    if (!m_target.archivesWanted()) return true;
     if (depth + 1 > kMaxArchiveDepth) {
         m_diag.error(loc, "ReadArchive: archives nested more than {} deep (does \"{}\" read itself?)",
                      kMaxArchiveDepth, name);

@@ -63,6 +63,7 @@ public:
     void make(const scene::MakeRecord& make) override;
     void frameBegin(int frameNumber, const FileLoc& loc) override;
     void frameEnd(const FileLoc& loc) override;
+    bool frameWanted(int frameNumber) const override { return selected(frameNumber); }
 
     /// Whether a world of frame `frameNumber` (-1: outside any frame) is to
     /// be rendered under the settings' `frames`.

@@ -80,6 +80,10 @@ public:
         unhandled("ReadArchive", loc);
         return true;
     }
+    /// False while the requests read go to nothing rendered (a frame left
+    /// out by `--frames`): the parser then skips ReadArchive requests
+    /// without looking for the file.
+    virtual bool archivesWanted() const { return true; }
 
     // Blocks.
     virtual void frameBegin(int frame, const FileLoc& loc) { unhandled("FrameBegin", loc); }

@@ -78,6 +78,7 @@ public:
     void declare(const ri::ParamDecl& decl, const FileLoc& loc) override;
     void errorHandler(const std::string& name, const FileLoc& loc) override;
     bool readArchive(const std::string& resolvedPath, const FileLoc& loc) override;
+    bool archivesWanted() const override { return m_sink.frameWanted(m_frame); }
 
     void frameBegin(int frame, const FileLoc& loc) override;
     void frameEnd(const FileLoc& loc) override;

@@ -289,6 +289,10 @@ public:
     /// FrameBegin/FrameEnd bracket worlds; no-ops by default.
     virtual void frameBegin(int frameNumber, const FileLoc& loc) {}
     virtual void frameEnd(const FileLoc& loc) {}
+    /// Whether the worlds of frame `frameNumber` (-1: outside any frame)
+    /// will be rendered. A builder reads no archive inside a frame that
+    /// will not (`--frames`): what it holds reaches no picture.
+    virtual bool frameWanted(int frameNumber) const { return true; }
 };
 
 }  // namespace umbra::scene

@@ -136,6 +136,44 @@ TEST(Frames, UnselectedFramesKeepOptionsScoped) {
     EXPECT_EQ(img.height, 24);
 }
 
+TEST(Frames, UnselectedFramesReadNoArchives) {
+    // Frame 1 reads an archive that does not exist, frame 2 one that does:
+    // with --frames 2, frame 1's archive is not even looked for (no error,
+    // exit 0) and frame 2 is the same picture as rendered in sequence with
+    // the missing archive written out. Selecting frame 1 reports it.
+    ScratchDir dir("frames-archives");
+    writeFile(dir.file("ball.rib"), "AttributeBegin Translate 0 0.5 0 Sphere 0.6 -0.6 0.6 360 AttributeEnd\n");
+    auto frame = [](int n, const std::string& archive) {
+        return fmt::format(R"(FrameBegin {}
+Display "b.####.tif" "file" "rgba"
+Projection "perspective" "fov" 40
+Translate 0 0 5
+WorldBegin
+  LightSource "distantlight" 1
+  Surface "matte"
+  ReadArchive "{}"
+WorldEnd
+FrameEnd
+)",
+                           n, archive);
+    };
+    writeFile(dir.file("seq.rib"), "Format 32 24 1\n" + frame(1, "missing.rib") + frame(2, "ball.rib"));
+    UmbraRun run = runUmbra(dir, {"seq.rib", "--frames", "2"});
+    ASSERT_EQ(run.status, 0) << run.messages;
+    EXPECT_EQ(run.messages.find("missing.rib"), std::string::npos) << run.messages;
+    EXPECT_FALSE(exists(dir, "b.0001.tif"));
+    const Image alone = imageOf(dir.file("b.0002.tif"));
+    fs::rename(dir.file("b.0002.tif"), dir.file("alone.tif"));
+    writeFile(dir.file("both.rib"), "Format 32 24 1\n" + frame(1, "ball.rib") + frame(2, "ball.rib"));
+    ASSERT_EQ(runUmbra(dir, {"both.rib"}).status, 0);
+    EXPECT_EQ(test::meanAbsDiff(alone, imageOf(dir.file("b.0002.tif"))), 0.0);
+    EXPECT_GT(alone.at(16, 9, 3), 0.99f);  // the ball is there
+    // Frame 1 selected: its archive is looked for, and missing.
+    UmbraRun one = runUmbra(dir, {"seq.rib", "--frames", "1"});
+    EXPECT_NE(one.status, 0);
+    EXPECT_NE(one.messages.find("cannot find archive \"missing.rib\""), std::string::npos) << one.messages;
+}
+
 TEST(Frames, BadSpecSaysWhatWasExpected) {
     ScratchDir dir("frames-bad");
     writeFile(dir.file("seq.rib"), sequence(1));
