@@ -252,14 +252,14 @@ void SampleBuffer::reset(const SampleBufferConfig& c) {
     m_lensStrataSample.clear();
     m_lensStrataBox.clear();
     if (c.motion && c.sampleStrata && perPixel > 1) {
-        tabulateStrata(&SamplePattern::timeStratumRow, m_strataSample);
+        tabulateStrata(&SamplePattern::timeStratumRow, m_strataSample, m_strataX, m_strataY);
         for (int k = 0; k < perPixel; ++k) {
             m_strataStart.push_back(m_pattern->stratumStart(k));
             m_strataEnd.push_back(m_pattern->stratumEnd(k));
         }
     }
     if (c.lens && c.sampleStrata && perPixel > 1) {
-        tabulateStrata(&SamplePattern::lensStratumRow, m_lensStrataSample);
+        tabulateStrata(&SamplePattern::lensStratumRow, m_lensStrataSample, m_lensStrataX, m_lensStrataY);
         for (int k = 0; k < perPixel; ++k)
             m_lensStrataBox.insert(m_lensStrataBox.end(), m_pattern->lensStratumBox(k), m_pattern->lensStratumBox(k) + 4);
     }
@@ -564,17 +564,24 @@ struct Corner {
 }  // namespace
 
 void SampleBuffer::tabulateStrata(const uint16_t* (SamplePattern::*row)(int) const,
-                                  std::vector<int32_t>& table) const {
+                                  std::vector<int32_t>& table, std::vector<float>& tableX,
+                                  std::vector<float>& tableY) const {
     const int xs = m_cfg.xSamples, ys = m_cfg.ySamples;
     const int columns = m_pattern->columns(), rows = m_pattern->rows();
     const size_t plane = size_t(m_rw) * size_t(m_rh);
     table.assign(size_t(xs * ys) * plane, -1);
+    tableX.assign(size_t(xs * ys) * plane + 3, std::numeric_limits<float>::quiet_NaN());
+    tableY.assign(size_t(xs * ys) * plane + 3, std::numeric_limits<float>::quiet_NaN());
     for (int sy = 0; sy < m_sh; ++sy) {
         const uint16_t* stratum = (m_pattern.get()->*row)(positiveMod(m_sy0 + sy, rows));
         const size_t pixelRow = size_t(sy / ys) * size_t(m_rw);
-        for (int sx = 0; sx < m_sw; ++sx)
-            table[size_t(stratum[positiveMod(m_sx0 + sx, columns)]) * plane + pixelRow + size_t(sx / xs)] =
-                sy * m_sw + sx;
+        for (int sx = 0; sx < m_sw; ++sx) {
+            const size_t at = size_t(stratum[positiveMod(m_sx0 + sx, columns)]) * plane + pixelRow + size_t(sx / xs);
+            const int s = sy * m_sw + sx;
+            table[at] = s;
+            tableX[at] = m_px[size_t(s)];
+            tableY[at] = m_py[size_t(s)];
+        }
     }
 }
 
@@ -776,7 +783,10 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
     // The samples of one stratum (one a pixel, from `table`) inside the
     // raster box [x0, x1] x [y0, y1], clipped to the micropolygon's bound.
     const size_t plane = size_t(m_rw) * size_t(m_rh);
-    auto visitStratum = [&](const int32_t* table, float x0, float y0, float x1, float y1) {
+    // Four pixels of a row at a time are tested against the box, by their
+    // sample's position in that stratum (NaN, never inside, for none).
+    auto visitStratum = [&](size_t offset, const std::vector<int32_t>& tableS, const std::vector<float>& tableX,
+                            const std::vector<float>& tableY, float x0, float y0, float x1, float y1) {
         x0 = std::max(x0, minx);
         x1 = std::min(x1, maxx);
         y0 = std::max(y0, miny);
@@ -784,14 +794,20 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
         if (!(x0 <= x1 && y0 <= y1)) return;
         const int px0 = std::max(0, floorToInt(x0) - m_rx0), px1 = std::min(m_rw - 1, floorToInt(x1) - m_rx0);
         const int py0 = std::max(0, floorToInt(y0) - m_ry0), py1 = std::min(m_rh - 1, floorToInt(y1) - m_ry0);
-        for (int py = py0; py <= py1; ++py)
-            for (int px = px0; px <= px1; ++px) {
-                const int32_t s = table[size_t(py) * size_t(m_rw) + size_t(px)];
-                if (s < 0) continue;
-                const float sx = m_px[size_t(s)], sy = m_py[size_t(s)];
-                if (sx < x0 || sx > x1 || sy < y0 || sy > y1) continue;
-                testSample(size_t(s));
+        for (int py = py0; py <= py1; ++py) {
+            const size_t rowAt = offset + size_t(py) * size_t(m_rw);
+            for (int px = px0; px <= px1; px += 4) {
+                const size_t at = rowAt + size_t(px);
+                const F4 sx = load4(&tableX[at]), sy = load4(&tableY[at]);
+                int inside = laneMask((sx >= x0) & (sx <= x1) & (sy >= y0) & (sy <= y1));
+                inside &= px1 - px >= 3 ? 0xf : (1 << (px1 - px + 1)) - 1;
+                while (inside) {
+                    const int k = __builtin_ctz(unsigned(inside));
+                    testSample(size_t(tableS[at + size_t(k)]));
+                    inside &= inside - 1;
+                }
             }
+        }
     };
     const bool lensStrata = lens && keys < 2 && !m_lensStrataSample.empty() && std::isfinite(blur0) &&
                             std::isfinite(blur1);
@@ -817,7 +833,7 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
             // Margins for the ulps of interpolating and scaling per sample.
             const float ex = 1e-5f * (std::max(std::abs(sharpX0), std::abs(sharpX1)) + std::abs(ox0) + std::abs(ox1)) + 1e-3f;
             const float ey = 1e-5f * (std::max(std::abs(sharpY0), std::abs(sharpY1)) + std::abs(oy0) + std::abs(oy1)) + 1e-3f;
-            visitStratum(&m_lensStrataSample[size_t(k) * plane], sharpX0 + ox0 - ex, sharpY0 + oy0 - ey,
+            visitStratum(size_t(k) * plane, m_lensStrataSample, m_lensStrataX, m_lensStrataY, sharpX0 + ox0 - ex, sharpY0 + oy0 - ey,
                          sharpX1 + ox1 + ex, sharpY1 + oy1 + ey);
         }
     } else if (m_strataSample.empty() || keys < 2) {
@@ -916,7 +932,7 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
             // margin covers the last ulps where segments meet, and the lens.
             const float ex = 1e-5f * std::max(std::abs(x0), std::abs(x1)) + 1e-3f + padX;
             const float ey = 1e-5f * std::max(std::abs(y0), std::abs(y1)) + 1e-3f + padY;
-            visitStratum(&m_strataSample[size_t(k) * plane], x0 - ex, y0 - ey, x1 + ex, y1 + ey);
+            visitStratum(size_t(k) * plane, m_strataSample, m_strataX, m_strataY, x0 - ex, y0 - ey, x1 + ex, y1 + ey);
         }
     }
     if (wrote) markDirty(sx0, sy0, sx1, sy1);
