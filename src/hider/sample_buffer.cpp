@@ -780,6 +780,98 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
             }
     };
 
+    // Samples are queued four at a time and their corners and edges found
+    // four-wide, with testSample's arithmetic lane by lane (so the same
+    // bits): most samples in a stratum's box miss the micropolygon, and
+    // only those inside a half go on to testSample. Samples are distinct,
+    // and a hit writes only its own sample, so the order of the tests, and
+    // the pictures, are those of testing each in turn.
+    const bool batched = !g.discs && keys <= 2;
+    size_t pending[4];
+    int pendingCount = 0;
+    auto select = [](I4 m, F4 a, F4 b) { return F4((I4(a) & m) | (I4(b) & ~m)); };
+    auto flush = [&]() {
+        if (!pendingCount) return;
+        for (int k = pendingCount; k < 4; ++k) pending[k] = pending[0];
+        F4 f = {0, 0, 0, 0};
+        if (keys > 1) {
+            const F4 t = m_time.empty() ? F4{0, 0, 0, 0}
+                                        : F4{m_time[pending[0]], m_time[pending[1]], m_time[pending[2]],
+                                             m_time[pending[3]]};
+            const float span = g.keyTimes[1] - g.keyTimes[0];
+            if (span > 0) {
+                const F4 u = (t - g.keyTimes[0]) / span;
+                const F4 zero = {0, 0, 0, 0}, one = {1, 1, 1, 1};
+                f = select(u < zero, zero, select(one < u, one, u));  // std::clamp
+            }
+        }
+        F4 lensX = {0, 0, 0, 0}, lensY = {0, 0, 0, 0};
+        if (lens) {
+            lensX = F4{m_lensX[pending[0]], m_lensX[pending[1]], m_lensX[pending[2]], m_lensX[pending[3]]} *
+                    m_cfg.lensScaleX;
+            lensY = F4{m_lensY[pending[0]], m_lensY[pending[1]], m_lensY[pending[2]], m_lensY[pending[3]]} *
+                    m_cfg.lensScaleY;
+        }
+        F4 qx[4], qy[4];
+        for (int c = 0; c < 4; ++c) {
+            const size_t v0 = size_t(corner[c]);
+            const Vec3& a = g.P[v0];
+            const float d0 = depthAt(v0);
+            F4 x = {a.x, a.x, a.x, a.x}, y = {a.y, a.y, a.y, a.y}, d = {d0, d0, d0, d0};
+            if (keys > 1) {
+                const size_t v1 = v0 + size_t(nverts);
+                const Vec3& b = g.P[v1];
+                x += f * (b.x - a.x);
+                y += f * (b.y - a.y);
+                d += f * (depthAt(v1) - d);
+            }
+            if (lens) {
+                const F4 blur = m_cfg.inverseFocalDistance - d;
+                x += lensX * blur;
+                y += lensY * blur;
+            }
+            qx[c] = x;
+            qy[c] = y;
+        }
+        const F4 x = {m_px[pending[0]], m_px[pending[1]], m_px[pending[2]], m_px[pending[3]]};
+        const F4 y = {m_py[pending[0]], m_py[pending[1]], m_py[pending[2]], m_py[pending[3]]};
+        I4 any = {0, 0, 0, 0};
+        static constexpr int kHalves[2][3] = {{0, 1, 3}, {0, 3, 2}};
+        for (const auto& half : kHalves) {
+            const int a = half[0], b = half[1], c = half[2];
+            const F4 area = (qx[b] - qx[a]) * (qy[c] - qy[a]) - (qy[b] - qy[a]) * (qx[c] - qx[a]);
+            const I4 valid = (area != 0.0f) & finite4(area);
+            const I4 flip = area < 0.0f;
+            const F4 bx = select(flip, qx[c], qx[b]), by = select(flip, qy[c], qy[b]);
+            const F4 cx = select(flip, qx[b], qx[c]), cy = select(flip, qy[b], qy[c]);
+            // ScalarEdge::setup, eval and inside, lane by lane.
+            auto inside = [&](F4 ux, F4 uy, F4 vx, F4 vy) {
+                const I4 canonical = (uy < vy) | ((uy == vy) & (ux < vx));
+                const F4 ox = select(canonical, ux, vx), oy = select(canonical, uy, vy);
+                const F4 dx = select(canonical, vx - ox, -(ux - ox));
+                const F4 dy = select(canonical, vy - oy, -(uy - oy));
+                const F4 e = dx * (y - oy) - dy * (x - ox);
+                return (e > 0.0f) | ((e == 0.0f) & canonical);
+            };
+            any |= valid & inside(bx, by, cx, cy) & inside(cx, cy, qx[a], qy[a]) & inside(qx[a], qy[a], bx, by);
+        }
+        const int hit = laneMask(any);
+        for (int k = 0; k < pendingCount; ++k) {
+            if (hit & (1 << k))
+                testSample(pending[k]);
+            else
+                ++m_blur.sampleTests;
+        }
+        pendingCount = 0;
+    };
+    // A sample to test: at once, or queued for the four-wide test.
+    auto candidate = [&](const size_t s) {
+        if (!batched) return testSample(s);
+        if (!(ctx.farthestUseful[s] >= nearest)) return;
+        pending[pendingCount++] = s;
+        if (pendingCount == 4) flush();
+    };
+
     // The samples of one stratum (one a pixel, from `table`) inside the
     // raster box [x0, x1] x [y0, y1], clipped to the micropolygon's bound.
     const size_t plane = size_t(m_rw) * size_t(m_rh);
@@ -803,7 +895,7 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
                 inside &= px1 - px >= 3 ? 0xf : (1 << (px1 - px + 1)) - 1;
                 while (inside) {
                     const int k = __builtin_ctz(unsigned(inside));
-                    testSample(size_t(tableS[at + size_t(k)]));
+                    candidate(size_t(tableS[at + size_t(k)]));
                     inside &= inside - 1;
                 }
             }
@@ -838,7 +930,7 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
         }
     } else if (m_strataSample.empty() || keys < 2) {
         for (int sy = sy0; sy <= sy1; ++sy)
-            for (int sx = sx0; sx <= sx1; ++sx) testSample(size_t(sy) * size_t(m_sw) + size_t(sx));
+            for (int sx = sx0; sx <= sx1; ++sx) candidate(size_t(sy) * size_t(m_sw) + size_t(sx));
     } else {
         // Each pixel has one sample in each coarse stratum of the shutter:
         // bound the micropolygon over the part of the shutter a stratum's
@@ -935,6 +1027,7 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
             visitStratum(size_t(k) * plane, m_strataSample, m_strataX, m_strataY, x0 - ex, y0 - ey, x1 + ex, y1 + ey);
         }
     }
+    flush();
     if (wrote) markDirty(sx0, sy0, sx1, sy1);
 }
 
