@@ -252,7 +252,7 @@ void SampleBuffer::reset(const SampleBufferConfig& c) {
     m_lensStrataSample.clear();
     m_lensStrataBox.clear();
     if (c.motion && c.sampleStrata && perPixel > 1) {
-        tabulateStrata(&SamplePattern::timeStratumRow, m_strataSample, m_strataX, m_strataY);
+        tabulateStrata(&SamplePattern::timeStratumRow, m_strataSample, m_strataX, m_strataY, &m_strataTime);
         for (int k = 0; k < perPixel; ++k) {
             m_strataStart.push_back(m_pattern->stratumStart(k));
             m_strataEnd.push_back(m_pattern->stratumEnd(k));
@@ -565,13 +565,14 @@ struct Corner {
 
 void SampleBuffer::tabulateStrata(const uint16_t* (SamplePattern::*row)(int) const,
                                   std::vector<int32_t>& table, std::vector<float>& tableX,
-                                  std::vector<float>& tableY) const {
+                                  std::vector<float>& tableY, std::vector<float>* tableTime) const {
     const int xs = m_cfg.xSamples, ys = m_cfg.ySamples;
     const int columns = m_pattern->columns(), rows = m_pattern->rows();
     const size_t plane = size_t(m_rw) * size_t(m_rh);
     table.assign(size_t(xs * ys) * plane, -1);
     tableX.assign(size_t(xs * ys) * plane + 3, std::numeric_limits<float>::quiet_NaN());
     tableY.assign(size_t(xs * ys) * plane + 3, std::numeric_limits<float>::quiet_NaN());
+    if (tableTime) tableTime->assign(size_t(xs * ys) * plane + 3, 0.0f);
     for (int sy = 0; sy < m_sh; ++sy) {
         const uint16_t* stratum = (m_pattern.get()->*row)(positiveMod(m_sy0 + sy, rows));
         const size_t pixelRow = size_t(sy / ys) * size_t(m_rw);
@@ -581,6 +582,7 @@ void SampleBuffer::tabulateStrata(const uint16_t* (SamplePattern::*row)(int) con
             table[at] = s;
             tableX[at] = m_px[size_t(s)];
             tableY[at] = m_py[size_t(s)];
+            if (tableTime) (*tableTime)[at] = m_time[size_t(s)];
         }
     }
 }
@@ -875,6 +877,12 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
     // The samples of one stratum (one a pixel, from `table`) inside the
     // raster box [x0, x1] x [y0, y1], clipped to the micropolygon's bound.
     const size_t plane = size_t(m_rw) * size_t(m_rh);
+    // Two keys: each sample is also tested against the micropolygon's
+    // bound at its own time, [lo + f * dlo, hi + f * dhi] widened by a
+    // margin (set below; see there), f its weight as testSample finds it.
+    bool timeBox = false;
+    float boxLo[2] = {}, boxHi[2] = {}, boxDlo[2] = {}, boxDhi[2] = {};
+    float boxTime0 = 0, boxTimeScale = 0;  // f = (t - boxTime0) * boxTimeScale, clamped to [0, 1]
     // Four pixels of a row at a time are tested against the box, by their
     // sample's position in that stratum (NaN, never inside, for none).
     auto visitStratum = [&](size_t offset, const std::vector<int32_t>& tableS, const std::vector<float>& tableX,
@@ -893,6 +901,15 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
                 const F4 sx = load4(&tableX[at]), sy = load4(&tableY[at]);
                 int inside = laneMask((sx >= x0) & (sx <= x1) & (sy >= y0) & (sy <= y1));
                 inside &= px1 - px >= 3 ? 0xf : (1 << (px1 - px + 1)) - 1;
+                if (timeBox && inside) {
+                    // The weight to within an ulp or two (a product for
+                    // testSample's quotient): the margin covers it.
+                    const F4 u = (load4(&m_strataTime[at]) - boxTime0) * boxTimeScale;
+                    const F4 zero = {0, 0, 0, 0}, one = {1, 1, 1, 1};
+                    const F4 f = select(u < zero, zero, select(one < u, one, u));
+                    inside &= laneMask((sx >= boxLo[0] + f * boxDlo[0]) & (sx <= boxHi[0] + f * boxDhi[0]) &
+                                       (sy >= boxLo[1] + f * boxDlo[1]) & (sy <= boxHi[1] + f * boxDhi[1]));
+                }
                 while (inside) {
                     const int k = __builtin_ctz(unsigned(inside));
                     candidate(size_t(tableS[at + size_t(k)]));
@@ -987,6 +1004,28 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
                 if (dhi[axis] > 0) fFirst = std::max(fFirst, (r0 - hi[axis]) / dhi[axis]);
                 if (dhi[axis] < 0) fLast = std::min(fLast, (r0 - hi[axis]) / dhi[axis]);
             }
+            // Between the strata's times, a corner at weight f lies in
+            // [lo + f * dlo, hi + f * dhi] (f >= 0), exactly; the margin
+            // covers the ulps of testSample's interpolation and the lens
+            // (the inside test is within the corners' bound). Coordinates
+            // that are not finite leave the samples to testSample.
+            bool finite = true;
+            for (int axis = 0; axis < 2; ++axis) {
+                finite = finite && std::isfinite(lo[axis]) && std::isfinite(hi[axis]) &&
+                         std::isfinite(dlo[axis]) && std::isfinite(dhi[axis]);
+                const float pad[2] = {padX, padY};
+                const float margin = 1e-3f + pad[axis] + 1e-5f * std::max({std::abs(lo[axis]), std::abs(hi[axis]),
+                                                                          std::abs(lo[axis] + dlo[axis]),
+                                                                          std::abs(hi[axis] + dhi[axis])});
+                boxLo[axis] = lo[axis] - margin;
+                boxHi[axis] = hi[axis] + margin;
+                boxDlo[axis] = dlo[axis];
+                boxDhi[axis] = dhi[axis];
+            }
+            const float span = g.keyTimes[1] - g.keyTimes[0];
+            boxTime0 = g.keyTimes[0];
+            boxTimeScale = span > 0 ? 1.0f / span : 0.0f;
+            timeBox = finite && std::isfinite(boxTimeScale) && !m_strataTime.empty();
             fFirst -= 1e-4f;
             fLast += 1e-4f;
         }

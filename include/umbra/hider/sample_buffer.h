@@ -286,7 +286,8 @@ private:
     /// and that sample's raster position alike (NaN where a pixel has none;
     /// three floats of padding, read in groups of four).
     void tabulateStrata(const uint16_t* (SamplePattern::*row)(int) const, std::vector<int32_t>& table,
-                        std::vector<float>& tableX, std::vector<float>& tableY) const;
+                        std::vector<float>& tableX, std::vector<float>& tableY,
+                        std::vector<float>* tableTime = nullptr) const;
     /// Records a hit of triangle t at sample s: depth z (within the clipping
     /// planes), barycentric weights b1, b2 of t's second and third vertices.
     /// True if it changed a depth the occlusion bound is made of.
@@ -338,7 +339,7 @@ private:
     // Motion: the sample of each region pixel in each coarse time stratum,
     // [stratum][pixel row][pixel column], and each stratum's time range.
     std::vector<int32_t> m_strataSample;
-    std::vector<float> m_strataX, m_strataY;  // those samples' positions, likewise
+    std::vector<float> m_strataX, m_strataY, m_strataTime;  // those samples' positions and times, likewise
     std::vector<float> m_strataStart, m_strataEnd;
     // Two-key grid being sampled: the interpolation weight of its second
     // key at each stratum's first time, and at the last one's end.
