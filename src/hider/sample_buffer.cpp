@@ -252,14 +252,14 @@ void SampleBuffer::reset(const SampleBufferConfig& c) {
     m_lensStrataSample.clear();
     m_lensStrataBox.clear();
     if (c.motion && c.sampleStrata && perPixel > 1) {
-        tabulateStrata(&SamplePattern::timeStratumRow, m_strataSample);
+        tabulateStrata(&SamplePattern::timeStratumRow, m_strataSample, m_strataX, m_strataY, &m_strataTime);
         for (int k = 0; k < perPixel; ++k) {
             m_strataStart.push_back(m_pattern->stratumStart(k));
             m_strataEnd.push_back(m_pattern->stratumEnd(k));
         }
     }
     if (c.lens && c.sampleStrata && perPixel > 1) {
-        tabulateStrata(&SamplePattern::lensStratumRow, m_lensStrataSample);
+        tabulateStrata(&SamplePattern::lensStratumRow, m_lensStrataSample, m_lensStrataX, m_lensStrataY);
         for (int k = 0; k < perPixel; ++k)
             m_lensStrataBox.insert(m_lensStrataBox.end(), m_pattern->lensStratumBox(k), m_pattern->lensStratumBox(k) + 4);
     }
@@ -564,17 +564,26 @@ struct Corner {
 }  // namespace
 
 void SampleBuffer::tabulateStrata(const uint16_t* (SamplePattern::*row)(int) const,
-                                  std::vector<int32_t>& table) const {
+                                  std::vector<int32_t>& table, std::vector<float>& tableX,
+                                  std::vector<float>& tableY, std::vector<float>* tableTime) const {
     const int xs = m_cfg.xSamples, ys = m_cfg.ySamples;
     const int columns = m_pattern->columns(), rows = m_pattern->rows();
     const size_t plane = size_t(m_rw) * size_t(m_rh);
     table.assign(size_t(xs * ys) * plane, -1);
+    tableX.assign(size_t(xs * ys) * plane + 3, std::numeric_limits<float>::quiet_NaN());
+    tableY.assign(size_t(xs * ys) * plane + 3, std::numeric_limits<float>::quiet_NaN());
+    if (tableTime) tableTime->assign(size_t(xs * ys) * plane + 3, 0.0f);
     for (int sy = 0; sy < m_sh; ++sy) {
         const uint16_t* stratum = (m_pattern.get()->*row)(positiveMod(m_sy0 + sy, rows));
         const size_t pixelRow = size_t(sy / ys) * size_t(m_rw);
-        for (int sx = 0; sx < m_sw; ++sx)
-            table[size_t(stratum[positiveMod(m_sx0 + sx, columns)]) * plane + pixelRow + size_t(sx / xs)] =
-                sy * m_sw + sx;
+        for (int sx = 0; sx < m_sw; ++sx) {
+            const size_t at = size_t(stratum[positiveMod(m_sx0 + sx, columns)]) * plane + pixelRow + size_t(sx / xs);
+            const int s = sy * m_sw + sx;
+            table[at] = s;
+            tableX[at] = m_px[size_t(s)];
+            tableY[at] = m_py[size_t(s)];
+            if (tableTime) (*tableTime)[at] = m_time[size_t(s)];
+        }
     }
 }
 
@@ -773,10 +782,111 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
             }
     };
 
+    // Samples are queued four at a time and their corners and edges found
+    // four-wide, with testSample's arithmetic lane by lane (so the same
+    // bits): most samples in a stratum's box miss the micropolygon, and
+    // only those inside a half go on to testSample. Samples are distinct,
+    // and a hit writes only its own sample, so the order of the tests, and
+    // the pictures, are those of testing each in turn.
+    const bool batched = !g.discs && keys <= 2;
+    size_t pending[4];
+    int pendingCount = 0;
+    auto select = [](I4 m, F4 a, F4 b) { return F4((I4(a) & m) | (I4(b) & ~m)); };
+    auto flush = [&]() {
+        if (!pendingCount) return;
+        for (int k = pendingCount; k < 4; ++k) pending[k] = pending[0];
+        F4 f = {0, 0, 0, 0};
+        if (keys > 1) {
+            const F4 t = m_time.empty() ? F4{0, 0, 0, 0}
+                                        : F4{m_time[pending[0]], m_time[pending[1]], m_time[pending[2]],
+                                             m_time[pending[3]]};
+            const float span = g.keyTimes[1] - g.keyTimes[0];
+            if (span > 0) {
+                const F4 u = (t - g.keyTimes[0]) / span;
+                const F4 zero = {0, 0, 0, 0}, one = {1, 1, 1, 1};
+                f = select(u < zero, zero, select(one < u, one, u));  // std::clamp
+            }
+        }
+        F4 lensX = {0, 0, 0, 0}, lensY = {0, 0, 0, 0};
+        if (lens) {
+            lensX = F4{m_lensX[pending[0]], m_lensX[pending[1]], m_lensX[pending[2]], m_lensX[pending[3]]} *
+                    m_cfg.lensScaleX;
+            lensY = F4{m_lensY[pending[0]], m_lensY[pending[1]], m_lensY[pending[2]], m_lensY[pending[3]]} *
+                    m_cfg.lensScaleY;
+        }
+        F4 qx[4], qy[4];
+        for (int c = 0; c < 4; ++c) {
+            const size_t v0 = size_t(corner[c]);
+            const Vec3& a = g.P[v0];
+            const float d0 = depthAt(v0);
+            F4 x = {a.x, a.x, a.x, a.x}, y = {a.y, a.y, a.y, a.y}, d = {d0, d0, d0, d0};
+            if (keys > 1) {
+                const size_t v1 = v0 + size_t(nverts);
+                const Vec3& b = g.P[v1];
+                x += f * (b.x - a.x);
+                y += f * (b.y - a.y);
+                d += f * (depthAt(v1) - d);
+            }
+            if (lens) {
+                const F4 blur = m_cfg.inverseFocalDistance - d;
+                x += lensX * blur;
+                y += lensY * blur;
+            }
+            qx[c] = x;
+            qy[c] = y;
+        }
+        const F4 x = {m_px[pending[0]], m_px[pending[1]], m_px[pending[2]], m_px[pending[3]]};
+        const F4 y = {m_py[pending[0]], m_py[pending[1]], m_py[pending[2]], m_py[pending[3]]};
+        I4 any = {0, 0, 0, 0};
+        static constexpr int kHalves[2][3] = {{0, 1, 3}, {0, 3, 2}};
+        for (const auto& half : kHalves) {
+            const int a = half[0], b = half[1], c = half[2];
+            const F4 area = (qx[b] - qx[a]) * (qy[c] - qy[a]) - (qy[b] - qy[a]) * (qx[c] - qx[a]);
+            const I4 valid = (area != 0.0f) & finite4(area);
+            const I4 flip = area < 0.0f;
+            const F4 bx = select(flip, qx[c], qx[b]), by = select(flip, qy[c], qy[b]);
+            const F4 cx = select(flip, qx[b], qx[c]), cy = select(flip, qy[b], qy[c]);
+            // ScalarEdge::setup, eval and inside, lane by lane.
+            auto inside = [&](F4 ux, F4 uy, F4 vx, F4 vy) {
+                const I4 canonical = (uy < vy) | ((uy == vy) & (ux < vx));
+                const F4 ox = select(canonical, ux, vx), oy = select(canonical, uy, vy);
+                const F4 dx = select(canonical, vx - ox, -(ux - ox));
+                const F4 dy = select(canonical, vy - oy, -(uy - oy));
+                const F4 e = dx * (y - oy) - dy * (x - ox);
+                return (e > 0.0f) | ((e == 0.0f) & canonical);
+            };
+            any |= valid & inside(bx, by, cx, cy) & inside(cx, cy, qx[a], qy[a]) & inside(qx[a], qy[a], bx, by);
+        }
+        const int hit = laneMask(any);
+        for (int k = 0; k < pendingCount; ++k) {
+            if (hit & (1 << k))
+                testSample(pending[k]);
+            else
+                ++m_blur.sampleTests;
+        }
+        pendingCount = 0;
+    };
+    // A sample to test: at once, or queued for the four-wide test.
+    auto candidate = [&](const size_t s) {
+        if (!batched) return testSample(s);
+        if (!(ctx.farthestUseful[s] >= nearest)) return;
+        pending[pendingCount++] = s;
+        if (pendingCount == 4) flush();
+    };
+
     // The samples of one stratum (one a pixel, from `table`) inside the
     // raster box [x0, x1] x [y0, y1], clipped to the micropolygon's bound.
     const size_t plane = size_t(m_rw) * size_t(m_rh);
-    auto visitStratum = [&](const int32_t* table, float x0, float y0, float x1, float y1) {
+    // Two keys: each sample is also tested against the micropolygon's
+    // bound at its own time, [lo + f * dlo, hi + f * dhi] widened by a
+    // margin (set below; see there), f its weight as testSample finds it.
+    bool timeBox = false;
+    float boxLo[2] = {}, boxHi[2] = {}, boxDlo[2] = {}, boxDhi[2] = {};
+    float boxTime0 = 0, boxTimeScale = 0;  // f = (t - boxTime0) * boxTimeScale, clamped to [0, 1]
+    // Four pixels of a row at a time are tested against the box, by their
+    // sample's position in that stratum (NaN, never inside, for none).
+    auto visitStratum = [&](size_t offset, const std::vector<int32_t>& tableS, const std::vector<float>& tableX,
+                            const std::vector<float>& tableY, float x0, float y0, float x1, float y1) {
         x0 = std::max(x0, minx);
         x1 = std::min(x1, maxx);
         y0 = std::max(y0, miny);
@@ -784,14 +894,29 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
         if (!(x0 <= x1 && y0 <= y1)) return;
         const int px0 = std::max(0, floorToInt(x0) - m_rx0), px1 = std::min(m_rw - 1, floorToInt(x1) - m_rx0);
         const int py0 = std::max(0, floorToInt(y0) - m_ry0), py1 = std::min(m_rh - 1, floorToInt(y1) - m_ry0);
-        for (int py = py0; py <= py1; ++py)
-            for (int px = px0; px <= px1; ++px) {
-                const int32_t s = table[size_t(py) * size_t(m_rw) + size_t(px)];
-                if (s < 0) continue;
-                const float sx = m_px[size_t(s)], sy = m_py[size_t(s)];
-                if (sx < x0 || sx > x1 || sy < y0 || sy > y1) continue;
-                testSample(size_t(s));
+        for (int py = py0; py <= py1; ++py) {
+            const size_t rowAt = offset + size_t(py) * size_t(m_rw);
+            for (int px = px0; px <= px1; px += 4) {
+                const size_t at = rowAt + size_t(px);
+                const F4 sx = load4(&tableX[at]), sy = load4(&tableY[at]);
+                int inside = laneMask((sx >= x0) & (sx <= x1) & (sy >= y0) & (sy <= y1));
+                inside &= px1 - px >= 3 ? 0xf : (1 << (px1 - px + 1)) - 1;
+                if (timeBox && inside) {
+                    // The weight to within an ulp or two (a product for
+                    // testSample's quotient): the margin covers it.
+                    const F4 u = (load4(&m_strataTime[at]) - boxTime0) * boxTimeScale;
+                    const F4 zero = {0, 0, 0, 0}, one = {1, 1, 1, 1};
+                    const F4 f = select(u < zero, zero, select(one < u, one, u));
+                    inside &= laneMask((sx >= boxLo[0] + f * boxDlo[0]) & (sx <= boxHi[0] + f * boxDhi[0]) &
+                                       (sy >= boxLo[1] + f * boxDlo[1]) & (sy <= boxHi[1] + f * boxDhi[1]));
+                }
+                while (inside) {
+                    const int k = __builtin_ctz(unsigned(inside));
+                    candidate(size_t(tableS[at + size_t(k)]));
+                    inside &= inside - 1;
+                }
             }
+        }
     };
     const bool lensStrata = lens && keys < 2 && !m_lensStrataSample.empty() && std::isfinite(blur0) &&
                             std::isfinite(blur1);
@@ -817,12 +942,12 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
             // Margins for the ulps of interpolating and scaling per sample.
             const float ex = 1e-5f * (std::max(std::abs(sharpX0), std::abs(sharpX1)) + std::abs(ox0) + std::abs(ox1)) + 1e-3f;
             const float ey = 1e-5f * (std::max(std::abs(sharpY0), std::abs(sharpY1)) + std::abs(oy0) + std::abs(oy1)) + 1e-3f;
-            visitStratum(&m_lensStrataSample[size_t(k) * plane], sharpX0 + ox0 - ex, sharpY0 + oy0 - ey,
+            visitStratum(size_t(k) * plane, m_lensStrataSample, m_lensStrataX, m_lensStrataY, sharpX0 + ox0 - ex, sharpY0 + oy0 - ey,
                          sharpX1 + ox1 + ex, sharpY1 + oy1 + ey);
         }
     } else if (m_strataSample.empty() || keys < 2) {
         for (int sy = sy0; sy <= sy1; ++sy)
-            for (int sx = sx0; sx <= sx1; ++sx) testSample(size_t(sy) * size_t(m_sw) + size_t(sx));
+            for (int sx = sx0; sx <= sx1; ++sx) candidate(size_t(sy) * size_t(m_sw) + size_t(sx));
     } else {
         // Each pixel has one sample in each coarse stratum of the shutter:
         // bound the micropolygon over the part of the shutter a stratum's
@@ -879,6 +1004,28 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
                 if (dhi[axis] > 0) fFirst = std::max(fFirst, (r0 - hi[axis]) / dhi[axis]);
                 if (dhi[axis] < 0) fLast = std::min(fLast, (r0 - hi[axis]) / dhi[axis]);
             }
+            // Between the strata's times, a corner at weight f lies in
+            // [lo + f * dlo, hi + f * dhi] (f >= 0), exactly; the margin
+            // covers the ulps of testSample's interpolation and the lens
+            // (the inside test is within the corners' bound). Coordinates
+            // that are not finite leave the samples to testSample.
+            bool finite = true;
+            for (int axis = 0; axis < 2; ++axis) {
+                finite = finite && std::isfinite(lo[axis]) && std::isfinite(hi[axis]) &&
+                         std::isfinite(dlo[axis]) && std::isfinite(dhi[axis]);
+                const float pad[2] = {padX, padY};
+                const float margin = 1e-3f + pad[axis] + 1e-5f * std::max({std::abs(lo[axis]), std::abs(hi[axis]),
+                                                                          std::abs(lo[axis] + dlo[axis]),
+                                                                          std::abs(hi[axis] + dhi[axis])});
+                boxLo[axis] = lo[axis] - margin;
+                boxHi[axis] = hi[axis] + margin;
+                boxDlo[axis] = dlo[axis];
+                boxDhi[axis] = dhi[axis];
+            }
+            const float span = g.keyTimes[1] - g.keyTimes[0];
+            boxTime0 = g.keyTimes[0];
+            boxTimeScale = span > 0 ? 1.0f / span : 0.0f;
+            timeBox = finite && std::isfinite(boxTimeScale) && !m_strataTime.empty();
             fFirst -= 1e-4f;
             fLast += 1e-4f;
         }
@@ -916,9 +1063,10 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
             // margin covers the last ulps where segments meet, and the lens.
             const float ex = 1e-5f * std::max(std::abs(x0), std::abs(x1)) + 1e-3f + padX;
             const float ey = 1e-5f * std::max(std::abs(y0), std::abs(y1)) + 1e-3f + padY;
-            visitStratum(&m_strataSample[size_t(k) * plane], x0 - ex, y0 - ey, x1 + ex, y1 + ey);
+            visitStratum(size_t(k) * plane, m_strataSample, m_strataX, m_strataY, x0 - ex, y0 - ey, x1 + ex, y1 + ey);
         }
     }
+    flush();
     if (wrote) markDirty(sx0, sy0, sx1, sy1);
 }
 

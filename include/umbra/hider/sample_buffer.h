@@ -284,8 +284,12 @@ private:
     /// places the micropolygon's corners at its time and lens position.
     void sampleBlurred(const MicroGrid& g);
     void rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, int i, int j);
-    /// The sample of each region pixel in each stratum, [stratum][row][column].
-    void tabulateStrata(const uint16_t* (SamplePattern::*row)(int) const, std::vector<int32_t>& table) const;
+    /// The sample of each region pixel in each stratum, [stratum][row][column],
+    /// and that sample's raster position alike (NaN where a pixel has none;
+    /// three floats of padding, read in groups of four).
+    void tabulateStrata(const uint16_t* (SamplePattern::*row)(int) const, std::vector<int32_t>& table,
+                        std::vector<float>& tableX, std::vector<float>& tableY,
+                        std::vector<float>* tableTime = nullptr) const;
     /// Records a hit of triangle t at sample s: depth z (within the clipping
     /// planes), barycentric weights b1, b2 of t's second and third vertices.
     /// True if it changed a depth the occlusion bound is made of.
@@ -347,6 +351,7 @@ private:
     // Motion: the sample of each region pixel in each coarse time stratum,
     // [stratum][pixel row][pixel column], and each stratum's time range.
     std::vector<int32_t> m_strataSample;
+    std::vector<float> m_strataX, m_strataY, m_strataTime;  // those samples' positions and times, likewise
     std::vector<float> m_strataStart, m_strataEnd;
     // Two-key grid being sampled: the interpolation weight of its second
     // key at each stratum's first time, and at the last one's end.
@@ -354,6 +359,7 @@ private:
     // Depth of field likewise: the sample of each region pixel in each lens
     // stratum, and each stratum's box of lens positions (x0, y0, x1, y1).
     std::vector<int32_t> m_lensStrataSample;
+    std::vector<float> m_lensStrataX, m_lensStrataY;
     std::vector<float> m_lensStrataBox;
     std::vector<float> m_lensX, m_lensY;  // depth of field: position on the unit lens disc
     BlurStats m_blur;
