@@ -170,17 +170,29 @@ DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, co
         res.decision = Decision::Split;
         res.eyeSplit = true;
         // Cut across the parameter whose direction spans more camera z
-        // (measured on the test lattice when the piece can be diced).
+        // (measured on the test lattice when the piece can be diced). The
+        // span is each row's (column's) whole z range, not the difference of
+        // its ends: a full turn of a sphere or a cylinder around the eye
+        // ends where it began, and a half turn's ends can lie level while
+        // its middle sweeps behind the eye; splitting the other parameter
+        // forever would leave the piece across the eye plane at the limit.
         res.splitU = true;
         if (prim.diceable()) {
             thread_local std::vector<Vec3> P;
             const int n = std::max(p.testGrid, 1);
             prim.dicePositions(n, n, P);
+            auto z = [&](int i, int j) { return p.cameraFromObject.point(P[size_t(j * (n + 1) + i)]).z; };
             float zu = 0, zv = 0;
-            for (int j = 0; j <= n; ++j) zu = std::max(zu, std::abs(p.cameraFromObject.point(P[size_t(j * (n + 1) + n)]).z -
-                                                                  p.cameraFromObject.point(P[size_t(j * (n + 1))]).z));
-            for (int i = 0; i <= n; ++i) zv = std::max(zv, std::abs(p.cameraFromObject.point(P[size_t(n * (n + 1) + i)]).z -
-                                                                  p.cameraFromObject.point(P[size_t(i)]).z));
+            for (int j = 0; j <= n; ++j) {
+                float lo = kInfinity, hi = -kInfinity;
+                for (int i = 0; i <= n; ++i) lo = std::min(lo, z(i, j)), hi = std::max(hi, z(i, j));
+                zu = std::max(zu, hi - lo);
+            }
+            for (int i = 0; i <= n; ++i) {
+                float lo = kInfinity, hi = -kInfinity;
+                for (int j = 0; j <= n; ++j) lo = std::min(lo, z(i, j)), hi = std::max(hi, z(i, j));
+                zv = std::max(zv, hi - lo);
+            }
             res.splitU = zu >= zv;
         }
         return res;

@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+
 namespace umbra::geometry {
 
 namespace {
@@ -49,6 +51,10 @@ std::shared_ptr<const SurfaceData> readSurfaceData(const scene::PrimitiveRecord&
     if (rec.attributes) {
         sd->defaultCs = rec.attributes->color;
         sd->defaultOs = rec.attributes->opacity;
+        static const char* const kParametric[] = {"Sphere", "Cone", "Cylinder", "Hyperboloid", "Paraboloid",
+                                                  "Disk", "Torus", "Patch", "PatchMesh", "NuPatch"};
+        for (const char* t : kParametric)
+            if (rec.type == t) std::copy(rec.attributes->textureCoordinates, rec.attributes->textureCoordinates + 8, sd->cornerST);
     }
     const ri::Param* P = rec.params.find("P");
     const ri::Param* Pw = P ? nullptr : rec.params.find("Pw");
@@ -264,8 +270,28 @@ void addDefaultVars(const SurfaceData& sd, Grid& g) {
         gv.name = name;
         gv.data = src;
     };
-    if (!sd.hasS) addDefault("s", g.u);
-    if (!sd.hasT) addDefault("t", g.v);
+    // s and t default to u and v mapped through TextureCoordinates:
+    // bilinear in (u, v) between the four corners' values.
+    const float* c = sd.cornerST;
+    const bool identity = c[0] == 0 && c[1] == 0 && c[2] == 1 && c[3] == 0 && c[4] == 0 && c[5] == 1 && c[6] == 1 &&
+                          c[7] == 1;
+    auto addMapped = [&](const char* name, int k) {
+        GridVar& gv = g.vars.emplace_back();
+        gv.name = name;
+        gv.data.resize(g.u.size());
+        for (size_t i = 0; i < g.u.size(); ++i) {
+            const float u = g.u[i], v = g.v[i];
+            gv.data[i] = (1 - v) * ((1 - u) * c[k] + u * c[2 + k]) + v * ((1 - u) * c[4 + k] + u * c[6 + k]);
+        }
+    };
+    if (!sd.hasS) {
+        if (identity) addDefault("s", g.u);
+        else addMapped("s", 0);
+    }
+    if (!sd.hasT) {
+        if (identity) addDefault("t", g.v);
+        else addMapped("t", 1);
+    }
     auto addColor = [&](const char* name, const Color& c) {
         GridVar& gv = g.vars.emplace_back();
         gv.name = name;

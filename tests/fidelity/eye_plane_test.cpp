@@ -42,6 +42,13 @@ const EyeCase kCases[] = {
      [](double sx, double sy) { return sy < 0 && -1 / sy <= 10 && std::fabs(sx / sy) <= 10; }},
     // Radius 50 around the eye: every ray meets it.
     {"sky sphere around the eye", "Sphere 50 -50 50 360", [](double, double) { return true; }},
+    // The same sphere with its poles on the eye plane (a sky sphere under a
+    // camera that looks along the horizon, as the RenderMan Repository's
+    // starfield scenes have it): every full turn of u and every meridian
+    // ends at the eye plane, so splitting by the z of a row's ends never
+    // separated the front from the back (once black, exit 0).
+    {"sky sphere with its poles on the eye plane", "Rotate 90 1 0 0 Sphere 50 -50 50 360",
+     [](double, double) { return true; }},
     // Radius 2 about the y axis, y in [-1, 1] (Rotate 90 about x takes the
     // cylinder's z to -y): the ray meets it at t = 2 / sqrt(sx^2 + 1).
     {"cylinder around the camera", "Rotate 90 1 0 0 Cylinder 2 -1 1 360",

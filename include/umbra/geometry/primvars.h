@@ -66,6 +66,11 @@ struct SurfaceData {
     std::vector<float> ownedPos;
     std::vector<PrimVar> vars;
     bool hasS = false, hasT = false;
+    /// TextureCoordinates (s, t at the (u, v) corners (0,0) (1,0) (0,1)
+    /// (1,1)): the default s and t of parametric primitives (quadrics,
+    /// patches, patch meshes, NURBS) given no "s"/"t"/"st", RI Spec 3.2
+    /// section 4.1.3. Identity unless the primitive is parametric.
+    float cornerST[8] = {0, 0, 1, 0, 0, 1, 1, 1};
     Color defaultCs{1, 1, 1}, defaultOs{1, 1, 1};
     bool hasCs = false, hasOs = false;
 
