@@ -3,16 +3,13 @@
 // headless Chromium drawing the page. Every run is a child process; no test
 // reads a clock.
 
+#include "support/child_run.h"
 #include "support/render_harness.h"
 
 #include <gtest/gtest.h>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
-
-#include <fcntl.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -23,54 +20,15 @@
 #include <sstream>
 
 using umbra::test::Image;
+using umbra::test::ChildRun;
+using umbra::test::readFile;
+using umbra::test::runIn;
 using umbra::test::ScratchDir;
+using umbra::test::writeFile;
 using nlohmann::json;
 namespace fs = std::filesystem;
 
 namespace {
-
-struct ChildRun {
-    int status = -1;       // exit status; -1: killed or not started
-    std::string messages;  // stdout and stderr
-};
-
-std::string readFile(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-}
-
-void writeFile(const std::string& path, const std::string& text) {
-    std::ofstream out(path, std::ios::binary);
-    out << text;
-}
-
-/// Runs `program args...` in `dir`, its output in dir/run.log.
-ChildRun runIn(const ScratchDir& dir, const std::string& program, std::vector<std::string> args) {
-    const std::string log = dir.file("run.log");
-    const pid_t pid = fork();
-    if (pid == 0) {
-        if (chdir(dir.file("").c_str()) != 0) _exit(126);
-        const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        if (fd >= 0) {
-            dup2(fd, 1);
-            dup2(fd, 2);
-        }
-        setenv("UMBRA_SHADER_PATH", UMBRA_SOURCE_DIR "/shaders_dsl", 1);
-        std::vector<char*> argv;
-        for (auto& a : args) argv.push_back(a.data());
-        argv.push_back(nullptr);
-        execvp(program.c_str(), argv.data());
-        _exit(127);
-    }
-    ChildRun run;
-    int status = 0;
-    if (pid < 0 || waitpid(pid, &status, 0) != pid) return run;
-    if (WIFEXITED(status)) run.status = WEXITSTATUS(status);
-    run.messages = readFile(log);
-    return run;
-}
 
 ChildRun runUmbra(const ScratchDir& dir, std::vector<std::string> args) {
     args.insert(args.begin(), "umbra");

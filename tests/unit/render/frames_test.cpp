@@ -3,6 +3,7 @@
 // patterns in RIB and Display names (docs/frames.md). Each run is a child
 // process; no test reads a clock.
 
+#include "support/child_run.h"
 #include "support/render_harness.h"
 
 #include <gtest/gtest.h>
@@ -10,65 +11,26 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include <fcntl.h>
 #include <sys/stat.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 
 using namespace umbra;
 using umbra::test::Image;
+using umbra::test::readFile;
 using umbra::test::ScratchDir;
+using umbra::test::writeFile;
+using UmbraRun = umbra::test::ChildRun;
 namespace fs = std::filesystem;
 
 namespace {
 
-struct UmbraRun {
-    int status = -1;       // exit status; -1: killed or not started
-    std::string messages;  // stdout and stderr
-};
-
-std::string readFile(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-}
-
-void writeFile(const std::string& path, const std::string& text) {
-    std::ofstream out(path, std::ios::binary);
-    out << text;
-}
-
 /// Runs `umbra render --threads 2 ARGS...` in `dir` (its working directory).
 UmbraRun runUmbra(const ScratchDir& dir, std::vector<std::string> args) {
-    const std::string log = dir.file("run.log");
     args.insert(args.begin(), {"umbra", "render", "--threads", "2"});
-    const pid_t pid = fork();
-    if (pid == 0) {
-        if (chdir(dir.file("").c_str()) != 0) _exit(126);
-        const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        if (fd >= 0) {
-            dup2(fd, 1);
-            dup2(fd, 2);
-        }
-        setenv("UMBRA_SHADER_PATH", UMBRA_SOURCE_DIR "/shaders_dsl", 1);
-        std::vector<char*> argv;
-        for (auto& a : args) argv.push_back(a.data());
-        argv.push_back(nullptr);
-        execv(UMBRA_APP, argv.data());
-        _exit(127);
-    }
-    UmbraRun run;
-    int status = 0;
-    if (pid < 0 || waitpid(pid, &status, 0) != pid) return run;
-    if (WIFEXITED(status)) run.status = WEXITSTATUS(status);
-    run.messages = readFile(log);
-    return run;
+    return test::runIn(dir, UMBRA_APP, std::move(args));
 }
 
 /// One frame: a sphere lit by a spotlight with an automatic depth map (so

@@ -5,6 +5,7 @@
 // clock.
 
 #include "render/map_reuse.h"
+#include "support/child_run.h"
 #include "support/render_harness.h"
 
 #include <gtest/gtest.h>
@@ -13,54 +14,25 @@
 #include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
-#include <fcntl.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 
 using namespace umbra;
 using umbra::test::Image;
 using umbra::test::ScratchDir;
+using umbra::test::writeFile;
 
 namespace {
 
-void writeFile(const std::string& path, const std::string& text) {
-    std::ofstream out(path, std::ios::binary);
-    out << text;
-}
-
 /// Runs `umbra render --threads 2 ARGS...` in `dir`; its exit status, or -1.
 int runUmbra(const ScratchDir& dir, std::vector<std::string> args, std::string* messages = nullptr) {
-    const std::string log = dir.file("run.log");
     args.insert(args.begin(), {"umbra", "render", "--threads", "2"});
-    const pid_t pid = fork();
-    if (pid == 0) {
-        if (chdir(dir.file("").c_str()) != 0) _exit(126);
-        const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        if (fd >= 0) {
-            dup2(fd, 1);
-            dup2(fd, 2);
-        }
-        setenv("UMBRA_SHADER_PATH", UMBRA_SOURCE_DIR "/shaders_dsl", 1);
-        std::vector<char*> argv;
-        for (auto& a : args) argv.push_back(a.data());
-        argv.push_back(nullptr);
-        execv(UMBRA_APP, argv.data());
-        _exit(127);
-    }
-    int status = 0;
-    if (pid < 0 || waitpid(pid, &status, 0) != pid) return -1;
-    if (messages) {
-        std::ifstream in(log);
-        std::stringstream ss;
-        ss << in.rdbuf();
-        *messages = ss.str();
-    }
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    test::ChildRun run = test::runIn(dir, UMBRA_APP, std::move(args));
+    if (messages) *messages = run.messages;
+    return run.status;
 }
 
 /// What one frame of the test sequence shows: a sphere (and perhaps a
@@ -474,34 +446,14 @@ TEST(MapCache, ConcurrentProcessesShareOneCacheSafely) {
     std::string messages;
     ASSERT_EQ(runUmbra(single, {"seq.rib"}, &messages), 0) << messages;
     std::vector<pid_t> children;
-    for (int n = 1; n <= 3; ++n) {
-        const pid_t pid = fork();
-        if (pid == 0) {
-            if (chdir(farm.file("").c_str()) != 0) _exit(126);
-            const std::string log = fmt::format("run{}.log", n);
-            const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-            if (fd >= 0) {
-                dup2(fd, 1);
-                dup2(fd, 2);
-            }
-            setenv("UMBRA_SHADER_PATH", UMBRA_SOURCE_DIR "/shaders_dsl", 1);
-            std::vector<std::string> args{"umbra", "render", "--threads", "1", "--frames", std::to_string(n),
-                                          "--map-cache", "maps", "--stats", fmt::format("task{}.jsonl", n), "seq.rib"};
-            std::vector<char*> argv;
-            for (auto& a : args) argv.push_back(a.data());
-            argv.push_back(nullptr);
-            execv(UMBRA_APP, argv.data());
-            _exit(127);
-        }
-        children.push_back(pid);
-    }
+    for (int n = 1; n <= 3; ++n)
+        children.push_back(test::startIn(farm, UMBRA_APP,
+                                         {"umbra", "render", "--threads", "1", "--frames", std::to_string(n),
+                                          "--map-cache", "maps", "--stats", fmt::format("task{}.jsonl", n), "seq.rib"},
+                                         {}, fmt::format("run{}.log", n)));
     for (size_t i = 0; i < children.size(); ++i) {
-        int status = 0;
-        ASSERT_EQ(waitpid(children[i], &status, 0), children[i]);
-        std::ifstream log(farm.file(fmt::format("run{}.log", i + 1)));
-        std::stringstream text;
-        text << log.rdbuf();
-        EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << text.str();
+        const test::ChildRun run = test::finish(farm, children[i], fmt::format("run{}.log", i + 1));
+        EXPECT_EQ(run.status, 0) << run.messages;
     }
     std::vector<std::string> cached;
     for (const auto& entry : std::filesystem::directory_iterator(farm.file("maps")))
