@@ -524,6 +524,12 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     backgroundMapWrites = 0;
     const scene::Options& options = world.options;
     const int errorsBefore = diag.errorCount();
+    for (const auto& d : options.displays)
+        if (d.implicitDefault)
+            diag.warningOnce("display:default", d.loc,
+                             "no Display before WorldBegin: writing the image to \"{}\" (a TIFF, as PRMan and "
+                             "Aqsis name it)",
+                             d.name);
 
     // --resume (farm restarts): a frame whose every output is a complete
     // image is not rendered again. A file cut short (a killed copy, a full

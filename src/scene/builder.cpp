@@ -309,6 +309,18 @@ void Builder::worldBegin(const FileLoc& loc) {
     m_world = std::make_unique<WorldRecord>();
     m_world->frameNumber = m_frame;
     m_world->options = m_options;
+    if (m_world->options.displays.empty()) {
+        // A RIB with no Display (modellers' exports, a bare world block)
+        // rendered to nothing at all. The spec leaves the default to the
+        // renderer: PRMan and Aqsis write "ri.pic" (a TIFF), Pixie ri.tif.
+        DisplayRecord d;
+        d.name = "ri.pic";
+        d.driver = "file";
+        d.mode = "rgba";
+        d.loc = loc;
+        d.implicitDefault = true;  // the renderer says so when it writes it
+        m_world->options.displays.push_back(std::move(d));
+    }
     // Display "out.####.tif" in frame 12 writes out.0012.tif (also %04d).
     if (m_frame >= 0)
         for (DisplayRecord& d : m_world->options.displays)
@@ -1110,13 +1122,17 @@ void Builder::hider(const std::string& name, ri::ParamList params, const FileLoc
     if (name != "hidden" && name != "stochastic")
         unsupported("hider:" + name, loc, fmt::format("Hider: \"{}\" is not supported; \"hidden\" is used", name));
     if (const ri::Param* p = params.find("depthfilter")) {
+        // Exporters write "" for "not set" (Blender-to-Renderman), PRMan
+        // has "max" and "average": Aqsis and Pixie render such frames with
+        // "min", and so does umbra, with a warning.
         const std::string& f = p->stringAt(0);
-        if (f != "min" && f != "second" && f != "midpoint" && f != "dual") {
-            m_diag.error(p->loc, "Hider: unknown \"depthfilter\" \"{}\" (expected \"min\", \"second\", \"midpoint\" "
-                         "or \"dual\")", f);
-            return;
+        if (f == "min" || f == "second" || f == "midpoint" || f == "dual") {
+            m_options.depthFilter = f;
+        } else {
+            m_diag.warning(p->loc, "Hider: \"depthfilter\" \"{}\" is not one umbra has (\"min\", \"second\", "
+                           "\"midpoint\", \"dual\"); \"min\" is used", f);
+            m_options.depthFilter = "min";
         }
-        m_options.depthFilter = f;
     }
     if (params.find("jitter")) m_options.jitter = params.getInt("jitter", 1) != 0;
     m_options.hider = name;

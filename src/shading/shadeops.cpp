@@ -865,8 +865,17 @@ void execCall(Exec& x, const Instr& in) {
     case Bi::Distance: map(x, dst, [](const Vec3& a, const Vec3& b) { return length(a - b); }, A.v(0), A.v(1)); break;
     case Bi::Normalize: map(x, dst, [](const Vec3& a) { return unit(a); }, A.v(0)); break;
     case Bi::FaceForward: {
+        // faceforward(N, I): the spec's reference is Ng, which keeps a
+        // smooth normal that turns away at a silhouette from flipping. An
+        // exporter's normals that point against the winding (a mesh written
+        // clockwise with outward N, no ReverseOrientation) would then all be
+        // flipped inwards and the surface shade black, where Pixie and Aqsis
+        // (whose faceforward turns N itself to the viewer) light it. So Ng
+        // is taken on N's side: the spec's answer wherever N and Ng agree,
+        // theirs where they disagree.
         int ng = x.cs->globalRegs[gNg];
-        map(x, dst, [](const Vec3& n, const Vec3& i, const Vec3& r) { return faceforward(n, i, r); }, A.v(0), A.v(1), In<Vec3>{x.ptr[size_t(ng)], x.vary[size_t(ng)]});
+        map(x, dst, [](const Vec3& n, const Vec3& i, const Vec3& r) { return faceforward(n, i, dot(n, r) < 0 ? -r : r); },
+            A.v(0), A.v(1), In<Vec3>{x.ptr[size_t(ng)], x.vary[size_t(ng)]});
         break;
     }
     case Bi::FaceForward3: map(x, dst, [](const Vec3& n, const Vec3& i, const Vec3& r) { return faceforward(n, i, r); }, A.v(0), A.v(1), A.v(2)); break;

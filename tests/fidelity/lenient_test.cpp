@@ -12,6 +12,8 @@
 #include <cmath>
 #include <fstream>
 
+#include <unistd.h>
+
 using namespace umbra;
 using umbra::test::Image;
 using umbra::test::maxAbsDiff;
@@ -297,4 +299,32 @@ WorldEnd
     ASSERT_GT(p.image.channelSum(0), 20.0);
     ASSERT_GT(p.image.channelSum(1), 20.0);
     EXPECT_EQ(meanAbsDiff(richImage, p.image), 0.0);
+}
+
+TEST(Lenient, AFrameWithoutADisplayWritesRiPic) {
+    // Modellers' exports (Wings 3D's writes nothing but the world block)
+    // carry no Display, and umbra rendered them to nothing at all, exit 0.
+    // PRMan and Aqsis write "ri.pic", a TIFF, into the working directory.
+    // The rest are the spec's defaults: 640x480, an orthographic camera
+    // whose screen window is [-4/3, 4/3] x [-1, 1], so the unit square seen
+    // here covers 240 x 240 pixels.
+    ScratchDir dir("no-display");
+    const std::string rib = R"(# Exported from a modeller
+WorldBegin
+AttributeBegin
+Surface "constant"
+Polygon "P" [-0.5 -0.5 2  -0.5 0.5 2  0.5 0.5 2  0.5 -0.5 2]
+AttributeEnd
+WorldEnd
+)";
+    char cwd[4096];
+    ASSERT_NE(getcwd(cwd, sizeof cwd), nullptr);
+    ASSERT_EQ(chdir(dir.file("").c_str()), 0);
+    Rendered r = renderScene(rib, dir.file("ri.pic"));
+    ASSERT_EQ(chdir(cwd), 0);
+    EXPECT_EQ(r.errors, 0);
+    EXPECT_EQ(r.warnings, 1);
+    ASSERT_EQ(r.image.width, 640);
+    ASSERT_EQ(r.image.height, 480);
+    EXPECT_NEAR(r.image.channelSum(0), 240.0 * 240.0, 240.0 * 4);  // a pixel's width of edge either way
 }

@@ -333,3 +333,66 @@ TEST(Orientation, SameImageWhateverTheThreadsAndBuckets) {
             }
     }
 }
+
+namespace {
+
+/// A scene as VTK's RIB exporter writes one: a mirroring `Transform`
+/// camera, `Orientation "rh"` before the world, and each object as
+/// separate `Polygon`s carrying per-vertex outward normals. A tessellated
+/// sphere, wound counter-clockwise seen from outside (as the exporter's
+/// meshes are) or clockwise (as many hand-written and older exporters'
+/// meshes are, with the same outward normals).
+std::string exportedPolygonSphere(const std::string& image, bool woundAgainstNormals, const std::string& surface) {
+    std::string rib = fmt::format(
+        "FrameBegin 1\nDisplay \"{}\" \"file\" \"rgb\"\nDeclare \"color\" \"uniform color\"\nPixelSamples 2 2\n"
+        "Format 160 120 1\nProjection \"perspective\" \"fov\" [30.000000]\nIdentity\n"
+        "Transform [-1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1 ]\nRotate 180 0 1 0\nTranslate 0 0 -6\nOrientation \"rh\"\n"
+        "WorldBegin\nLightSource \"ambientlight\" 1 \"intensity\" [0.1]\n"
+        "LightSource \"distantlight\" 2 \"intensity\" [1.0] \"from\" [2 3 6] \"to\" [0 0 0]\n"
+        "AttributeBegin\nTransformBegin\nColor [0.9 0.4 0.3]\nSurface \"{}\"\n",
+        image, surface);
+    constexpr int kRings = 12, kSegments = 24;
+    const float pi = 3.14159265f;
+    auto vertex = [&](int ring, int segment) {
+        const float theta = pi * float(ring) / kRings, phi = 2 * pi * float(segment) / kSegments;
+        return Vec3(std::sin(theta) * std::cos(phi), std::cos(theta), std::sin(theta) * std::sin(phi));
+    };
+    for (int i = 0; i < kRings; ++i)
+        for (int j = 0; j < kSegments; ++j) {
+            // (i, j+1) -> (i+1, j+1) turns counter-clockwise about the outward normal.
+            Vec3 q[4] = {vertex(i, j), vertex(i, j + 1), vertex(i + 1, j + 1), vertex(i + 1, j)};
+            if (woundAgainstNormals) std::swap(q[1], q[3]);
+            std::string p = "Polygon \"P\" [", n = "] \"N\" [";
+            for (const Vec3& v : q) {
+                p += fmt::format("{} {} {} ", v.x, v.y, v.z);
+                n += fmt::format("{} {} {} ", v.x, v.y, v.z);  // the unit sphere's normal is its point
+            }
+            rib += p + n + "]\n";
+        }
+    return rib + "TransformEnd\nAttributeEnd\nWorldEnd\nFrameEnd\n";
+}
+
+}  // namespace
+
+TEST(Orientation, NormalsWoundAgainstTheirPolygonsShadeAsPixieAndAqsisShadeThem) {
+    // A mesh wound clockwise about its own outward normals: by the spec its
+    // Ng points in, and faceforward(N, I) with Ng as the reference turned
+    // every normal inwards, so plastic and matte spheres shaded black from
+    // the front (Pixie 2.2.6 and Aqsis 1.8.4 light them: their faceforward
+    // turns N itself to the viewer). The picture must be the one of the same
+    // mesh wound the exporter's way, and lit from the front.
+    ScratchDir dir("orient-winding");
+    const std::string image = dir.file("sphere.tif");
+    for (const char* surface : {"plastic", "matte"}) {
+        Image wound = renderTo(dir, exportedPolygonSphere(image, false, surface));
+        Image against = renderTo(dir, exportedPolygonSphere(image, true, surface));
+        EXPECT_EQ(meanAbsDiff(against, wound), 0.0) << surface;
+        // The sphere's centre faces the camera (at z = +6 in VTK's
+        // right-handed world) and the light from (2, 3, 6): N.L = 6/7, so
+        // its red is at least Cs * (ambient 0.1 + Kd 0.5 * 6/7) (plastic's
+        // Kd; matte's is 1), where the inward normals left the ambient
+        // 0.9 * 0.1 alone.
+        const float lit = 0.9f * (0.1f + 0.5f * 6.0f / 7.0f);
+        EXPECT_GT(wound.at(80, 60, 0), 0.95f * lit) << surface;
+    }
+}

@@ -185,6 +185,9 @@ struct DisplayRecord {
     std::string mode;        // "rgb", "rgba", "z", "rgbaz", or AOV: "color myaov"
     ri::ParamList params;
     FileLoc loc;
+    /// Not asked for: the frame had no Display, and this is the default
+    /// ("ri.pic", as PRMan and Aqsis write).
+    bool implicitDefault = false;
 };
 
 enum class Projection { Orthographic, Perspective };

@@ -146,7 +146,11 @@ TEST(Builder, FrameEndRestoresOptions) {
     EXPECT_EQ(o7.displays[1].mode, "z");
     const Options& o8 = r->sink.worlds[1].options;
     EXPECT_EQ(o8.xResolution, 100);
-    EXPECT_TRUE(o8.displays.empty());
+    // Frame 8 names no display: the default one, as PRMan and Aqsis write.
+    ASSERT_EQ(o8.displays.size(), 1u);
+    EXPECT_EQ(o8.displays[0].name, "ri.pic");
+    EXPECT_TRUE(o8.displays[0].implicitDefault);
+    EXPECT_FALSE(o7.displays[0].implicitDefault);
     EXPECT_EQ(r->sink.events,
               (std::vector<std::string>{"frame 7", "world", "frameEnd", "frame 8", "world", "frameEnd"}));
 }
