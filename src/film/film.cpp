@@ -340,8 +340,8 @@ Film::Film(int xResolution, int yResolution, const float cropWindow[4], PixelFil
     size_t n = size_t(m_width) * size_t(m_height);
     // Depth passes never touch colour: not allocating it saves clearing
     // 16 bytes a pixel (6.5 MB for a 640^2 map) per pass.
-    if (content == FilmContent::Colour) m_rgba.resize(4 * n);  // zeros (ZeroedAllocator)
-    m_z.assign(n, kInfinity);
+    if (hasColour()) m_rgba.resize(4 * n);  // zeros (ZeroedAllocator)
+    if (hasDepth()) m_z.assign(n, kInfinity);
     if (content == FilmContent::DepthPair) m_z2.assign(n, kInfinity);
     m_aov.resize(n * size_t(m_aovFloats));
 }
@@ -350,7 +350,9 @@ uint64_t Film::bytesFor(int xResolution, int yResolution, const float cropWindow
                         const std::vector<AovChannel>& aovs, FilmContent content) {
     int x0, x1, y0, y1;
     cropPixels(xResolution, yResolution, cropWindow, &x0, &x1, &y0, &y1);
-    uint64_t floats = 1 + (content == FilmContent::Colour ? 4 : 0) + (content == FilmContent::DepthPair ? 1 : 0);
+    const bool colour = content == FilmContent::Colour || content == FilmContent::ColourOnly;
+    uint64_t floats = (content == FilmContent::ColourOnly ? 0 : 1) + (colour ? 4 : 0) +
+                      (content == FilmContent::DepthPair ? 1 : 0);
     for (const AovChannel& a : aovs) floats += uint64_t(std::max(a.components, 0));
     return uint64_t(std::max(x1 - x0, 0)) * uint64_t(std::max(y1 - y0, 0)) * floats * sizeof(float);
 }
@@ -370,7 +372,8 @@ Film Film::fromOptions(const scene::Options& o, std::vector<AovChannel> aovs, Fi
     std::vector<PixelFilter> layers;
     for (const scene::DisplayRecord& d : displays) {
         std::optional<PixelFilter> own = displayFilter(d, *f, &diag);
-        if (!own || content != FilmContent::Colour || sameFilter(*own, *f)) continue;
+        const bool colour = content == FilmContent::Colour || content == FilmContent::ColourOnly;
+        if (!own || !colour || sameFilter(*own, *f)) continue;
         if (std::none_of(layers.begin(), layers.end(), [&](const PixelFilter& l) { return sameFilter(l, *own); }))
             layers.push_back(*own);
     }
@@ -400,7 +403,7 @@ int Film::findFilterLayer(const PixelFilter& filter) const {
 
 int Film::addFilterLayer(const PixelFilter& filter) {
     if (int found = findFilterLayer(filter); found >= 0) return found;
-    UMBRA_CHECK(m_content == FilmContent::Colour, "a depth film has no filter layers");
+    UMBRA_CHECK(hasColour(), "a depth film has no filter layers");
     const size_t n = size_t(m_width) * size_t(m_height);
     FilterLayer layer{filter, {}, {}};
     layer.rgba.resize(4 * n);  // zeros (ZeroedAllocator)
@@ -453,6 +456,11 @@ bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Option
         if (!depthWriter) {
             diag.error(display.loc, "display \"{}\": driver \"{}\" writes depth maps, which this render cannot "
                        "produce here",
+                       display.name, display.driver);
+            return false;
+        }
+        if (!hasDepth()) {
+            diag.error(display.loc, "display \"{}\": driver \"{}\" reads depth, which this film was made without",
                        display.name, display.driver);
             return false;
         }
@@ -561,6 +569,12 @@ bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Option
         }
     }
     const int nch = int(channels.size());
+    if (!hasDepth() && std::any_of(channels.begin(), channels.end(),
+                                   [](const ChannelSource& c) { return c.kind == ChannelSource::Z; })) {
+        diag.error(display.loc, "display \"{}\": mode \"{}\" reads depth, which this film was made without",
+                   display.name, display.mode);
+        return false;
+    }
 
     if (m_width == 0 || m_height == 0) {
         diag.error(display.loc, "display \"{}\": the crop window selects no pixels (expected a window covering at "
@@ -688,14 +702,11 @@ bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Option
         for (ChannelSource& c : channels) c.exposure = c.exposure || c.kind == ChannelSource::Aov;
     const float invGamma = gamma > 0 ? 1.0f / gamma : 1.0f;
     const bool exposeIdentity = gain == 1.0f && invGamma == 1.0f;
-    const size_t npix = size_t(m_width) * size_t(m_height);
-    // Uninitialised: every value is written below, by the row's thread.
-    std::unique_ptr<float[]> data(new float[npix * size_t(nch)]);
-    // Rows in parallel: the frame's serial tail, and every pixel stands alone.
-    parallelForRange(tbb::blocked_range<int>(m_y0, y1(), 16), [&](const tbb::blocked_range<int>& rows) {
-    for (int y = rows.begin(); y < rows.end(); ++y) {
+    // One row of the display's samples, width * nch values: every pixel
+    // stands alone.
+    auto convertRow = [&](int y, float* out) {
         for (int x = m_x0; x < x1(); ++x) {
-            size_t base = index(x, y) * size_t(nch);
+            const size_t base = size_t(x - m_x0) * size_t(nch);
             const float* p = rgba(layer, x, y);
             const float* a = m_aovFloats > 0 ? aov(layer, x, y) : nullptr;
             uint32_t bits = 0;
@@ -725,11 +736,21 @@ bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Option
                     if (qv > q.max) qv = q.max;
                     v = qv;
                 }
-                data[base + size_t(c)] = v;
+                out[base + size_t(c)] = v;
             }
         }
+    };
+    const size_t npix = size_t(m_width) * size_t(m_height);
+    std::unique_ptr<float[]> data;
+    if (format != Format::Tiff) {
+        // Uninitialised: every value is written below, by the row's thread.
+        data.reset(new float[npix * size_t(nch)]);
+        // Rows in parallel: the frame's serial tail.
+        parallelForRange(tbb::blocked_range<int>(m_y0, y1(), 16), [&](const tbb::blocked_range<int>& rows) {
+            for (int y = rows.begin(); y < rows.end(); ++y)
+                convertRow(y, data.get() + size_t(y - m_y0) * size_t(m_width) * size_t(nch));
+        });
     }
-    });
 
     ImageData image;
     image.width = m_width;
@@ -739,6 +760,14 @@ bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Option
     image.fullWidth = m_xres;
     image.fullHeight = m_yres;
     image.pixels = data.get();
+    if (!data) {
+        // TIFF takes its strips row by row (converted in parallel strips as
+        // it compresses them): the display never holds a second copy of
+        // the frame, 16 bytes a pixel for rgba (33 MB at 1920 x 1080).
+        image.fillRows = [&](int row0, int rows, float* out) {
+            for (int r = 0; r < rows; ++r) convertRow(m_y0 + row0 + r, out + size_t(r) * size_t(m_width) * size_t(nch));
+        };
+    }
     bool hasZ = false;
     for (const ChannelSource& c : channels) {
         image.channelNames.push_back(c.name);

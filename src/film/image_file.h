@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdio>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -39,7 +40,13 @@ struct ImageData {
     std::vector<std::string> channelNames;
     std::vector<ChannelRole> roles;
     std::vector<SampleType> types;  // per channel; TIFF and PNG need them all equal
-    const float* pixels = nullptr;  // width * height * channels values
+    const float* pixels = nullptr;  // width * height * channels values; or null, and then:
+    /// Fills rows [row0, row0 + rows) of the image (row 0 = the top row of
+    /// the data window), width * channels values a row, into `out`; called
+    /// concurrently for disjoint rows. Writers that take rows this way
+    /// (TIFF) never hold the whole converted image: only the film and the
+    /// strips in flight.
+    std::function<void(int row0, int rows, float* out)> fillRows;
 
     std::string software;     // always written
     std::string dateTime;     // "YYYY:MM:DD HH:MM:SS"; empty: not written

@@ -24,7 +24,7 @@ MicroGrid ShadedGrid::view() const {
     g.nv = nv;
     g.P = P.data();
     g.Ci = Ci.data();
-    g.Oi = Oi.data();
+    g.Oi = Oi.empty() ? nullptr : Oi.data();  // none: opaque
     g.aov = aov.empty() ? nullptr : aov.data();
     g.aovCount = aovFloats;
     g.matte = matte;

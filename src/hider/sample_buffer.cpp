@@ -1553,7 +1553,7 @@ void SampleBuffer::resolveFiltered(film::Film& film, int layer, const PatternFil
             for (int k = 0; k < 4; ++k) rgba[k] = acc[k] * inv;
             float* aov = film.aov(layer, px, py);
             for (int k = 0; k < aovN; ++k) aov[k] = acc[4 + k] * inv;
-            if (layer == 0) film.z(px, py) = nearestDepth(px, py);
+            if (layer == 0 && film.hasDepth()) film.z(px, py) = nearestDepth(px, py);
         }
 }
 
@@ -1632,7 +1632,7 @@ void SampleBuffer::resolveColour(film::Film& film, int layer, const PatternFilte
             const float inv = table.inverseWeightSum(positiveMod(px, kPatternPeriod), positiveMod(py, kPatternPeriod));
             float* rgba = film.rgba(layer, px, py);
             for (int k = 0; k < 4; ++k) rgba[k] = a[k] * inv;
-            if (layer == 0) film.z(px, py) = nearestDepth(px, py);
+            if (layer == 0 && film.hasDepth()) film.z(px, py) = nearestDepth(px, py);
         }
 }
 

@@ -33,6 +33,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cerrno>
 #include <cmath>
@@ -777,9 +778,22 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
         frame.aovNames.push_back(a.name);
         frame.aovComponents.push_back(a.components);
     }
-    film::Film film = film::Film::fromOptions(
-        options, aovs, depthFrame ? depthFilmOf(options, depthFilterOf(options, options.loc)) : film::FilmContent::Colour,
-        diag, displays);
+    // A colour frame keeps each pixel's depth only when a display reads it
+    // (a mode with z, a zfile or shadow driver): 4 bytes a pixel otherwise
+    // unused (8 MB at 1920 x 1080). A mode that does not parse keeps it
+    // too; Film::write reports that mode.
+    const bool depthRead = std::any_of(displays.begin(), displays.end(), [](const scene::DisplayRecord& d) {
+        std::string driver = d.driver;
+        for (char& c : driver) c = char(std::tolower(static_cast<unsigned char>(c)));
+        film::DisplayMode mode;
+        std::string why;
+        return driver == "zfile" || driver == "shadow" || !film::parseDisplayMode(d.mode, &mode, &why) ||
+               (!mode.isAov() && mode.standard.find('z') != std::string::npos);
+    });
+    const film::FilmContent content = depthFrame ? depthFilmOf(options, depthFilterOf(options, options.loc))
+                                      : depthRead ? film::FilmContent::Colour
+                                                  : film::FilmContent::ColourOnly;
+    film::Film film = film::Film::fromOptions(options, aovs, content, diag, displays);
     PassResult camera;
     runInArena(*arena, [&] { camera = runPass(frame, pass, prims, film, world.frameNumber >= 0 ? frameName(world) : std::string("image")); });
     if (options.imager && !depthFrame) runInArena(*arena, [&] { runImager(frame, pass, *options.imager, film); });

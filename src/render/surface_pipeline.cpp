@@ -3,6 +3,7 @@
 #include "umbra/util/cpu_time.h"
 #include "umbra/util/rng.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace umbra::render {
@@ -420,7 +421,15 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
         return true;
     }
     out.Ci.assign(sg.Ci.begin(), sg.Ci.begin() + n);
-    out.Oi.assign(sg.Oi.begin(), sg.Oi.begin() + n);
+    // An opaque grid (every Oi at least 1 in each channel, which the hider
+    // samples as exactly opaque without reading Oi) keeps no Oi: a third of
+    // what each grid waiting for its last bucket holds.
+    const bool opaque = std::all_of(sg.Oi.begin(), sg.Oi.begin() + n,
+                                    [](const Color& o) { return o.x >= 1.0f && o.y >= 1.0f && o.z >= 1.0f; });
+    if (opaque)
+        out.Oi.clear();
+    else
+        out.Oi.assign(sg.Oi.begin(), sg.Oi.begin() + n);
     fillAovs(sg, out);
     return true;
 }

@@ -89,6 +89,7 @@ using DepthWriter = std::function<bool(const scene::DisplayRecord&, const Film&)
 /// writers need no lock.
 enum class FilmContent {
     Colour,     ///< r g b a, z and the AOVs
+    ColourOnly, ///< r g b a and the AOVs, no z: a colour frame none of whose displays reads depth
     Depth,      ///< z only (depth passes of one layer)
     DepthPair,  ///< z and z2 (depth passes of two layers)
 };
@@ -164,6 +165,9 @@ public:
     /// First float of AOV `index` within a pixel's AOV floats.
     int aovOffset(int index) const { return m_aovOffsets[size_t(index)]; }
     bool hasDepthPair() const { return m_content == FilmContent::DepthPair; }
+    /// False for a ColourOnly film, which has no z plane (z() must not be called).
+    bool hasDepth() const { return m_content != FilmContent::ColourOnly; }
+    bool hasColour() const { return m_content == FilmContent::Colour || m_content == FilmContent::ColourOnly; }
 
     /// Pixel access by raster coordinates (must be inside the crop region).
     float* rgba(int x, int y) { return &m_rgba[4 * index(x, y)]; }

@@ -38,7 +38,7 @@ struct ShadedGrid {
     int nu = 0, nv = 0;
     std::vector<Vec3> P;      // raster x, raster y (pixels, y down), camera-space z; keyCount arrays when moving
     std::vector<float> keyTimes;  // motion blur: see MicroGrid::keyTimes; empty: still
-    std::vector<Color> Ci, Oi;
+    std::vector<Color> Ci, Oi;   // Oi empty: opaque (every Oi >= 1)
     std::vector<float> aov;   // aovFloats per vertex
     int aovFloats = 0;
     bool matte = false;

@@ -175,6 +175,81 @@ TEST(Film, TiffRoundTripQuantised) {
     EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 1);
 }
 
+// TIFF takes its rows from the film strip by strip (no converted copy of
+// the frame): an image of several 32-row strips, through both the parallel
+// deflate path and libtiff's own encoder, holds every pixel's value.
+TEST(Film, TiffManyStripsBothEncoders) {
+    fs::path dir = testDir("tiffstrips");
+    const float crop[4] = {0, 1, 0.1f, 1};
+    Film f = patternFilm(24, 100, crop);  // rows 10..99: 90 rows, 3 strips
+    ASSERT_EQ(f.y0(), 10);
+    scene::Options o;
+    o.quantizeDither = 0;
+    for (const char* compression : {"", "none", "lzw"}) {
+        QuietDiagnostics diag;
+        scene::DisplayRecord d = display((dir / "out.tif").string(), "tiff", "rgba");
+        if (*compression) {
+            ri::Param p;
+            p.decl.name = "compression";
+            p.decl.type = ri::ParamType::String;
+            p.strings = {compression};
+            d.params.add(p);
+        }
+        ASSERT_TRUE(f.writeDisplay(d, o, {}, diag)) << compression;
+        ReadImage r = readImage(dir / "out.tif");
+        ASSERT_EQ(r.spec.width, 24);
+        ASSERT_EQ(r.spec.height, 90);
+        ASSERT_EQ(r.spec.nchannels, 4);
+        EXPECT_EQ(r.spec.format, OIIO::TypeDesc::UINT8);
+        for (int y = 10; y < 100; ++y)
+            for (int x = 0; x < 24; ++x) {
+                const float* p = &r.pixels[size_t(((y - 10) * 24 + x) * 4)];
+                EXPECT_EQ(p[0], std::round(255.0f * float(x) / 24.0f)) << compression << " " << x << "," << y;
+                EXPECT_EQ(p[1], std::round(255.0f * float(y) / 100.0f)) << compression << " " << x << "," << y;
+                EXPECT_EQ(p[2], 128.0f);
+                EXPECT_EQ(p[3], (x == 0 && y == 10) ? 64.0f : 255.0f);
+            }
+    }
+    // Floating point (z is not quantised, so "rgbaz" is written as float).
+    QuietDiagnostics diag;
+    ASSERT_TRUE(f.writeDisplay(display((dir / "float.tif").string(), "tiff", "rgbaz"), o, {}, diag));
+    ReadImage r = readImage(dir / "float.tif");
+    ASSERT_EQ(r.spec.nchannels, 5);
+    EXPECT_EQ(r.spec.format, OIIO::TypeDesc::FLOAT);
+    for (int y = 10; y < 100; ++y)
+        for (int x = 0; x < 24; ++x) {
+            const float* p = &r.pixels[size_t(((y - 10) * 24 + x) * 5)];
+            EXPECT_EQ(p[0], float(x) / 24.0f);
+            EXPECT_EQ(p[1], float(y) / 100.0f);
+            EXPECT_EQ(p[4], 1.0f + float(x) + 10.0f * float(y));
+        }
+}
+
+// A colour film made without depth (no display reads it) holds 16 bytes a
+// pixel, writes rgba as a film with depth does, and refuses displays that
+// read depth instead of reading memory it does not have.
+TEST(Film, ColourOnlyFilmHasNoDepth) {
+    EXPECT_EQ(Film::bytesFor(8, 4, kFull, {}, film::FilmContent::ColourOnly), 8u * 4u * 16u);
+    EXPECT_EQ(Film::bytesFor(8, 4, kFull, {}, film::FilmContent::Colour), 8u * 4u * 20u);
+    fs::path dir = testDir("colouronly");
+    Film with = patternFilm(8, 4, kFull);
+    Film without(8, 4, kFull, PixelFilter(film::FilterKind::Box, 1, 1), {}, film::FilmContent::ColourOnly);
+    EXPECT_FALSE(without.hasDepth());
+    EXPECT_TRUE(with.hasDepth());
+    for (int y = 0; y < 4; ++y)
+        for (int x = 0; x < 8; ++x) std::copy_n(with.rgba(x, y), 4, without.rgba(x, y));
+    scene::Options o;
+    QuietDiagnostics diag;
+    ASSERT_TRUE(with.writeDisplay(display((dir / "a.tif").string(), "tiff", "rgba"), o, {}, diag));
+    ASSERT_TRUE(without.writeDisplay(display((dir / "b.tif").string(), "tiff", "rgba"), o, {}, diag));
+    EXPECT_EQ(readImage(dir / "a.tif").pixels, readImage(dir / "b.tif").pixels);
+    EXPECT_FALSE(without.writeDisplay(display((dir / "c.tif").string(), "tiff", "rgbaz"), o, {}, diag));
+    film::DepthWriter hook = [](const scene::DisplayRecord&, const Film&) { return true; };
+    EXPECT_FALSE(without.writeDisplay(display((dir / "d.z").string(), "zfile", "z"), o, {}, diag, hook));
+    EXPECT_EQ(diag.errorCount(), 2);
+    EXPECT_FALSE(fs::exists(dir / "c.tif"));
+}
+
 TEST(Film, ExrRoundTripWithDepthAndMatrices) {
     fs::path dir = testDir("exr");
     const float crop[4] = {0, 1, 0.5f, 1};
