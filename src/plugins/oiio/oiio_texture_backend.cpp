@@ -205,17 +205,18 @@ public:
         if (!(o.sblur > 0) && !(o.tblur > 0)) return lookup(R, result);
         // The same rule as texture()'s blur (RI Spec 3.2, a box added to the
         // filtered region), read in the lat-long map's s units at the
-        // equator, as Aqsis reads it: a blur b is an angle of 2 pi b, along
-        // the longitude for "sblur" and the latitude for "tblur", at every
+        // equator, as Aqsis reads it: a blur b is an angle of 2 pi b, in
+        // longitude for "sblur" and in latitude for "tblur", at every
         // latitude (a full turn for 1). Taps rotate R across the box, each
         // filtering its own cell. OpenImageIO's own environment blur b ramps
-        // a step over about a third of 2 pi b, so each tap asks for three
-        // times its cell: with the cell alone the four taps left a staircase.
+        // a step over about 0.4 of 2 pi b (10% to 90%), so each tap asks for
+        // three times its cell: with the cell alone the four taps left a
+        // staircase.
         const float len = std::sqrt(dot3(R, R));
         if (!(len > 0)) return lookup(R, result);
         const Vec3 dir(R.x / len, R.y / len, R.z / len);
-        // East (along the longitude) and north (along the latitude) about
-        // OpenImageIO's lat-long axis, +y; at a pole any east will do.
+        // East (the way longitude grows) and north (the way latitude grows)
+        // about OpenImageIO's lat-long axis, +y; at a pole any east will do.
         Vec3 east(dir.z, 0.0f, -dir.x);  // y x dir
         float el = std::sqrt(dot3(east, east));
         if (el < 1e-6f) {
@@ -238,8 +239,8 @@ public:
             for (int i = 0; i < ns; ++i) {
                 const float a = ns > 1 ? kTurn * o.sblur * ((float(i) + 0.5f) / float(ns) - 0.5f) : 0.0f;
                 const float b = nt > 1 ? kTurn * o.tblur * ((float(j) + 0.5f) / float(nt) - 0.5f) : 0.0f;
-                // Turn by a about north (along the latitude circle's
-                // great-circle tangent), then by b towards north.
+                // Turn by a towards east (on the great circle tangent to the
+                // latitude circle), then by b towards north.
                 const float ca = std::cos(a), sa = std::sin(a), cb = std::cos(b), sb = std::sin(b);
                 const Vec3 d1(ca * dir.x + sa * east.x, ca * dir.y + sa * east.y, ca * dir.z + sa * east.z);
                 const Vec3 d(cb * d1.x + sb * north.x, cb * d1.y + sb * north.y, cb * d1.z + sb * north.z);
