@@ -90,8 +90,9 @@ float smoothstep(float e0, float e1, float x) {
 }
 
 /// The filters filterstep() takes (RI Spec 3.2: "box", "triangle",
-/// "catmull-rom" (the default), "gaussian"), each as the RI pixel filter of
-/// the same name, measured in units of the footprint w: box [-w/2, w/2],
+/// "catmull-rom" (the default), "gaussian"), each the RI Spec's pixel
+/// filter function of that name (Appendix E) taken at x = offset / w with
+/// a filter width of 1, w the footprint: box [-w/2, w/2],
 /// triangle [-w, w], catmull-rom [-2w, 2w], gaussian exp(-8 (x/w)^2).
 /// These are the supports Pixie uses (its 10%-90% rises on the probe in
 /// docs/shading-language.md); Aqsis takes every filter as a box.
