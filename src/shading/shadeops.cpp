@@ -89,6 +89,50 @@ float smoothstep(float e0, float e1, float x) {
     return t * t * (3 - 2 * t);
 }
 
+/// The filters filterstep() takes (RI Spec 3.2: "box", "triangle",
+/// "catmull-rom" (the default), "gaussian"), each the RI Spec's pixel
+/// filter function of that name (Appendix E) taken at x = offset / w with
+/// a filter width of 1, w the footprint: box [-w/2, w/2],
+/// triangle [-w, w], catmull-rom [-2w, 2w], gaussian exp(-8 (x/w)^2).
+/// These are the supports Pixie uses (its 10%-90% rises on the probe in
+/// docs/shading-language.md); Aqsis takes every filter as a box.
+enum class StepFilter { Box, Triangle, CatmullRom, Gaussian };
+
+bool stepFilterNamed(const std::string& name, StepFilter* f) {
+    if (name == "box") *f = StepFilter::Box;
+    else if (name == "triangle") *f = StepFilter::Triangle;
+    else if (name == "catmull-rom") *f = StepFilter::CatmullRom;
+    else if (name == "gaussian") *f = StepFilter::Gaussian;
+    else return false;
+    return true;
+}
+
+/// The integral of the unit-area filter from -infinity to u (u in units of
+/// the footprint): the step at 0 seen through the filter centred on u.
+/// Catmull-Rom's lobes make its integral dip to -1/24 and peak at 25/24;
+/// it is clamped to [0, 1] like a colour.
+float filteredStep(StepFilter f, float u) {
+    switch (f) {
+    case StepFilter::Box: return clamp(u + 0.5f, 0.f, 1.f);
+    case StepFilter::Triangle: {
+        if (u <= -1) return 0;
+        if (u >= 1) return 1;
+        return u < 0 ? 0.5f * (1 + u) * (1 + u) : 1 - 0.5f * (1 - u) * (1 - u);
+    }
+    case StepFilter::CatmullRom: {
+        // Integral from 0 to a of the Catmull-Rom kernel (B = 0, C = 1/2),
+        // which has area 1/2 on each side.
+        const float a = std::min(std::fabs(u), 2.f);
+        float g;
+        if (a <= 1) g = a * (1 + a * a * (-5.f / 6 + 0.375f * a));
+        else g = 13.f / 24 + (-0.125f * a * a * a * a + 5.f / 6 * a * a * a - 2 * a * a + 2 * a) - 17.f / 24;
+        return clamp(0.5f + (u < 0 ? -g : g), 0.f, 1.f);
+    }
+    case StepFilter::Gaussian: return 0.5f * (1 + std::erf(2.8284271f * u));  // sigma = 1/4
+    }
+    return 0;
+}
+
 float determinant(const M16& a) {
     Mat4 m;
     std::memcpy(m.m, a.m, sizeof a.m);
@@ -801,38 +845,42 @@ void execCall(Exec& x, const Instr& in) {
     case Bi::SmoothStep: map(x, dst, [](float a, float b, float c) { return smoothstep(a, b, c); }, A.f(0), A.f(1), A.f(2)); break;
     case Bi::FilterStep:
     case Bi::FilterStep2: {
-        // A step box-filtered over [lo, hi]: the fraction of the interval
-        // at or above the edge. One value: the interval is centred on it,
-        // as wide as its change across one micropolygon in u and v; two
-        // values s1, s2: the interval between them. "width" scales it.
+        // The step filtered over a footprint w (RI Spec 3.2): one value s,
+        // w = |Du(s) du| + |Dv(s) dv|, the change of s across the
+        // micropolygon, centred on s; two values s1, s2, w = |s2 - s1|
+        // centred between them. "width" ("swidth") multiplies w; "filter"
+        // names the filter (catmull-rom when not given).
         bool two = Bi(in.sub) == Bi::FilterStep2;
         int first = two ? 3 : 2;
         const float one = 1;
         In<float> widthScale{&one, 0};
+        StepFilter filter = StepFilter::CatmullRom;
+        const FileLoc where = FileLoc::inFile(x.cs->fileName, in.loc.line, in.loc.col);
         for (int k = first; k + 1 < in.nargs; k += 2) {
             const std::string name = A.ty(k) == Ty::String ? A.s(k) : std::string();
-            if (name == "width" && A.ty(k + 1) == Ty::Float) widthScale = A.f(k + 1);
-            else if (name != "filter")  // every filter is a box here
-                x.ctx->system->diagnostics().warningOnce("shading:filterstep:" + name,
-                                                         FileLoc::inFile(x.cs->fileName, in.loc.line, in.loc.col),
+            if ((name == "width" || name == "swidth") && A.ty(k + 1) == Ty::Float) widthScale = A.f(k + 1);
+            else if (name == "filter" && A.ty(k + 1) == Ty::String) {
+                const std::string& kind = A.s(k + 1);
+                if (!stepFilterNamed(kind, &filter))
+                    x.ctx->system->diagnostics().warningOnce("shading:filterstep:filter:" + kind, where,
+                                                             "unknown filterstep filter '{}'; using catmull-rom", kind);
+            } else
+                x.ctx->system->diagnostics().warningOnce("shading:filterstep:" + name, where,
                                                          "unknown filterstep parameter '{}' ignored", name);
         }
         In<float> e = A.f(0), v = A.f(1), v2 = two ? A.f(2) : A.f(1);
         float* d = x.ptr[size_t(dst)];
         forActive(x, x.vary[size_t(dst)], [&](int i) {
-            float lo, hi;
+            float mid, w;
             if (two) {
-                lo = std::min(v[i], v2[i]);
-                hi = std::max(v[i], v2[i]);
+                mid = 0.5f * (v[i] + v2[i]);
+                w = std::fabs(v2[i] - v[i]);
             } else {
-                float w = std::fabs(deriv(x, v, i, 0, 1.f)) + std::fabs(deriv(x, v, i, 1, 1.f));
-                lo = v[i] - 0.5f * w;
-                hi = v[i] + 0.5f * w;
+                mid = v[i];
+                w = std::fabs(deriv(x, v, i, 0, 1.f)) + std::fabs(deriv(x, v, i, 1, 1.f));
             }
-            float mid = 0.5f * (lo + hi), half = 0.5f * (hi - lo) * std::max(0.f, widthScale[i]);
-            lo = mid - half;
-            hi = mid + half;
-            d[i] = hi <= lo ? (mid < e[i] ? 0.f : 1.f) : clamp((hi - e[i]) / (hi - lo), 0.f, 1.f);
+            w *= std::max(0.f, widthScale[i]);
+            d[i] = w > 0 && std::isfinite(w) ? filteredStep(filter, (mid - e[i]) / w) : (mid < e[i] ? 0.f : 1.f);
         });
         break;
     }

@@ -14,6 +14,7 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <fstream>
 #include <vector>
 
@@ -123,6 +124,135 @@ TEST_F(TextureFilter, UnblurredEdgeStaysSharpAndTblurLeavesAnEdgeAcrossSAlone) {
     const float sOnly = rise(row(0.25f, 0));
     EXPECT_GE(sOnly, 0.75f * 0.25f);
     EXPECT_LE(sOnly, 1.15f * 0.25f);
+}
+
+// environment()'s "blur" follows the same rule, as an angle: a blur b is
+// 2 pi b radians (the lat-long map's s at the equator; Aqsis's reading),
+// along the longitude for "sblur" and the latitude for "tblur". A lat-long
+// map white on one side of a meridian (x > 0) seen along directions that
+// sweep across it: the box of angle 2 pi b ramps the edge over that angle,
+// 0.8 of it from 10% to 90%: umbra 0.81, Pixie 0.55-0.61, Aqsis 1.10-1.13
+// (a gaussian) of 2 pi b on such a probe; OpenImageIO's own environment
+// blur gave 0.38-0.39, and four taps without each one's cell blur a
+// four-step staircase.
+class EnvironmentFilter : public ::testing::Test {
+protected:
+    static constexpr int kMapWidth = 1024;  // 2 pi / 1024 = 0.0061 radians a texel
+    static constexpr int kPixels = 512;
+
+    void SetUp() override {
+        // OpenImageIO's lat-long layout: s = atan2(-x, z) / 2 pi + 1/2, so
+        // x > 0 is s < 1/2 (and the other meridian, at s = 0 and 1, faces
+        // away from the sweep).
+        const std::string path = dir.file("half.tif");
+        auto out = OIIO::ImageOutput::create(path);
+        ASSERT_TRUE(out);
+        OIIO::ImageSpec spec(kMapWidth, kMapWidth / 2, 1, OIIO::TypeDesc::FLOAT);
+        ASSERT_TRUE(out->open(path, spec));
+        std::vector<float> px(size_t(kMapWidth) * kMapWidth / 2);
+        for (int y = 0; y < kMapWidth / 2; ++y)
+            for (int x = 0; x < kMapWidth; ++x) px[size_t(y) * kMapWidth + x] = x < kMapWidth / 2 ? 1.0f : 0.0f;
+        ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, px.data()));
+        ASSERT_TRUE(out->close());
+        // Pixel x looks along phi = (2 (x + 1/2) / kPixels - 1) range
+        // from +z towards +x, at latitude `lat` (radians).
+        std::ofstream(dir.file("sweep.sl")) << R"(surface sweep(string map = ""; float sblur = 0, tblur = 0, range = 1, lat = 0;)
+{
+    float phi = (2 * s - 1) * range;
+    vector D = vector(cos(lat) * sin(phi), sin(lat), cos(lat) * cos(phi));
+    Ci = float environment(map, D, "sblur", sblur, "tblur", tblur);
+    Oi = 1;
+}
+)";
+    }
+
+    /// The middle row across the meridian with the given blurs; `range`
+    /// is the largest phi, at the frame's edges.
+    std::vector<float> row(float sblur, float tblur, float range, float lat = 0) {
+        const std::string image = dir.file(fmt::format("env_{}_{}_{}.tif", sblur, tblur, lat));
+        const std::string rib = fmt::format(R"(Option "searchpath" "shader" ["{0}:&"]
+MakeLatLongEnvironment "{0}/half.tif" "{0}/half.env" "gaussian" 2 2
+Format {1} 8 1
+PixelSamples 2 2
+PixelFilter "box" 1 1
+Quantize "rgba" 0 0 0 0
+Display "{2}" "file" "rgba"
+Projection "orthographic"
+ScreenWindow -1 1 -0.015625 0.015625
+Translate 0 0 5
+WorldBegin
+Surface "sweep" "string map" "{0}/half.env" "float sblur" {3} "float tblur" {4} "float range" {5} "float lat" {6}
+Patch "bilinear" "P" [-1 -1 0  1 -1 0  -1 1 0  1 1 0]
+WorldEnd
+)",
+                                            scratch(), kPixels, image, sblur, tblur, range, lat);
+        Diagnostics diag;
+        diag.setQuiet(true);
+        const test::Image img = test::renderImage(rib, image, diag, 2);
+        EXPECT_EQ(diag.errorCount(), 0);
+        std::vector<float> r;
+        if (img.width != kPixels) return r;
+        for (int x = 0; x < kPixels; ++x) r.push_back(img.at(x, 4, 0));
+        return r;
+    }
+
+    /// The 10%-90% rise of the edge in phi (radians), crossings
+    /// interpolated between pixels; negative when there is no edge.
+    static float rise(const std::vector<float>& r, float range) {
+        auto crossing = [&](float level) {
+            for (size_t x = 1; x < r.size(); ++x)
+                if (r[x - 1] < level && r[x] >= level) return float(x - 1) + (level - r[x - 1]) / (r[x] - r[x - 1]);
+            return -1e9f;
+        };
+        return (crossing(0.9f) - crossing(0.1f)) * 2 * range / float(r.size());
+    }
+
+    std::string scratch() const {
+        std::string d = dir.file("");
+        return d.substr(0, d.size() - 1);
+    }
+
+    test::ScratchDir dir{"environment-filter"};
+};
+
+TEST_F(EnvironmentFilter, BlurRampsAMeridianOverItsAngleLikeABox) {
+    const float kTwoPi = 6.2831853f;
+    for (float blur : {0.02f, 0.05f}) {
+        const float range = 0.3f;
+        const std::vector<float> r = row(blur, blur, range);
+        ASSERT_EQ(r.size(), size_t(kPixels));
+        // The box alone: 0.8 x 2 pi b. The taps' cells and the lookup's own
+        // footprint add a little; the bounds are the texture() test's
+        // (0.75-1.15 of the box's length).
+        const float box = kTwoPi * blur;
+        EXPECT_GE(rise(r, range), 0.75f * box) << "blur " << blur;
+        EXPECT_LE(rise(r, range), 1.15f * box) << "blur " << blur;
+        EXPECT_NEAR(r[kPixels / 2 - 1] + r[kPixels / 2], 1.0f, 0.1f) << "blur " << blur;
+        for (int x = 1; x < kPixels; ++x) ASSERT_GE(r[size_t(x)], r[size_t(x) - 1] - 1e-4f) << "blur " << blur << " x " << x;
+        // A ramp, not a staircase of the taps: every eighth of the box
+        // inside the middle of the ramp climbs (a box: by 1/8).
+        const int eighth = int(box / 8 / (2 * range / kPixels));
+        for (int x = 0; x + eighth < kPixels; ++x)
+            if (r[size_t(x)] > 0.2f && r[size_t(x + eighth)] < 0.8f) {
+                ASSERT_GE(r[size_t(x + eighth)] - r[size_t(x)], 0.06f) << "blur " << blur << " x " << x;
+            }
+    }
+}
+
+TEST_F(EnvironmentFilter, BlurIsTheSameAngleAtAnyLatitudeAndTblurRunsAlongTheMeridian) {
+    const float kTwoPi = 6.2831853f, range = 0.3f;
+    // No blur: the edge within a few texels (0.0061 radians each).
+    EXPECT_LE(rise(row(0, 0, range), range), 0.02f);
+    // "tblur" turns along the meridian, which the edge is: no ramp.
+    EXPECT_LE(rise(row(0, 0.05f, range), range), 0.02f);
+    // At latitude 45 degrees a longitude turn phi is an angle of about
+    // phi cos 45 from the meridian's plane: the same box of 2 pi b radians
+    // ramps over 2 pi b / cos 45 of phi (OpenImageIO's blur in s would
+    // stay 2 pi b of phi, a narrower angle).
+    const float lat = 0.7853982f, blur = 0.03f;
+    const float r45 = rise(row(blur, 0, 0.5f, lat), 0.5f) * std::cos(lat);
+    EXPECT_GE(r45, 0.75f * kTwoPi * blur);
+    EXPECT_LE(r45, 1.15f * kTwoPi * blur);
 }
 
 }  // namespace

@@ -25,9 +25,34 @@ ShadingGrid line(int n = 11) {
     return makeGrid(n, 1, [](float u, float) { return Vec3(u, 0, 1); });
 }
 
-float boxStep(float edge, float lo, float hi) {
-    if (hi <= lo) return lo < edge ? 0.f : 1.f;
-    return std::clamp((hi - edge) / (hi - lo), 0.f, 1.f);
+/// The RI filters filterstep() takes, in units of the footprint w (the
+/// supports Pixie uses): box [-1/2, 1/2], triangle [-1, 1], Catmull-Rom
+/// (B = 0, C = 1/2) [-2, 2], gaussian exp(-8 x^2).
+double kernel(const std::string& filter, double x) {
+    const double a = std::fabs(x);
+    if (filter == "box") return a <= 0.5 ? 1 : 0;
+    if (filter == "triangle") return std::max(0.0, 1 - a);
+    if (filter == "gaussian") return std::exp(-8 * x * x);
+    if (a < 1) return 1.5 * a * a * a - 2.5 * a * a + 1;
+    if (a < 2) return -0.5 * a * a * a + 2.5 * a * a - 4 * a + 2;
+    return 0;
+}
+
+/// The step at `edge` filtered over a footprint w centred on `mid`:
+/// the kernel's area below (mid - edge) / w over its whole area, summed
+/// numerically (midpoint rule), clamped to [0, 1].
+float filteredStep(const std::string& filter, float edge, float mid, float w) {
+    if (!(w > 0)) return mid < edge ? 0.f : 1.f;
+    const double u = (double(mid) - double(edge)) / double(w);
+    const int n = 200000;
+    double below = 0, all = 0;
+    for (int k = 0; k < n; ++k) {
+        const double x = -3 + 6 * (k + 0.5) / n;
+        const double f = kernel(filter, x);
+        all += f;
+        if (x < u) below += f;
+    }
+    return float(std::clamp(below / all, 0.0, 1.0));
 }
 
 }  // namespace
@@ -98,29 +123,63 @@ TEST(Compat, PowOfAColorAndAFloat) {
     }
 }
 
-TEST(Compat, FilterStepOverAnIntervalAndWithAWidth) {
-    Harness h;
-    ShadingGrid g = line();  // du = 0.1: s changes by 0.1 per micropolygon
-    h.surface("surface t() {\n"
-              "  Ci = color(filterstep(0.5, s, s + 0.2), filterstep(0.5, s + 0.1, s - 0.1, \"width\", 2),\n"
-              "             filterstep(0.5, s));\n"
-              "  Oi = color(filterstep(0.5, s, \"width\", 0.5), 0, 0);\n"
-              "}\n",
-              g);
-    for (size_t i = 0; i < g.s.size(); ++i) {
-        const float s = g.s[i];
-        EXPECT_NEAR(g.Ci[i].x, boxStep(0.5f, s, s + 0.2f), 1e-5f) << "s = " << s;
-        EXPECT_NEAR(g.Ci[i].y, boxStep(0.5f, s - 0.2f, s + 0.2f), 1e-5f) << "s = " << s;
-        EXPECT_NEAR(g.Ci[i].z, boxStep(0.5f, s - 0.05f, s + 0.05f), 1e-5f) << "s = " << s;
-        EXPECT_NEAR(g.Oi[i].x, boxStep(0.5f, s - 0.025f, s + 0.025f), 1e-5f) << "s = " << s;
+TEST(Compat, FilterStepFiltersEachRiFilterOverTheFootprint) {
+    // du = 0.1: s changes by 0.1 per micropolygon, the footprint w. Width 3
+    // (w = 0.3) puts points inside every filter's support, an edge off the
+    // points shows a filter that is not centred.
+    for (const std::string filter : {"box", "triangle", "catmull-rom", "gaussian"}) {
+        Harness h;
+        ShadingGrid g = line();
+        // The name comes through a parameter, as a probe scene passes it.
+        h.surface("surface t(string f = \"" + filter + "\") {\n"
+                  "  Ci = color(filterstep(0.53, s, \"filter\", f, \"width\", 3),\n"
+                  "             filterstep(0.53, s, \"swidth\", 2, \"filter\", f),\n"
+                  "             filterstep(0.53, s, \"filter\", f));\n"
+                  "  Oi = color(filterstep(0.53, s - 0.1, s + 0.2, \"filter\", f),\n"
+                  "             filterstep(0.53, s + 0.2, s - 0.1, \"filter\", f, \"width\", 0.5), 0);\n"
+                  "}\n",
+                  g);
+        int ramp = 0;
+        for (size_t i = 0; i < g.s.size(); ++i) {
+            const float s = g.s[i];
+            EXPECT_NEAR(g.Ci[i].x, filteredStep(filter, 0.53f, s, 0.3f), 2e-4f) << filter << " s = " << s;
+            EXPECT_NEAR(g.Ci[i].y, filteredStep(filter, 0.53f, s, 0.2f), 2e-4f) << filter << " s = " << s;
+            EXPECT_NEAR(g.Ci[i].z, filteredStep(filter, 0.53f, s, 0.1f), 2e-4f) << filter << " s = " << s;
+            // [s1, s2] in either order: centred between them, w = |s2 - s1|.
+            EXPECT_NEAR(g.Oi[i].x, filteredStep(filter, 0.53f, s + 0.05f, 0.3f), 2e-4f) << filter << " s = " << s;
+            EXPECT_NEAR(g.Oi[i].y, filteredStep(filter, 0.53f, s + 0.05f, 0.15f), 2e-4f) << filter << " s = " << s;
+            if (g.Ci[i].x > 0.01f && g.Ci[i].x < 0.99f) ++ramp;
+        }
+        EXPECT_GE(ramp, 2) << filter << ": the points must see the ramp, not only its ends";
+        EXPECT_EQ(h.diag.warningCount(), 0) << h.messages();
     }
-    // Some points lie inside the filter: the test sees the ramp, not a step.
-    EXPECT_NEAR(g.Ci[4].x, 0.5f, 1e-5f);  // s = 0.4: [0.4, 0.6] is half above 0.5
+}
+
+TEST(Compat, FilterStepDefaultsToCatmullRomAndWarnsOnceAboutUnknownNames) {
+    Harness h;
+    ShadingGrid g = line();
+    // The RI Spec's default filter is catmull-rom.
+    h.surface("surface t() { Ci = color(filterstep(0.53, s, \"width\", 3), filterstep(0.53, s, s + 0.3), 0); }", g);
+    for (size_t i = 0; i < g.s.size(); ++i) {
+        EXPECT_NEAR(g.Ci[i].x, filteredStep("catmull-rom", 0.53f, g.s[i], 0.3f), 2e-4f) << "s = " << g.s[i];
+        EXPECT_NEAR(g.Ci[i].y, filteredStep("catmull-rom", 0.53f, g.s[i] + 0.15f, 0.3f), 2e-4f) << "s = " << g.s[i];
+    }
     EXPECT_EQ(h.diag.warningCount(), 0) << h.messages();
-    // "filter" is accepted (all filters are boxes); other names warn once.
-    h.surface("surface t() { Ci = filterstep(0.5, s, \"filter\", \"gaussian\", \"sharpness\", 2); }", g);
+    // An unknown filter warns once (not per point, not per grid) and is
+    // taken as catmull-rom; an unknown parameter warns and is ignored.
+    const char* src = "surface t() { Ci = filterstep(0.53, s, \"filter\", \"mitchell\", \"width\", 3); }";
+    h.surface(src, g);
+    h.surface(src, g);
     EXPECT_EQ(h.diag.warningCount(), 1) << h.messages();
+    EXPECT_NE(h.messages().find("unknown filterstep filter 'mitchell'"), std::string::npos) << h.messages();
+    for (size_t i = 0; i < g.s.size(); ++i)
+        EXPECT_NEAR(g.Ci[i].x, filteredStep("catmull-rom", 0.53f, g.s[i], 0.3f), 2e-4f) << "s = " << g.s[i];
+    h.surface("surface t() { Ci = filterstep(0.5, s, \"filter\", \"gaussian\", \"sharpness\", 2); }", g);
+    EXPECT_EQ(h.diag.warningCount(), 2) << h.messages();
     EXPECT_NE(h.messages().find("unknown filterstep parameter 'sharpness'"), std::string::npos) << h.messages();
+    // A footprint of zero (s the same everywhere) is the plain step.
+    h.surface("surface t() { Ci = color(filterstep(0.5, 0.7), filterstep(0.5, 0.3), filterstep(0.5, 0.2, 0.2)); }", g);
+    for (size_t i = 0; i < g.s.size(); ++i) expectNear(g.Ci[i], Vec3(1, 0, 0), 0);
 }
 
 TEST(Compat, TransformFromANamedSpaceByAMatrix) {
