@@ -634,6 +634,17 @@ void SampleBuffer::sampleBlurred(const MicroGrid& g) {
         auto weight = [&](float t) { return span > 0 ? std::clamp((t - g.keyTimes[0]) / span, 0.0f, 1.0f) : 0.0f; };
         for (size_t k = 0; k < m_strataStart.size(); ++k) m_strataWeight.push_back(weight(m_strataStart[k]));
         m_strataWeight.push_back(weight(m_strataEnd.back()));
+        // The same, four strata a lane group: a stratum's first and next
+        // weight, and whether it is a stratum (start <= end).
+        const size_t strata = m_strataStart.size(), padded = (strata + 3) & ~size_t(3);
+        m_strataW0.assign(padded, 0.0f);
+        m_strataW1.assign(padded, 0.0f);
+        m_strataLive.assign(padded / 4, 0);
+        for (size_t k = 0; k < strata; ++k) {
+            m_strataW0[k] = m_strataWeight[k];
+            m_strataW1[k] = m_strataWeight[k + 1];
+            if (!(m_strataStart[k] > m_strataEnd[k])) m_strataLive[k / 4] |= 1 << (k % 4);
+        }
     }
     for (int j = 0; j < g.nv; ++j)
         for (int i = 0; i < g.nu; ++i) {
@@ -782,10 +793,11 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
             }
     };
 
-    // Samples are queued four at a time and their corners and edges found
-    // four-wide, with testSample's arithmetic lane by lane (so the same
-    // bits): most samples in a stratum's box miss the micropolygon, and
-    // only those inside a half go on to testSample. Samples are distinct,
+    // Samples are queued four at a time and their corners, edges,
+    // barycentrics and depths found four-wide, with testSample's arithmetic
+    // lane by lane (so the same bits): most samples in a stratum's box miss
+    // the micropolygon, and only those inside a half go on to the rest of
+    // testSample (depth, clipping, dissolve, trim, record). Samples are distinct,
     // and a hit writes only its own sample, so the order of the tests, and
     // the pictures, are those of testing each in turn.
     const bool batched = !g.discs && keys <= 2;
@@ -814,7 +826,7 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
             lensY = F4{m_lensY[pending[0]], m_lensY[pending[1]], m_lensY[pending[2]], m_lensY[pending[3]]} *
                     m_cfg.lensScaleY;
         }
-        F4 qx[4], qy[4];
+        F4 qx[4], qy[4], qd[4];
         for (int c = 0; c < 4; ++c) {
             const size_t v0 = size_t(corner[c]);
             const Vec3& a = g.P[v0];
@@ -834,35 +846,80 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
             }
             qx[c] = x;
             qy[c] = y;
+            qd[c] = d;
         }
         const F4 x = {m_px[pending[0]], m_px[pending[1]], m_px[pending[2]], m_px[pending[3]]};
         const F4 y = {m_py[pending[0]], m_py[pending[1]], m_py[pending[2]], m_py[pending[3]]};
-        I4 any = {0, 0, 0, 0};
+        // Per half: the lanes inside, and testSample's barycentrics and
+        // depth for them (its arithmetic lane by lane, so the same bits).
+        int inHalf[2];
+        F4 hitB1[2] = {}, hitB2[2] = {}, hitZ[2] = {}, hitArea[2] = {};
         static constexpr int kHalves[2][3] = {{0, 1, 3}, {0, 3, 2}};
-        for (const auto& half : kHalves) {
-            const int a = half[0], b = half[1], c = half[2];
+        for (int h = 0; h < 2; ++h) {
+            const int a = kHalves[h][0], b = kHalves[h][1], c = kHalves[h][2];
             const F4 area = (qx[b] - qx[a]) * (qy[c] - qy[a]) - (qy[b] - qy[a]) * (qx[c] - qx[a]);
             const I4 valid = (area != 0.0f) & finite4(area);
             const I4 flip = area < 0.0f;
             const F4 bx = select(flip, qx[c], qx[b]), by = select(flip, qy[c], qy[b]);
             const F4 cx = select(flip, qx[b], qx[c]), cy = select(flip, qy[b], qy[c]);
             // ScalarEdge::setup, eval and inside, lane by lane.
-            auto inside = [&](F4 ux, F4 uy, F4 vx, F4 vy) {
+            auto edge = [&](F4 ux, F4 uy, F4 vx, F4 vy, I4& in) {
                 const I4 canonical = (uy < vy) | ((uy == vy) & (ux < vx));
                 const F4 ox = select(canonical, ux, vx), oy = select(canonical, uy, vy);
                 const F4 dx = select(canonical, vx - ox, -(ux - ox));
                 const F4 dy = select(canonical, vy - oy, -(uy - oy));
                 const F4 e = dx * (y - oy) - dy * (x - ox);
-                return (e > 0.0f) | ((e == 0.0f) & canonical);
+                in = (e > 0.0f) | ((e == 0.0f) & canonical);
+                return e;
             };
-            any |= valid & inside(bx, by, cx, cy) & inside(cx, cy, qx[a], qy[a]) & inside(qx[a], qy[a], bx, by);
+            I4 in0, in1, in2;
+            edge(bx, by, cx, cy, in0);
+            const F4 w1 = edge(cx, cy, qx[a], qy[a], in1);
+            const F4 w2 = edge(qx[a], qy[a], bx, by, in2);
+            inHalf[h] = laneMask(valid & in0 & in1 & in2);
+            if (!inHalf[h]) continue;
+            const F4 invArea = 1.0f / abs4(area);
+            inHalf[h] &= laneMask(finite4(invArea));
+            const F4 b1 = w1 * invArea, b2 = w2 * invArea;
+            const F4 db = select(flip, qd[c], qd[b]), dc = select(flip, qd[b], qd[c]);
+            const F4 d = qd[a] + b1 * (db - qd[a]) + b2 * (dc - qd[a]);
+            hitB1[h] = b1;
+            hitB2[h] = b2;
+            hitZ[h] = depthOf ? 1.0f / d : d;
+            hitArea[h] = area;
         }
-        const int hit = laneMask(any);
+        m_blur.sampleTests += uint64_t(pendingCount);
+        const int hit = inHalf[0] | inHalf[1];
         for (int k = 0; k < pendingCount; ++k) {
-            if (hit & (1 << k))
-                testSample(pending[k]);
-            else
-                ++m_blur.sampleTests;
+            if (!(hit & (1 << k))) continue;
+            const size_t s = pending[k];
+            const float useful = ctx.farthestUseful[s];
+            // testSample's tail, half by half.
+            for (int h = 0; h < 2; ++h) {
+                if (!(inHalf[h] & (1 << k))) continue;
+                const float z = hitZ[h][k];
+                if (!(z <= useful && z >= m_cfg.nearClip && z <= m_cfg.farClip)) continue;
+                if (g.dissolves() && !(m_dissolve[s] >= g.dissolveFrom && m_dissolve[s] < g.dissolveBelow)) continue;
+                const bool reversed = hitArea[h][k] < 0;
+                int b = kHalves[h][1], c = kHalves[h][2];
+                if (reversed) std::swap(b, c);
+                Tri t;
+                t.i0 = corner[kHalves[h][0]];
+                t.i1 = corner[b];
+                t.i2 = corner[c];
+                t.sub = 2 * mp + uint32_t(h);
+                t.reversed = reversed;
+                const float b1 = hitB1[h][k], b2 = hitB2[h][k];
+                if (g.trim) {
+                    const float w1s[4] = {b1, 0, 0, 0}, w2s[4] = {b2, 0, 0, 0};
+                    if (!trimKept(g, t, w1s, w2s, 1)) continue;
+                }
+                ++m_blur.sampleHits;
+                if (nearestOnly)
+                    wrote |= takeNearest(s, z, g.id, t.sub);
+                else
+                    wrote |= record(g, ctx, t, s, z, b1, b2);
+            }
         }
         pendingCount = 0;
     };
@@ -883,17 +940,12 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
     bool timeBox = false;
     float boxLo[2] = {}, boxHi[2] = {}, boxDlo[2] = {}, boxDhi[2] = {};
     float boxTime0 = 0, boxTimeScale = 0;  // f = (t - boxTime0) * boxTimeScale, clamped to [0, 1]
-    // Four pixels of a row at a time are tested against the box, by their
+    // Four pixels of a row at a time are tested against the box [x0, x1] x
+    // [y0, y1] (pixels [px0, px1] x [py0, py1] of the region), by their
     // sample's position in that stratum (NaN, never inside, for none).
-    auto visitStratum = [&](size_t offset, const std::vector<int32_t>& tableS, const std::vector<float>& tableX,
-                            const std::vector<float>& tableY, float x0, float y0, float x1, float y1) {
-        x0 = std::max(x0, minx);
-        x1 = std::min(x1, maxx);
-        y0 = std::max(y0, miny);
-        y1 = std::min(y1, maxy);
-        if (!(x0 <= x1 && y0 <= y1)) return;
-        const int px0 = std::max(0, floorToInt(x0) - m_rx0), px1 = std::min(m_rw - 1, floorToInt(x1) - m_rx0);
-        const int py0 = std::max(0, floorToInt(y0) - m_ry0), py1 = std::min(m_rh - 1, floorToInt(y1) - m_ry0);
+    auto visitPixels = [&](size_t offset, const std::vector<int32_t>& tableS, const std::vector<float>& tableX,
+                           const std::vector<float>& tableY, float x0, float y0, float x1, float y1, int px0,
+                           int py0, int px1, int py1) {
         for (int py = py0; py <= py1; ++py) {
             const size_t rowAt = offset + size_t(py) * size_t(m_rw);
             for (int px = px0; px <= px1; px += 4) {
@@ -917,6 +969,19 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
                 }
             }
         }
+    };
+    // The samples of one stratum inside [x0, x1] x [y0, y1], clipped to the
+    // micropolygon's bound.
+    auto visitStratum = [&](size_t offset, const std::vector<int32_t>& tableS, const std::vector<float>& tableX,
+                            const std::vector<float>& tableY, float x0, float y0, float x1, float y1) {
+        x0 = std::max(x0, minx);
+        x1 = std::min(x1, maxx);
+        y0 = std::max(y0, miny);
+        y1 = std::min(y1, maxy);
+        if (!(x0 <= x1 && y0 <= y1)) return;
+        const int px0 = std::max(0, floorToInt(x0) - m_rx0), px1 = std::min(m_rw - 1, floorToInt(x1) - m_rx0);
+        const int py0 = std::max(0, floorToInt(y0) - m_ry0), py1 = std::min(m_rh - 1, floorToInt(y1) - m_ry0);
+        visitPixels(offset, tableS, tableX, tableY, x0, y0, x1, y1, px0, py0, px1, py1);
     };
     const bool lensStrata = lens && keys < 2 && !m_lensStrataSample.empty() && std::isfinite(blur0) &&
                             std::isfinite(blur1);
@@ -1029,6 +1094,52 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
             fFirst -= 1e-4f;
             fLast += 1e-4f;
         }
+        // Two keys: four strata's bounds at a time, each lane the scalar
+        // loop's arithmetic below (std::min and std::max as selects, NaN
+        // handled alike), so the same boxes and the same samples in the
+        // same order.
+        if (linear) {
+            auto splat = [](float v) { return F4{} + v; };
+            auto vmin = [&](F4 a, F4 b) { return select(b < a, b, a); };  // std::min(a, b)
+            auto vmax = [&](F4 a, F4 b) { return select(a < b, b, a); };  // std::max(a, b)
+            const F4 first = splat(fFirst), last = splat(fLast);
+            const F4 clipX0 = splat(minx), clipX1 = splat(maxx), clipY0 = splat(miny), clipY1 = splat(maxy);
+            for (int k = 0; k < strata; k += 4) {
+                const F4 f0 = load4(&m_strataW0[size_t(k)]), f1 = load4(&m_strataW1[size_t(k)]);
+                int live = m_strataLive[size_t(k / 4)] & laneMask(~((f1 < first) | (last < f0)));
+                if (!live) continue;
+                F4 x0 = splat(kInfinity), y0 = splat(kInfinity), x1 = splat(-kInfinity), y1 = splat(-kInfinity);
+                auto include = [&](F4 x, F4 y) {
+                    x0 = vmin(x0, x);
+                    x1 = vmax(x1, x);
+                    y0 = vmin(y0, y);
+                    y1 = vmax(y1, y);
+                };
+                for (const F4 f : {f0, f1}) {
+                    include(lo[0] + f * dlo[0], lo[1] + f * dlo[1]);
+                    include(hi[0] + f * dhi[0], hi[1] + f * dhi[1]);
+                }
+                const F4 ex = 1e-5f * vmax(abs4(x0), abs4(x1)) + 1e-3f + padX;
+                const F4 ey = 1e-5f * vmax(abs4(y0), abs4(y1)) + 1e-3f + padY;
+                // visitStratum's clip and pixel range.
+                const F4 bx0 = vmax(x0 - ex, clipX0), bx1 = vmin(x1 + ex, clipX1);
+                const F4 by0 = vmax(y0 - ey, clipY0), by1 = vmin(y1 + ey, clipY1);
+                const I4 nonEmpty = (bx0 <= bx1) & (by0 <= by1);
+                live &= laneMask(nonEmpty);
+                if (!live) continue;
+                // Empty lanes (perhaps not numbers) are not converted.
+                const F4 zero = {0, 0, 0, 0};
+                const I4 ix0 = floorX4(select(nonEmpty, bx0, zero)), ix1 = floorX4(select(nonEmpty, bx1, zero));
+                const I4 iy0 = floorX4(select(nonEmpty, by0, zero)), iy1 = floorX4(select(nonEmpty, by1, zero));
+                while (live) {
+                    const int l = __builtin_ctz(unsigned(live));
+                    live &= live - 1;
+                    visitPixels(size_t(k + l) * plane, m_strataSample, m_strataX, m_strataY, bx0[l], by0[l], bx1[l],
+                                by1[l], std::max(0, ix0[l] - m_rx0), std::max(0, iy0[l] - m_ry0),
+                                std::min(m_rw - 1, ix1[l] - m_rx0), std::min(m_rh - 1, iy1[l] - m_ry0));
+                }
+            }
+        } else
         for (int k = 0; k < strata; ++k) {
             const float t0 = m_strataStart[size_t(k)], t1 = m_strataEnd[size_t(k)];
             if (t0 > t1) continue;

@@ -356,6 +356,8 @@ private:
     // Two-key grid being sampled: the interpolation weight of its second
     // key at each stratum's first time, and at the last one's end.
     std::vector<float> m_strataWeight;
+    std::vector<float> m_strataW0, m_strataW1;  // m_strataWeight[k], [k + 1], padded to groups of four
+    std::vector<int> m_strataLive;              // per group of four strata: bit l set for a stratum
     // Depth of field likewise: the sample of each region pixel in each lens
     // stratum, and each stratum's box of lens positions (x0, y0, x1, y1).
     std::vector<int32_t> m_lensStrataSample;
