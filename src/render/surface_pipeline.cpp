@@ -169,6 +169,12 @@ dice::DiceParams SurfacePipeline::diceParams(const geometry::Primitive& prim) co
         else
             p.flatness = m_pass.flatness;
     }
+    // GeometricApproximation "flatness": dice finer where curvature needs it
+    // (a floor on the counts; the depth pass's own flatness is a ceiling).
+    static const std::string kFlatness = "GeometricApproximation:flatness";
+    const auto fl = attrs.user.find(kFlatness);
+    if (fl != attrs.user.end() && !fl->second.floats.empty() && fl->second.floats[0] > 0)
+        p.maxStandOff = fl->second.floats[0];
     p.gridSize = m_frame.world->options.gridSize;
     p.nearClip = cam.nearClip;
     p.farClip = cam.farClip;
