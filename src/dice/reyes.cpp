@@ -1,6 +1,8 @@
 #include "umbra/dice/reyes.h"
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 namespace umbra::dice {
 
@@ -77,7 +79,13 @@ void rasterLengths(const Vec3* R, int nu, int nv, float* lenU, float* lenV) {
     *lenV = lv;
 }
 
-void flatnessCounts(const Vec3* Q, int n, float flatness, float* countU, float* countV) {
+namespace {
+
+// The counts of flatnessCounts() and standOffCounts(): `measure(d, i, j)`
+// is how far, in pixels, a second-derivative vector d at lattice point
+// (i, j) carries the surface.
+template <class Measure>
+void bendCounts(const Vec3* Q, int n, float flatness, const Measure& measure, float* countU, float* countV) {
     // Second differences of the lattice (step 1/n) times n^2 are the
     // surface's second derivatives: A = P_uu, B = P_vv and, per cell, the
     // twist C = P_uv. Cut into Nu x Nv cells, a u edge's chord is off the
@@ -93,9 +101,9 @@ void flatnessCounts(const Vec3* Q, int n, float flatness, float* countU, float* 
     auto twist = [&](int i, int j) { return (at(i + 1, j + 1) - at(i + 1, j) - at(i, j + 1) + at(i, j)) * nn; };
     float maxA = 0, maxB = 0;
     for (int j = 0; j <= n; ++j)
-        for (int i = 1; i < n; ++i) maxA = std::max(maxA, length(bendU(i, j)));
+        for (int i = 1; i < n; ++i) maxA = std::max(maxA, measure(bendU(i, j), i, j));
     for (int j = 1; j < n; ++j)
-        for (int i = 0; i <= n; ++i) maxB = std::max(maxB, length(bendV(i, j)));
+        for (int i = 0; i <= n; ++i) maxB = std::max(maxB, measure(bendV(i, j), i, j));
     // NaN (unprojectable points) gives no bound: the rate alone decides.
     auto count = [&](float bend) {
         const float c = std::ceil(std::sqrt(bend / (8.0f * limit)));
@@ -106,7 +114,7 @@ void flatnessCounts(const Vec3* Q, int n, float flatness, float* countU, float* 
     for (int j = 1; j < n; ++j)
         for (int i = 1; i < n; ++i) {
             const Vec3 d = bendU(i, j) / (cu * cu) + twist(i, j) * (2.0f / (cu * cv)) + bendV(i, j) / (cv * cv);
-            centre = std::max(centre, length(d) / 8.0f);
+            centre = std::max(centre, measure(d, i, j) / 8.0f);
         }
     if (!(centre >= 0)) {
         cu = cv = kInfinity;
@@ -118,6 +126,39 @@ void flatnessCounts(const Vec3* Q, int n, float flatness, float* countU, float* 
     }
     *countU = cu;
     *countV = cv;
+}
+
+}  // namespace
+
+void flatnessCounts(const Vec3* Q, int n, float flatness, float* countU, float* countV) {
+    bendCounts(Q, n, flatness, [](const Vec3& d, int, int) { return length(d); }, countU, countV);
+}
+
+void standOffCounts(const Vec3* Q, const float* pixelsPerUnit, int n, float standOff, float* countU,
+                    float* countV) {
+    // Only the part of a bend along the surface normal takes the chord off
+    // the surface; the rest slides along it (a plane's lattice, however
+    // unevenly spaced, bends nothing off it). Normals from the lattice's
+    // central differences; where they vanish (a pole) the whole bend
+    // counts.
+    thread_local std::vector<Vec3> normals;
+    normals.resize(size_t(n + 1) * size_t(n + 1));
+    auto at = [&](int i, int j) { return Q[j * (n + 1) + i]; };
+    for (int j = 0; j <= n; ++j)
+        for (int i = 0; i <= n; ++i) {
+            const Vec3 du = at(std::min(i + 1, n), j) - at(std::max(i - 1, 0), j);
+            const Vec3 dv = at(i, std::min(j + 1, n)) - at(i, std::max(j - 1, 0));
+            const Vec3 c = cross(du, dv);
+            const float len = length(c);
+            normals[size_t(j * (n + 1) + i)] = len > 0 && std::isfinite(len) ? c / len : Vec3(0);
+        }
+    auto measure = [&](const Vec3& d, int i, int j) {
+        const size_t k = size_t(j * (n + 1) + i);
+        const Vec3& N = normals[k];
+        const float off = (N.x == 0 && N.y == 0 && N.z == 0) ? length(d) : std::abs(dot(d, N));
+        return off * pixelsPerUnit[k];
+    };
+    bendCounts(Q, n, standOff, measure, countU, countV);
 }
 
 void turningCounts(const Vec3* Q, int n, float maxTurn, float* countU, float* countV) {
@@ -221,7 +262,7 @@ DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, co
     // Flatness is measured in pixel space: raster x and y, and camera depth
     // in pixel widths.
     thread_local std::vector<Vec3> pixelSpace, cameraSpace;
-    const bool flat = p.flatness > 0;
+    const bool flat = p.flatness > 0 || p.maxStandOff > 0;
     if (flat) pixelSpace.resize(P.size());
     cameraSpace.resize(P.size());
     float nearest = kInfinity;
@@ -241,7 +282,8 @@ DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, co
             nearest = std::min(nearest, c.z);
         }
     }
-    float flatU = kInfinity, flatV = kInfinity;
+    float flatU = kInfinity, flatV = kInfinity;  // no finer than this (depth passes)
+    float standU = 1, standV = 1;                // no coarser than this (GeometricApproximation)
     if (flat) {
         // A camera unit spans S / w pixels, w = z under perspective (the
         // lattice's nearest point has the widest scale), 1 when orthographic.
@@ -249,14 +291,23 @@ DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, co
         const float S = std::max(std::abs(m[0][0]), std::abs(m[1][1]));
         const float scale = S / std::abs(m[3][2] * nearest + m[3][3]);
         for (Vec3& v : pixelSpace) v.z *= scale;
-        flatnessCounts(pixelSpace.data(), n, p.flatness, &flatU, &flatV);
+        if (p.flatness > 0) flatnessCounts(pixelSpace.data(), n, p.flatness, &flatU, &flatV);
+        if (p.maxStandOff > 0) {
+            thread_local std::vector<float> pixelsPerUnit;
+            pixelsPerUnit.resize(cameraSpace.size());
+            for (size_t k = 0; k < cameraSpace.size(); ++k)
+                pixelsPerUnit[k] = S / std::abs(m[3][2] * std::max(cameraSpace[k].z, zEye) + m[3][3]);
+            standOffCounts(cameraSpace.data(), pixelsPerUnit.data(), n, p.maxStandOff, &standU, &standV);
+            // Unprojectable points (NaN) give no bound: the rate alone decides.
+            if (!std::isfinite(standU) || !std::isfinite(standV)) standU = standV = 1;
+        }
     }
     float lenU = 0, lenV = 0;
     rasterLengths(P.data(), n, n, &lenU, &lenV);
     const float side = std::sqrt(std::max(p.shadingRate, 1e-6f));
     // Work in float first: a primitive near the eye can be millions of pixels long.
-    float fu = std::max(1.0f, std::min(std::ceil(lenU / side), flatU));
-    float fv = std::max(1.0f, std::min(std::ceil(lenV / side), flatV));
+    float fu = std::max({1.0f, std::min(std::ceil(lenU / side), flatU), standU});
+    float fv = std::max({1.0f, std::min(std::ceil(lenV / side), flatV), standV});
     const float gridSize = float(std::max(p.gridSize, 1));
     if (!(fu * fv <= gridSize)) {
         res.decision = Decision::Split;

@@ -49,6 +49,14 @@ struct DiceParams {
     /// lattice's second differences; leave 0 when displacement may add
     /// detail the lattice cannot see.
     float flatness = 0;
+    /// GeometricApproximation "flatness" (RI Spec 3.2: the greatest
+    /// distance, in raster pixels, between the true surface and its
+    /// polygonal approximation). When > 0 the grid is at least as fine as
+    /// that needs, measured on the test lattice (standOffCounts(): second
+    /// differences along the surface normal, in pixels at their depth): the counts are the finer of the
+    /// shading rate's and this one's, so a coarse ShadingRate still keeps
+    /// silhouettes within the stand-off. Flat surfaces need nothing extra.
+    float maxStandOff = 0;
     /// The most, in radians, one micropolygon edge may turn along the
     /// surface (measured on the test lattice in camera space): a floor on
     /// the counts whatever the shading rate, so a huge ShadingRate dices a
@@ -120,6 +128,16 @@ void rasterLengths(const Vec3* raster, int nu, int nv, float* lenU, float* lenV)
 /// along u and v, and its largest twist (a cell off its diagonal), give
 /// the counts; see reyes.cpp for the budget.
 void flatnessCounts(const Vec3* pixelSpace, int n, float flatness, float* countU, float* countV);
+
+/// The fewest micropolygons along u and v (at least 1) whose triangles
+/// stand off a surface by at most `standOff` pixels, from an (n+1) x (n+1)
+/// lattice of it in camera space (row after row, u fastest) and how many
+/// pixels a camera unit spans at each lattice point: as flatnessCounts(),
+/// but only the part of each second difference along the surface normal
+/// counts, so a plane (however foreshortened) needs 1 x 1.
+/// GeometricApproximation "flatness" (DiceParams::maxStandOff).
+void standOffCounts(const Vec3* cameraSpace, const float* pixelsPerUnit, int n, float standOff, float* countU,
+                    float* countV);
 
 /// The fewest micropolygons along u and v (at least 1) for which no edge
 /// turns by more than `maxTurn` radians, from an (n+1) x (n+1) lattice of

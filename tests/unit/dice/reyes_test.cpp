@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 
@@ -260,6 +261,37 @@ float worstStandOff(const Primitive& prim, const DiceParams& p, int nu, int nv) 
     return worst;
 }
 
+// The largest distance, in pixels at its depth, from a surface diced nu x
+// nv to the surface itself along the surface's normal (what the RI Spec's
+// flatness bounds): at the middle of every micropolygon edge and at every
+// cell's centre, against the surface diced twice as finely, whose
+// neighbouring points give the normal there.
+float worstNormalStandOff(const Primitive& prim, const DiceParams& p, int nu, int nv) {
+    const float S = p.rasterFromCamera.m[0][0];
+    const Grid coarse = prim.dice(nu, nv), fine = prim.dice(2 * nu, 2 * nv);
+    auto cam = [&](const Grid& g, int i, int j) {
+        i = std::clamp(i, 0, g.nu);
+        j = std::clamp(j, 0, g.nv);
+        return p.cameraFromObject.point(g.P[size_t(g.index(i, j))]);
+    };
+    float worst = 0;
+    auto check = [&](const Vec3& a, const Vec3& b, int fi, int fj) {
+        const Vec3 t = cam(fine, fi, fj);
+        const Vec3 n = cross(cam(fine, fi + 1, fj) - cam(fine, fi - 1, fj), cam(fine, fi, fj + 1) - cam(fine, fi, fj - 1));
+        const float len = length(n);
+        const Vec3 off = (a + b) * 0.5f - t;
+        const float d = len > 0 ? std::abs(dot(off, n / len)) : length(off);
+        worst = std::max(worst, d * S / t.z);
+    };
+    for (int j = 0; j <= nv; ++j)
+        for (int i = 0; i < nu; ++i) check(cam(coarse, i, j), cam(coarse, i + 1, j), 2 * i + 1, 2 * j);
+    for (int j = 0; j < nv; ++j)
+        for (int i = 0; i <= nu; ++i) check(cam(coarse, i, j), cam(coarse, i, j + 1), 2 * i, 2 * j + 1);
+    for (int j = 0; j < nv; ++j)
+        for (int i = 0; i < nu; ++i) check(cam(coarse, i, j), cam(coarse, i + 1, j + 1), 2 * i + 1, 2 * j + 1);
+    return worst;
+}
+
 }  // namespace
 
 TEST(Dice, FlatnessDicesSmoothSurfacesCoarselyWithinTheirStandOff) {
@@ -307,6 +339,68 @@ TEST(Dice, FlatnessDicesSmoothSurfacesCoarselyWithinTheirStandOff) {
             if (!capped) {
                 EXPECT_LE(worstStandOff(*c.prim, p, r.nu, r.nv), flatness) << c.name << " " << r.nu << "x" << r.nv;
             }
+        }
+    }
+}
+
+TEST(Dice, GeometricFlatnessDicesCurvedSurfacesFinerThanACoarseRate) {
+    // GeometricApproximation "flatness" at ShadingRate 1000: the rate alone
+    // leaves a sphere 64 pixels in radius 8 x 4 (the turning floor), whose
+    // chords stand off it by pixels; the flatness floor dices it until
+    // none stands off by more than the flatness along the normal, checked
+    // against the surface itself diced twice as finely. Flat surfaces gain
+    // nothing.
+    struct Case {
+        const char* name;
+        PrimitivePtr prim;
+    };
+    Case cases[] = {
+        {"sphere", make("Sphere", {1, -1, 1, 360})},
+        {"torus", make("Torus", {1, 0.3f, 0, 360, 360})},
+        {"cylinder", make("Cylinder", {0.5f, -1, 1, 360})},
+    };
+    for (auto& c : cases) {
+        DiceParams p = perspective(Mat4::translate({0.1f, 0.2f, 5}) * Mat4::rotate(40, {1, 0.3f, 0}));
+        p.shadingRate = 1000;
+        p.gridSize = 1 << 20;
+        const DiceResult byRate = decide(*c.prim, c.prim->bound(), p);
+        ASSERT_EQ(byRate.decision, Decision::Dice) << c.name;
+        EXPECT_GT(worstNormalStandOff(*c.prim, p, byRate.nu, byRate.nv), 2.0f) << c.name;
+        for (float flatness : {0.5f, 0.1f}) {
+            p.maxStandOff = flatness;
+            const DiceResult r = decide(*c.prim, c.prim->bound(), p);
+            ASSERT_EQ(r.decision, Decision::Dice) << c.name;
+            EXPECT_GE(r.nu, byRate.nu) << c.name;  // never coarser than the rate
+            EXPECT_GE(r.nv, byRate.nv) << c.name;
+            EXPECT_LE(worstNormalStandOff(*c.prim, p, r.nu, r.nv), flatness) << c.name << " " << r.nu << "x" << r.nv;
+        }
+        // A fine rate already dices within the stand-off: flatness adds nothing.
+        p.shadingRate = 0.25f;
+        p.maxStandOff = 0;
+        const DiceResult fine = decide(*c.prim, c.prim->bound(), p);
+        p.maxStandOff = 0.5f;
+        const DiceResult same = decide(*c.prim, c.prim->bound(), p);
+        EXPECT_EQ(same.nu, fine.nu) << c.name;
+        EXPECT_EQ(same.nv, fine.nv) << c.name;
+    }
+    // Flat surfaces: a polygon and a planar bilinear patch, tilted, dice
+    // exactly as without flatness at any rate.
+    Diagnostics diag;
+    auto rec = record("Patch", {}, {pointParam({-1, -1, 0, 1, -1, 0.5f, -1, 1, -0.5f, 1, 1, 0})});
+    rec->stringArgs = {"bilinear"};
+    auto patch = makePrimitives(rec, diag);
+    ASSERT_EQ(patch.size(), 1u);
+    PrimitivePtr flats[] = {quad({-1, -1, 0}, {1, -1, 0}, {1, 1, 0.5f}, {-1, 1, 0.5f}), std::move(patch[0])};
+    for (auto& prim : flats) {
+        for (float rate : {1000.0f, 64.0f, 1.0f}) {
+            DiceParams p = perspective(Mat4::translate({0.1f, 0.2f, 4}) * Mat4::rotate(30, {1, 0.3f, 0}));
+            p.shadingRate = rate;
+            const DiceResult before = decide(*prim, prim->bound(), p);
+            p.maxStandOff = 0.5f;
+            const DiceResult after = decide(*prim, prim->bound(), p);
+            EXPECT_EQ(after.decision, before.decision) << rate;
+            EXPECT_EQ(after.nu, before.nu) << rate;
+            EXPECT_EQ(after.nv, before.nv) << rate;
         }
     }
 }
