@@ -71,11 +71,23 @@ std::string withSuffix(const std::string& path, const std::string& suffix) {
 
 float dot3(const Vec3& a, const Vec3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 
+/// A direction as environment() receives it, turned into OpenImageIO's
+/// lat-long frame. RenderMan's maps (as Aqsis 1.8.4 and Pixie 2.2.6 read
+/// them) put the poles on z: t = 1/2 - asin(z) / pi (+z is the top row)
+/// and s = atan2(y, x) / 2 pi + 1/2 (+x at s = 1/2, +y at s = 3/4).
+/// OpenImageIO 2.4 reads every lat-long map with +y up (whatever the
+/// file's "oiio:updirection"): s = atan2(-x', z') / 2 pi + 1/2,
+/// t = 1/2 - asin(y') / pi. The two agree for (x', y', z') = (-y, z, x);
+/// the map is linear, so derivatives turn the same way.
+Vec3 toOiioFrame(const Vec3& d) { return Vec3(-d.y, d.z, d.x); }
+/// The inverse of toOiioFrame.
+Vec3 fromOiioFrame(const Vec3& d) { return Vec3(d.z, -d.x, d.y); }
+
 /// The faces of a MakeCubeFaceEnvironment request resampled into one
 /// lat-long image (4n x 2n for n x n faces) laid out as environment()
-/// reads MakeLatLongEnvironment's maps: OpenImageIO's default, +y at the
-/// top, s = atan2(-x, z) / 2pi + 1/2, t = 1/2 - asin(y) / pi, texel
-/// centres at (i + 1/2) / width.
+/// reads MakeLatLongEnvironment's maps: +z at the top, s = atan2(y, x) /
+/// 2pi + 1/2, t = 1/2 - asin(z) / pi (RenderMan's layout; toOiioFrame),
+/// texel centres at (i + 1/2) / width.
 bool cubeToLatLong(const MakeTextureRequest& r, OIIO::ImageBuf* out, std::string* error) {
     std::vector<std::vector<float>> faces(6);
     int res = 0, nch = 0;
@@ -116,7 +128,8 @@ bool cubeToLatLong(const MakeTextureRequest& r, OIIO::ImageBuf* out, std::string
         for (int i = 0; i < width; ++i) {
             const float phi = ((float(i) + 0.5f) / float(width) - 0.5f) * 2.0f * float(M_PI);
             const float theta = (0.5f - (float(j) + 0.5f) / float(height)) * float(M_PI);
-            const Vec3 d(-std::cos(theta) * std::sin(phi), std::sin(theta), std::cos(theta) * std::cos(phi));
+            const Vec3 d = fromOiioFrame(
+                Vec3(-std::cos(theta) * std::sin(phi), std::sin(theta), std::cos(theta) * std::cos(phi)));
             int f = 0;
             for (int k = 1; k < 6; ++k)
                 if (dot3(d, kFaceFrames[k].forward) > dot3(d, kFaceFrames[f].forward)) f = k;
@@ -193,9 +206,11 @@ public:
         for (int c = 0; c < nchannels; ++c) result[c] *= weight;
         return ok;
     }
-    bool environment(const std::string& file, const TextureOptions& o, const Vec3& R, const Vec3& dRdx,
-                     const Vec3& dRdy, int nchannels, float* result) override {
+    bool environment(const std::string& file, const TextureOptions& o, const Vec3& Rin, const Vec3& dRdxIn,
+                     const Vec3& dRdyIn, int nchannels, float* result) override {
         if (!fits(file)) return false;
+        // Everything below is in OpenImageIO's frame (+y the poles' axis).
+        const Vec3 R = toOiioFrame(Rin), dRdx = toOiioFrame(dRdxIn), dRdy = toOiioFrame(dRdyIn);
         OIIO::TextureOpt opt = toOiio(o);
         const OIIO::ustring name(file);
         auto lookup = [&](const Vec3& d, float* out) {

@@ -129,7 +129,7 @@ TEST_F(TextureFilter, UnblurredEdgeStaysSharpAndTblurLeavesAnEdgeAcrossSAlone) {
 // environment()'s "blur" follows the same rule, as an angle: a blur b is
 // 2 pi b radians (the lat-long map's s at the equator; Aqsis's reading),
 // along the longitude for "sblur" and the latitude for "tblur". A lat-long
-// map white on one side of a meridian (x > 0) seen along directions that
+// map white on one side of a meridian (y < 0) seen along directions that
 // sweep across it: the box of angle 2 pi b ramps the edge over that angle,
 // 0.8 of it from 10% to 90%: umbra 0.81, Pixie 0.55-0.61, Aqsis 1.10-1.13
 // (a gaussian) of 2 pi b on such a probe; OpenImageIO's own environment
@@ -141,9 +141,10 @@ protected:
     static constexpr int kPixels = 512;
 
     void SetUp() override {
-        // OpenImageIO's lat-long layout: s = atan2(-x, z) / 2 pi + 1/2, so
-        // x > 0 is s < 1/2 (and the other meridian, at s = 0 and 1, faces
-        // away from the sweep).
+        // RenderMan's lat-long layout (Aqsis's and Pixie's; see
+        // EnvironmentOrientation below): s = atan2(y, x) / 2 pi + 1/2, so
+        // y < 0 is s < 1/2 (and the other meridian, at s = 0 and 1, faces
+        // away from the sweep, along -x).
         const std::string path = dir.file("half.tif");
         auto out = OIIO::ImageOutput::create(path);
         ASSERT_TRUE(out);
@@ -155,11 +156,11 @@ protected:
         ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, px.data()));
         ASSERT_TRUE(out->close());
         // Pixel x looks along phi = (2 (x + 1/2) / kPixels - 1) range
-        // from +z towards +x, at latitude `lat` (radians).
+        // from +x towards -y, at latitude `lat` (radians, towards +z).
         std::ofstream(dir.file("sweep.sl")) << R"(surface sweep(string map = ""; float sblur = 0, tblur = 0, range = 1, lat = 0;)
 {
     float phi = (2 * s - 1) * range;
-    vector D = vector(cos(lat) * sin(phi), sin(lat), cos(lat) * cos(phi));
+    vector D = vector(cos(lat) * cos(phi), -cos(lat) * sin(phi), sin(lat));
     Ci = float environment(map, D, "sblur", sblur, "tblur", tblur);
     Oi = 1;
 }
@@ -253,6 +254,85 @@ TEST_F(EnvironmentFilter, BlurIsTheSameAngleAtAnyLatitudeAndTblurRunsAlongTheMer
     const float r45 = rise(row(blur, 0, 0.5f, lat), 0.5f) * std::cos(lat);
     EXPECT_GE(r45, 0.75f * kTwoPi * blur);
     EXPECT_LE(r45, 1.15f * kTwoPi * blur);
+}
+
+// A lat-long map's orientation, as Aqsis 1.8.4 and Pixie 2.2.6 read
+// MakeLatLongEnvironment's maps (both agree on this probe; the RI Spec does
+// not write it out): the poles are on z, +z at the top row (t = 0), and
+// s = atan2(y, x) / 2 pi + 1/2: -x at s = 0 (and 1), -y at 1/4, +x at 1/2,
+// +y at 3/4. umbra used OpenImageIO's own layout (+y up, +z at s = 1/2),
+// so the same RIB read a turned map.
+TEST(EnvironmentOrientation, LatLongPolesAreOnZAndLongitudeRunsFromMinusXThroughMinusY) {
+    test::ScratchDir dir{"environment-orientation"};
+    std::string root = dir.file("");
+    root.pop_back();
+    // The probe: the top quarter red, the bottom quarter blue; between, the
+    // quarter of longitude nearest s = 0, 1/4, 1/2, 3/4 magenta, green,
+    // grey, yellow.
+    const float kColours[4][3] = {{1, 0, 1}, {0, 1, 0}, {0.5f, 0.5f, 0.5f}, {1, 1, 0}};
+    constexpr int kW = 128, kH = 64;
+    {
+        const std::string path = dir.file("probe.tif");
+        auto out = OIIO::ImageOutput::create(path);
+        ASSERT_TRUE(out);
+        OIIO::ImageSpec spec(kW, kH, 3, OIIO::TypeDesc::FLOAT);
+        ASSERT_TRUE(out->open(path, spec));
+        std::vector<float> px(size_t(kW) * kH * 3);
+        for (int y = 0; y < kH; ++y)
+            for (int x = 0; x < kW; ++x) {
+                const float s = (float(x) + 0.5f) / kW, t = (float(y) + 0.5f) / kH;
+                const float red[3] = {1, 0, 0}, blue[3] = {0, 0, 1};
+                const float* c = t < 0.25f ? red : t > 0.75f ? blue : kColours[int(std::floor(s * 4 + 0.5f)) % 4];
+                for (int k = 0; k < 3; ++k) px[(size_t(y) * kW + x) * 3 + k] = c[k];
+            }
+        ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, px.data()));
+        ASSERT_TRUE(out->close());
+    }
+    std::ofstream(dir.file("envd.sl")) << R"(surface envd(string map = ""; vector dir = vector(1, 0, 0))
+{
+    Ci = color environment(map, dir);
+    Oi = 1;
+}
+)";
+    // Six patches side by side, each looking one way. No camera transform:
+    // "current" space is the world's.
+    struct Case {
+        const char* name;
+        float d[3];
+        float rgb[3];
+    };
+    const Case cases[6] = {
+        {"+x", {1, 0, 0}, {0.5f, 0.5f, 0.5f}}, {"-x", {-1, 0, 0}, {1, 0, 1}}, {"+y", {0, 1, 0}, {1, 1, 0}},
+        {"-y", {0, -1, 0}, {0, 1, 0}},         {"+z", {0, 0, 1}, {1, 0, 0}},  {"-z", {0, 0, -1}, {0, 0, 1}},
+    };
+    const std::string image = dir.file("orient.tif");
+    std::string rib = fmt::format(R"(Option "searchpath" "shader" ["{0}:&"]
+MakeLatLongEnvironment "{0}/probe.tif" "{0}/probe.env" "gaussian" 2 2
+Format 60 10 1
+PixelSamples 2 2
+PixelFilter "box" 1 1
+Quantize "rgba" 0 0 0 0
+Display "{1}" "file" "rgba"
+Projection "orthographic"
+ScreenWindow -3 3 -0.5 0.5
+WorldBegin
+Translate 0 0 5
+)",
+                                  root, image);
+    for (int i = 0; i < 6; ++i)
+        rib += fmt::format(R"(Surface "envd" "string map" "{0}/probe.env" "vector dir" [{1} {2} {3}]
+Patch "bilinear" "P" [{4} -1 0  {5} -1 0  {4} 1 0  {5} 1 0]
+)",
+                           root, cases[i].d[0], cases[i].d[1], cases[i].d[2], i - 3, i - 2);
+    rib += "WorldEnd\n";
+    Diagnostics diag;
+    diag.setQuiet(true);
+    const test::Image img = test::renderImage(rib, image, diag, 2);
+    EXPECT_EQ(diag.errorCount(), 0);
+    ASSERT_EQ(img.width, 60);
+    for (int i = 0; i < 6; ++i)
+        for (int c = 0; c < 3; ++c)
+            EXPECT_NEAR(img.at(i * 10 + 5, 5, c), cases[i].rgb[c], 0.05f) << cases[i].name << " channel " << c;
 }
 
 }  // namespace
