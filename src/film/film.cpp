@@ -223,6 +223,14 @@ bool parseDisplayMode(const std::string& mode, DisplayMode* out, std::string* er
     return true;
 }
 
+bool displayReadsDepth(const scene::DisplayRecord& display) {
+    const std::string driver = lower(display.driver);
+    DisplayMode mode;
+    std::string why;
+    return driver == "zfile" || driver == "shadow" || !parseDisplayMode(display.mode, &mode, &why) ||
+           (!mode.isAov() && mode.standard.find('z') != std::string::npos);
+}
+
 std::vector<AovChannel> aovChannelsFor(const std::vector<scene::DisplayRecord>& displays) {
     std::vector<AovChannel> aovs;
     for (const scene::DisplayRecord& d : displays) {
@@ -350,8 +358,7 @@ uint64_t Film::bytesFor(int xResolution, int yResolution, const float cropWindow
                         const std::vector<AovChannel>& aovs, FilmContent content) {
     int x0, x1, y0, y1;
     cropPixels(xResolution, yResolution, cropWindow, &x0, &x1, &y0, &y1);
-    const bool colour = content == FilmContent::Colour || content == FilmContent::ColourOnly;
-    uint64_t floats = (content == FilmContent::ColourOnly ? 0 : 1) + (colour ? 4 : 0) +
+    uint64_t floats = (content == FilmContent::ColourOnly ? 0 : 1) + (contentHasColour(content) ? 4 : 0) +
                       (content == FilmContent::DepthPair ? 1 : 0);
     for (const AovChannel& a : aovs) floats += uint64_t(std::max(a.components, 0));
     return uint64_t(std::max(x1 - x0, 0)) * uint64_t(std::max(y1 - y0, 0)) * floats * sizeof(float);
@@ -372,8 +379,7 @@ Film Film::fromOptions(const scene::Options& o, std::vector<AovChannel> aovs, Fi
     std::vector<PixelFilter> layers;
     for (const scene::DisplayRecord& d : displays) {
         std::optional<PixelFilter> own = displayFilter(d, *f, &diag);
-        const bool colour = content == FilmContent::Colour || content == FilmContent::ColourOnly;
-        if (!own || !colour || sameFilter(*own, *f)) continue;
+        if (!own || !contentHasColour(content) || sameFilter(*own, *f)) continue;
         if (std::none_of(layers.begin(), layers.end(), [&](const PixelFilter& l) { return sameFilter(l, *own); }))
             layers.push_back(*own);
     }

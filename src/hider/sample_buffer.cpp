@@ -710,6 +710,19 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
     const float* depthOf = ctx.inverseDepth;
     auto depthAt = [&](size_t v) { return depthOf ? depthOf[v] : g.P[v].z; };
     bool wrote = false;
+    // The last steps for a sample inside a half, the scalar and the
+    // four-wide tests alike: the trim curves, then the record.
+    auto keepHit = [&](size_t s, const Tri& t, float z, float b1, float b2) {
+        if (g.trim) {
+            const float w1s[4] = {b1, 0, 0, 0}, w2s[4] = {b2, 0, 0, 0};
+            if (!trimKept(g, t, w1s, w2s, 1)) return;
+        }
+        ++m_blur.sampleHits;
+        if (nearestOnly)
+            wrote |= takeNearest(s, z, g.id, t.sub);
+        else
+            wrote |= record(g, ctx, t, s, z, b1, b2);
+    };
     // One sample, at its own time and lens position.
     auto testSample = [&](const size_t s) {
             const float useful = ctx.farthestUseful[s];
@@ -781,15 +794,7 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
                 t.sub = 2 * mp + uint32_t(h);
                 if (g.dissolves() && !(m_dissolve[s] >= g.dissolveFrom && m_dissolve[s] < g.dissolveBelow)) continue;
                 t.reversed = area < 0;
-                if (g.trim) {
-                    const float w1s[4] = {b1, 0, 0, 0}, w2s[4] = {b2, 0, 0, 0};
-                    if (!trimKept(g, t, w1s, w2s, 1)) continue;
-                }
-                ++m_blur.sampleHits;
-                if (nearestOnly)
-                    wrote |= takeNearest(s, z, g.id, t.sub);
-                else
-                    wrote |= record(g, ctx, t, s, z, b1, b2);
+                keepHit(s, t, z, b1, b2);
             }
     };
 
@@ -910,15 +915,7 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
                 t.sub = 2 * mp + uint32_t(h);
                 t.reversed = reversed;
                 const float b1 = hitB1[h][k], b2 = hitB2[h][k];
-                if (g.trim) {
-                    const float w1s[4] = {b1, 0, 0, 0}, w2s[4] = {b2, 0, 0, 0};
-                    if (!trimKept(g, t, w1s, w2s, 1)) continue;
-                }
-                ++m_blur.sampleHits;
-                if (nearestOnly)
-                    wrote |= takeNearest(s, z, g.id, t.sub);
-                else
-                    wrote |= record(g, ctx, t, s, z, b1, b2);
+                keepHit(s, t, z, b1, b2);
             }
         }
         pendingCount = 0;

@@ -33,7 +33,6 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <cctype>
 #include <chrono>
 #include <cerrno>
 #include <cmath>
@@ -782,14 +781,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     // (a mode with z, a zfile or shadow driver): 4 bytes a pixel otherwise
     // unused (8 MB at 1920 x 1080). A mode that does not parse keeps it
     // too; Film::write reports that mode.
-    const bool depthRead = std::any_of(displays.begin(), displays.end(), [](const scene::DisplayRecord& d) {
-        std::string driver = d.driver;
-        for (char& c : driver) c = char(std::tolower(static_cast<unsigned char>(c)));
-        film::DisplayMode mode;
-        std::string why;
-        return driver == "zfile" || driver == "shadow" || !film::parseDisplayMode(d.mode, &mode, &why) ||
-               (!mode.isAov() && mode.standard.find('z') != std::string::npos);
-    });
+    const bool depthRead = std::any_of(displays.begin(), displays.end(), film::displayReadsDepth);
     const film::FilmContent content = depthFrame ? depthFilmOf(options, depthFilterOf(options, options.loc))
                                       : depthRead ? film::FilmContent::Colour
                                                   : film::FilmContent::ColourOnly;

@@ -42,6 +42,11 @@ struct DisplayMode {
 /// is not one.
 bool parseDisplayMode(const std::string& mode, DisplayMode* out, std::string* error);
 
+/// Whether a display reads the film's depth: a zfile or shadow driver, or
+/// a mode with z. A mode that does not parse counts as reading it (the
+/// film keeps depth, and Film::write reports the mode).
+bool displayReadsDepth(const scene::DisplayRecord& display);
+
 /// The AOV channels a film needs so that every AOV display in `displays`
 /// can be written, in first-seen order, each name once. Modes that do not
 /// parse are skipped here (Film::write reports them).
@@ -93,6 +98,8 @@ enum class FilmContent {
     Depth,      ///< z only (depth passes of one layer)
     DepthPair,  ///< z and z2 (depth passes of two layers)
 };
+
+inline bool contentHasColour(FilmContent c) { return c == FilmContent::Colour || c == FilmContent::ColourOnly; }
 
 class Film {
 public:
@@ -167,7 +174,7 @@ public:
     bool hasDepthPair() const { return m_content == FilmContent::DepthPair; }
     /// False for a ColourOnly film, which has no z plane (z() must not be called).
     bool hasDepth() const { return m_content != FilmContent::ColourOnly; }
-    bool hasColour() const { return m_content == FilmContent::Colour || m_content == FilmContent::ColourOnly; }
+    bool hasColour() const { return contentHasColour(m_content); }
 
     /// Pixel access by raster coordinates (must be inside the crop region).
     float* rgba(int x, int y) { return &m_rgba[4 * index(x, y)]; }
