@@ -179,6 +179,9 @@ bool Builder::pop(Block kind, const char* request, const FileLoc& loc, OpenBlock
             const OpenBlock& b = m_blocks.back();
             if (b.kind == Block::Object) m_objectHandle.clear();
             if (b.kind == Block::World) m_world.reset();
+            // An open motion block dies with its world: its shapes would
+            // otherwise reach a later MotionEnd with no world to go to.
+            if (b.kind == Block::Motion) m_motion.reset();
             m_blocks.pop_back();
         }
     }

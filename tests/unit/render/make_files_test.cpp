@@ -132,7 +132,8 @@ TEST(Txmake, TextureEqualsMakeTexture) {
     ASSERT_EQ(runUmbra({"txmake", "--swrap", "periodic", "--twrap", "clamp", "--filter", "box", "--width", "1",
                         dir.file("pic.tif"), dir.file("cmd.tx")},
                        dir.file("log")),
-              0);
+              0)
+        << readBytes(dir.file("log"));
     EXPECT_EQ(textureDifference(dir.file("rib.tx"), dir.file("cmd.tx")), "");
 }
 
@@ -141,7 +142,8 @@ TEST(Txmake, DefaultsAreBlackGaussianWidthTwo) {
     writeImage(dir.file("pic.tif"), 16, 16, [](int x, int y) { return Vec3(x / 16.0f, y / 16.0f, 0.5f); });
     ASSERT_TRUE(runRib(fmt::format("MakeTexture \"{}\" \"{}\" \"black\" \"black\" \"gaussian\" 2 2\n",
                                    dir.file("pic.tif"), dir.file("rib.tx"))));
-    ASSERT_EQ(runUmbra({"txmake", dir.file("pic.tif"), dir.file("cmd.tx")}, dir.file("log")), 0);
+    ASSERT_EQ(runUmbra({"txmake", dir.file("pic.tif"), dir.file("cmd.tx")}, dir.file("log")), 0)
+        << readBytes(dir.file("log"));
     EXPECT_EQ(textureDifference(dir.file("rib.tx"), dir.file("cmd.tx")), "");
 }
 
@@ -150,7 +152,8 @@ TEST(Txmake, LatLongEqualsMakeLatLongEnvironment) {
     writeImage(dir.file("env.tif"), 64, 32, [](int x, int y) { return Vec3(x / 64.0f, y / 32.0f, 0.25f); });
     ASSERT_TRUE(runRib(fmt::format("MakeLatLongEnvironment \"{}\" \"{}\" \"gaussian\" 2 2\n", dir.file("env.tif"),
                                    dir.file("rib.env"))));
-    ASSERT_EQ(runUmbra({"txmake", "--envlatl", dir.file("env.tif"), dir.file("cmd.env")}, dir.file("log")), 0);
+    ASSERT_EQ(runUmbra({"txmake", "--envlatl", dir.file("env.tif"), dir.file("cmd.env")}, dir.file("log")), 0)
+        << readBytes(dir.file("log"));
     EXPECT_EQ(textureDifference(dir.file("rib.env"), dir.file("cmd.env")), "");
 }
 
@@ -185,7 +188,8 @@ MakeShadow "{}" "{}"
 )", dir.file("d.z"), dir.file("d.z"), dir.file("rib.shd")),
                     diag);
     ASSERT_EQ(diag.errorCount(), 0);
-    ASSERT_EQ(runUmbra({"txmake", "--shadow", dir.file("d.z"), dir.file("cmd.shd")}, dir.file("log")), 0);
+    ASSERT_EQ(runUmbra({"txmake", "--shadow", dir.file("d.z"), dir.file("cmd.shd")}, dir.file("log")), 0)
+        << readBytes(dir.file("log"));
     const std::string rib = readBytes(dir.file("rib.shd"));
     ASSERT_GT(rib.size(), 100u);
     EXPECT_TRUE(rib == readBytes(dir.file("cmd.shd")));

@@ -392,6 +392,22 @@ TEST(Builder, MalformedMotionBlocksAreReported) {
     EXPECT_TRUE(p[0].shapes.empty());
 }
 
+TEST(Builder, AMotionBlockLeftOpenIsClosedWithItsWorld) {
+    // Found by the RIB fuzzer: the MotionEnd after WorldEnd used to hand the
+    // dead world's shapes to a world that no longer existed.
+    auto r = run("WorldBegin\nMotionBegin [0 1] Sphere 1 -1 1 360 Sphere 2 -2 2 360\nWorldEnd\nMotionEnd\n"
+                 "WorldBegin\nSphere 3 -3 3 360\nWorldEnd\n");
+    const auto m = r->messages();
+    ASSERT_EQ(m.size(), 2u);
+    EXPECT_NE(m[0].find("MotionBegin"), std::string::npos) << m[0];
+    EXPECT_EQ(m[1].rfind("s.rib:4:1: error: MotionEnd: no matching MotionBegin", 0), 0u) << m[1];
+    ASSERT_EQ(r->sink.worlds.size(), 2u);
+    const auto& second = r->sink.worlds[1].primitives;
+    ASSERT_EQ(second.size(), 1u);
+    EXPECT_EQ(second[0].floatArgs[0], 3.0f);
+    EXPECT_FALSE(second[0].moving());
+}
+
 TEST(Builder, CameraMotionAndDepthOfFieldAreOptions) {
     auto r = run("Shutter 0.5 1.5 Option \"shutter\" \"offset\" [1] DepthOfField 2.8 0.05 4\n"
                  "MotionBegin [1.5 2.5] Translate 0 0 5 Translate 1 0 5 MotionEnd WorldBegin WorldEnd\n"
