@@ -577,7 +577,7 @@ void SampleBuffer::tabulateStrata(const uint16_t* (SamplePattern::*row)(int) con
     const int xs = m_cfg.xSamples, ys = m_cfg.ySamples;
     const int columns = m_pattern->columns(), rows = m_pattern->rows();
     const size_t plane = size_t(m_rw) * size_t(m_rh);
-    table.assign(size_t(xs * ys) * plane, -1);
+    table.assign(size_t(xs * ys) * plane + 3, -1);  // read in groups of four
     tableX.assign(size_t(xs * ys) * plane + 3, std::numeric_limits<float>::quiet_NaN());
     tableY.assign(size_t(xs * ys) * plane + 3, std::numeric_limits<float>::quiet_NaN());
     if (tableTime) tableTime->assign(size_t(xs * ys) * plane + 3, 0.0f);
@@ -1043,8 +1043,8 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
     // A sample to test: at once, or queued for the four-wide test.
     auto candidate = [&](const size_t s) {
         if (!batched) return testSample(s);
-        if (!(ctx.farthestUseful[s] >= nearest)) return;
-        pending[pendingCount++] = s;
+        pending[pendingCount] = s;  // kept only if not hidden (no branch)
+        pendingCount += ctx.farthestUseful[s] >= nearest;
         if (pendingCount == 4) flush();
     };
 
@@ -1059,33 +1059,49 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
     float boxTime0 = 0, boxTimeScale = 0;  // f = (t - boxTime0) * boxTimeScale, clamped to [0, 1]
     // Four pixels of a row at a time are tested against the box [x0, x1] x
     // [y0, y1] (pixels [px0, px1] x [py0, py1] of the region), by their
-    // sample's position in that stratum (NaN, never inside, for none).
+    // sample's position in that stratum (NaN, never inside, for none). The
+    // samples inside are appended to a short list without a branch (most
+    // groups hold one or two of them, in lanes no predictor guesses: the
+    // branches on them were most of this loop's time), then handed to
+    // candidate() in the same order.
+    constexpr int kListed = 256;
+    int32_t listed[kListed];
     auto visitPixels = [&](size_t offset, const std::vector<int32_t>& tableS, const std::vector<float>& tableX,
                            const std::vector<float>& tableY, float x0, float y0, float x1, float y1, int px0,
                            int py0, int px1, int py1) {
+        int n = 0;
+        const F4 zero = {0, 0, 0, 0}, one = {1, 1, 1, 1};
         for (int py = py0; py <= py1; ++py) {
             const size_t rowAt = offset + size_t(py) * size_t(m_rw);
             for (int px = px0; px <= px1; px += 4) {
                 const size_t at = rowAt + size_t(px);
                 const F4 sx = load4(&tableX[at]), sy = load4(&tableY[at]);
-                int inside = laneMask((sx >= x0) & (sx <= x1) & (sy >= y0) & (sy <= y1));
-                inside &= px1 - px >= 3 ? 0xf : (1 << (px1 - px + 1)) - 1;
-                if (timeBox && inside) {
+                I4 in = (sx >= x0) & (sx <= x1) & (sy >= y0) & (sy <= y1);
+                if (timeBox) {
                     // The weight to within an ulp or two (a product for
                     // testSample's quotient): the margin covers it.
                     const F4 u = (load4(&m_strataTime[at]) - boxTime0) * boxTimeScale;
-                    const F4 zero = {0, 0, 0, 0}, one = {1, 1, 1, 1};
                     const F4 f = select(u < zero, zero, select(one < u, one, u));
-                    inside &= laneMask((sx >= boxLo[0] + f * boxDlo[0]) & (sx <= boxHi[0] + f * boxDhi[0]) &
-                                       (sy >= boxLo[1] + f * boxDlo[1]) & (sy <= boxHi[1] + f * boxDhi[1]));
+                    in &= (sx >= boxLo[0] + f * boxDlo[0]) & (sx <= boxHi[0] + f * boxDhi[0]) &
+                          (sy >= boxLo[1] + f * boxDlo[1]) & (sy <= boxHi[1] + f * boxDhi[1]);
                 }
-                while (inside) {
-                    const int k = __builtin_ctz(unsigned(inside));
-                    candidate(size_t(tableS[at + size_t(k)]));
-                    inside &= inside - 1;
+                const int inside = laneMask(in) & (px1 - px >= 3 ? 0xf : (1 << (px1 - px + 1)) - 1);
+                const int32_t* s = &tableS[at];  // padded: four may be read at the last pixel
+                listed[n] = s[0];
+                n += inside & 1;
+                listed[n] = s[1];
+                n += (inside >> 1) & 1;
+                listed[n] = s[2];
+                n += (inside >> 2) & 1;
+                listed[n] = s[3];
+                n += (inside >> 3) & 1;
+                if (n > kListed - 4) {
+                    for (int k = 0; k < n; ++k) candidate(size_t(listed[k]));
+                    n = 0;
                 }
             }
         }
+        for (int k = 0; k < n; ++k) candidate(size_t(listed[k]));
     };
     // The samples of one stratum inside [x0, x1] x [y0, y1], clipped to the
     // micropolygon's bound.
