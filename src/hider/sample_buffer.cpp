@@ -233,14 +233,20 @@ void SampleBuffer::reset(const SampleBufferConfig& c) {
     if (c.motion || c.lens)
         for (int sy = 0; sy < m_sh; ++sy) {
             const int ty = positiveMod(m_sy0 + sy, rows);
+            const float* timeRow = c.motion ? m_pattern->timeRow(ty) : nullptr;
+            const float* lensXRow = c.lens ? m_pattern->lensXRow(ty) : nullptr;
+            const float* lensYRow = c.lens ? m_pattern->lensYRow(ty) : nullptr;
+            // The table's column, wrapped by counting (a modulo a sample
+            // was a noticeable part of a blurred bucket's setup).
+            int tx = positiveMod(m_sx0, columns);
             for (int sx = 0; sx < m_sw; ++sx) {
-                const int tx = positiveMod(m_sx0 + sx, columns);
                 const size_t k = size_t(sy) * size_t(m_sw) + size_t(sx);
-                if (c.motion) m_time[k] = m_pattern->timeRow(ty)[tx];
-                if (c.lens) {
-                    m_lensX[k] = m_pattern->lensXRow(ty)[tx];
-                    m_lensY[k] = m_pattern->lensYRow(ty)[tx];
+                if (timeRow) m_time[k] = timeRow[tx];
+                if (lensXRow) {
+                    m_lensX[k] = lensXRow[tx];
+                    m_lensY[k] = lensYRow[tx];
                 }
+                tx = tx + 1 == columns ? 0 : tx + 1;
             }
         }
     // The part of the shutter the region's samples cover (boundMotion).
@@ -584,8 +590,16 @@ void SampleBuffer::tabulateStrata(const uint16_t* (SamplePattern::*row)(int) con
     for (int sy = 0; sy < m_sh; ++sy) {
         const uint16_t* stratum = (m_pattern.get()->*row)(positiveMod(m_sy0 + sy, rows));
         const size_t pixelRow = size_t(sy / ys) * size_t(m_rw);
-        for (int sx = 0; sx < m_sw; ++sx) {
-            const size_t at = size_t(stratum[positiveMod(m_sx0 + sx, columns)]) * plane + pixelRow + size_t(sx / xs);
+        // The table's column and the pixel, counted rather than divided.
+        int tx = positiveMod(m_sx0, columns);
+        size_t pixel = pixelRow;
+        for (int sx = 0, i = 0; sx < m_sw; ++sx) {
+            const size_t at = size_t(stratum[tx]) * plane + pixel;
+            tx = tx + 1 == columns ? 0 : tx + 1;
+            if (++i == xs) {
+                i = 0;
+                ++pixel;
+            }
             const int s = sy * m_sw + sx;
             table[at] = s;
             tableX[at] = m_px[size_t(s)];
