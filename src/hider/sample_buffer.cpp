@@ -701,6 +701,10 @@ bool SampleBuffer::boundMotion(const MicroGrid& g) {
     for (int j = 0; j < g.nv; ++j)
         for (int i = 0; i < g.nu; ++i) {
             MotionBound& b = m_motion[size_t(j) * size_t(g.nu) + size_t(i)];
+            b.first = 1;
+            b.last = 0;
+            // Not drawn: culled (back-facing), or a disc's odd neighbour.
+            if ((g.culled && g.culled[j * g.nu + i]) || (g.discs && (i & 1))) continue;
             const size_t corner[4] = {size_t(j * nu1 + i), size_t(j * nu1 + i + 1), size_t((j + 1) * nu1 + i),
                                       size_t((j + 1) * nu1 + i + 1)};
             // rasterizeBlurred's bound over both keys, in its order.
@@ -722,8 +726,6 @@ bool SampleBuffer::boundMotion(const MicroGrid& g) {
             b.swept1[1] = maxy;
             b.minz = minz;
             b.maxz = maxz;
-            b.first = 1;
-            b.last = 0;
             // NaN coordinates fail these tests and are skipped.
             if (!(maxx >= m_fx0 && minx < m_fx1 && maxy >= m_fy0 && miny < m_fy1)) continue;
             if (!(maxz >= nearZ && minz <= farZ)) continue;
