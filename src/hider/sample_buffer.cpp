@@ -233,16 +233,30 @@ void SampleBuffer::reset(const SampleBufferConfig& c) {
     if (c.motion || c.lens)
         for (int sy = 0; sy < m_sh; ++sy) {
             const int ty = positiveMod(m_sy0 + sy, rows);
+            const float* timeRow = c.motion ? m_pattern->timeRow(ty) : nullptr;
+            const float* lensXRow = c.lens ? m_pattern->lensXRow(ty) : nullptr;
+            const float* lensYRow = c.lens ? m_pattern->lensYRow(ty) : nullptr;
+            // The table's column, wrapped by counting (a modulo a sample
+            // was a noticeable part of a blurred bucket's setup).
+            int tx = positiveMod(m_sx0, columns);
             for (int sx = 0; sx < m_sw; ++sx) {
-                const int tx = positiveMod(m_sx0 + sx, columns);
                 const size_t k = size_t(sy) * size_t(m_sw) + size_t(sx);
-                if (c.motion) m_time[k] = m_pattern->timeRow(ty)[tx];
-                if (c.lens) {
-                    m_lensX[k] = m_pattern->lensXRow(ty)[tx];
-                    m_lensY[k] = m_pattern->lensYRow(ty)[tx];
+                if (timeRow) m_time[k] = timeRow[tx];
+                if (lensXRow) {
+                    m_lensX[k] = lensXRow[tx];
+                    m_lensY[k] = lensYRow[tx];
                 }
+                tx = tx + 1 == columns ? 0 : tx + 1;
             }
         }
+    // The part of the shutter the region's samples cover (boundMotion).
+    m_timeMin = 0;
+    m_timeMax = 1;
+    if (c.motion && n > 0) {
+        const auto [least, greatest] = std::minmax_element(m_time.begin(), m_time.end());
+        m_timeMin = *least;
+        m_timeMax = *greatest;
+    }
     // Motion and depth of field: which sample of each pixel sees each
     // stratum of the shutter, and of the lens.
     const int perPixel = xs * ys;
@@ -569,15 +583,23 @@ void SampleBuffer::tabulateStrata(const uint16_t* (SamplePattern::*row)(int) con
     const int xs = m_cfg.xSamples, ys = m_cfg.ySamples;
     const int columns = m_pattern->columns(), rows = m_pattern->rows();
     const size_t plane = size_t(m_rw) * size_t(m_rh);
-    table.assign(size_t(xs * ys) * plane, -1);
+    table.assign(size_t(xs * ys) * plane + 3, -1);  // read in groups of four
     tableX.assign(size_t(xs * ys) * plane + 3, std::numeric_limits<float>::quiet_NaN());
     tableY.assign(size_t(xs * ys) * plane + 3, std::numeric_limits<float>::quiet_NaN());
     if (tableTime) tableTime->assign(size_t(xs * ys) * plane + 3, 0.0f);
     for (int sy = 0; sy < m_sh; ++sy) {
         const uint16_t* stratum = (m_pattern.get()->*row)(positiveMod(m_sy0 + sy, rows));
         const size_t pixelRow = size_t(sy / ys) * size_t(m_rw);
-        for (int sx = 0; sx < m_sw; ++sx) {
-            const size_t at = size_t(stratum[positiveMod(m_sx0 + sx, columns)]) * plane + pixelRow + size_t(sx / xs);
+        // The table's column and the pixel, counted rather than divided.
+        int tx = positiveMod(m_sx0, columns);
+        size_t pixel = pixelRow;
+        for (int sx = 0, i = 0; sx < m_sw; ++sx) {
+            const size_t at = size_t(stratum[tx]) * plane + pixel;
+            tx = tx + 1 == columns ? 0 : tx + 1;
+            if (++i == xs) {
+                i = 0;
+                ++pixel;
+            }
             const int s = sy * m_sw + sx;
             table[at] = s;
             tableX[at] = m_px[size_t(s)];
@@ -646,15 +668,120 @@ void SampleBuffer::sampleBlurred(const MicroGrid& g) {
             if (!(m_strataStart[k] > m_strataEnd[k])) m_strataLive[k / 4] |= 1 << (k % 4);
         }
     }
+    // Two keys without a lens: every micropolygon's motion bound at once,
+    // and only those that can reach the region at some sample's time are
+    // rasterized.
+    const bool perGrid = keys == 2 && !m_strataWeight.empty() && !lens;
+    if (perGrid && !boundMotion(g)) return;
     for (int j = 0; j < g.nv; ++j)
         for (int i = 0; i < g.nu; ++i) {
             if (g.culled && g.culled[j * g.nu + i]) continue;
             if (g.discs && (i & 1)) continue;
-            rasterizeBlurred(g, ctx, i, j);
+            if (!perGrid) {
+                rasterizeBlurred(g, ctx, i, j, nullptr);
+                continue;
+            }
+            const MotionBound& b = m_motion[size_t(j) * size_t(g.nu) + size_t(i)];
+            if (b.first <= b.last) rasterizeBlurred(g, ctx, i, j, &b);
         }
 }
 
-void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, int i, int j) {
+bool SampleBuffer::boundMotion(const MicroGrid& g) {
+    const int nu1 = g.nu + 1;
+    const size_t nverts = size_t(g.vertexCount());
+    const float span = g.keyTimes[1] - g.keyTimes[0];
+    // testSample's weight of the second key at time t: monotonic in t, so
+    // every sample of the region has one in [shutterFirst, shutterLast].
+    auto weight = [&](float t) { return span > 0 ? std::clamp((t - g.keyTimes[0]) / span, 0.0f, 1.0f) : 0.0f; };
+    const float shutterFirst = weight(m_timeMin), shutterLast = weight(m_timeMax);
+    const float region0[2] = {m_fx0, m_fy0}, region1[2] = {m_fx1, m_fy1};
+    const float nearZ = m_cfg.nearClip, farZ = m_cfg.farClip;
+    m_motion.resize(size_t(g.nu) * size_t(g.nv));
+    bool any = false;
+    for (int j = 0; j < g.nv; ++j)
+        for (int i = 0; i < g.nu; ++i) {
+            MotionBound& b = m_motion[size_t(j) * size_t(g.nu) + size_t(i)];
+            b.first = 1;
+            b.last = 0;
+            // Not drawn: culled (back-facing), or a disc's odd neighbour.
+            if ((g.culled && g.culled[j * g.nu + i]) || (g.discs && (i & 1))) continue;
+            const size_t corner[4] = {size_t(j * nu1 + i), size_t(j * nu1 + i + 1), size_t((j + 1) * nu1 + i),
+                                      size_t((j + 1) * nu1 + i + 1)};
+            // rasterizeBlurred's bound over both keys, in its order.
+            float minx = kInfinity, miny = kInfinity, maxx = -kInfinity, maxy = -kInfinity, minz = kInfinity,
+                  maxz = -kInfinity;
+            for (size_t k = 0; k < 2; ++k)
+                for (size_t c : corner) {
+                    const Vec3& p = g.P[k * nverts + c];
+                    minx = std::min(minx, p.x);
+                    maxx = std::max(maxx, p.x);
+                    miny = std::min(miny, p.y);
+                    maxy = std::max(maxy, p.y);
+                    minz = std::min(minz, p.z);
+                    maxz = std::max(maxz, p.z);
+                }
+            b.swept0[0] = minx;
+            b.swept0[1] = miny;
+            b.swept1[0] = maxx;
+            b.swept1[1] = maxy;
+            b.minz = minz;
+            b.maxz = maxz;
+            // NaN coordinates fail these tests and are skipped.
+            if (!(maxx >= m_fx0 && minx < m_fx1 && maxy >= m_fy0 && miny < m_fy1)) continue;
+            if (!(maxz >= nearZ && minz <= farZ)) continue;
+            // The first key's bound and the motion's, as rasterizeBlurred
+            // finds them.
+            float lo[2] = {kInfinity, kInfinity}, hi[2] = {-kInfinity, -kInfinity};
+            float dlo[2] = {kInfinity, kInfinity}, dhi[2] = {-kInfinity, -kInfinity};
+            for (size_t c : corner) {
+                const Vec3& a = g.P[c];
+                const Vec3& e = g.P[nverts + c];
+                const float ax[2] = {a.x, a.y}, d[2] = {e.x - a.x, e.y - a.y};
+                for (int axis = 0; axis < 2; ++axis) {
+                    lo[axis] = std::min(lo[axis], ax[axis]);
+                    hi[axis] = std::max(hi[axis], ax[axis]);
+                    dlo[axis] = std::min(dlo[axis], d[axis]);
+                    dhi[axis] = std::max(dhi[axis], d[axis]);
+                }
+            }
+            float fFirst = 0.0f, fLast = 1.0f;
+            bool finite = true;
+            for (int axis = 0; axis < 2; ++axis) {
+                const float margin = 1e-3f + 1e-5f * std::max({std::abs(lo[axis]), std::abs(hi[axis]),
+                                                               std::abs(lo[axis] + dlo[axis]),
+                                                               std::abs(hi[axis] + dhi[axis])});
+                const float r0 = region0[axis] - margin, r1 = region1[axis] + margin;
+                // lo + f * dlo <= r1 and hi + f * dhi >= r0.
+                if (dlo[axis] > 0) fLast = std::min(fLast, (r1 - lo[axis]) / dlo[axis]);
+                if (dlo[axis] < 0) fFirst = std::max(fFirst, (r1 - lo[axis]) / dlo[axis]);
+                if (dhi[axis] > 0) fFirst = std::max(fFirst, (r0 - hi[axis]) / dhi[axis]);
+                if (dhi[axis] < 0) fLast = std::min(fLast, (r0 - hi[axis]) / dhi[axis]);
+                finite = finite && std::isfinite(lo[axis]) && std::isfinite(hi[axis]) && std::isfinite(dlo[axis]) &&
+                         std::isfinite(dhi[axis]) && std::isfinite(margin);
+                b.lo[axis] = lo[axis];
+                b.hi[axis] = hi[axis];
+                b.dlo[axis] = dlo[axis];
+                b.dhi[axis] = dhi[axis];
+                b.margin[axis] = margin;
+            }
+            if (finite) {
+                // At a weight outside [fFirst, fLast] its bound (with the
+                // margin) misses the region, so the region's samples of
+                // that weight are outside it; the slack covers the
+                // quotients' rounding.
+                b.first = std::max(fFirst - 1e-4f, shutterFirst);
+                b.last = std::min(fLast + 1e-4f, shutterLast);
+            } else {
+                b.first = 0.0f;  // rasterizeBlurred tests every stratum's box
+                b.last = 1.0f;
+            }
+            any |= b.first <= b.last;
+        }
+    return any;
+}
+
+void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, int i, int j,
+                                    const MotionBound* bound) {
     const int nverts = g.vertexCount();
     const int keys = std::max(1, g.keyCount);
     const int nu1 = g.nu + 1;
@@ -663,6 +790,15 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
     float minx = kInfinity, miny = kInfinity, maxx = -kInfinity, maxy = -kInfinity, minz = kInfinity,
           maxz = -kInfinity, coc = 0;
     float blur0 = kInfinity, blur1 = -kInfinity;  // range of 1/focaldistance - 1/z over the corners
+    if (bound) {
+        // boundMotion's (two keys, no lens): the same bound.
+        minx = bound->swept0[0];
+        miny = bound->swept0[1];
+        maxx = bound->swept1[0];
+        maxy = bound->swept1[1];
+        minz = bound->minz;
+        maxz = bound->maxz;
+    } else
     for (int k = 0; k < keys; ++k)
         for (int c : corner) {
             const Vec3& p = g.P[size_t(k) * size_t(nverts) + size_t(c)];
@@ -923,8 +1059,8 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
     // A sample to test: at once, or queued for the four-wide test.
     auto candidate = [&](const size_t s) {
         if (!batched) return testSample(s);
-        if (!(ctx.farthestUseful[s] >= nearest)) return;
-        pending[pendingCount++] = s;
+        pending[pendingCount] = s;  // kept only if not hidden (no branch)
+        pendingCount += ctx.farthestUseful[s] >= nearest;
         if (pendingCount == 4) flush();
     };
 
@@ -939,33 +1075,49 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
     float boxTime0 = 0, boxTimeScale = 0;  // f = (t - boxTime0) * boxTimeScale, clamped to [0, 1]
     // Four pixels of a row at a time are tested against the box [x0, x1] x
     // [y0, y1] (pixels [px0, px1] x [py0, py1] of the region), by their
-    // sample's position in that stratum (NaN, never inside, for none).
+    // sample's position in that stratum (NaN, never inside, for none). The
+    // samples inside are appended to a short list without a branch (most
+    // groups hold one or two of them, in lanes no predictor guesses: the
+    // branches on them were most of this loop's time), then handed to
+    // candidate() in the same order.
+    constexpr int kListed = 256;
+    int32_t listed[kListed];
     auto visitPixels = [&](size_t offset, const std::vector<int32_t>& tableS, const std::vector<float>& tableX,
                            const std::vector<float>& tableY, float x0, float y0, float x1, float y1, int px0,
                            int py0, int px1, int py1) {
+        int n = 0;
+        const F4 zero = {0, 0, 0, 0}, one = {1, 1, 1, 1};
         for (int py = py0; py <= py1; ++py) {
             const size_t rowAt = offset + size_t(py) * size_t(m_rw);
             for (int px = px0; px <= px1; px += 4) {
                 const size_t at = rowAt + size_t(px);
                 const F4 sx = load4(&tableX[at]), sy = load4(&tableY[at]);
-                int inside = laneMask((sx >= x0) & (sx <= x1) & (sy >= y0) & (sy <= y1));
-                inside &= px1 - px >= 3 ? 0xf : (1 << (px1 - px + 1)) - 1;
-                if (timeBox && inside) {
+                I4 in = (sx >= x0) & (sx <= x1) & (sy >= y0) & (sy <= y1);
+                if (timeBox) {
                     // The weight to within an ulp or two (a product for
                     // testSample's quotient): the margin covers it.
                     const F4 u = (load4(&m_strataTime[at]) - boxTime0) * boxTimeScale;
-                    const F4 zero = {0, 0, 0, 0}, one = {1, 1, 1, 1};
                     const F4 f = select(u < zero, zero, select(one < u, one, u));
-                    inside &= laneMask((sx >= boxLo[0] + f * boxDlo[0]) & (sx <= boxHi[0] + f * boxDhi[0]) &
-                                       (sy >= boxLo[1] + f * boxDlo[1]) & (sy <= boxHi[1] + f * boxDhi[1]));
+                    in &= (sx >= boxLo[0] + f * boxDlo[0]) & (sx <= boxHi[0] + f * boxDhi[0]) &
+                          (sy >= boxLo[1] + f * boxDlo[1]) & (sy <= boxHi[1] + f * boxDhi[1]);
                 }
-                while (inside) {
-                    const int k = __builtin_ctz(unsigned(inside));
-                    candidate(size_t(tableS[at + size_t(k)]));
-                    inside &= inside - 1;
+                const int inside = laneMask(in) & (px1 - px >= 3 ? 0xf : (1 << (px1 - px + 1)) - 1);
+                const int32_t* s = &tableS[at];  // padded: four may be read at the last pixel
+                listed[n] = s[0];
+                n += inside & 1;
+                listed[n] = s[1];
+                n += (inside >> 1) & 1;
+                listed[n] = s[2];
+                n += (inside >> 2) & 1;
+                listed[n] = s[3];
+                n += (inside >> 3) & 1;
+                if (n > kListed - 4) {
+                    for (int k = 0; k < n; ++k) candidate(size_t(listed[k]));
+                    n = 0;
                 }
             }
         }
+        for (int k = 0; k < n; ++k) candidate(size_t(listed[k]));
     };
     // The samples of one stratum inside [x0, x1] x [y0, y1], clipped to the
     // micropolygon's bound.
@@ -1038,7 +1190,14 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
         const bool linear = !m_strataWeight.empty();
         float lo[2] = {kInfinity, kInfinity}, hi[2] = {-kInfinity, -kInfinity};
         float dlo[2] = {kInfinity, kInfinity}, dhi[2] = {-kInfinity, -kInfinity};
-        if (linear)
+        if (bound)
+            for (int axis = 0; axis < 2; ++axis) {
+                lo[axis] = bound->lo[axis];
+                hi[axis] = bound->hi[axis];
+                dlo[axis] = bound->dlo[axis];
+                dhi[axis] = bound->dhi[axis];
+            }
+        else if (linear)
             for (int c = 0; c < 4; ++c) {
                 const Vec3& a = g.P[size_t(corner[c])];
                 const Vec3& b = g.P[size_t(nverts) + size_t(corner[c])];
@@ -1053,7 +1212,25 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
         // Two keys: the weights at which the micropolygon's bound overlaps
         // this bucket's region (it often crosses a region in a few strata).
         float fFirst = 0.0f, fLast = 1.0f;
-        if (linear) {
+        if (bound) {
+            // boundMotion's window, clipped to the samples' times, and the
+            // time box as below.
+            fFirst = bound->first;
+            fLast = bound->last;
+            bool finite = true;
+            for (int axis = 0; axis < 2; ++axis) {
+                finite = finite && std::isfinite(lo[axis]) && std::isfinite(hi[axis]) &&
+                         std::isfinite(dlo[axis]) && std::isfinite(dhi[axis]);
+                boxLo[axis] = lo[axis] - bound->margin[axis];
+                boxHi[axis] = hi[axis] + bound->margin[axis];
+                boxDlo[axis] = dlo[axis];
+                boxDhi[axis] = dhi[axis];
+            }
+            const float span = g.keyTimes[1] - g.keyTimes[0];
+            boxTime0 = g.keyTimes[0];
+            boxTimeScale = span > 0 ? 1.0f / span : 0.0f;
+            timeBox = finite && std::isfinite(boxTimeScale) && !m_strataTime.empty();
+        } else if (linear) {
             const float region0[2] = {m_fx0, m_fy0}, region1[2] = {m_fx1, m_fy1}, pad[2] = {padX, padY};
             for (int axis = 0; axis < 2; ++axis) {
                 const float margin = 1e-3f + pad[axis] + 1e-5f * std::max({std::abs(lo[axis]), std::abs(hi[axis]),
@@ -1112,7 +1289,9 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
                     y0 = vmin(y0, y);
                     y1 = vmax(y1, y);
                 };
-                for (const F4 f : {f0, f1}) {
+                // Only the part of the stratum within [fFirst, fLast]: at
+                // other weights the bound misses the region.
+                for (const F4 f : {vmax(f0, first), vmin(f1, last)}) {
                     include(lo[0] + f * dlo[0], lo[1] + f * dlo[1]);
                     include(hi[0] + f * dhi[0], hi[1] + f * dhi[1]);
                 }

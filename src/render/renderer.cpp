@@ -54,6 +54,9 @@ namespace {
 constexpr float kDepthFlatness = 0.25f;
 
 constexpr const char* kUmbraVersion = "0.1.0";
+/// The camera pass's bucket size (pixels) in a motion-blurred frame when
+/// neither --bucket-size nor Option "limits" "bucketsize" gives one.
+constexpr int kBlurredBucketSize = 32;
 
 double peakResidentMiB() {
     rusage ru{};
@@ -179,6 +182,7 @@ struct PassResult {
     hider::SchedulerStats counters;
     double wall = 0, cpu = 0;
     uint64_t samples = 0;
+    int bucketSize[2] = {0, 0};  // the buckets the pass was cut into
 };
 
 /// An automatic map's file being written on a thread of its own while the
@@ -490,6 +494,13 @@ PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const st
     } else {
         ss.sampling.xSamples = std::max(1, options.pixelSamples[0]);
         ss.sampling.ySamples = std::max(1, options.pixelSamples[1]);
+        // Blurred camera passes: a moving micropolygon's swept bound reaches
+        // about four 16-pixel buckets, and each visit bounds and walks its
+        // time strata again; larger buckets save the blurred frame about a
+        // sixth (docs/performance.md, "Motion blur cost"). The picture does
+        // not depend on the bucket size. A size the user gave is kept.
+        if (frame.motionBlur() && settings.bucketSize <= 0 && !options.bucketSizeSet)
+            ss.bucketSize[0] = ss.bucketSize[1] = kBlurredBucketSize;
         ss.sampling.jitter = options.jitter;
     }
     ss.sampling.mode = pass.depthOnly ? hider::HiderMode::Depth : hider::HiderMode::Colour;
@@ -514,6 +525,8 @@ PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const st
     r.wall = clock.wall();
     r.cpu = clock.cpu();
     r.samples = uint64_t(film.width()) * film.height() * ss.sampling.xSamples * ss.sampling.ySamples;
+    r.bucketSize[0] = ss.bucketSize[0];
+    r.bucketSize[1] = ss.bucketSize[1];
     return r;
 }
 
@@ -794,7 +807,8 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
                       {"cpu_seconds", camera.cpu},
                       {"worker_cpu_seconds", camera.counters.workerCpuSeconds},
                       {"counts", schedulerJson(camera.counters)},
-                      {"samples", camera.samples}});
+                      {"samples", camera.samples},
+                      {"bucket_size", {camera.bucketSize[0], camera.bucketSize[1]}}});
 
     film::OutputMetadata meta;
     if (std::optional<std::string> date = sourceDateTime(diag)) {
@@ -990,7 +1004,8 @@ LightMap Renderer::Impl::makeLightMap(FrameState& frame, LightMapJob& job,
                                {"cpu_seconds", r.cpu},
                                {"worker_cpu_seconds", r.counters.workerCpuSeconds},
                                {"counts", schedulerJson(r.counters)},
-                               {"samples", r.samples}});
+                               {"samples", r.samples},
+                               {"bucket_size", {r.bucketSize[0], r.bucketSize[1]}}});
         return depthImageOf(film, pass, filter, job.dualOffset);
     };
 

@@ -851,6 +851,7 @@ void Builder::option(const std::string& name, ri::ParamList params, const FileLo
             }
             m_options.bucketSize[0] = w;
             m_options.bucketSize[1] = h;
+            m_options.bucketSizeSet = true;
         } else if (name == "limits" && (pn == "gridsize" || pn == "eyesplits")) {
             int v = params.getInt(pn, 0);
             if (v < (pn == "gridsize" ? 1 : 0)) {

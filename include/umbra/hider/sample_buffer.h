@@ -283,7 +283,24 @@ private:
     /// sample() for a moving grid, or any grid under a lens: each sample
     /// places the micropolygon's corners at its time and lens position.
     void sampleBlurred(const MicroGrid& g);
-    void rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, int i, int j);
+    /// A two-key micropolygon's motion bound in this buffer (boundMotion).
+    struct MotionBound {
+        float lo[2], hi[2];        // its corners' bound at the first key (x, y) ...
+        float dlo[2], dhi[2];      // ... and the least and greatest motion of a corner to the second
+        float swept0[2], swept1[2];  // the corners' bound over both keys
+        float minz, maxz;          // their depths over both keys
+        float margin[2];           // what its bounds are widened by (the ulps of interpolation)
+        /// The second key's weights between which it can meet this
+        /// buffer's region at a time some sample of the region has;
+        /// first > last: never.
+        float first, last;
+    };
+    /// Motion blur, two keys, no lens: each micropolygon's bound over the
+    /// part of the shutter this buffer's samples cover, and the weights at
+    /// which it can reach the region, into m_motion (j * nu + i). False when
+    /// no micropolygon of the grid can reach the region at such a time.
+    bool boundMotion(const MicroGrid& g);
+    void rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, int i, int j, const MotionBound* bound);
     /// The sample of each region pixel in each stratum, [stratum][row][column],
     /// and that sample's raster position alike (NaN where a pixel has none;
     /// three floats of padding, read in groups of four).
@@ -358,6 +375,8 @@ private:
     std::vector<float> m_strataWeight;
     std::vector<float> m_strataW0, m_strataW1;  // m_strataWeight[k], [k + 1], padded to groups of four
     std::vector<int> m_strataLive;              // per group of four strata: bit l set for a stratum
+    float m_timeMin = 0, m_timeMax = 1;         // the least and greatest time of the region's samples
+    std::vector<MotionBound> m_motion;          // boundMotion(): per micropolygon of the grid being sampled
     // Depth of field likewise: the sample of each region pixel in each lens
     // stratum, and each stratum's box of lens positions (x0, y0, x1, y1).
     std::vector<int32_t> m_lensStrataSample;

@@ -223,6 +223,10 @@ struct Options {
     bool jitter = true;
     std::string depthFilter = "min";
     int bucketSize[2] = {16, 16};
+    /// Option "limits" "bucketsize" was given: the renderer then keeps
+    /// bucketSize for every pass (otherwise it picks larger buckets for
+    /// depth passes and blurred camera passes: docs/performance.md).
+    bool bucketSizeSet = false;
     int gridSize = 256;                       // max micropolygons per grid
     int eyeSplits = 10;
     /// ReadArchive requests allowed in one frame (Option "limits"

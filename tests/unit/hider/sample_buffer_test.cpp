@@ -824,6 +824,79 @@ TEST(SampleBuffer, TimeStrataHitWhatEverySampleWould) {
     }
 }
 
+/// Per-grid motion bounds (SampleBuffer::boundMotion): a micropolygon is
+/// rasterized in a bucket only when its bound at some sample's time reaches
+/// the bucket's region. A grid sweeping diagonally across nine buckets (its
+/// swept box covers them all, its path only the diagonal), another moving
+/// only in the middle of the shutter (keys beyond it) and a deforming one
+/// hit the same samples at the same depths as testing every sample of the
+/// swept bound, bucket by bucket, while fewer micropolygons are visited.
+TEST(SampleBuffer, MotionBoundsSkipOnlyWhatCannotHit) {
+    struct Moving {
+        TestGrid grid;
+        std::vector<float> times;
+    };
+    auto moving = [](TestGrid base, const std::vector<float>& times, Vec2 motion, float stretch) {
+        Moving m;
+        m.times = times;
+        m.grid = base;
+        m.grid.P.clear();
+        for (size_t k = 0; k < 2; ++k)
+            for (const Vec3& p : base.P)
+                m.grid.P.push_back({p.x + float(k) * (motion.x + stretch * (p.x - 6.0f)),
+                                    p.y + float(k) * motion.y, p.z + 0.5f * float(k)});
+        return m;
+    };
+    const std::vector<Moving> grids = {
+        // 1 x 1 pixel micropolygons from the bottom-left corner to the top-right one.
+        moving(flatGrid(-2.0f, 38.0f, 10.0f, 50.0f, 12, 12, 3.0f, Color(0.5f), Color(1.0f), 1), {0.0f, 1.0f},
+               {40.0f, -40.0f}, 0.0f),
+        moving(flatGrid(1.5f, 2.5f, 9.5f, 8.5f, 8, 6, 2.0f, Color(0.5f), Color(0.5f), 2), {-1.0f, 2.0f},
+               {90.0f, 60.0f}, 0.0f),
+        moving(flatGrid(20.0f, 4.0f, 28.0f, 12.0f, 8, 8, 4.0f, Color(0.5f), Color(1.0f), 3), {0.0f, 1.0f},
+               {-14.0f, 30.0f}, 0.5f),
+    };
+    hider::BlurStats strataStats, everyStats;
+    int hit = 0;
+    for (HiderMode mode : {HiderMode::Colour, HiderMode::Depth})
+        for (int by = 0; by < 48; by += 16)
+            for (int bx = 0; bx < 48; bx += 16) {
+                SampleBuffer strata, every;
+                SampleBufferConfig c = config(bx, by, bx + 16, by + 16, 1, 4, 4, true, mode);
+                c.motion = true;
+                strata.reset(c);
+                c.sampleStrata = false;
+                every.reset(c);
+                for (const Moving& m : grids) {
+                    MicroGrid g = m.grid.view();
+                    g.keyCount = 2;
+                    g.keyTimes = m.times.data();
+                    strata.sample(g);
+                    every.sample(g);
+                }
+                forEachSample(every, [&](int px, int py, int s) {
+                    ASSERT_EQ(strata.depth(px, py, s), every.depth(px, py, s))
+                        << "bucket " << bx << "," << by << " pixel " << px << "," << py << " sample " << s;
+                    if (mode == HiderMode::Depth) {
+                        ASSERT_EQ(strata.secondDepth(px, py, s), every.secondDepth(px, py, s));
+                    } else {
+                        ASSERT_EQ(strata.fragmentCount(px, py, s), every.fragmentCount(px, py, s));
+                    }
+                    hit += every.depth(px, py, s) < kInfinity;
+                });
+                EXPECT_EQ(strata.blurStats().sampleHits, every.blurStats().sampleHits) << bx << "," << by;
+                strataStats.micropolygons += strata.blurStats().micropolygons;
+                everyStats.micropolygons += every.blurStats().micropolygons;
+                strataStats.sampleTests += strata.blurStats().sampleTests;
+                everyStats.sampleTests += every.blurStats().sampleTests;
+            }
+    EXPECT_GT(hit, 3000);  // the grids cover a good part of the buckets
+    // The diagonal grid's swept box reaches every bucket, its path three
+    // of them and their neighbours' margins: most visits are skipped.
+    EXPECT_LT(strataStats.micropolygons, everyStats.micropolygons * 2 / 3);
+    EXPECT_LT(strataStats.sampleTests, everyStats.sampleTests / 4);
+}
+
 /// Motion blur's times: each pixel's n samples take one each of n strata
 /// of the shutter (each row and column of them spread over it), the pixels of each kTimeTile x kTimeTile tile take one
 /// each of the n * kTimeTile^2 finer strata between them, and a sample's

@@ -257,6 +257,61 @@ TEST(MotionBlur, SamePixelsForAnyThreadCountAndBucketSize) {
     EXPECT_EQ(test::maxAbsDiff(one, odd, 4), 0.0);
 }
 
+TEST(MotionBlur, BlurredFramesTakeLargerBucketsUnlessTold) {
+    // A blurred frame's camera pass is cut into 32-pixel buckets unless
+    // --bucket-size or Option "limits" "bucketsize" says otherwise; a still
+    // frame keeps 16. The picture is the same whatever the buckets.
+    ScratchDir dir("mb-buckets");
+    const std::string frame =
+        "Format 96 64 1\nPixelSamples 4 4\n{}Projection \"perspective\" \"fov\" 40\n{}"
+        "Display \"out.tif\" \"file\" \"rgba\"\n"
+        "MotionBegin [0 1]\nTranslate 0 0 0\nTranslate 0.3 0 0\nMotionEnd\n"
+        "WorldBegin\nLightSource \"distantlight\" 1\nSurface \"plastic\"\n"
+        "AttributeBegin\nMotionBegin [0 1]\nTranslate -1 0 6\nTranslate 1 0.5 7\nMotionEnd\n"
+        "Sphere 1 -1 1 360\nAttributeEnd\n"
+        "AttributeBegin\nTranslate 0 0 9\nPatch \"bilinear\" \"P\" [-3 -2 0 3 -2 0 -3 2 0 3 2 0]\nAttributeEnd\n"
+        "WorldEnd\n";
+    struct Run {
+        Image image;
+        nlohmann::json camera;  // the camera pass's statistics
+    };
+    auto run = [&](const std::string& shutter, const std::string& option, int bucket) {
+        Diagnostics diag;
+        diag.setRecord(true);
+        std::string rib = fmt::format(fmt::runtime(frame), shutter, option);
+        const std::string out = dir.file("out.tif");
+        rib.replace(rib.find("\"out.tif\""), 9, "\"" + out + "\"");
+        Run r;
+        const nlohmann::json stats = test::renderRib(rib, diag, 2, bucket);
+        EXPECT_EQ(diag.errorCount(), 0) << (diag.recorded().empty() ? "" : diag.recorded()[0].message);
+        EXPECT_TRUE(test::readImage(out, &r.image));
+        for (const auto& p : stats["frames"][0]["passes"])
+            if (p["name"] == "camera") r.camera = p;
+        return r;
+    };
+    auto bucketSize = [](const Run& r) { return r.camera["bucket_size"].get<std::vector<int>>(); };
+    auto buckets = [](const Run& r) { return r.camera["counts"]["buckets"].get<int>(); };
+    const std::string blurred = "Shutter 0 1\n", still = "";
+    const Run automatic = run(blurred, "", 0);
+    EXPECT_EQ(bucketSize(automatic), (std::vector<int>{32, 32}));
+    EXPECT_EQ(buckets(automatic), 3 * 2);  // 96 x 64 pixels
+    const Run option = run(blurred, "Option \"limits\" \"bucketsize\" [16 16]\n", 0);
+    EXPECT_EQ(bucketSize(option), (std::vector<int>{16, 16}));
+    EXPECT_EQ(buckets(option), 6 * 4);
+    const Run flag = run(blurred, "", 16);
+    EXPECT_EQ(bucketSize(flag), (std::vector<int>{16, 16}));
+    EXPECT_EQ(buckets(flag), 6 * 4);
+    const Run oddOption = run(blurred, "Option \"limits\" \"bucketsize\" [24 8]\n", 0);
+    EXPECT_EQ(bucketSize(oddOption), (std::vector<int>{24, 8}));
+    const Run sharp = run(still, "", 0);
+    EXPECT_EQ(bucketSize(sharp), (std::vector<int>{16, 16}));
+    // Bit-identical pictures, and the frame was blurred (not the still one).
+    EXPECT_EQ(test::maxAbsDiff(automatic.image, option.image, 4), 0.0);
+    EXPECT_EQ(test::maxAbsDiff(automatic.image, flag.image, 4), 0.0);
+    EXPECT_EQ(test::maxAbsDiff(automatic.image, oddOption.image, 4), 0.0);
+    EXPECT_GT(test::maxAbsDiff(automatic.image, sharp.image, 4), 0.1);
+}
+
 TEST(MotionBlur, BlurredShadingStaysSmoothUnderTheDefaultFilter) {
     // A grey ramp (0 to 1 over 120 pixels) slides 60 pixels under the
     // default 2 x 2 Gaussian at 4 x 4 samples. Its colour is linear in time,
