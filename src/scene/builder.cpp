@@ -973,8 +973,10 @@ void Builder::takeScreenTransform(const FileLoc& loc) {
         // not its turn.
         m_diag.warning(loc, "Projection: the screen transformation (transforms before Projection) rotates or "
                             "shears the image; only its scale and offset are supported, the rest is ignored");
-        sx = std::copysign(std::hypot(a, c), a);
-        sy = std::copysign(std::hypot(b, d), d);
+        // (A diagonal entry that is only rounding, as at a quarter turn,
+        // does not decide a mirror.)
+        sx = a < -eps ? -std::hypot(a, c) : std::hypot(a, c);
+        sy = d < -eps ? -std::hypot(b, d) : std::hypot(b, d);
     }
     if (!(std::abs(sx) > 1e-20f && std::abs(sy) > 1e-20f) || !std::isfinite(sx) || !std::isfinite(sy)) {
         m_diag.warning(loc, "Projection: the screen transformation scales the image to nothing; ignored");
