@@ -12,6 +12,7 @@
 
 #include <fmt/format.h>
 
+#include <fstream>
 #include <string>
 
 using namespace umbra;
@@ -242,4 +243,47 @@ TEST(ScreenTransform, DepthPartWarnsAndIsDropped) {
     Rendered shiftedZ = renderFrame(dir, "Translate 0 0 3");
     EXPECT_EQ(warningsMentioning(shiftedZ, "depth"), 1);
     EXPECT_LT(meanAbsDiff(shiftedZ.image, plain.image), 1e-5);
+}
+
+TEST(ScreenTransform, ShadersSeeNdcAfterIt) {
+    // NDC space follows the screen transformation (RI Spec 3.2: NDC is the
+    // screen window of screen space, which the screen transform is part
+    // of): under any camera, a surface point's NDC x and y are where its
+    // pixel is in the image. Checked at pixel centres a large plane covers.
+    ScratchDir dir("screen-ndc");
+    std::ofstream(dir.file("ndc.sl")) << "surface ndc() { point q = transform(\"NDC\", P);\n"
+                                         "  Ci = color(xcomp(q), ycomp(q), 0); Oi = 1; }\n";
+    constexpr const char* scene = R"(
+Option "searchpath" "shader" ["{dir}:&"]
+Format 40 30 1
+PixelSamples 1 1
+PixelFilter "box" 1 1
+Hider "hidden" "jitter" [0]
+Quantize "rgba" 0 0 0 0
+Display "{image}" "file" "rgb"
+{before}
+Projection "{projection}"
+Translate 0 0 4
+WorldBegin
+Surface "ndc"
+Polygon "P" [-20 20 0  20 20 0  20 -20 0  -20 -20 0]
+WorldEnd
+)";
+    for (const char* projection : {"perspective", "orthographic"})
+        for (const char* before : {"", "Scale -1 1 1", "Scale 1.5 -2 1\nTranslate 0.1 0.2 0"}) {
+            const std::string image = dir.file("ndc.tif");
+            Diagnostics diag;
+            diag.setQuiet(true);
+            const Image img = test::renderImage(fmt::format(scene, fmt::arg("dir", dir.file("")),
+                                                            fmt::arg("image", image), fmt::arg("before", before),
+                                                            fmt::arg("projection", projection)),
+                                                image, diag);
+            ASSERT_EQ(img.width, 40) << projection << " / " << before;
+            EXPECT_EQ(diag.errorCount(), 0);
+            for (int y = 0; y < img.height; y += 7)
+                for (int x = 0; x < img.width; x += 9) {
+                    EXPECT_NEAR(img.at(x, y, 0), (x + 0.5f) / 40, 2e-3f) << projection << " / " << before << " at " << x << "," << y;
+                    EXPECT_NEAR(img.at(x, y, 1), (y + 0.5f) / 30, 2e-3f) << projection << " / " << before << " at " << x << "," << y;
+                }
+        }
 }
