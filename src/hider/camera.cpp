@@ -21,6 +21,10 @@ Camera Camera::fromOptions(const scene::Options& o) {
         c.screenWindow[0] = -1;          c.screenWindow[1] = 1;
         c.screenWindow[2] = -1 / aspect; c.screenWindow[3] = 1 / aspect;
     }
+    for (int i = 0; i < 2; ++i) {
+        c.screenScale[i] = o.screenScale[i];
+        c.screenOffset[i] = o.screenOffset[i];
+    }
     c.nearClip = o.nearClip;
     c.farClip = o.farClip;
     c.cameraFromWorld = o.cameraFromWorld;
@@ -34,7 +38,13 @@ void Camera::finish() {
 }
 
 Mat4 Camera::screenFromCamera() const {
-    if (!perspective) return Mat4::identity();
+    // The screen transformation, after the projection.
+    Mat4 st;
+    st.m[0][0] = screenScale[0];
+    st.m[1][1] = screenScale[1];
+    st.m[0][3] = screenOffset[0];
+    st.m[1][3] = screenOffset[1];
+    if (!perspective) return st;
     // After the divide by w = z: x/(z t), y/(z t), and RenderMan's screen
     // depth f(z-n)/(z(f-n)), which maps [near, far] to [0, 1].
     double n = nearClip, f = farClip;
@@ -45,7 +55,7 @@ Mat4 Camera::screenFromCamera() const {
     m.m[2][3] = float(-f * n / (f - n));
     m.m[3][2] = 1;
     m.m[3][3] = 0;
-    return m;
+    return st * m;
 }
 
 Mat4 Camera::ndcFromScreen() const {

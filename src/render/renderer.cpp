@@ -475,8 +475,9 @@ PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const st
     if (pass.lensRadius > 0 && pass.camera.perspective) {
         ss.sampling.lens = true;
         const float perUnit = pass.lensRadius / pass.camera.tanHalfFov;
-        ss.sampling.lensScaleX = perUnit * pass.camera.rasterScaleX();
-        ss.sampling.lensScaleY = -perUnit * pass.camera.rasterScaleY();  // raster y runs down
+        // Signed: a mirroring screen transform mirrors the blur's offsets too.
+        ss.sampling.lensScaleX = perUnit * pass.camera.projectedScaleX();
+        ss.sampling.lensScaleY = -perUnit * pass.camera.projectedScaleY();  // raster y runs down
         ss.sampling.inverseFocalDistance = 1.0f / pass.focalDistance;
     }
     if (pass.depthOnly) ss.filterMargin = 0;  // depths are per-pixel minima, never filtered
@@ -1097,6 +1098,7 @@ MapContent Renderer::Impl::mapContentOf(const FrameState& frame, const scene::Li
         settingsHash.flag(pass.openSurfacesAreOwnSecondLayer).i32(pass.timeTile);
         const hider::Camera& c = pass.camera;
         viewHash.flag(c.perspective).f32(c.tanHalfFov).bytes(c.screenWindow, sizeof c.screenWindow);
+        viewHash.bytes(c.screenScale, sizeof c.screenScale).bytes(c.screenOffset, sizeof c.screenOffset);
         viewHash.i32(c.xResolution).i32(c.yResolution).f32(c.nearClip).f32(c.farClip).matrix(c.cameraFromWorld);
     }
     content.settings = settingsHash.value();

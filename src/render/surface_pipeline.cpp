@@ -148,7 +148,7 @@ Bound3 SurfacePipeline::sweptBound(const geometry::Primitive& prim, const dice::
 float SurfacePipeline::confusionRadius(float z) const {
     const hider::Camera& cam = m_pass.camera;
     if (!(m_pass.lensRadius > 0) || !cam.perspective) return 0;
-    const float scale = std::max(cam.rasterScaleX(), cam.rasterScaleY()) / cam.tanHalfFov;
+    const float scale = std::max(std::abs(cam.projectedScaleX()), std::abs(cam.projectedScaleY())) / cam.tanHalfFov;
     return m_pass.lensRadius * scale * std::abs(1.0f / m_pass.focalDistance - 1.0f / z);
 }
 

@@ -954,9 +954,53 @@ void Builder::projection(const std::string& name, ri::ParamList params, const Fi
         return;
     }
     params.reportUnused(m_diag, "Projection");
-    // RI spec: the current transform is cleared after Projection, so
-    // camera transforms follow it.
+    // RI spec: transforms before Projection are the screen transformation;
+    // the current transform is cleared after it, so camera transforms
+    // follow it.
+    takeScreenTransform(loc);
     setTransform(Mat4::identity());
+}
+
+void Builder::takeScreenTransform(const FileLoc& loc) {
+    if (m_state.motion)
+        m_diag.warning(loc, "Projection: a moving screen transformation (MotionBegin before Projection) is not "
+                            "supported; its transform at the shutter's opening is used");
+    const Mat4& t = m_state.transform;
+    // Screen (x, y, z, 1) -> t * (x, y, z, 1): a = t[0][0], b = t[0][1],
+    // c = t[1][0], d = t[1][1] is the x/y part, t[0][3], t[1][3] the offset.
+    const float a = t.m[0][0], b = t.m[0][1], c = t.m[1][0], d = t.m[1][1];
+    const float size = std::max({std::abs(a), std::abs(b), std::abs(c), std::abs(d)});
+    const float eps = 1e-6f * std::max(size, 1.0f);
+    float sx = a, sy = d;
+    if (std::abs(b) > eps || std::abs(c) > eps) {
+        // Rotation or shear: keep each axis's length (and a mirror's sign),
+        // not its turn.
+        m_diag.warning(loc, "Projection: the screen transformation (transforms before Projection) rotates or "
+                            "shears the image; only its scale and offset are supported, the rest is ignored");
+        // (A diagonal entry that is only rounding, as at a quarter turn,
+        // does not decide a mirror.)
+        sx = a < -eps ? -std::hypot(a, c) : std::hypot(a, c);
+        sy = d < -eps ? -std::hypot(b, d) : std::hypot(b, d);
+    }
+    if (!(std::abs(sx) > 1e-20f && std::abs(sy) > 1e-20f) || !std::isfinite(sx) || !std::isfinite(sy)) {
+        m_diag.warning(loc, "Projection: the screen transformation scales the image to nothing; ignored");
+        sx = sy = 1;
+    }
+    bool depth = std::abs(t.m[2][2] - 1) > eps || std::abs(t.m[2][3]) > eps;
+    for (int i = 0; i < 2; ++i) depth |= std::abs(t.m[2][i]) > eps || std::abs(t.m[i][2]) > eps;
+    if (depth)
+        m_diag.warning(loc, "Projection: the screen transformation changes depth (e.g. a Scale or Translate of z "
+                            "before Projection); umbra keeps camera depth, the depth part is dropped");
+    bool projective = std::abs(t.m[3][3] - 1) > eps;
+    for (int i = 0; i < 3; ++i) projective |= std::abs(t.m[3][i]) > eps;
+    if (projective)
+        m_diag.warning(loc, "Projection: the screen transformation is projective (a Perspective before "
+                            "Projection); only its scale and offset are used");
+    const float w = projective && std::abs(t.m[3][3]) > eps ? t.m[3][3] : 1.0f;
+    m_options.screenScale[0] = sx / w;
+    m_options.screenScale[1] = sy / w;
+    m_options.screenOffset[0] = std::isfinite(t.m[0][3] / w) ? t.m[0][3] / w : 0.0f;
+    m_options.screenOffset[1] = std::isfinite(t.m[1][3] / w) ? t.m[1][3] / w : 0.0f;
 }
 
 void Builder::clipping(float nearZ, float farZ, const FileLoc& loc) {

@@ -413,9 +413,30 @@ void needLightsAbout(Exec& x, In<Vec3> N) {
 /// users have were tuned for that, so umbra uses it (docs/shading-language.md).
 inline float specularExponent(float roughness) { return 8.0f / roughness; }
 
+/// A light's float parameter `name` (its value after the light ran) and
+/// its stride (0: uniform); null when the light has no such float.
+std::pair<const float*, int> lightFloat(const Exec* light, const char* name) {
+    if (!light || !light->cs) return {nullptr, 0};
+    const CompiledShader& cs = *light->cs;
+    for (size_t p = 0; p < cs.params.size(); ++p) {
+        if (cs.params[p].name != name) continue;
+        const int r = cs.paramRegs[p];
+        const RegInfo& ri = cs.regs[size_t(r)];
+        if (ri.ty != Ty::Float || ri.arrayLen > 0) return {nullptr, 0};
+        return {light->ptr[size_t(r)], light->vary[size_t(r)] ? 1 : 0};
+    }
+    return {nullptr, 0};
+}
+
 /// diffuse(), specular(), phong(): sums over the non-ambient lights that
 /// reached each point from the front hemisphere of N, point by point so
 /// that the normalised N and V are computed once for all lights.
+///
+/// Light categories by convention (PRMan, and the shaders of Advanced
+/// RenderMan): a light's float parameter `__nondiffuse` takes it out of
+/// diffuse(), `__nonspecular` out of specular() and phong(). 1 excludes
+/// the light, 0 (or no such parameter) keeps it; a value between scales
+/// its contribution by 1 - value, as those shaders' own loops do.
 enum class LightModel { Diffuse, Specular, Phong };
 template <LightModel model> void lightSum(Exec& x, const Instr& in, const Args& A) {
     needLightsAbout(x, A.v(0));
@@ -427,6 +448,9 @@ template <LightModel model> void lightSum(Exec& x, const Instr& in, const Args& 
         const float* cl;
         int cls;
         const uint8_t* lit;
+        const float* non;  // __nondiffuse or __nonspecular; null: none
+        int nons;
+        float weight(int i) const { return non ? 1.0f - std::clamp(non[i * nons], 0.0f, 1.0f) : 1.0f; }
     };
     Src local[kMax];
     std::vector<Src> many;
@@ -439,8 +463,12 @@ template <LightModel model> void lightSum(Exec& x, const Instr& in, const Args& 
         src = many.data();
     }
     count = 0;
+    constexpr const char* category = model == LightModel::Diffuse ? "__nondiffuse" : "__nonspecular";
     for (const LightRun& lr : x.ctx->lights)
-        if (!lr.ambient) src[count++] = {lr.dir, lr.Clp, 3 * lr.Cls, lr.litp};
+        if (!lr.ambient) {
+            const auto [non, nons] = lightFloat(lr.exec, category);
+            src[count++] = {lr.dir, lr.Clp, 3 * lr.Cls, lr.litp, non, nons};
+        }
     In<Vec3> N = A.v(0);
     In<Vec3> V = model == LightModel::Diffuse ? N : A.v(1);
     In<float> k = model == LightModel::Diffuse ? In<float>{nullptr, 0} : A.f(2);
@@ -453,8 +481,10 @@ template <LightModel model> void lightSum(Exec& x, const Instr& in, const Args& 
                 if (!s.lit[i]) continue;
                 float c = dot(s.dir[i], Nn);
                 if (c <= 0) continue;
+                const float w = s.weight(i);
+                if (w <= 0) continue;
                 const float* cl = s.cl + i * s.cls;
-                sum += Vec3(cl[0], cl[1], cl[2]) * c;
+                sum += Vec3(cl[0], cl[1], cl[2]) * (c * w);
             }
         } else if constexpr (model == LightModel::Specular) {
             Vec3 Vn = unit(V[i]);
@@ -466,9 +496,11 @@ template <LightModel model> void lightSum(Exec& x, const Instr& in, const Args& 
                     if (!s.lit[i]) continue;
                     const Vec3& Ln = s.dir[i];
                     if (dot(Ln, Nn) <= 0) continue;
+                    const float w = s.weight(i);
+                    if (w <= 0) continue;
                     Vec3 H = unit(Ln + Vn);
                     const float* cl = s.cl + i * s.cls;
-                    sum += Vec3(cl[0], cl[1], cl[2]) * std::pow(std::max(0.f, dot(Nn, H)), e);
+                    sum += Vec3(cl[0], cl[1], cl[2]) * (w * std::pow(std::max(0.f, dot(Nn, H)), e));
                 }
             }
         } else {
@@ -479,8 +511,10 @@ template <LightModel model> void lightSum(Exec& x, const Instr& in, const Args& 
                 if (!s.lit[i]) continue;
                 const Vec3& Ln = s.dir[i];
                 if (dot(Ln, Nn) <= 0) continue;
+                const float w = s.weight(i);
+                if (w <= 0) continue;
                 const float* cl = s.cl + i * s.cls;
-                sum += Vec3(cl[0], cl[1], cl[2]) * std::pow(std::max(0.f, dot(R, Ln)), size);
+                sum += Vec3(cl[0], cl[1], cl[2]) * (w * std::pow(std::max(0.f, dot(R, Ln)), size));
             }
         }
         put(d, i, sum);

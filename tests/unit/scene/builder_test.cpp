@@ -76,6 +76,42 @@ TEST(Builder, CameraTransformAndProjection) {
     expectNear(r->sink.worlds[0].coordinateSystems.at("camera").point({0, 2, -5}), {0, 0, 0});
 }
 
+TEST(Builder, TransformsBeforeProjectionAreTheScreenTransformation) {
+    // RI Spec 3.2: screen = CTM * projection. Scale then Translate compose
+    // as transforms do: x' = -2 (x + 0.5), y' = 3 (y + 0.25). The camera
+    // transform starts again from the identity after Projection.
+    auto r = run("Scale -2 3 1\nTranslate 0.5 0.25 0\nProjection \"perspective\" \"fov\" 40\n"
+                 "Translate 0 0 5\nWorldBegin WorldEnd");
+    ASSERT_EQ(r->sink.worlds.size(), 1u);
+    EXPECT_EQ(r->messages(), std::vector<std::string>{});
+    const Options& o = r->sink.worlds[0].options;
+    EXPECT_FLOAT_EQ(o.screenScale[0], -2.0f);
+    EXPECT_FLOAT_EQ(o.screenScale[1], 3.0f);
+    EXPECT_FLOAT_EQ(o.screenOffset[0], -1.0f);
+    EXPECT_FLOAT_EQ(o.screenOffset[1], 0.75f);
+    expectNear(o.cameraFromWorld.point({1, 2, 3}), {1, 2, 8});
+    // A later Projection takes the transform current then (the identity).
+    auto again = run("Scale -1 1 1 Projection \"orthographic\" Projection \"perspective\" WorldBegin WorldEnd");
+    EXPECT_EQ(again->sink.worlds.at(0).options.screenScale[0], 1.0f);
+}
+
+TEST(Builder, ScreenRotationAndDepthAreWarnedAndDropped) {
+    auto r = run("Rotate 90 0 0 1\nScale 2 2 -1\nProjection \"perspective\"\nWorldBegin WorldEnd");
+    const std::vector<std::string> m = r->messages();
+    ASSERT_EQ(m.size(), 2u);
+    EXPECT_EQ(m[0].rfind("s.rib:3:1: warning: Projection: the screen transformation (transforms before Projection) "
+                         "rotates or shears",
+                         0),
+              0u)
+        << m[0];
+    EXPECT_EQ(m[1].rfind("s.rib:3:1: warning: Projection: the screen transformation changes depth", 0), 0u) << m[1];
+    // Each axis keeps its length: a quarter turn of a scale by 2 is a scale by 2.
+    const Options& o = r->sink.worlds.at(0).options;
+    EXPECT_NEAR(o.screenScale[0], 2.0f, 1e-5f);
+    EXPECT_NEAR(o.screenScale[1], 2.0f, 1e-5f);
+    EXPECT_EQ(o.screenOffset[0], 0.0f);
+}
+
 TEST(Builder, AttributeAndTransformScoping) {
     auto r = run("WorldBegin\nColor 1 0 0\nAttributeBegin Color 0 1 0 Translate 1 0 0 Sphere 1 -1 1 360 AttributeEnd\n"
                  "TransformBegin Color 0 0 1 Translate 0 1 0 Sphere 1 -1 1 360 TransformEnd\n"

@@ -16,7 +16,7 @@ TEST(StandardShaders, AllCompile) {
     Harness h;
     const char* names[] = {"constant", "matte", "metal", "shinymetal", "plastic", "paintedplastic", "ambientlight",
                            "distantlight", "pointlight", "spotlight", "shadowspot", "shadowdistant", "shadowpoint",
-                           "depthcue", "fog", "bumpy", "defaultsurface"};
+                           "depthcue", "fog", "bumpy", "defaultsurface", "background"};
     for (const char* n : names) {
         auto sh = h.sys.find(n);
         EXPECT_TRUE(sh) << n << "\n" << h.messages();
