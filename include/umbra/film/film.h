@@ -284,7 +284,7 @@ private:
     /// 1.2 ms of every frame's serial start). Large planes are their own
     /// anonymous mappings, so a streamed film can give finished rows back
     /// with madvise (releasePages) whatever malloc's thresholds are.
-    static constexpr size_t kMappedBytes = size_t(1) << 20;
+    static constexpr size_t kMappedBytes = size_t(64) << 10;
     template <typename T>
     struct ZeroedAllocator {
         using value_type = T;

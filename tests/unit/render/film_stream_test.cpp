@@ -66,12 +66,14 @@ surface aovs(output varying color diffusecol = 0; output varying float mask = 0;
 }
 )";
 
-/// 90 x 100 pixels (3 full strips and one of 4 rows), spheres partly
-/// transparent over one another, with `displays` and `extra` options.
+/// 140 x 130 pixels (4 full strips and one of 2 rows; planes of 64 KiB and
+/// more are the film's own mappings, whose rows a stream gives back),
+/// spheres partly transparent over one another, with `displays` and
+/// `extra` options.
 std::string frameRib(const ScratchDir& dir, const std::string& displays, const std::string& extra = "") {
     return fmt::format(R"(
 Option "searchpath" "shader" ["{}:&"]
-Format 90 100 1
+Format 140 130 1
 PixelSamples 2 2
 PixelFilter "gaussian" 2 2
 {}
@@ -184,7 +186,7 @@ TEST(FilmStream, EveryTiffFormIsTheWholeFilmsBytesAtAnyThreadsAndBucketSize) {
     ScratchDir dir("film-stream-forms");
     std::ofstream(dir.file("aovs.sl")) << kAovShader;
     expectStreamedEqualsWhole(dir, frameRib(dir, manyForms(dir)),
-                              std::vector<std::string>(std::begin(kManyFiles), std::end(kManyFiles)), 100);
+                              std::vector<std::string>(std::begin(kManyFiles), std::end(kManyFiles)), 130);
     // The AOV files hold what the shader wrote (not an empty plane).
     Diagnostics diag;
     diag.setQuiet(true);
@@ -196,7 +198,7 @@ TEST(FilmStream, EveryTiffFormIsTheWholeFilmsBytesAtAnyThreadsAndBucketSize) {
 }
 
 TEST(FilmStream, ACropWindowStreamsItsOwnRows) {
-    // Rows 30..84 of 100 and columns 9..76: the strips are the crop
+    // Rows 39..109 of 130 and columns 14..118: the strips are the crop
     // region's, its first row strip row 0, and buckets start at its corner.
     ScratchDir dir("film-stream-crop");
     std::ofstream(dir.file("aovs.sl")) << kAovShader;
@@ -207,7 +209,7 @@ Display "+{}" "file" "varying float mask" "quantize" [0 65535 0 65535]
 )",
                                              dir.file("crop.tif"), dir.file("cropz.tif"), dir.file("cropmask.tif"));
     const std::string rib = frameRib(dir, displays, "CropWindow 0.1 0.85 0.3 0.85");
-    expectStreamedEqualsWhole(dir, rib, {"crop.tif", "cropz.tif", "cropmask.tif"}, 85 - 30);
+    expectStreamedEqualsWhole(dir, rib, {"crop.tif", "cropz.tif", "cropmask.tif"}, 110 - 39);
 }
 
 TEST(FilmStream, ADepthFramesZTiffStreamsWithEmptyBucketsAtInfinity) {
@@ -216,7 +218,7 @@ TEST(FilmStream, ADepthFramesZTiffStreamsWithEmptyBucketsAtInfinity) {
     ScratchDir dir("film-stream-depth");
     std::ofstream(dir.file("aovs.sl")) << kAovShader;
     const std::string displays = fmt::format("Display \"{}\" \"file\" \"z\"\n", dir.file("depth.tif"));
-    expectStreamedEqualsWhole(dir, frameRib(dir, displays), {"depth.tif"}, 100);
+    expectStreamedEqualsWhole(dir, frameRib(dir, displays), {"depth.tif"}, 130);
     // Streamed once more: the corner nothing covers is +infinity, the
     // spheres' centres are near (camera z about 4).
     Diagnostics diag;
@@ -226,8 +228,8 @@ TEST(FilmStream, ADepthFramesZTiffStreamsWithEmptyBucketsAtInfinity) {
     ASSERT_TRUE(test::readImage(dir.file("depth.tif"), &depth));
     ASSERT_EQ(depth.channels, 1);
     EXPECT_TRUE(std::isinf(depth.at(0, 0, 0)));
-    EXPECT_TRUE(std::isinf(depth.at(89, 99, 0)));
-    EXPECT_LT(depth.at(45, 50, 0), 5.0f);
+    EXPECT_TRUE(std::isinf(depth.at(139, 129, 0)));
+    EXPECT_LT(depth.at(70, 65, 0), 5.0f);
 }
 
 TEST(FilmStream, ExrDisplaysAndImagersKeepTheWholeFilm) {
@@ -251,7 +253,7 @@ TEST(FilmStream, ExrDisplaysAndImagersKeepTheWholeFilm) {
     nlohmann::json stats = renderFrame(frameRib(dir, withExr), true, 2, 16, diag, &failed);
     EXPECT_EQ(failed, 0);
     EXPECT_FALSE(stats["film_streamed"].get<bool>());
-    EXPECT_EQ(stats["film_rows_held_peak"].get<int>(), 100);
+    EXPECT_EQ(stats["film_rows_held_peak"].get<int>(), 130);
     EXPECT_TRUE(bytesOf(dir.file("t.tif")) == streamed);
     Image exr;
     ASSERT_TRUE(test::readImage(dir.file("e.exr"), &exr));
@@ -270,9 +272,9 @@ TEST(FilmStream, ExrDisplaysAndImagersKeepTheWholeFilm) {
 }
 
 TEST(FilmStream, AWriteThatFailsMidFrameLeavesNoTemporaryFileAndTheOldImage) {
-    // A file size limit the first strips fit under and the whole image does
-    // not (float rgba without compression: 90 x 32 x 16 = 46,080 bytes a
-    // strip, 144,000 in all): the write fails mid-frame with EFBIG.
+    // A file size limit the first strip fits under and the whole image does
+    // not (float rgba without compression: 140 x 32 x 16 = 71,680 bytes a
+    // strip, 291,200 in all): the write fails mid-frame with EFBIG.
     ScratchDir dir("film-stream-fail");
     std::ofstream(dir.file("aovs.sl")) << kAovShader;
     const std::string old = "an earlier image, not to be touched";
@@ -306,7 +308,7 @@ Display "+{}" "file" "rgba"
     // The other display, within the limit, is written whole.
     Image small;
     ASSERT_TRUE(test::readImage(dir.file("small.tif"), &small));
-    EXPECT_EQ(small.width, 90);
+    EXPECT_EQ(small.width, 140);
     for (const auto& e : fs::directory_iterator(dir.file("")))
         EXPECT_EQ(e.path().filename().string().find("umbra-tmp"), std::string::npos) << e.path();
 }
