@@ -801,7 +801,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     // The film is written as its rows complete, and the rows freed, when
     // every display is a TIFF and nothing reads the whole film afterwards
     // (an imager, a depth map, an EXR or PNG): the same files, without
-    // holding the frame (docs/pipeline.md, "Output").
+    // holding the frame (docs/pipeline.md, "Output while rendering").
     const bool imaged = options.imager && !depthFrame;
     bool streamOpened = true;
     if (settings.filmStream && !imaged && film::Film::streamable(displays))

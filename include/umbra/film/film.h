@@ -217,7 +217,8 @@ public:
     // and written as soon as every bucket covering its rows has resolved,
     // and those rows' storage is given back to the system. The files are
     // byte for byte those of write(): the same conversion and the same
-    // libtiff calls in the same order. Docs: docs/pipeline.md ("Output").
+    // libtiff calls in the same order. Docs: docs/pipeline.md ("Output while
+    // rendering").
 
     /// True when write() of these displays could be streamed instead: each
     /// one that write() would write (not a window whose stand-in file
