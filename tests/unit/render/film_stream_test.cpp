@@ -8,6 +8,7 @@
 // heights alone (scanline order); at more they depend on scheduling, so no
 // test bounds them there.
 
+#include "support/child_run.h"
 #include "support/render_harness.h"
 
 #include <gtest/gtest.h>
@@ -311,4 +312,28 @@ Display "+{}" "file" "rgba"
     EXPECT_EQ(small.width, 140);
     for (const auto& e : fs::directory_iterator(dir.file("")))
         EXPECT_EQ(e.path().filename().string().find("umbra-tmp"), std::string::npos) << e.path();
+}
+
+TEST(FilmStream, TheCommandStreamsByDefaultAndNotWithNoFilmStream) {
+    // `umbra render` streams a TIFF frame unless `--no-film-stream`; the
+    // --stats record says which, and the two files are the same bytes.
+    ScratchDir dir("film-stream-cli");
+    std::ofstream(dir.file("aovs.sl")) << kAovShader;
+    std::ofstream(dir.file("f.rib")) << frameRib(dir, fmt::format("Display \"{}\" \"file\" \"rgba\"\n", dir.file("f.tif")));
+    const std::vector<std::string> env = {"SOURCE_DATE_EPOCH=1700000000"};
+    test::ChildRun run = test::runIn(
+        dir, UMBRA_APP, {"umbra", "render", "--threads", "2", "--quiet", "--stats", "s.json", "f.rib"}, env);
+    ASSERT_EQ(run.status, 0) << run.messages;
+    nlohmann::json stats = nlohmann::json::parse(test::readFile(dir.file("s.json")));
+    EXPECT_TRUE(stats["frames"][0]["film_streamed"].get<bool>());
+    const std::string streamed = bytesOf(dir.file("f.tif"));
+    run = test::runIn(dir, UMBRA_APP,
+                      {"umbra", "render", "--threads", "2", "--quiet", "--no-film-stream", "--stats", "s.json", "f.rib"},
+                      env);
+    ASSERT_EQ(run.status, 0) << run.messages;
+    stats = nlohmann::json::parse(test::readFile(dir.file("s.json")));
+    EXPECT_FALSE(stats["frames"][0]["film_streamed"].get<bool>());
+    EXPECT_EQ(stats["frames"][0]["film_rows_held_peak"].get<int>(), 130);
+    EXPECT_FALSE(streamed.empty());
+    EXPECT_TRUE(bytesOf(dir.file("f.tif")) == streamed);
 }
