@@ -133,6 +133,9 @@ void printDetailedStatistics(const nlohmann::json& f) {
                         t["lookups"].get<uint64_t>(), t["hits"].get<uint64_t>(), t["misses"].get<uint64_t>(),
                         t["tiles_read"].get<uint64_t>(), t["evictions"].get<uint64_t>(),
                         double(t["peak_bytes"].get<uint64_t>()) / (1 << 20));
+    text += fmt::format("  film        {}, {} rows held at most\n",
+                        f["film_streamed"].get<bool>() ? "streamed to its TIFFs while rendering" : "written whole",
+                        f["film_rows_held_peak"].get<int>());
     text += fmt::format("  map files   {:.3f} s writing, {:.3f} s waiting, {} in the background\n",
                         s["map_write_seconds"].get<double>(), s["map_write_wait_seconds"].get<double>(),
                         s["background_map_writes"].get<int>());
