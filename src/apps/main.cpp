@@ -2,7 +2,7 @@
 //
 //   umbra render SCENE.rib [MORE.rib ...] [--threads N] [--progress]
 //                [--stats FILE.json|FILE.jsonl] [--bucket-size N] [--quiet] [--no-shadows]
-//                [--frames SPEC] [--resume] [--no-map-reuse] [--map-cache DIR]
+//                [--frames SPEC] [--resume] [--no-map-reuse] [--map-cache DIR] [--no-film-stream]
 //   umbra SCENE.rib ...                      (same as `umbra render`)
 //   umbra slc [--listing] [-I DIR] FILE.sl ... (compile shaders, report errors)
 //   umbra info [--json] MAP                  (depth-map storage figures)
@@ -57,6 +57,10 @@ int main(int argc, char** argv) {
         ->check(CLI::Range(1, 4096));
     render->add_flag("--quiet", settings.quiet, "Print errors only");
     render->add_flag("--no-shadows", settings.noShadows, "Turn every depth pass and shadow() lookup off");
+    bool noFilmStream = false;
+    render->add_flag("--no-film-stream", noFilmStream,
+                     "Keep the whole film and write the images at the end, instead of writing TIFF strips as "
+                     "bucket rows finish (the same files; more memory)");
     bool noMapReuse = false;
     render->add_flag("--no-map-reuse", noMapReuse,
                      "Render every automatic depth map again, even when an earlier frame's has the same content");
@@ -151,6 +155,7 @@ int main(int argc, char** argv) {
         settings.frames = frames;
     }
     settings.reuseMaps = !noMapReuse;
+    settings.filmStream = !noFilmStream;
 
     umbra::Diagnostics diag;
     diag.setQuiet(settings.quiet);

@@ -55,6 +55,7 @@
 #include <cstring>
 #include <filesystem>
 #include <memory>
+#include <mutex>
 #include <system_error>
 #include <unistd.h>
 
@@ -455,24 +456,24 @@ bool Film::write(const std::vector<scene::DisplayRecord>& displays, const scene:
     return ok;
 }
 
-bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Options& options,
-                        const OutputMetadata& metadata, Diagnostics& diag, const DepthWriter& depthWriter) const {
-    const std::string driver = lower(display.driver);
-    if (driver == "zfile" || driver == "shadow") {
-        if (!depthWriter) {
-            diag.error(display.loc, "display \"{}\": driver \"{}\" writes depth maps, which this render cannot "
-                       "produce here",
-                       display.name, display.driver);
-            return false;
-        }
-        if (!hasDepth()) {
-            diag.error(display.loc, "display \"{}\": driver \"{}\" reads depth, which this film was made without",
-                       display.name, display.driver);
-            return false;
-        }
-        return depthWriter(display, *this);
-    }
+/// A display ready to write: where, which channels of which filter layer,
+/// and how they are converted (Film::prepareOutput).
+struct PreparedOutput {
+    std::string name;  // the display's
+    FileLoc loc;
+    std::string path;  // resolved (links followed)
+    Format format = Format::Tiff;
+    std::vector<ChannelSource> channels;
+    int layer = 0;
+    bool unpremultiply = false;
+    float gain = 1, invGamma = 1;
+    bool exposeIdentity = true;
+    ImageData image;  // everything but the pixels
+};
 
+bool Film::prepareOutput(const scene::DisplayRecord& display, const scene::Options& options,
+                         const OutputMetadata& metadata, Diagnostics& diag, PreparedOutput* out) const {
+    const std::string driver = lower(display.driver);
     std::string path = display.name;
     Format format;
     if (driver == "tiff") {
@@ -708,56 +709,6 @@ bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Option
         for (ChannelSource& c : channels) c.exposure = c.exposure || c.kind == ChannelSource::Aov;
     const float invGamma = gamma > 0 ? 1.0f / gamma : 1.0f;
     const bool exposeIdentity = gain == 1.0f && invGamma == 1.0f;
-    // One row of the display's samples, width * nch values: every pixel
-    // stands alone.
-    auto convertRow = [&](int y, float* out) {
-        for (int x = m_x0; x < x1(); ++x) {
-            const size_t base = size_t(x - m_x0) * size_t(nch);
-            const float* p = rgba(layer, x, y);
-            const float* a = m_aovFloats > 0 ? aov(layer, x, y) : nullptr;
-            uint32_t bits = 0;
-            for (int c = 0; c < nch; ++c) {
-                const ChannelSource& src = channels[size_t(c)];
-                if ((c & 3) == 0) bits = ditherBits(x, y, c >> 2);
-                float v = 0;
-                switch (src.kind) {
-                case ChannelSource::R: v = p[0]; break;
-                case ChannelSource::G: v = p[1]; break;
-                case ChannelSource::B: v = p[2]; break;
-                case ChannelSource::A: v = p[3]; break;
-                case ChannelSource::Z: v = z(x, y); break;
-                case ChannelSource::Aov: v = a[src.aovFloat]; break;
-                }
-                if (src.exposure && !exposeIdentity) {
-                    v *= gain;
-                    if (invGamma != 1.0f) v = v > 0 ? std::pow(v, invGamma) : 0.0f;
-                }
-                // Alpha 0 keeps its colour: emission without coverage.
-                if (unpremultiply && src.exposure && p[3] > 0) v /= p[3];
-                if (src.quantize.enabled()) {
-                    const Quantize& q = src.quantize;
-                    float noise = q.dither != 0 ? q.dither * ditherNoise(bits, c) : 0.0f;
-                    float qv = roundHalfAway(q.one * v + noise);
-                    if (!(qv >= q.min)) qv = q.min;  // NaN goes to min
-                    if (qv > q.max) qv = q.max;
-                    v = qv;
-                }
-                out[base + size_t(c)] = v;
-            }
-        }
-    };
-    const size_t npix = size_t(m_width) * size_t(m_height);
-    std::unique_ptr<float[]> data;
-    if (format != Format::Tiff) {
-        // Uninitialised: every value is written below, by the row's thread.
-        data.reset(new float[npix * size_t(nch)]);
-        // Rows in parallel: the frame's serial tail.
-        parallelForRange(tbb::blocked_range<int>(m_y0, y1(), 16), [&](const tbb::blocked_range<int>& rows) {
-            for (int y = rows.begin(); y < rows.end(); ++y)
-                convertRow(y, data.get() + size_t(y - m_y0) * size_t(m_width) * size_t(nch));
-        });
-    }
-
     ImageData image;
     image.width = m_width;
     image.height = m_height;
@@ -765,15 +716,6 @@ bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Option
     image.y = m_y0;
     image.fullWidth = m_xres;
     image.fullHeight = m_yres;
-    image.pixels = data.get();
-    if (!data) {
-        // TIFF takes its strips row by row (converted in parallel strips as
-        // it compresses them): the display never holds a second copy of
-        // the frame, 16 bytes a pixel for rgba (33 MB at 1920 x 1080).
-        image.fillRows = [&](int row0, int rows, float* out) {
-            for (int r = 0; r < rows; ++r) convertRow(m_y0 + row0 + r, out + size_t(r) * size_t(m_width) * size_t(nch));
-        };
-    }
     bool hasZ = false;
     for (const ChannelSource& c : channels) {
         image.channelNames.push_back(c.name);
@@ -818,6 +760,110 @@ bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Option
         }
         path = resolved;
     }
+    out->name = display.name;
+    out->loc = display.loc;
+    out->path = path;
+    out->format = format;
+    out->channels = std::move(channels);
+    out->layer = layer;
+    out->unpremultiply = unpremultiply;
+    out->gain = gain;
+    out->invGamma = invGamma;
+    out->exposeIdentity = exposeIdentity;
+    out->image = std::move(image);
+    return true;
+}
+
+// One row of the display's samples, width * nch values: every pixel stands
+// alone.
+void Film::convertRow(const PreparedOutput& o, int y, float* out) const {
+    const std::vector<ChannelSource>& channels = o.channels;
+    const int nch = int(channels.size());
+    const int layer = o.layer;
+    const bool unpremultiply = o.unpremultiply, exposeIdentity = o.exposeIdentity;
+    const float gain = o.gain, invGamma = o.invGamma;
+    for (int x = m_x0; x < x1(); ++x) {
+        const size_t base = size_t(x - m_x0) * size_t(nch);
+        const float* p = rgba(layer, x, y);
+        const float* a = m_aovFloats > 0 ? aov(layer, x, y) : nullptr;
+        uint32_t bits = 0;
+        for (int c = 0; c < nch; ++c) {
+            const ChannelSource& src = channels[size_t(c)];
+            if ((c & 3) == 0) bits = ditherBits(x, y, c >> 2);
+            float v = 0;
+            switch (src.kind) {
+            case ChannelSource::R: v = p[0]; break;
+            case ChannelSource::G: v = p[1]; break;
+            case ChannelSource::B: v = p[2]; break;
+            case ChannelSource::A: v = p[3]; break;
+            case ChannelSource::Z: v = z(x, y); break;
+            case ChannelSource::Aov: v = a[src.aovFloat]; break;
+            }
+            if (src.exposure && !exposeIdentity) {
+                v *= gain;
+                if (invGamma != 1.0f) v = v > 0 ? std::pow(v, invGamma) : 0.0f;
+            }
+            // Alpha 0 keeps its colour: emission without coverage.
+            if (unpremultiply && src.exposure && p[3] > 0) v /= p[3];
+            if (src.quantize.enabled()) {
+                const Quantize& q = src.quantize;
+                float noise = q.dither != 0 ? q.dither * ditherNoise(bits, c) : 0.0f;
+                float qv = roundHalfAway(q.one * v + noise);
+                if (!(qv >= q.min)) qv = q.min;  // NaN goes to min
+                if (qv > q.max) qv = q.max;
+                v = qv;
+            }
+            out[base + size_t(c)] = v;
+        }
+    }
+}
+
+bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Options& options,
+                        const OutputMetadata& metadata, Diagnostics& diag, const DepthWriter& depthWriter) const {
+    const std::string driver = lower(display.driver);
+    if (driver == "zfile" || driver == "shadow") {
+        if (!depthWriter) {
+            diag.error(display.loc, "display \"{}\": driver \"{}\" writes depth maps, which this render cannot "
+                       "produce here",
+                       display.name, display.driver);
+            return false;
+        }
+        if (!hasDepth()) {
+            diag.error(display.loc, "display \"{}\": driver \"{}\" reads depth, which this film was made without",
+                       display.name, display.driver);
+            return false;
+        }
+        return depthWriter(display, *this);
+    }
+
+    PreparedOutput o;
+    if (!prepareOutput(display, options, metadata, diag, &o)) return false;
+    const std::string& path = o.path;
+    const Format format = o.format;
+    const int nch = int(o.channels.size());
+    const size_t npix = size_t(m_width) * size_t(m_height);
+    std::unique_ptr<float[]> data;
+    if (format != Format::Tiff) {
+        // Uninitialised: every value is written below, by the row's thread.
+        data.reset(new float[npix * size_t(nch)]);
+        // Rows in parallel: the frame's serial tail.
+        parallelForRange(tbb::blocked_range<int>(m_y0, y1(), 16), [&](const tbb::blocked_range<int>& rows) {
+            for (int y = rows.begin(); y < rows.end(); ++y)
+                convertRow(o, y, data.get() + size_t(y - m_y0) * size_t(m_width) * size_t(nch));
+        });
+    }
+
+    ImageData image = o.image;
+    image.pixels = data.get();
+    if (!data) {
+        // TIFF takes its strips row by row (converted in parallel strips as
+        // it compresses them): the display never holds a second copy of
+        // the frame, 16 bytes a pixel for rgba (33 MB at 1920 x 1080).
+        image.fillRows = [&](int row0, int rows, float* out) {
+            for (int r = 0; r < rows; ++r)
+                convertRow(o, m_y0 + row0 + r, out + size_t(r) * size_t(m_width) * size_t(nch));
+        };
+    }
     fs::path target(path);
     fs::path tmp = target.parent_path() / fmt::format(".{}.umbra-tmp-{}", target.filename().string(), ::getpid());
     std::error_code ec;
@@ -846,5 +892,267 @@ bool Film::writeDisplay(const scene::DisplayRecord& display, const scene::Option
     if (!moveIntoPlace(tmp.string(), target.string())) return failWith(std::strerror(errno));
     return true;
 }
+
+template <typename Plane>
+void Film::releasePages(Plane& plane, size_t from, size_t to) {
+    using T = typename Plane::value_type;
+    const size_t bytes = plane.size() * sizeof(T);
+    if (bytes < kMappedBytes || to <= from) return;
+    static const size_t page = size_t(::sysconf(_SC_PAGESIZE));
+    const size_t begin = from * sizeof(T) / page * page;
+    // The plane's last page is its own whole: released with the last row.
+    const size_t end = to >= plane.size() ? (bytes + page - 1) / page * page : to * sizeof(T) / page * page;
+    if (end > begin) ::madvise(reinterpret_cast<char*>(plane.data()) + begin, end - begin, MADV_DONTNEED);
+}
+
+/// A streamed film's outputs and its bookkeeping of finished rows.
+struct FilmStream {
+    struct Output {
+        PreparedOutput prepared;
+        fs::path tmp;
+        std::FILE* file = nullptr;
+        std::unique_ptr<TiffStream> tiff;  // closed before `file`
+        std::string failure;               // the first error; the file is then gone
+        std::vector<float> rows;           // one strip's converted rows
+        ~Output() {
+            if (file) discard();
+        }
+        /// Closes and removes the temporary file (a failed or abandoned output).
+        void discard() {
+            tiff.reset();  // libtiff may still write into the file: before fclose
+            if (file) std::fclose(file);
+            file = nullptr;
+            std::error_code ec;
+            fs::remove(tmp, ec);
+        }
+    };
+    std::vector<std::unique_ptr<Output>> outputs;
+    int strips = 0;
+    std::unique_ptr<std::atomic<int>[]> rowPixels;  // per row of the crop region: pixels resolved
+    std::unique_ptr<std::atomic<int>[]> stripRows;  // per strip: rows complete
+    std::mutex writeMutex;
+    int stripsWritten = 0;           // under writeMutex
+    std::atomic<int> rowsReleased{0};
+    std::atomic<int> rowEnd{0};      // one past the lowest row resolved into
+    std::atomic<int> heldPeak{0};
+    bool finished = false;
+    int rowsOfStrip(int s, int height) const { return std::min(kTiffRowsPerStrip, height - s * kTiffRowsPerStrip); }
+};
+
+bool Film::streamable(const std::vector<scene::DisplayRecord>& displays) {
+    if (displays.empty()) return false;
+    std::vector<std::string> filesAskedFor;
+    for (const scene::DisplayRecord& d : displays)
+        if (writesItsOwnFile(d.driver)) filesAskedFor.push_back(d.name);
+    for (const scene::DisplayRecord& d : displays) {
+        const std::string driver = lower(d.driver);
+        if (driver == "tiff") continue;
+        if (driver == "zfile" || driver == "shadow" || driver == "openexr" || driver == "exr" || driver == "png")
+            return false;
+        const std::string path = displayFilePath(d);
+        if (!writesItsOwnFile(d.driver) &&
+            std::find(filesAskedFor.begin(), filesAskedFor.end(), path) != filesAskedFor.end())
+            continue;  // a window whose stand-in another display writes: skipped
+        if (formatOfExtension(path).value_or(Format::Tiff) != Format::Tiff) return false;
+    }
+    return true;
+}
+
+bool Film::openStream(const std::vector<scene::DisplayRecord>& displays, const scene::Options& options,
+                      const OutputMetadata& metadata, Diagnostics& diag) {
+    UMBRA_CHECK(!m_stream, "the film is streamed already");
+    auto stream = std::make_unique<FilmStream>();
+    std::vector<std::string> filesAskedFor;
+    for (const scene::DisplayRecord& d : displays)
+        if (writesItsOwnFile(d.driver)) filesAskedFor.push_back(d.name);
+    bool ok = true;
+    for (const scene::DisplayRecord& d : displays) {
+        if (!writesItsOwnFile(d.driver)) {  // as write() does
+            const std::string standIn = displayFilePath(d);
+            if (std::find(filesAskedFor.begin(), filesAskedFor.end(), standIn) != filesAskedFor.end()) {
+                diag.warningOnce("display-driver:" + lower(d.driver), d.loc,
+                                 "display driver \"{}\": umbra has no window, and \"{}\" is written by another "
+                                 "Display; this one is skipped", d.driver, standIn);
+                continue;
+            }
+        }
+        auto out = std::make_unique<FilmStream::Output>();
+        if (!prepareOutput(d, options, metadata, diag, &out->prepared)) {
+            ok = false;
+            continue;
+        }
+        UMBRA_CHECK(out->prepared.format == Format::Tiff, "display \"{}\" is not a TIFF", d.name);
+        const fs::path target(out->prepared.path);
+        // The display's index keeps two displays of one file apart; the
+        // last renamed wins, as the last written does in write().
+        out->tmp = target.parent_path() / fmt::format(".{}.umbra-tmp-{}-{}", target.filename().string(), ::getpid(),
+                                                      stream->outputs.size());
+        out->file = std::fopen(out->tmp.c_str(), "w+b");
+        if (!out->file) {
+            diag.error(d.loc, "display \"{}\": cannot write \"{}\": {}", d.name, out->prepared.path,
+                       std::strerror(errno));
+            ok = false;
+            continue;
+        }
+        out->tiff = std::make_unique<TiffStream>();
+        std::string why;
+        if (!out->tiff->open(out->prepared.image, out->file, &why)) {
+            diag.error(d.loc, "display \"{}\": cannot write \"{}\": {}", d.name, out->prepared.path, why);
+            out->discard();
+            ok = false;
+            continue;
+        }
+        stream->outputs.push_back(std::move(out));
+    }
+    const int rows = std::max(m_height, 0);
+    stream->strips = (rows + kTiffRowsPerStrip - 1) / kTiffRowsPerStrip;
+    stream->rowPixels = std::make_unique<std::atomic<int>[]>(size_t(rows));
+    stream->stripRows = std::make_unique<std::atomic<int>[]>(size_t(stream->strips));
+    for (int r = 0; r < rows; ++r) stream->rowPixels[size_t(r)] = 0;
+    for (int t = 0; t < stream->strips; ++t) stream->stripRows[size_t(t)] = 0;
+    m_stream = std::move(stream);
+    // The depth planes start at +infinity (touching every page): a streamed
+    // film gives them back at once, and each bucket writes its own depths
+    // (colour buckets always do; empty depth buckets by clearDepth).
+    m_stream->rowsReleased = 0;
+    releasePages(m_z, 0, m_z.size());
+    releasePages(m_z2, 0, m_z2.size());
+    return ok;
+}
+
+void Film::clearDepth(int x0, int y0, int x1, int y1) {
+    if (!m_stream || !hasDepth()) return;
+    x0 = std::max(x0, m_x0), y0 = std::max(y0, m_y0), x1 = std::min(x1, this->x1()), y1 = std::min(y1, this->y1());
+    for (int y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x) {
+            z(x, y) = kInfinity;
+            if (hasDepthPair()) z2(x, y) = kInfinity;
+        }
+}
+
+void Film::bucketDone(int x0, int y0, int x1, int y1) {
+    if (!m_stream) return;
+    FilmStream& s = *m_stream;
+    x0 = std::max(x0, m_x0), y0 = std::max(y0, m_y0), x1 = std::min(x1, this->x1()), y1 = std::min(y1, this->y1());
+    if (x0 >= x1 || y0 >= y1) return;
+    // Rows held: from the first row not yet released to the lowest row
+    // resolved into, as this bucket ends (before it releases any).
+    int end = s.rowEnd.load();
+    while (y1 - m_y0 > end && !s.rowEnd.compare_exchange_weak(end, y1 - m_y0)) {
+    }
+    const int held = std::max(end, y1 - m_y0) - s.rowsReleased.load();
+    int peak = s.heldPeak.load();
+    while (held > peak && !s.heldPeak.compare_exchange_weak(peak, held)) {
+    }
+    bool stripComplete = false;
+    for (int y = y0; y < y1; ++y) {
+        const int r = y - m_y0;
+        if (s.rowPixels[size_t(r)].fetch_add(x1 - x0, std::memory_order_acq_rel) + (x1 - x0) != m_width) continue;
+        const int strip = r / kTiffRowsPerStrip;
+        if (s.stripRows[size_t(strip)].fetch_add(1, std::memory_order_acq_rel) + 1 == s.rowsOfStrip(strip, m_height))
+            stripComplete = true;
+    }
+    if (!stripComplete) return;
+    std::lock_guard<std::mutex> lock(s.writeMutex);
+    writeCompleteStrips();
+}
+
+void Film::writeCompleteStrips() {
+    FilmStream& s = *m_stream;
+    while (s.stripsWritten < s.strips &&
+           s.stripRows[size_t(s.stripsWritten)].load(std::memory_order_acquire) ==
+               s.rowsOfStrip(s.stripsWritten, m_height)) {
+        const int strip = s.stripsWritten;
+        const int rows = s.rowsOfStrip(strip, m_height);
+        for (auto& o : s.outputs) {
+            if (!o->failure.empty()) continue;
+            const size_t rowValues = size_t(m_width) * o->prepared.channels.size();
+            o->rows.resize(rowValues * size_t(rows));
+            for (int r = 0; r < rows; ++r)
+                convertRow(o->prepared, m_y0 + strip * kTiffRowsPerStrip + r, o->rows.data() + rowValues * size_t(r));
+            std::string why;
+            if (!o->tiff->writeStrip(uint32_t(strip), o->rows.data(), &why)) {
+                o->failure = why.empty() ? "libtiff could not write a strip" : why;
+                o->discard();  // no temporary file outlives a failed write
+            }
+        }
+        ++s.stripsWritten;
+        releaseRows(strip * kTiffRowsPerStrip + rows);
+    }
+}
+
+void Film::releaseRows(int rows) {
+    const int before = m_stream->rowsReleased.load();
+    if (rows <= before) return;
+    const size_t pixels0 = size_t(before) * size_t(m_width), pixels1 = size_t(rows) * size_t(m_width);
+    auto plane = [&](auto& v, size_t perPixel) { releasePages(v, pixels0 * perPixel, pixels1 * perPixel); };
+    plane(m_rgba, 4);
+    plane(m_aov, size_t(m_aovFloats));
+    plane(m_z, 1);
+    plane(m_z2, 1);
+    for (FilterLayer& l : m_layers) {
+        plane(l.rgba, 4);
+        plane(l.aov, size_t(m_aovFloats));
+    }
+    m_stream->rowsReleased = rows;
+}
+
+bool Film::finishStream(Diagnostics& diag) {
+    if (!m_stream || m_stream->finished) return false;
+    FilmStream& s = *m_stream;
+    {
+        std::lock_guard<std::mutex> lock(s.writeMutex);
+        writeCompleteStrips();
+    }
+    s.finished = true;
+    if (s.stripsWritten < s.strips) {  // rows never resolved: an interrupted render
+        for (auto& o : s.outputs) o->discard();
+        return false;
+    }
+    bool ok = true;
+    for (auto& o : s.outputs) {
+        const PreparedOutput& p = o->prepared;
+        auto failWith = [&](const std::string& why) {
+            diag.error(p.loc, "display \"{}\": cannot write \"{}\": {}", p.name, p.path, why);
+            o->discard();
+            ok = false;
+        };
+        if (!o->failure.empty()) {
+            failWith(o->failure);
+            continue;
+        }
+        std::string why;
+        if (!o->tiff->finish(&why)) {
+            failWith(why);
+            continue;
+        }
+        o->tiff.reset();
+        // fclose flushes: a full disk shows up here.
+        errno = 0;
+        const int closed = std::fclose(o->file);
+        o->file = nullptr;
+        if (closed != 0) {
+            failWith(std::strerror(errno ? errno : EIO));
+            continue;
+        }
+        if (!moveIntoPlace(o->tmp.string(), p.path)) failWith(std::strerror(errno));
+    }
+    return ok;
+}
+
+void Film::abandonStream() {
+    if (!m_stream) return;
+    std::lock_guard<std::mutex> lock(m_stream->writeMutex);
+    m_stream->finished = true;
+    for (auto& o : m_stream->outputs) o->discard();
+}
+
+int Film::rowsHeldPeak() const { return m_stream ? m_stream->heldPeak.load() : m_height; }
+
+Film::~Film() {
+    if (m_stream && !m_stream->finished) abandonStream();
+}
+Film::Film(Film&&) noexcept = default;
+Film& Film::operator=(Film&&) noexcept = default;
 
 }  // namespace umbra::film

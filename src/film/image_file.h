@@ -7,8 +7,10 @@
 
 #include <algorithm>
 #include <array>
+#include <cstdint>
 #include <cstdio>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -82,6 +84,42 @@ bool tiffCompressionKnown(const std::string& name);
 bool writeExr(const ImageData& image, std::FILE* file, std::string* error);
 /// Strip TIFF, contiguous samples, 8/16-bit unsigned or 32-bit float.
 bool writeTiff(const ImageData& image, std::FILE* file, std::string* error);
+
+/// Rows of a TIFF strip (RowsPerStrip): every TIFF umbra writes has them.
+inline constexpr int kTiffRowsPerStrip = 32;
+
+/// A TIFF written strip by strip, in order: what writeTiff does, for a
+/// caller that has the rows one strip at a time (the streamed film,
+/// Film::openStream). The same calls in the same order as writeTiff's, so
+/// the same bytes. Not thread-safe: one strip at a time.
+class TiffStream {
+public:
+    TiffStream();
+    ~TiffStream();
+    TiffStream(const TiffStream&) = delete;
+    TiffStream& operator=(const TiffStream&) = delete;
+    /// Starts the file: header and tags from `image` (its pixels and
+    /// fillRows are not used). On failure *error says why.
+    bool open(const ImageData& image, std::FILE* file, std::string* error);
+    uint32_t strips() const;
+    /// Rows of strip s (kTiffRowsPerStrip, fewer for the last).
+    uint32_t rowsOf(uint32_t s) const;
+    /// True when strips are compressed by compress() (deflate, integer
+    /// samples), which may run on any thread, then written by writeCompressed().
+    bool precompresses() const;
+    /// Strip s's file bytes from its rows (width * channels values a row,
+    /// converted and quantised as ImageData describes). precompresses() only.
+    bool compress(uint32_t s, const float* rows, std::vector<unsigned char>* out) const;
+    bool writeCompressed(uint32_t s, const std::vector<unsigned char>& bytes, std::string* error);
+    /// Encodes and writes strip s, the next one, from its rows.
+    bool writeStrip(uint32_t s, const float* rows, std::string* error);
+    /// Writes the directory and closes the TIFF (not the stdio stream).
+    bool finish(std::string* error);
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> m;
+};
 /// PNG, 8 or 16 bits, gray / gray-alpha / RGB / RGBA (alpha last, straight).
 bool writePng(const ImageData& image, std::FILE* file, std::string* error);
 

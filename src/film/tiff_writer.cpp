@@ -115,31 +115,80 @@ struct TiffCloser {
 
 bool tiffCompressionKnown(const std::string& name) { return tiffCompression(name).has_value(); }
 
-bool writeTiff(const ImageData& image, std::FILE* file, std::string* error) {
-    const int nch = image.channels();
-    const SampleType type = image.types[0];
-    const int bytesPerSample = type == SampleType::UInt8 ? 1 : type == SampleType::UInt16 ? 2 : 4;
-    const size_t rowValues = size_t(image.width) * size_t(nch);
-    const size_t rawBytes = rowValues * size_t(image.height) * size_t(bytesPerSample);
+struct TiffStream::Impl {
+    ImageData image;  // the tags' values (no pixels)
+    int nch = 0;
+    SampleType type = SampleType::UInt8;
+    int bytesPerSample = 1;
+    size_t rowValues = 0;
+    uint16_t compression = COMPRESSION_ADOBE_DEFLATE;
+    uint32_t nStrips = 0;
+    TiffSink sink{nullptr, {}};
+    std::unique_ptr<TIFF, TiffCloser> tif;
+    std::vector<unsigned char> strip;  // writeStrip's packed samples
 
-    TiffSink sink{file, {}};
-    TIFFOpenOptions* opts = TIFFOpenOptionsAlloc();
-    TIFFOpenOptionsSetErrorHandlerExtR(opts, onError, &sink);
-    TIFFOpenOptionsSetWarningHandlerExtR(opts, onWarning, &sink);
-    // Classic TIFF addresses 4 GiB; bigger images need BigTIFF.
-    const char* mode = rawBytes > (uint64_t(3) << 30) ? "w8" : "w";
-    std::unique_ptr<TIFF, TiffCloser> tif(TIFFClientOpenExt("umbra image", mode, &sink, readProc, writeProc, seekProc,
-                                                            closeProc, sizeProc, mapProc, unmapProc, opts));
-    TIFFOpenOptionsFree(opts);
-    auto fail = [&](const char* what) {
+    bool fail(const char* what, std::string* error) {
         *error = sink.failure.empty() ? std::string(what) : sink.failure;
         return false;
-    };
-    if (!tif) return fail("libtiff could not start the file");
-    TIFF* t = tif.get();
+    }
+    /// Rows as the file's samples, in native byte order (the order libtiff
+    /// writes the file in).
+    void pack(const float* src, uint32_t rows, unsigned char* dst) const {
+        const size_t n = rowValues * rows;
+        switch (type) {
+        case SampleType::UInt8:
+            for (size_t i = 0; i < n; ++i) dst[i] = static_cast<unsigned char>(src[i]);
+            break;
+        case SampleType::UInt16: {
+            auto* d = reinterpret_cast<uint16_t*>(dst);
+            for (size_t i = 0; i < n; ++i) d[i] = static_cast<uint16_t>(src[i]);
+            break;
+        }
+        case SampleType::Half:
+        case SampleType::Float: std::memcpy(dst, src, n * sizeof(float)); break;
+        }
+    }
+};
 
-    const uint16_t compression = tiffCompression(image.compression).value_or(uint16_t(COMPRESSION_ADOBE_DEFLATE));
-    const uint32_t rowsPerStrip = 32;
+TiffStream::TiffStream() : m(std::make_unique<Impl>()) {}
+TiffStream::~TiffStream() = default;
+
+uint32_t TiffStream::strips() const { return m->nStrips; }
+uint32_t TiffStream::rowsOf(uint32_t s) const {
+    return std::min(uint32_t(kTiffRowsPerStrip), uint32_t(m->image.height) - s * uint32_t(kTiffRowsPerStrip));
+}
+bool TiffStream::precompresses() const {
+    return m->compression == COMPRESSION_ADOBE_DEFLATE &&
+           (m->type == SampleType::UInt8 || m->type == SampleType::UInt16);
+}
+
+bool TiffStream::open(const ImageData& imageIn, std::FILE* file, std::string* error) {
+    m->image = imageIn;
+    m->image.pixels = nullptr;
+    m->image.fillRows = nullptr;
+    const ImageData& image = m->image;
+    const int nch = m->nch = image.channels();
+    const SampleType type = m->type = image.types[0];
+    const int bytesPerSample = m->bytesPerSample =
+        type == SampleType::UInt8 ? 1 : type == SampleType::UInt16 ? 2 : 4;
+    const size_t rowValues = m->rowValues = size_t(image.width) * size_t(nch);
+    const size_t rawBytes = rowValues * size_t(image.height) * size_t(bytesPerSample);
+
+    m->sink = TiffSink{file, {}};
+    TIFFOpenOptions* opts = TIFFOpenOptionsAlloc();
+    TIFFOpenOptionsSetErrorHandlerExtR(opts, onError, &m->sink);
+    TIFFOpenOptionsSetWarningHandlerExtR(opts, onWarning, &m->sink);
+    // Classic TIFF addresses 4 GiB; bigger images need BigTIFF.
+    const char* mode = rawBytes > (uint64_t(3) << 30) ? "w8" : "w";
+    m->tif.reset(TIFFClientOpenExt("umbra image", mode, &m->sink, readProc, writeProc, seekProc, closeProc, sizeProc,
+                                   mapProc, unmapProc, opts));
+    TIFFOpenOptionsFree(opts);
+    if (!m->tif) return m->fail("libtiff could not start the file", error);
+    TIFF* t = m->tif.get();
+
+    const uint16_t compression = m->compression =
+        tiffCompression(image.compression).value_or(uint16_t(COMPRESSION_ADOBE_DEFLATE));
+    const uint32_t rowsPerStrip = kTiffRowsPerStrip;
     const int photometricChannels = nch >= 3 ? 3 : 1;
     std::vector<uint16_t> extra;
     for (int c = photometricChannels; c < nch; ++c)
@@ -173,91 +222,106 @@ bool writeTiff(const ImageData& image, std::FILE* file, std::string* error) {
     if (ok && image.worldToCamera)
         ok = TIFFSetField(t, TIFFTAG_PIXAR_MATRIX_WORLDTOCAMERA, image.worldToCamera->data());
     if (ok && image.worldToNDC) ok = TIFFSetField(t, TIFFTAG_PIXAR_MATRIX_WORLDTOSCREEN, image.worldToNDC->data());
-    if (!ok) return fail("libtiff rejected a tag");
+    if (!ok) return m->fail("libtiff rejected a tag", error);
+    m->nStrips = (uint32_t(image.height) + rowsPerStrip - 1) / rowsPerStrip;
+    return true;
+}
 
-    // Rows [y0, y0 + rows) as the file's samples, in native byte order (the
-    // order libtiff writes the file in).
-    // `scratch` receives the rows when the image gives them by fillRows.
-    auto pack = [&](uint32_t y0, uint32_t rows, unsigned char* dst, std::vector<float>& scratch) {
-        const size_t n = rowValues * rows;
-        const float* src;
-        if (image.pixels) {
-            src = image.pixels + rowValues * y0;
-        } else {
-            scratch.resize(n);
-            image.fillRows(int(y0), int(rows), scratch.data());
-            src = scratch.data();
-        }
-        switch (type) {
-        case SampleType::UInt8:
-            for (size_t i = 0; i < n; ++i) dst[i] = static_cast<unsigned char>(src[i]);
-            break;
-        case SampleType::UInt16: {
-            auto* d = reinterpret_cast<uint16_t*>(dst);
-            for (size_t i = 0; i < n; ++i) d[i] = static_cast<uint16_t>(src[i]);
-            break;
-        }
-        case SampleType::Half:
-        case SampleType::Float: std::memcpy(dst, src, n * sizeof(float)); break;
-        }
+bool TiffStream::compress(uint32_t s, const float* rowsIn, std::vector<unsigned char>* out) const {
+    // Integer samples with deflate, the default: packed, differenced and
+    // compressed (in parallel by writeTiff: the frame's serial tail), then
+    // written in order as raw strips -- what libtiff's own encoder would
+    // produce, with zlib's framing and the same horizontal predictor.
+    const uint32_t rows = rowsOf(s);
+    const size_t rowValues = m->rowValues;
+    std::vector<unsigned char> raw(rowValues * rows * size_t(m->bytesPerSample));
+    m->pack(rowsIn, rows, raw.data());
+    for (uint32_t r = 0; r < rows; ++r) {
+        if (m->type == SampleType::UInt8)
+            horizontalDifference(raw.data() + r * rowValues, rowValues, m->nch);
+        else
+            horizontalDifference(reinterpret_cast<uint16_t*>(raw.data()) + r * rowValues, rowValues, m->nch);
+    }
+    // libdeflate: the same zlib stream as compress2 at about twice the
+    // speed on dithered 8-bit pixels. A compressor per strip (they are not
+    // shared between threads).
+    std::unique_ptr<libdeflate_compressor, DeflateFree> compressor(libdeflate_alloc_compressor(m->image.zipLevel()));
+    // Compressed into a scratch buffer of the worst-case size, then kept at
+    // its own size: every strip of writeTiff waits until all are done, and
+    // at the bound's capacity they held as much as the raw image (8 MB for
+    // 1920 x 1080 RGBA) instead of its zip.
+    size_t size = 0;
+    if (compressor) {
+        std::vector<unsigned char> buf(libdeflate_zlib_compress_bound(compressor.get(), raw.size()));
+        size = libdeflate_zlib_compress(compressor.get(), raw.data(), raw.size(), buf.data(), buf.size());
+        out->assign(buf.begin(), buf.begin() + std::ptrdiff_t(size));
+    }
+    return size != 0;
+}
+
+bool TiffStream::writeCompressed(uint32_t s, const std::vector<unsigned char>& bytes, std::string* error) {
+    if (TIFFWriteRawStrip(m->tif.get(), s, const_cast<unsigned char*>(bytes.data()), tmsize_t(bytes.size())) < 0)
+        return m->fail("libtiff could not write a strip", error);
+    return true;
+}
+
+bool TiffStream::writeStrip(uint32_t s, const float* rows, std::string* error) {
+    if (precompresses()) {
+        std::vector<unsigned char> bytes;
+        if (!compress(s, rows, &bytes)) return m->fail("libdeflate could not compress a strip", error);
+        return writeCompressed(s, bytes, error);
+    }
+    // Through libtiff's encoders; they may modify their input (predictors
+    // work in place), so each strip is a fresh copy.
+    const size_t bytes = m->rowValues * rowsOf(s) * size_t(m->bytesPerSample);
+    m->strip.resize(bytes);
+    m->pack(rows, rowsOf(s), m->strip.data());
+    if (TIFFWriteEncodedStrip(m->tif.get(), s, m->strip.data(), tmsize_t(bytes)) < 0)
+        return m->fail("libtiff could not write a strip", error);
+    return true;
+}
+
+bool TiffStream::finish(std::string* error) {
+    if (!TIFFWriteDirectory(m->tif.get())) return m->fail("libtiff could not write the directory", error);
+    m->tif.reset();
+    if (!m->sink.failure.empty()) return m->fail("", error);
+    return true;
+}
+
+bool writeTiff(const ImageData& image, std::FILE* file, std::string* error) {
+    TiffStream tiff;
+    if (!tiff.open(image, file, error)) return false;
+    const size_t rowValues = size_t(image.width) * size_t(image.channels());
+    // Rows [y0, y0 + rows): the image's own, or filled into `scratch`.
+    auto rowsAt = [&](uint32_t y0, uint32_t rows, std::vector<float>& scratch) -> const float* {
+        if (image.pixels) return image.pixels + rowValues * y0;
+        scratch.resize(rowValues * rows);
+        image.fillRows(int(y0), int(rows), scratch.data());
+        return scratch.data();
     };
-    const uint32_t nStrips = (uint32_t(image.height) + rowsPerStrip - 1) / rowsPerStrip;
-    auto rowsOf = [&](uint32_t s) { return std::min(rowsPerStrip, uint32_t(image.height) - s * rowsPerStrip); };
-    if (compression == COMPRESSION_ADOBE_DEFLATE && (type == SampleType::UInt8 || type == SampleType::UInt16)) {
-        // Integer samples with deflate, the default: strips are packed,
-        // differenced and compressed in parallel (the frame's serial tail),
-        // then written in order as raw strips -- what libtiff's own encoder
-        // would produce, with zlib's framing and the same horizontal predictor.
+    const uint32_t nStrips = tiff.strips();
+    if (tiff.precompresses()) {
+        // Strips are converted and compressed in parallel, then written in order.
         std::vector<std::vector<unsigned char>> packed(nStrips);
         std::atomic<bool> deflateFailed{false};
         parallelFor(uint32_t(0), nStrips, [&](uint32_t s) {
-            const uint32_t rows = rowsOf(s);
-            std::vector<unsigned char> raw(rowValues * rows * size_t(bytesPerSample));
             std::vector<float> scratch;
-            pack(s * rowsPerStrip, rows, raw.data(), scratch);
-            for (uint32_t r = 0; r < rows; ++r) {
-                if (type == SampleType::UInt8)
-                    horizontalDifference(raw.data() + r * rowValues, rowValues, nch);
-                else
-                    horizontalDifference(reinterpret_cast<uint16_t*>(raw.data()) + r * rowValues, rowValues, nch);
-            }
-            // libdeflate: the same zlib stream as compress2 at about twice
-            // the speed on dithered 8-bit pixels. A compressor per strip
-            // task (they are not shared between threads).
-            std::unique_ptr<libdeflate_compressor, DeflateFree> compressor(
-                libdeflate_alloc_compressor(image.zipLevel()));
-            // Compressed into a scratch buffer of the worst-case size, then
-            // kept at its own size: every strip waits here until all are
-            // done, and at the bound's capacity they held as much as the
-            // raw image (8 MB for 1920 x 1080 RGBA) instead of its zip.
-            size_t size = 0;
-            if (compressor) {
-                std::vector<unsigned char> out(libdeflate_zlib_compress_bound(compressor.get(), raw.size()));
-                size = libdeflate_zlib_compress(compressor.get(), raw.data(), raw.size(), out.data(), out.size());
-                packed[s].assign(out.begin(), out.begin() + std::ptrdiff_t(size));
-            }
-            if (size == 0) deflateFailed = true;
+            if (!tiff.compress(s, rowsAt(s * uint32_t(kTiffRowsPerStrip), tiff.rowsOf(s), scratch), &packed[s]))
+                deflateFailed = true;
         });
-        if (deflateFailed) return fail("libdeflate could not compress a strip");
-        for (uint32_t s = 0; s < nStrips; ++s)
-            if (TIFFWriteRawStrip(t, s, packed[s].data(), tmsize_t(packed[s].size())) < 0)
-                return fail("libtiff could not write a strip");
-    } else {
-        // Otherwise strip by strip through libtiff's encoders; they may
-        // modify their input (predictors work in place), so each strip is a
-        // fresh copy.
-        std::vector<unsigned char> strip(rowValues * rowsPerStrip * size_t(bytesPerSample));
-        std::vector<float> scratch;
-        for (uint32_t s = 0; s < nStrips; ++s) {
-            pack(s * rowsPerStrip, rowsOf(s), strip.data(), scratch);
-            if (TIFFWriteEncodedStrip(t, s, strip.data(), tmsize_t(rowValues * rowsOf(s) * size_t(bytesPerSample))) < 0)
-                return fail("libtiff could not write a strip");
+        if (deflateFailed) {
+            *error = "libdeflate could not compress a strip";
+            return false;
         }
+        for (uint32_t s = 0; s < nStrips; ++s)
+            if (!tiff.writeCompressed(s, packed[s], error)) return false;
+    } else {
+        std::vector<float> scratch;
+        for (uint32_t s = 0; s < nStrips; ++s)
+            if (!tiff.writeStrip(s, rowsAt(s * uint32_t(kTiffRowsPerStrip), tiff.rowsOf(s), scratch), error))
+                return false;
     }
-    if (!TIFFWriteDirectory(t)) return fail("libtiff could not write the directory");
-    tif.reset();
-    if (!sink.failure.empty()) return fail("");
-    return true;
+    return tiff.finish(error);
 }
 
 }  // namespace umbra::film

@@ -351,7 +351,11 @@ SchedulerStats BucketScheduler::render(const std::vector<geometry::PrimitivePtr>
                 buffer.reset(config);
                 frame.walk(nodes, bx, by, buffer, stats, walk);
                 buffer.resolve(film);
+            } else {
+                film.clearDepth(x0, y0, x1, y1);  // a streamed film's depths start unset
             }
+            // A streamed film writes the strips this bucket completes.
+            film.bucketDone(x0, y0, x1, y1);
             ++stats.buckets;
             int d = ++done;
             if (work) m_settings.progress(d, bucketCount, work->finish(b));

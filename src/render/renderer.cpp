@@ -136,6 +136,9 @@ void printDetailedStatistics(const nlohmann::json& f) {
                         t["lookups"].get<uint64_t>(), t["hits"].get<uint64_t>(), t["misses"].get<uint64_t>(),
                         t["tiles_read"].get<uint64_t>(), t["evictions"].get<uint64_t>(),
                         double(t["peak_bytes"].get<uint64_t>()) / (1 << 20));
+    text += fmt::format("  film        {}, {} rows held at most\n",
+                        f["film_streamed"].get<bool>() ? "streamed to its TIFFs while rendering" : "written whole",
+                        f["film_rows_held_peak"].get<int>());
     text += fmt::format("  map files   {:.3f} s writing, {:.3f} s waiting, {} in the background\n",
                         s["map_write_seconds"].get<double>(), s["map_write_wait_seconds"].get<double>(),
                         s["background_map_writes"].get<int>());
@@ -800,9 +803,29 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
                                       : depthRead ? film::FilmContent::Colour
                                                   : film::FilmContent::ColourOnly;
     film::Film film = film::Film::fromOptions(options, aovs, content, diag, displays);
+    auto outputMetadata = [&] {
+        film::OutputMetadata meta;
+        if (std::optional<std::string> date = sourceDateTime(diag)) {
+            meta.dateTime = *date;  // and no render time: reproducible files
+        } else {
+            meta.renderSeconds = frameClock.wall();
+            meta.dateTime = nowDateTime();
+        }
+        meta.cameraFromWorld = pass.camera.cameraFromWorld;
+        meta.ndcFromWorld = pass.camera.ndcFromScreen() * pass.camera.screenFromCamera() * pass.camera.cameraFromWorld;
+        return meta;
+    };
+    // The film is written as its rows complete, and the rows freed, when
+    // every display is a TIFF and nothing reads the whole film afterwards
+    // (an imager, a depth map, an EXR or PNG): the same files, without
+    // holding the frame (docs/pipeline.md, "Output while rendering").
+    const bool imaged = options.imager && !depthFrame;
+    bool streamOpened = true;
+    if (settings.filmStream && !imaged && film::Film::streamable(displays))
+        streamOpened = film.openStream(displays, options, outputMetadata(), diag);
     PassResult camera;
     runInArena(*arena, [&] { camera = runPass(frame, pass, prims, film, world.frameNumber >= 0 ? frameName(world) : std::string("image")); });
-    if (options.imager && !depthFrame) runInArena(*arena, [&] { runImager(frame, pass, *options.imager, film); });
+    if (imaged) runInArena(*arena, [&] { runImager(frame, pass, *options.imager, film); });
     passes.push_back({{"name", pass.name},
                       {"wall_seconds", camera.wall},
                       {"cpu_seconds", camera.cpu},
@@ -811,15 +834,6 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
                       {"samples", camera.samples},
                       {"bucket_size", {camera.bucketSize[0], camera.bucketSize[1]}}});
 
-    film::OutputMetadata meta;
-    if (std::optional<std::string> date = sourceDateTime(diag)) {
-        meta.dateTime = *date;  // and no render time: reproducible files
-    } else {
-        meta.renderSeconds = frameClock.wall();
-        meta.dateTime = nowDateTime();
-    }
-    meta.cameraFromWorld = pass.camera.cameraFromWorld;
-    meta.ndcFromWorld = pass.camera.ndcFromScreen() * pass.camera.screenFromCamera() * pass.camera.cameraFromWorld;
     film::DepthWriter depthWriter = [&](const scene::DisplayRecord& d, const film::Film& f) {
         DepthImage image = depthImageOf(f, pass, depthFilterOf(options, d.loc), dualOffsetOf(options));
         bool ok = d.driver == "zfile" ? writeZFile(d.name, image, diag, d.loc) : writeDepthMap(d.name, image, diag, d.loc);
@@ -830,11 +844,15 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     // Output converts rows in parallel: on no more threads than --threads.
     // An interrupted frame is not written: its film is incomplete.
     bool wrote = false;
-    if (interrupted())
+    if (interrupted()) {
+        film.abandonStream();
         diag.error(options.loc, "{}: interrupted by signal {}; its images were not written", frameName(world),
                    interruptSignal());
-    else
-        runInArena(*arena, [&] { wrote = film.write(displays, options, meta, diag, depthWriter); });
+    } else if (film.streaming()) {
+        wrote = film.finishStream(diag) && streamOpened;
+    } else {
+        runInArena(*arena, [&] { wrote = film.write(displays, options, outputMetadata(), diag, depthWriter); });
+    }
     // The frame is done when its maps' files are; a failed write (reported
     // by the writer, naming the file) fails the frame.
     Stopwatch waitClock;
@@ -866,6 +884,8 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
         {"threads", threadCount()},
         {"first_pass", {{"wall_seconds", firstPassWall}, {"cpu_seconds", firstPassCpu}}},
         {"peak_memory_mib", peakResidentMiB()},
+        {"film_streamed", film.streaming()},
+        {"film_rows_held_peak", film.rowsHeldPeak()},
         {"passes", passes},
         {"maps", mapRecords},
         {"micropolygons_per_second", camera.wall > 0 ? double(camera.counters.micropolygons) / camera.wall : 0.0},

@@ -11,8 +11,12 @@
 #include "umbra/util/error.h"
 #include "umbra/util/math.h"
 
+#include <sys/mman.h>
+
+#include <atomic>
 #include <cstdlib>
 #include <functional>
+#include <memory>
 #include <new>
 #include <optional>
 #include <string>
@@ -82,6 +86,8 @@ std::optional<PixelFilter> displayFilter(const scene::DisplayRecord& display, co
 bool sameFilter(const PixelFilter& a, const PixelFilter& b);
 
 class Film;
+struct PreparedOutput;
+struct FilmStream;
 /// Writes a depth-map display ("zfile", "shadow" drivers); the renderer
 /// wires it to the shadow module. Returns false after reporting an error.
 using DepthWriter = std::function<bool(const scene::DisplayRecord&, const Film&)>;
@@ -105,6 +111,9 @@ class Film {
 public:
     Film(int xResolution, int yResolution, const float cropWindow[4], PixelFilter filter,
          std::vector<AovChannel> aovs = {}, FilmContent content = FilmContent::Colour);
+    ~Film();  // an open stream is abandoned: its temporary files removed
+    Film(Film&&) noexcept;
+    Film& operator=(Film&&) noexcept;
     /// Bytes a film of this size and content allocates (its cropped pixels,
     /// filter layers not counted).
     static uint64_t bytesFor(int xResolution, int yResolution, const float cropWindow[4],
@@ -200,6 +209,50 @@ public:
     bool writeDisplay(const scene::DisplayRecord& display, const scene::Options& options,
                       const OutputMetadata& metadata, Diagnostics& diag, const DepthWriter& depthWriter = {}) const;
 
+    // --- Streamed output ------------------------------------------------
+    // When every display of a frame is a TIFF and nothing else needs the
+    // whole film afterwards (no imager, no depth-map or EXR/PNG display),
+    // the film is written while the buckets render: each TIFF strip
+    // (kTiffRowsPerStrip rows of the crop region) is converted, compressed
+    // and written as soon as every bucket covering its rows has resolved,
+    // and those rows' storage is given back to the system. The files are
+    // byte for byte those of write(): the same conversion and the same
+    // libtiff calls in the same order. Docs: docs/pipeline.md ("Output while
+    // rendering").
+
+    /// True when write() of these displays could be streamed instead: each
+    /// one that write() would write (not a window whose stand-in file
+    /// another display writes) is a TIFF written by the film.
+    static bool streamable(const std::vector<scene::DisplayRecord>& displays);
+    /// Opens every display of `displays` (streamable()) under a temporary
+    /// name in its directory. A display that cannot be written is reported
+    /// here, as write() would report it, and left out. Returns false if any
+    /// display failed; the others are still streamed. Call before rendering.
+    bool openStream(const std::vector<scene::DisplayRecord>& displays, const scene::Options& options,
+                    const OutputMetadata& metadata, Diagnostics& diag);
+    bool streaming() const { return m_stream != nullptr; }
+    /// A bucket has resolved the pixels [x0, x1) x [y0, y1) (clipped to the
+    /// crop region). Thread-safe. When strips are then complete, this
+    /// thread writes every complete strip not yet written, in order, under
+    /// the stream's lock, and releases their rows' storage. Also counts the
+    /// rows held (see rowsHeldPeak); without a stream nothing is written.
+    void bucketDone(int x0, int y0, int x1, int y1);
+    /// A depth bucket no primitive reaches, in a streamed film: its depths
+    /// are set to +infinity (a streamed film's depth starts unset).
+    void clearDepth(int x0, int y0, int x1, int y1);
+    /// Writes what is left, each file's directory, and renames the files
+    /// into place. Errors (a failed write, here or while streaming) are
+    /// reported at the display; a failed display leaves no file, and an
+    /// earlier image at its path untouched. Returns false if any failed.
+    /// A film whose rows are not all done (an interrupted render) writes
+    /// nothing and returns false without a report.
+    bool finishStream(Diagnostics& diag);
+    /// Removes the stream's temporary files without writing (interrupts).
+    void abandonStream();
+    /// The most rows of film storage held at once: rows some bucket had
+    /// resolved into and not yet released. The film's height unless streamed.
+    int rowsHeldPeak() const;
+
 private:
     size_t index(int x, int y) const { return size_t(y - m_y0) * size_t(m_width) + size_t(x - m_x0); }
 
@@ -211,10 +264,28 @@ private:
     int m_aovFloats = 0;
     FilmContent m_content = FilmContent::Colour;
     static constexpr float kNoColour[4] = {0, 0, 0, 0};  // a depth film's pixels
-    /// Memory that starts as zeros without being written: calloc's fresh
-    /// pages are zero already, so a frame's colour and AOV planes cost
-    /// nothing until the bucket workers first touch them, in parallel
-    /// (zeroing 4.9 MB of RGBA took 1.2 ms of every frame's serial start).
+    bool prepareOutput(const scene::DisplayRecord& display, const scene::Options& options,
+                       const OutputMetadata& metadata, Diagnostics& diag, PreparedOutput* out) const;
+    /// One row of a prepared display's samples, width * channels values.
+    void convertRow(const PreparedOutput& out, int y, float* values) const;
+    /// Writes the strips that are complete and not yet written; the stream's
+    /// write lock held.
+    void writeCompleteStrips();
+    /// Gives rows [m_y0, m_y0 + rows) of every plane back to the system.
+    void releaseRows(int rows);
+    /// Gives the pages wholly inside values [0, to) of a mapped plane back
+    /// to the system (they read as zeros after), those before `from` being
+    /// given back already. Small (malloc'ed) planes keep theirs.
+    template <typename Plane>
+    static void releasePages(Plane& plane, size_t from, size_t to);
+
+    /// Memory that starts as zeros without being written: fresh pages are
+    /// zero already, so a frame's planes cost nothing until the bucket
+    /// workers first touch them, in parallel (zeroing 4.9 MB of RGBA took
+    /// 1.2 ms of every frame's serial start). Large planes are their own
+    /// anonymous mappings, so a streamed film can give finished rows back
+    /// with madvise (releasePages) whatever malloc's thresholds are.
+    static constexpr size_t kMappedBytes = size_t(64) << 10;
     template <typename T>
     struct ZeroedAllocator {
         using value_type = T;
@@ -222,10 +293,20 @@ private:
         template <typename U>
         ZeroedAllocator(const ZeroedAllocator<U>&) {}
         T* allocate(size_t n) {
+            if (n * sizeof(T) >= kMappedBytes) {
+                void* p = ::mmap(nullptr, n * sizeof(T), PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+                if (p == MAP_FAILED) throw std::bad_alloc();
+                return static_cast<T*>(p);
+            }
             if (void* p = std::calloc(n, sizeof(T))) return static_cast<T*>(p);
             throw std::bad_alloc();
         }
-        void deallocate(T* p, size_t) { std::free(p); }
+        void deallocate(T* p, size_t n) {
+            if (n * sizeof(T) >= kMappedBytes)
+                ::munmap(p, n * sizeof(T));
+            else
+                std::free(p);
+        }
         template <typename U>
         void construct(U*) {}  // value-initialised elements: already zero
         template <typename U, typename... Args>
@@ -236,12 +317,13 @@ private:
         bool operator!=(const ZeroedAllocator&) const { return false; }
     };
     std::vector<float, ZeroedAllocator<float>> m_rgba, m_aov;
-    std::vector<float> m_z, m_z2;
+    std::vector<float, ZeroedAllocator<float>> m_z, m_z2;
     struct FilterLayer {
         PixelFilter filter;
         std::vector<float, ZeroedAllocator<float>> rgba, aov;
     };
     std::vector<FilterLayer> m_layers;  // layers 1..
+    std::unique_ptr<FilmStream> m_stream;  // openStream .. finishStream
 };
 
 /// The file `display` is written to: its name, with ".tif" appended for a

@@ -37,6 +37,12 @@ struct RenderSettings {
     /// `--resume`: frames whose every Display file is a complete image
     /// (film::imageFileComplete) are not rendered again.
     bool resume = false;
+    /// Streams the camera pass's film to its displays as strips of rows
+    /// complete, freeing the rows, when every display is a TIFF and no
+    /// imager needs the whole film (film::Film::openStream). False
+    /// (`--no-film-stream`): the whole film is kept and written at the end.
+    /// The files are the same bytes either way.
+    bool filmStream = true;
     /// `--frames`: the FrameBegin numbers to render; unset: all. Worlds
     /// outside FrameBegin/FrameEnd have no number and are always rendered
     /// (docs/frames.md).

@@ -315,6 +315,11 @@ TEST(Frames, EndOfFrameStatisticsLevelsPrintMoreAndMore) {
                       std::string::npos,
                   level >= 2)
             << m;
+        // The film: streamed (a TIFF frame) and its rows held at most.
+        EXPECT_EQ(m.find(fmt::format("  film        streamed to its TIFFs while rendering, {} rows held at most",
+                                     frame["film_rows_held_peak"].get<int>())) != std::string::npos,
+                  level >= 2)
+            << m;
         // Level 3: the frame's record itself.
         const size_t record = m.find("  record      ");
         ASSERT_EQ(record != std::string::npos, level >= 3) << m;
