@@ -376,12 +376,12 @@ void makeTeapot(const RecordPtr& rec, Diagnostics& diag, std::vector<PrimitivePt
 namespace {
 
 std::vector<PrimitivePtr> makeShape(std::shared_ptr<const scene::PrimitiveRecord> record, Diagnostics& diag,
-                                    int blockSide = -1);
+                                    int blockSide = -1, const ParameterReaders* readers = nullptr);
 
 /// A deforming primitive (MotionBegin around it): one primitive per shape,
 /// paired up. Shapes whose requests make a different number of primitives
 /// than the first are malformed: the first shape renders alone.
-std::vector<PrimitivePtr> makeDeforming(const RecordPtr& record, Diagnostics& diag) {
+std::vector<PrimitivePtr> makeDeforming(const RecordPtr& record, Diagnostics& diag, const ParameterReaders* readers) {
     // Every shape must split into the same pieces: patch blocks of the
     // first shape's size, and only when no shape carries a class that
     // would make its mesh patch by patch.
@@ -389,8 +389,15 @@ std::vector<PrimitivePtr> makeDeforming(const RecordPtr& record, Diagnostics& di
     for (const scene::PrimitiveRecord& s : record->shapes)
         if (hasPerPatchClasses(s)) blockSide = 0;
     if (hasPerPatchClasses(*record)) blockSide = 0;
+    // The shaders are the first shape's: every shape gets its answer.
+    ParameterReaders firstShapes;
+    if (readers) {
+        const bool reads = (*readers)(record->attributes ? *record->attributes : scene::Attributes());
+        firstShapes = [reads](const scene::Attributes&) { return reads; };
+        readers = &firstShapes;
+    }
     std::vector<std::vector<PrimitivePtr>> shapes;
-    shapes.push_back(makeShape(record, diag, blockSide));
+    shapes.push_back(makeShape(record, diag, blockSide, readers));
     if (record->type == "Blobby") {
         // Each shape's surface is polygonised on its own, so their pieces
         // do not pair up: blurring them would move one triangle to another.
@@ -400,7 +407,7 @@ std::vector<PrimitivePtr> makeDeforming(const RecordPtr& record, Diagnostics& di
         return std::move(shapes[0]);
     }
     for (const scene::PrimitiveRecord& s : record->shapes) {
-        shapes.push_back(makeShape(std::make_shared<const scene::PrimitiveRecord>(s), diag, blockSide));
+        shapes.push_back(makeShape(std::make_shared<const scene::PrimitiveRecord>(s), diag, blockSide, readers));
         if (shapes.back().size() != shapes[0].size()) {
             diag.error(s.loc, "{}: this motion shape makes {} primitives where the first makes {} (the primitive "
                        "renders unblurred)", s.type, shapes.back().size(), shapes[0].size());
@@ -418,14 +425,24 @@ std::vector<PrimitivePtr> makeDeforming(const RecordPtr& record, Diagnostics& di
 
 }  // namespace
 
+namespace {
+
+std::vector<PrimitivePtr> makeAll(std::shared_ptr<const scene::PrimitiveRecord> record, Diagnostics& diag,
+                                  const ParameterReaders* readers) {
+    if (record && !record->shapes.empty()) return makeDeforming(record, diag, readers);
+    return makeShape(std::move(record), diag, -1, readers);
+}
+
+}  // namespace
+
 std::vector<PrimitivePtr> makePrimitives(std::shared_ptr<const scene::PrimitiveRecord> record, Diagnostics& diag) {
-    if (record && !record->shapes.empty()) return makeDeforming(record, diag);
-    return makeShape(std::move(record), diag);
+    return makeAll(std::move(record), diag, nullptr);
 }
 
 std::vector<PrimitivePtr> makePrimitives(std::shared_ptr<const scene::PrimitiveRecord> record, Diagnostics& diag,
-                                         const std::shared_ptr<ProceduralContext>& procedurals) {
-    if (!record || !isProceduralRecord(*record)) return makePrimitives(std::move(record), diag);
+                                         const std::shared_ptr<ProceduralContext>& procedurals,
+                                         const ParameterReaders& readers) {
+    if (!record || !isProceduralRecord(*record)) return makeAll(std::move(record), diag, readers ? &readers : nullptr);
     std::vector<PrimitivePtr> out;
     if (!record->shapes.empty())
         diag.warningOnce("procedural:motion", record->loc, "Procedural: a MotionBegin block around a procedural is "
@@ -440,7 +457,7 @@ std::vector<PrimitivePtr> makePrimitives(std::shared_ptr<const scene::PrimitiveR
 namespace {
 
 std::vector<PrimitivePtr> makeShape(std::shared_ptr<const scene::PrimitiveRecord> record, Diagnostics& diag,
-                                    int blockSide) {
+                                    int blockSide, const ParameterReaders* readers) {
     std::vector<PrimitivePtr> out;
     if (!record) return out;
     const std::string& t = record->type;
@@ -452,7 +469,14 @@ std::vector<PrimitivePtr> makeShape(std::shared_ptr<const scene::PrimitiveRecord
     else if (t == "Patch" || t == "PatchMesh")
         makePatches(record, diag, out, blockSide);
     else if (t == "SubdivisionMesh" || t == "HierarchicalSubdivisionMesh")
-        makeSubdivisionMesh(record, diag, out);
+    {
+        // Regular regions as blocks of the patchblock side, where no shader
+        // can tell the blocks' u, v from the faces'.
+        const int side = blockSide < 0 ? patchBlockSide(*record) : blockSide;
+        const bool blocks = side > 1 && readers &&
+                            !(*readers)(record->attributes ? *record->attributes : scene::Attributes());
+        makeSubdivisionMesh(record, diag, out, blocks ? side : 0);
+    }
     else if (t == "NuPatch")
         makeNuPatches(record, diag, out);
     else if (t == "Curves")
