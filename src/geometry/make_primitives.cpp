@@ -11,6 +11,7 @@
 #include "umbra/geometry/teapot.h"
 
 #include <numeric>
+#include <optional>
 
 namespace umbra::geometry {
 
@@ -389,11 +390,15 @@ std::vector<PrimitivePtr> makeDeforming(const RecordPtr& record, Diagnostics& di
     for (const scene::PrimitiveRecord& s : record->shapes)
         if (hasPerPatchClasses(s)) blockSide = 0;
     if (hasPerPatchClasses(*record)) blockSide = 0;
-    // The shaders are the first shape's: every shape gets its answer.
+    // The shaders are the first shape's: every shape gets its answer,
+    // asked once and only by a family that asks (subdivision meshes).
     ParameterReaders firstShapes;
+    std::optional<bool> reads;
     if (readers) {
-        const bool reads = (*readers)(record->attributes ? *record->attributes : scene::Attributes());
-        firstShapes = [reads](const scene::Attributes&) { return reads; };
+        firstShapes = [&reads, ask = readers, &record](const scene::Attributes&) {
+            if (!reads) reads = (*ask)(record->attributes ? *record->attributes : scene::Attributes());
+            return *reads;
+        };
         readers = &firstShapes;
     }
     std::vector<std::vector<PrimitivePtr>> shapes;
