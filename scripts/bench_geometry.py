@@ -19,7 +19,11 @@ Prints, per scene and renderer: best wall time of RUNS runs (alternating the
 renderers, since this machine's speed drifts with its host's load), peak
 resident memory, umbra's micropolygons and micropolygons per second.
 
-  python3 scripts/bench_geometry.py [--runs N] [--threads N] [--keep DIR]
+  python3 scripts/bench_geometry.py [--runs N] [--threads N] [--keep DIR] [--patchblock N]
+
+--patchblock N puts `Attribute "umbra" "patchblock" [N]` in umbra's copy of
+each scene (0: bicubic PatchMeshes diced patch by patch, as before blocks;
+default: the renderer's own, 8 x 8 patches a block).
 """
 import argparse
 import json
@@ -166,6 +170,7 @@ def main():
     ap.add_argument("--threads", type=int, default=os.cpu_count())
     ap.add_argument("--keep", help="write the scenes and images here and keep them")
     ap.add_argument("--scenes", default="subdiv,subdiv_flat,bspline,hair")
+    ap.add_argument("--patchblock", type=int, help="Attribute \"umbra\" \"patchblock\" for umbra's renders")
     args = ap.parse_args()
     if not os.access(UMBRA, os.X_OK):
         sys.exit("build umbra first (scripts/build.sh)")
@@ -184,11 +189,20 @@ def main():
     try:
         for name in args.scenes.split(","):
             rib = name + ".rib"
+            text = makers[name](name)
             with open(os.path.join(work, rib), "w") as f:
-                f.write(makers[name](name))
+                f.write(text)
+            umbra_rib = rib
+            if args.patchblock is not None:
+                # Pixie would warn about an attribute it does not know: umbra
+                # alone reads this copy.
+                umbra_rib = name + ".umbra.rib"
+                with open(os.path.join(work, umbra_rib), "w") as f:
+                    f.write(text.replace("WorldBegin\n", 'WorldBegin\nAttribute "umbra" "patchblock" [%d]\n'
+                                         % args.patchblock, 1))
             best = {}
             for _ in range(args.runs):
-                wall, rss = run([UMBRA, "render", rib, "--threads", str(args.threads), "--quiet",
+                wall, rss = run([UMBRA, "render", umbra_rib, "--threads", str(args.threads), "--quiet",
                                  "--stats", name + ".json"], work)
                 best["umbra"] = min(best.get("umbra", (1e30, 0)), (wall, rss))
                 if pixie:

@@ -11,6 +11,7 @@
 #include "umbra/geometry/teapot.h"
 
 #include <numeric>
+#include <optional>
 
 namespace umbra::geometry {
 
@@ -206,7 +207,33 @@ bool readWrap(const scene::PrimitiveRecord& rec, const std::string& s, const cha
     return true;
 }
 
-void makePatches(const RecordPtr& rec, Diagnostics& diag, std::vector<PrimitivePtr>& out) {
+// Attribute "umbra" "patchblock": the most patches along each side of a
+// block of a bicubic PatchMesh diced as one grid (BicubicBlock); 0 or 1
+// dices patch by patch.
+constexpr int kDefaultPatchBlock = 8;
+
+int patchBlockSide(const scene::PrimitiveRecord& rec) {
+    if (!rec.attributes) return kDefaultPatchBlock;
+    auto it = rec.attributes->user.find("umbra:patchblock");
+    if (it == rec.attributes->user.end()) return kDefaultPatchBlock;
+    const ri::Param& p = it->second;
+    if (!p.ints.empty()) return p.ints[0];
+    if (!p.floats.empty()) return int(p.floats[0]);
+    return kDefaultPatchBlock;
+}
+
+// True when the record carries a class a patch block cannot interpolate
+// (BicubicPatchArray::blockable), read from its parameters alone.
+bool hasPerPatchClasses(const scene::PrimitiveRecord& rec) {
+    for (const ri::Param& p : rec.params.params())
+        if (p.decl.storage == ri::StorageClass::Uniform || p.decl.storage == ri::StorageClass::FaceVarying ||
+            p.decl.storage == ri::StorageClass::FaceVertex)
+            return true;
+    return false;
+}
+
+// `blockSide` < 0: the record's own patchblock attribute.
+void makePatches(const RecordPtr& rec, Diagnostics& diag, std::vector<PrimitivePtr>& out, int blockSide = -1) {
     const bool mesh = rec->type == "PatchMesh";
     const auto& sa = rec->stringArgs;
     if (sa.size() != (mesh ? 3u : 1u)) {
@@ -270,6 +297,21 @@ void makePatches(const RecordPtr& rec, Diagnostics& diag, std::vector<PrimitiveP
     auto sd = readSurfaceData(*rec, counts, true, diag, true, nu, nv, uper, vper);
     if (!sd) return;
 
+    // Bicubic meshes of more than one patch go out as blocks of patches,
+    // each diced as one grid, when every variable can ride on such a grid.
+    std::shared_ptr<BicubicPatchArray> blocks;
+    if (blockSide < 0) blockSide = patchBlockSide(*rec);
+    if (bicubic && blockSide > 1 && nup * nvp > 1 && BicubicPatchArray::blockable(*sd)) {
+        blocks = std::make_shared<BicubicPatchArray>();
+        blocks->sd = sd;
+        blocks->columns = nup;
+        blocks->rows = nvp;
+        blocks->uScale = 1.0f / float(nup);
+        blocks->vScale = 1.0f / float(nvp);
+        blocks->coeffs.reserve(size_t(nup) * size_t(nvp));
+        blocks->refs.reserve(size_t(nup) * size_t(nvp));
+        blocks->bounds.reserve(size_t(nup) * size_t(nvp));
+    }
     for (int pj = 0; pj < nvp; ++pj)
         for (int pi = 0; pi < nup; ++pi) {
             CornerRefs refs;
@@ -292,8 +334,15 @@ void makePatches(const RecordPtr& rec, Diagnostics& diag, std::vector<PrimitiveP
                 for (int i = 0; i < 4; ++i)
                     ctrl[size_t(j * 4 + i)] = ((pj * vstep + j) % nv) * nu + (pi * ustep + i) % nu;
             auto coeffs = BicubicCoeffs::make(*sd, ctrl, uBasis, vBasis);
+            if (blocks) {
+                blocks->bounds.push_back(bicubicHullBound(*coeffs, ParamRange{}));
+                blocks->coeffs.push_back(std::move(coeffs));
+                blocks->refs.push_back(refs);
+                continue;
+            }
             out.push_back(std::make_unique<BicubicPatch>(rec, sd, std::move(coeffs), refs, ParamRange{}, map));
         }
+    if (blocks) BicubicBlock::appendBlocks(rec, std::move(blocks), blockSide, out);
 }
 
 /// `Geometry "teapot"`: the Newell teapot's Bezier patches, whatever the
@@ -327,14 +376,33 @@ void makeTeapot(const RecordPtr& rec, Diagnostics& diag, std::vector<PrimitivePt
 
 namespace {
 
-std::vector<PrimitivePtr> makeShape(std::shared_ptr<const scene::PrimitiveRecord> record, Diagnostics& diag);
+std::vector<PrimitivePtr> makeShape(std::shared_ptr<const scene::PrimitiveRecord> record, Diagnostics& diag,
+                                    int blockSide = -1, const ParameterReaders* readers = nullptr);
 
 /// A deforming primitive (MotionBegin around it): one primitive per shape,
 /// paired up. Shapes whose requests make a different number of primitives
 /// than the first are malformed: the first shape renders alone.
-std::vector<PrimitivePtr> makeDeforming(const RecordPtr& record, Diagnostics& diag) {
+std::vector<PrimitivePtr> makeDeforming(const RecordPtr& record, Diagnostics& diag, const ParameterReaders* readers) {
+    // Every shape must split into the same pieces: patch blocks of the
+    // first shape's size, and only when no shape carries a class that
+    // would make its mesh patch by patch.
+    int blockSide = patchBlockSide(*record);
+    for (const scene::PrimitiveRecord& s : record->shapes)
+        if (hasPerPatchClasses(s)) blockSide = 0;
+    if (hasPerPatchClasses(*record)) blockSide = 0;
+    // The shaders are the first shape's: every shape gets its answer,
+    // asked once and only by a family that asks (subdivision meshes).
+    ParameterReaders firstShapes;
+    std::optional<bool> reads;
+    if (readers) {
+        firstShapes = [&reads, ask = readers, &record](const scene::Attributes&) {
+            if (!reads) reads = (*ask)(record->attributes ? *record->attributes : scene::Attributes());
+            return *reads;
+        };
+        readers = &firstShapes;
+    }
     std::vector<std::vector<PrimitivePtr>> shapes;
-    shapes.push_back(makeShape(record, diag));
+    shapes.push_back(makeShape(record, diag, blockSide, readers));
     if (record->type == "Blobby") {
         // Each shape's surface is polygonised on its own, so their pieces
         // do not pair up: blurring them would move one triangle to another.
@@ -344,7 +412,7 @@ std::vector<PrimitivePtr> makeDeforming(const RecordPtr& record, Diagnostics& di
         return std::move(shapes[0]);
     }
     for (const scene::PrimitiveRecord& s : record->shapes) {
-        shapes.push_back(makeShape(std::make_shared<const scene::PrimitiveRecord>(s), diag));
+        shapes.push_back(makeShape(std::make_shared<const scene::PrimitiveRecord>(s), diag, blockSide, readers));
         if (shapes.back().size() != shapes[0].size()) {
             diag.error(s.loc, "{}: this motion shape makes {} primitives where the first makes {} (the primitive "
                        "renders unblurred)", s.type, shapes.back().size(), shapes[0].size());
@@ -362,14 +430,24 @@ std::vector<PrimitivePtr> makeDeforming(const RecordPtr& record, Diagnostics& di
 
 }  // namespace
 
+namespace {
+
+std::vector<PrimitivePtr> makeAll(std::shared_ptr<const scene::PrimitiveRecord> record, Diagnostics& diag,
+                                  const ParameterReaders* readers) {
+    if (record && !record->shapes.empty()) return makeDeforming(record, diag, readers);
+    return makeShape(std::move(record), diag, -1, readers);
+}
+
+}  // namespace
+
 std::vector<PrimitivePtr> makePrimitives(std::shared_ptr<const scene::PrimitiveRecord> record, Diagnostics& diag) {
-    if (record && !record->shapes.empty()) return makeDeforming(record, diag);
-    return makeShape(std::move(record), diag);
+    return makeAll(std::move(record), diag, nullptr);
 }
 
 std::vector<PrimitivePtr> makePrimitives(std::shared_ptr<const scene::PrimitiveRecord> record, Diagnostics& diag,
-                                         const std::shared_ptr<ProceduralContext>& procedurals) {
-    if (!record || !isProceduralRecord(*record)) return makePrimitives(std::move(record), diag);
+                                         const std::shared_ptr<ProceduralContext>& procedurals,
+                                         const ParameterReaders& readers) {
+    if (!record || !isProceduralRecord(*record)) return makeAll(std::move(record), diag, readers ? &readers : nullptr);
     std::vector<PrimitivePtr> out;
     if (!record->shapes.empty())
         diag.warningOnce("procedural:motion", record->loc, "Procedural: a MotionBegin block around a procedural is "
@@ -383,7 +461,8 @@ std::vector<PrimitivePtr> makePrimitives(std::shared_ptr<const scene::PrimitiveR
 
 namespace {
 
-std::vector<PrimitivePtr> makeShape(std::shared_ptr<const scene::PrimitiveRecord> record, Diagnostics& diag) {
+std::vector<PrimitivePtr> makeShape(std::shared_ptr<const scene::PrimitiveRecord> record, Diagnostics& diag,
+                                    int blockSide, const ParameterReaders* readers) {
     std::vector<PrimitivePtr> out;
     if (!record) return out;
     const std::string& t = record->type;
@@ -393,9 +472,16 @@ std::vector<PrimitivePtr> makeShape(std::shared_ptr<const scene::PrimitiveRecord
     else if (t == "Polygon" || t == "GeneralPolygon" || t == "PointsPolygons" || t == "PointsGeneralPolygons")
         makePolygons(record, diag, out);
     else if (t == "Patch" || t == "PatchMesh")
-        makePatches(record, diag, out);
+        makePatches(record, diag, out, blockSide);
     else if (t == "SubdivisionMesh" || t == "HierarchicalSubdivisionMesh")
-        makeSubdivisionMesh(record, diag, out);
+    {
+        // Regular regions as blocks of the patchblock side, where no shader
+        // can tell the blocks' u, v from the faces'.
+        const int side = blockSide < 0 ? patchBlockSide(*record) : blockSide;
+        const bool blocks = side > 1 && readers &&
+                            !(*readers)(record->attributes ? *record->attributes : scene::Attributes());
+        makeSubdivisionMesh(record, diag, out, blocks ? side : 0);
+    }
     else if (t == "NuPatch")
         makeNuPatches(record, diag, out);
     else if (t == "Curves")

@@ -202,26 +202,33 @@ std::shared_ptr<const BicubicCoeffs> BicubicCoeffs::make(const SurfaceData& sd, 
     return c;
 }
 
-void evalBicubicGrid(const float* c, int comps, const std::vector<float>& a, const std::vector<float>& b, float* out) {
+void evalBicubicRect(const float* c, int comps, const float* a, int na, const float* b, int nb, float* out,
+                     size_t rowStride) {
     // Per row: collapse v (Horner), leaving a cubic in u per component;
     // per vertex: Horner in u, three multiply-adds per component.
     constexpr int kMax = 16;
     float R[4][kMax];
     for (int base = 0; base < comps; base += kMax) {
         const int n = std::min(kMax, comps - base);
-        float* o = out + base;
-        for (float bv : b) {
+        for (int row = 0; row < nb; ++row) {
+            const float bv = b[row];
+            float* o = out + size_t(row) * rowStride + size_t(base);
             for (int k = 0; k < 4; ++k)
                 for (int q = 0; q < n; ++q) {
                     const float* ck = c + size_t(k * 4) * size_t(comps) + size_t(base + q);
                     R[k][q] = ((ck[3 * comps] * bv + ck[2 * comps]) * bv + ck[comps]) * bv + ck[0];
                 }
-            for (float av : a) {
+            for (int col = 0; col < na; ++col) {
+                const float av = a[col];
                 for (int q = 0; q < n; ++q) o[q] = ((R[3][q] * av + R[2][q]) * av + R[1][q]) * av + R[0][q];
                 o += comps;
             }
         }
     }
+}
+
+void evalBicubicGrid(const float* c, int comps, const std::vector<float>& a, const std::vector<float>& b, float* out) {
+    evalBicubicRect(c, comps, a.data(), int(a.size()), b.data(), int(b.size()), out, a.size() * size_t(comps));
 }
 
 BicubicPatch::BicubicPatch(std::shared_ptr<const scene::PrimitiveRecord> record,
@@ -239,11 +246,11 @@ Vec3 BicubicPatch::evaluate(float u, float v) const {
     return p;
 }
 
-Bound3 BicubicPatch::bound() const {
+Bound3 bicubicHullBound(const BicubicCoeffs& coeffs, const ParamRange& range) {
     double Qu[4][4], Qv[4][4];
-    bezierOfRange(m_range.u0, m_range.u1, Qu);
-    bezierOfRange(m_range.v0, m_range.v1, Qv);
-    const int dim = m_coeffs->posDim;
+    bezierOfRange(range.u0, range.u1, Qu);
+    bezierOfRange(range.v0, range.v1, Qv);
+    const int dim = coeffs.posDim;
     Bound3 bnd;
     for (int i = 0; i < 4; ++i)
         for (int j = 0; j < 4; ++j) {
@@ -251,7 +258,7 @@ Bound3 BicubicPatch::bound() const {
             for (int comp = 0; comp < 4; ++comp) {
                 double s = 0;
                 for (int k = 0; k < 4; ++k)
-                    for (int l = 0; l < 4; ++l) s += Qu[i][k] * Qv[j][l] * m_coeffs->pos[k][l][comp];
+                    for (int l = 0; l < 4; ++l) s += Qu[i][k] * Qv[j][l] * coeffs.pos[k][l][comp];
                 p[comp] = float(s);
             }
             extendHomogeneous(bnd, p, dim);
@@ -266,6 +273,8 @@ Bound3 BicubicPatch::bound() const {
     bnd.max += Vec3(pad);
     return bnd;
 }
+
+Bound3 BicubicPatch::bound() const { return bicubicHullBound(*m_coeffs, m_range); }
 
 void BicubicPatch::split(bool splitU, std::vector<PrimitivePtr>& out) const {
     for (int k = 0; k < 2; ++k)
@@ -306,6 +315,233 @@ void BicubicPatch::dicePositions(int nu, int nv, std::vector<Vec3>& P) const {
     h.resize(n * 4);
     evalBicubicGrid(&m_coeffs->pos[0][0][0], 4, a, b, h.data());
     for (size_t k = 0; k < n; ++k) divideW(&h[k * 4], m_coeffs->posDim, &P[k]);
+}
+
+// ---------------------------------------------------------------------------
+// Blocks of bicubic patches
+
+bool BicubicPatchArray::blockable(const SurfaceData& sd) {
+    for (const PrimVar& v : sd.vars)
+        if (v.storage == ri::StorageClass::Uniform || v.storage == ri::StorageClass::FaceVarying ||
+            v.storage == ri::StorageClass::FaceVertex)
+            return false;
+    return true;
+}
+
+BicubicBlock::BicubicBlock(std::shared_ptr<const scene::PrimitiveRecord> record,
+                           std::shared_ptr<const BicubicPatchArray> patches, int i0, int j0, int i1, int j1)
+    : Primitive(std::move(record)), m_patches(std::move(patches)), m_i0(i0), m_j0(j0), m_i1(i1), m_j1(j1) {
+    for (int j = j0; j < j1; ++j)
+        for (int i = i0; i < i1; ++i) m_bound.extend(m_patches->bounds[m_patches->index(i, j)]);
+}
+
+void BicubicBlock::appendPiece(const std::shared_ptr<const scene::PrimitiveRecord>& record,
+                               const std::shared_ptr<const BicubicPatchArray>& patches, int i0, int j0, int i1, int j1,
+                               std::vector<PrimitivePtr>& out) {
+    if (i1 - i0 == 1 && j1 - j0 == 1) {
+        const size_t k = patches->index(i0, j0);
+        out.push_back(std::make_unique<BicubicPatch>(record, patches->sd, patches->coeffs[k], patches->refs[k],
+                                                     ParamRange{}, patches->map(i0, j0)));
+        return;
+    }
+    out.push_back(std::make_unique<BicubicBlock>(record, patches, i0, j0, i1, j1));
+}
+
+void BicubicBlock::appendBlocks(const std::shared_ptr<const scene::PrimitiveRecord>& record,
+                                const std::shared_ptr<const BicubicPatchArray>& patches, int maxSide,
+                                std::vector<PrimitivePtr>& out) {
+    maxSide = std::max(maxSide, 1);
+    const int bu = (patches->columns + maxSide - 1) / maxSide, bv = (patches->rows + maxSide - 1) / maxSide;
+    for (int q = 0; q < bv; ++q)
+        for (int p = 0; p < bu; ++p)
+            appendPiece(record, patches, patches->columns * p / bu, patches->rows * q / bv,
+                        patches->columns * (p + 1) / bu, patches->rows * (q + 1) / bv, out);
+}
+
+void BicubicBlock::split(bool splitU, std::vector<PrimitivePtr>& out) const {
+    // Across u as asked when the block is more than one patch wide, else
+    // across v; a block one patch wide and tall is never made (appendPiece).
+    const bool acrossU = columns() > 1 && (splitU || rows() == 1);
+    if (acrossU) {
+        const int m = m_i0 + columns() / 2;
+        appendPiece(recordPtr(), m_patches, m_i0, m_j0, m, m_j1, out);
+        appendPiece(recordPtr(), m_patches, m, m_j0, m_i1, m_j1, out);
+    } else {
+        const int m = m_j0 + rows() / 2;
+        appendPiece(recordPtr(), m_patches, m_i0, m_j0, m_i1, m, out);
+        appendPiece(recordPtr(), m_patches, m_i0, m, m_i1, m_j1, out);
+    }
+}
+
+namespace {
+
+/// Where the n + 1 lattice values of one direction of a block `count`
+/// patches long fall: value k at k * count / n patch widths, on patch
+/// min(floor, count - 1) at the local parameter `local[k]` (computed in
+/// integers, so patch edges are hit exactly); `first[p]` is the first
+/// value on patch p (first[count] = n + 1).
+void blockLattice(int count, int n, std::vector<int>& first, std::vector<float>& local) {
+    first.assign(size_t(count) + 1, n + 1);
+    local.resize(size_t(n) + 1);
+    for (int k = n; k >= 0; --k) {
+        const long num = long(count) * long(k);
+        const int p = std::min(int(num / n), count - 1);
+        local[size_t(k)] = float(num - long(p) * n) / float(n);
+        first[size_t(p)] = k;
+    }
+    // Patches no value falls on start where the next one does.
+    for (int p = count - 1; p >= 0; --p) first[size_t(p)] = std::min(first[size_t(p)], first[size_t(p) + 1]);
+}
+
+// Bilinear interpolation of `comps` floats from four corners over na x nb
+// values, rows `rowStride` floats apart.
+void bilerpRect(const float* c0, const float* c1, const float* c2, const float* c3, int comps, const float* a, int na,
+                const float* b, int nb, float* out, size_t rowStride) {
+    for (int row = 0; row < nb; ++row) {
+        const float bv = b[row];
+        float* o = out + size_t(row) * rowStride;
+        for (int col = 0; col < na; ++col) {
+            const float av = a[col];
+            for (int k = 0; k < comps; ++k) {
+                const float L = c0[k] + bv * (c2[k] - c0[k]), R = c1[k] + bv * (c3[k] - c1[k]);
+                o[k] = L + av * (R - L);
+            }
+            o += comps;
+        }
+    }
+}
+
+struct BlockLattice {
+    std::vector<int> firstU, firstV;
+    std::vector<float> a, b;
+};
+
+}  // namespace
+
+void BicubicBlock::positions(int nu, int nv, Vec3* P) const {
+    thread_local BlockLattice L;
+    thread_local std::vector<float> h;
+    blockLattice(columns(), nu, L.firstU, L.a);
+    blockLattice(rows(), nv, L.firstV, L.b);
+    const size_t n = size_t(nu + 1) * size_t(nv + 1);
+    h.resize(n * 4);
+    const size_t stride = size_t(nu + 1) * 4;
+    for (int q = 0; q < rows(); ++q) {
+        const int r0 = L.firstV[size_t(q)], r1 = L.firstV[size_t(q) + 1];
+        if (r1 <= r0) continue;
+        for (int p = 0; p < columns(); ++p) {
+            const int c0 = L.firstU[size_t(p)], c1 = L.firstU[size_t(p) + 1];
+            if (c1 <= c0) continue;
+            const BicubicCoeffs& c = *m_patches->coeffs[m_patches->index(m_i0 + p, m_j0 + q)];
+            evalBicubicRect(&c.pos[0][0][0], 4, &L.a[size_t(c0)], c1 - c0, &L.b[size_t(r0)], r1 - r0,
+                            &h[size_t(r0) * stride + size_t(c0) * 4], stride);
+        }
+    }
+    const int dim = m_patches->coeffs[0]->posDim;
+    for (size_t k = 0; k < n; ++k) divideW(&h[k * 4], dim, &P[k]);
+}
+
+void BicubicBlock::dicePositions(int nu, int nv, std::vector<Vec3>& P) const {
+    P.resize(size_t(nu + 1) * size_t(nv + 1));
+    positions(nu, nv, P.data());
+}
+
+Grid BicubicBlock::dice(int nu, int nv) const {
+    const BicubicPatchArray& pa = *m_patches;
+    const SurfaceData& sd = orEmpty(pa.sd);
+    Grid g;
+    g.nu = nu;
+    g.nv = nv;
+    const size_t n = size_t(g.vertexCount());
+    g.P.resize(n);
+    positions(nu, nv, g.P.data());
+    BlockLattice L;
+    blockLattice(columns(), nu, L.firstU, L.a);
+    blockLattice(rows(), nv, L.firstV, L.b);
+    // The patch each column and row falls on, as an index into the array.
+    std::vector<int> colPatch(size_t(nu) + 1), rowPatch(size_t(nv) + 1);
+    for (int p = 0; p < columns(); ++p)
+        for (int k = L.firstU[size_t(p)]; k < L.firstU[size_t(p) + 1]; ++k) colPatch[size_t(k)] = m_i0 + p;
+    for (int q = 0; q < rows(); ++q)
+        for (int k = L.firstV[size_t(q)]; k < L.firstV[size_t(q) + 1]; ++k) rowPatch[size_t(k)] = m_j0 + q;
+    g.u.resize(n);
+    g.v.resize(n);
+    g.du = float(columns()) / float(nu) * pa.uScale;
+    g.dv = float(rows()) / float(nv) * pa.vScale;
+    for (int j = 0, k = 0; j <= nv; ++j) {
+        const float gv = pa.map(0, rowPatch[size_t(j)]).vOffset + pa.vScale * L.b[size_t(j)];
+        for (int i = 0; i <= nu; ++i, ++k) {
+            g.u[size_t(k)] = pa.map(colPatch[size_t(i)], 0).uOffset + pa.uScale * L.a[size_t(i)];
+            g.v[size_t(k)] = gv;
+        }
+    }
+    // Calls f(patch index, c0, c1, r0, r1) for every patch of the block
+    // some grid vertex falls on.
+    auto forPatches = [&](auto&& f) {
+        for (int q = 0; q < rows(); ++q) {
+            const int r0 = L.firstV[size_t(q)], r1 = L.firstV[size_t(q) + 1];
+            if (r1 <= r0) continue;
+            for (int p = 0; p < columns(); ++p) {
+                const int c0 = L.firstU[size_t(p)], c1 = L.firstU[size_t(p) + 1];
+                if (c1 > c0) f(pa.index(m_i0 + p, m_j0 + q), c0, c1, r0, r1);
+            }
+        }
+    };
+    const size_t rowVerts = size_t(nu) + 1;
+    // Varying variables, bilinear across each patch from its corners, as
+    // interpolateVars does patch by patch; constant ones as one value.
+    // (Uniform and facevarying never reach a block: blockable().)
+    for (const PrimVar& v : sd.vars) {
+        if (v.storage == ri::StorageClass::Vertex) continue;
+        const bool varying = v.storage == ri::StorageClass::Varying;
+        float* dst = nullptr;
+        if (v.isNormal) {
+            g.N.resize(n);
+            if (!varying) {
+                const float* c = v.at(0);
+                std::fill(g.N.begin(), g.N.end(), Vec3(c[0], c[1], c[2]));
+                continue;
+            }
+            dst = &g.N[0].x;
+        } else if (!varying) {
+            GridVar& gv = addGridVar(g, v, false);
+            const float* c = v.at(0);
+            std::copy(c, c + v.components, gv.data.begin());
+            continue;
+        } else {
+            dst = addGridVar(g, v, true).data.data();
+        }
+        const int comps = std::min(v.components, 64);
+        forPatches([&](size_t k, int c0, int c1, int r0, int r1) {
+            const int* corners = pa.refs[k].varying;
+            float c[4][64];
+            for (int q = 0; q < 4; ++q)
+                for (int e = 0; e < comps; ++e) c[q][e] = v.at(size_t(corners[q]))[e];
+            bilerpRect(c[0], c[1], c[2], c[3], comps, &L.a[size_t(c0)], c1 - c0, &L.b[size_t(r0)], r1 - r0,
+                       dst + (size_t(r0) * rowVerts + size_t(c0)) * size_t(v.components), rowVerts * size_t(v.components));
+        });
+    }
+    addDefaultVars(sd, g);
+    // Vertex variables with the basis, as BicubicPatch::dice does (every
+    // patch's coefficients list them in the same order).
+    const std::vector<BicubicCoeffs::Var>& vertexVars = pa.coeffs[0]->vertexVars;
+    for (size_t vi = 0; vi < vertexVars.size(); ++vi) {
+        const PrimVar& v = sd.vars[size_t(vertexVars[vi].index)];
+        const int comps = v.isNormal ? 3 : v.components;
+        float* dst;
+        if (v.isNormal) {
+            g.N.resize(n);
+            dst = &g.N[0].x;
+        } else {
+            dst = addGridVar(g, v, true).data.data();
+        }
+        forPatches([&](size_t k, int c0, int c1, int r0, int r1) {
+            evalBicubicRect(pa.coeffs[k]->vertexVars[vi].c.data(), comps, &L.a[size_t(c0)], c1 - c0,
+                            &L.b[size_t(r0)], r1 - r0, dst + (size_t(r0) * rowVerts + size_t(c0)) * size_t(comps),
+                            rowVerts * size_t(comps));
+        });
+    }
+    return g;
 }
 
 }  // namespace umbra::geometry

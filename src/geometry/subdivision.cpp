@@ -1,5 +1,7 @@
 #include "umbra/geometry/subdivision.h"
 
+#include "umbra/geometry/patch.h"
+
 #include <opensubdiv/bfr/refinerSurfaceFactory.h>
 #include <opensubdiv/bfr/surface.h>
 #include <opensubdiv/bfr/surfaceFactoryCache.h>
@@ -7,6 +9,7 @@
 #include <opensubdiv/far/topologyRefinerFactory.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <mutex>
 #include <shared_mutex>
@@ -540,7 +543,185 @@ std::vector<int> mortonOrder(const std::vector<Bound3>& bounds) {
 
 }  // namespace
 
-void makeSubdivisionMesh(const RecordPtr& rec, Diagnostics& diag, std::vector<PrimitivePtr>& out) {
+// ---------------------------------------------------------------------------
+// Regular regions as bicubic B-spline blocks
+
+namespace {
+
+using Level = osd::Far::TopologyLevel;
+
+/// A quad all of whose corners are smooth (no sharp edge or vertex),
+/// interior, manifold vertices of valence 4 among quads, none a hole: its
+/// limit surface is the uniform bicubic B-spline patch of the 16 vertices
+/// of the 3 x 3 faces around it.
+bool regularInteriorFace(const Level& L, int f) {
+    if (L.IsFaceHole(f)) return false;
+    const auto fv = L.GetFaceVertices(f);
+    if (fv.size() != 4) return false;
+    for (int k = 0; k < 4; ++k) {
+        const int v = fv[k];
+        if (L.IsVertexBoundary(v) || L.IsVertexNonManifold(v) || L.GetVertexSharpness(v) > 0 ||
+            L.GetVertexRule(v) != osd::Sdc::Crease::RULE_SMOOTH)
+            return false;
+        const auto faces = L.GetVertexFaces(v);
+        const auto edges = L.GetVertexEdges(v);
+        if (faces.size() != 4 || edges.size() != 4) return false;
+        for (int e = 0; e < 4; ++e)
+            if (L.GetEdgeSharpness(edges[e]) > 0) return false;
+        for (int g = 0; g < 4; ++g)
+            if (L.IsFaceHole(faces[g]) || L.GetFaceVertices(faces[g]).size() != 4) return false;
+    }
+    return true;
+}
+
+/// The quad across edge (a, b) from `face`: its two other vertices, the
+/// one next to a (`farA`) and the one next to b (`farB`).
+bool across(const Level& L, int face, int a, int b, int* other, int* farA, int* farB) {
+    const int e = L.FindEdge(a, b);
+    if (e < 0) return false;
+    const auto ef = L.GetEdgeFaces(e);
+    if (ef.size() != 2) return false;
+    const int g = ef[0] == face ? ef[1] : ef[0];
+    const auto gv = L.GetFaceVertices(g);
+    if (gv.size() != 4) return false;
+    int ia = -1, ib = -1;
+    for (int k = 0; k < 4; ++k) {
+        if (gv[k] == a) ia = k;
+        if (gv[k] == b) ib = k;
+    }
+    if (ia < 0 || ib < 0) return false;
+    auto far = [&](int i, int not_) {
+        const int n1 = gv[(i + 1) % 4], n3 = gv[(i + 3) % 4];
+        return n1 == not_ ? n3 : n1;
+    };
+    *other = g;
+    *farA = far(ia, b);
+    *farB = far(ib, a);
+    return true;
+}
+
+/// The 16 B-spline control vertices of a regular interior face, row after
+/// row with u fastest, the face's corners 0, 1, 2, 3 at [1][1], [1][2],
+/// [2][2], [2][1] (u from corner 0 to 1, v from corner 0 to 3, as
+/// SubdivFace); also the faces across its edges 1-2 (next in u) and 2-3
+/// (next in v).
+bool regularControlPoints(const Level& L, int f, std::array<int, 16>& c, int* nextU, int* nextV) {
+    const auto fv = L.GetFaceVertices(f);
+    auto P = [&](int r, int col) -> int& { return c[size_t(r * 4 + col)]; };
+    P(1, 1) = fv[0];
+    P(1, 2) = fv[1];
+    P(2, 2) = fv[2];
+    P(2, 1) = fv[3];
+    int below, right, top, left, g, unused;
+    if (!across(L, f, fv[0], fv[1], &below, &P(0, 1), &P(0, 2))) return false;
+    if (!across(L, f, fv[1], fv[2], &right, &P(1, 3), &P(2, 3))) return false;
+    if (!across(L, f, fv[2], fv[3], &top, &P(3, 2), &P(3, 1))) return false;
+    if (!across(L, f, fv[3], fv[0], &left, &P(2, 0), &P(1, 0))) return false;
+    if (!across(L, below, fv[0], P(0, 1), &g, &unused, &P(0, 0))) return false;
+    if (!across(L, below, fv[1], P(0, 2), &g, &unused, &P(0, 3))) return false;
+    if (!across(L, top, fv[2], P(3, 2), &g, &unused, &P(3, 3))) return false;
+    if (!across(L, top, fv[3], P(3, 1), &g, &unused, &P(3, 0))) return false;
+    *nextU = right;
+    *nextV = top;
+    return true;
+}
+
+struct RegularFace {
+    std::array<int, 16> ctrl;
+    int nextU = -1, nextV = -1;
+    bool regular = false;
+};
+
+// Whether face b continues face a one step along u (v): its control points
+// are a's shifted by one column (row), so the two parameterisations line up.
+bool followsInU(const RegularFace& a, const RegularFace& b) {
+    for (int r = 0; r < 4; ++r)
+        for (int col = 0; col < 3; ++col)
+            if (b.ctrl[size_t(r * 4 + col)] != a.ctrl[size_t(r * 4 + col + 1)]) return false;
+    return true;
+}
+bool followsInV(const RegularFace& a, const RegularFace& b) {
+    for (int r = 0; r < 3; ++r)
+        for (int col = 0; col < 4; ++col)
+            if (b.ctrl[size_t(r * 4 + col)] != a.ctrl[size_t((r + 1) * 4 + col)]) return false;
+    return true;
+}
+
+/// Groups the regular faces of the mesh into rectangles of at most side x
+/// side faces whose parameterisations line up, greedily in face order
+/// (grow along u, then add rows along v while every face of the next row
+/// follows the one below it); appends a BicubicBlock (or a lone
+/// BicubicPatch) per rectangle and marks its faces in `inBlock`.
+void appendRegularBlocks(const RecordPtr& rec, const SubdivMeshData& m, int side, std::vector<char>& inBlock,
+                         std::vector<PrimitivePtr>& out) {
+    const Level& L = m.refiner->GetLevel(0);
+    const int nfaces = L.GetNumFaces();
+    std::vector<RegularFace> faces(static_cast<size_t>(nfaces));
+    for (int f = 0; f < nfaces; ++f) {
+        RegularFace& rf = faces[size_t(f)];
+        rf.regular = regularInteriorFace(L, f) && regularControlPoints(L, f, rf.ctrl, &rf.nextU, &rf.nextV);
+    }
+    inBlock.assign(size_t(nfaces), 0);
+    const scene::Basis bspline = scene::Basis::bspline();
+    std::vector<int> row, next, block;
+    for (int f = 0; f < nfaces; ++f) {
+        if (!faces[size_t(f)].regular || inBlock[size_t(f)]) continue;
+        auto available = [&](int g) { return g >= 0 && faces[size_t(g)].regular && !inBlock[size_t(g)]; };
+        row.assign(1, f);
+        inBlock[size_t(f)] = 1;
+        while (int(row.size()) < side) {
+            const int g = faces[size_t(row.back())].nextU;
+            if (!available(g) || !followsInU(faces[size_t(row.back())], faces[size_t(g)])) break;
+            row.push_back(g);
+            inBlock[size_t(g)] = 1;
+        }
+        block = row;
+        int rows = 1;
+        while (rows < side) {
+            next.clear();
+            bool ok = true;
+            for (size_t k = 0; k < row.size() && ok; ++k) {
+                const int g = faces[size_t(row[k])].nextV;
+                ok = available(g) && followsInV(faces[size_t(row[k])], faces[size_t(g)]) &&
+                     (k == 0 || followsInU(faces[size_t(next.back())], faces[size_t(g)]));
+                if (ok) {
+                    next.push_back(g);
+                    inBlock[size_t(g)] = 1;  // also keeps a face from coming twice in one row
+                }
+            }
+            if (!ok) {
+                for (int g : next) inBlock[size_t(g)] = 0;
+                break;
+            }
+            block.insert(block.end(), next.begin(), next.end());
+            row.swap(next);
+            ++rows;
+        }
+        auto patches = std::make_shared<BicubicPatchArray>();
+        patches->sd = m.sd;
+        patches->columns = int(row.size());
+        patches->rows = rows;
+        for (int g : block) {
+            patches->coeffs.push_back(BicubicCoeffs::make(*m.sd, faces[size_t(g)].ctrl, bspline, bspline));
+            patches->bounds.push_back(bicubicHullBound(*patches->coeffs.back(), ParamRange{}));
+            patches->refs.emplace_back();
+        }
+        BicubicBlock::appendPiece(rec, patches, 0, 0, patches->columns, patches->rows, out);
+    }
+}
+
+/// Whether every variable of the mesh can ride on a bicubic block: vertex
+/// class (the B-spline basis is the limit of a regular face) or constant.
+bool blockableVariables(const SurfaceData& sd) {
+    if (sd.posDim != 3) return false;
+    for (const PrimVar& v : sd.vars)
+        if (v.storage != ri::StorageClass::Vertex && v.storage != ri::StorageClass::Constant) return false;
+    return true;
+}
+
+}  // namespace
+
+void makeSubdivisionMesh(const RecordPtr& rec, Diagnostics& diag, std::vector<PrimitivePtr>& out, int blockSide) {
     const std::string& what = rec->type;
     const auto& arrays = rec->intArrays;
     if (rec->stringArgs.empty() || arrays.size() < 2) {
@@ -659,8 +840,16 @@ void makeSubdivisionMesh(const RecordPtr& rec, Diagnostics& diag, std::vector<Pr
     SurfaceFactory::Options factoryOptions;
     factoryOptions.SetApproxLevelSmooth(kApproxSmooth);
     mesh->factory = std::make_unique<SurfaceFactory>(*mesh->refiner, factoryOptions);
-    const int nfaces = int(nverts.size());
-    out.push_back(std::make_unique<SubdivMesh>(rec, std::move(mesh), 0, nfaces));
+    if (blockSide > 1 && type == osd::Sdc::SCHEME_CATMARK && blockableVariables(*sd)) {
+        // Regular regions go out as blocks; the mesh keeps the other faces.
+        std::vector<char> inBlock;
+        appendRegularBlocks(rec, *mesh, blockSide, inBlock, out);
+        mesh->faceOrder.erase(std::remove_if(mesh->faceOrder.begin(), mesh->faceOrder.end(),
+                                             [&](int f) { return inBlock[size_t(f)] != 0; }),
+                              mesh->faceOrder.end());
+    }
+    const int nfaces = int(mesh->faceOrder.size());
+    if (nfaces > 0) out.push_back(std::make_unique<SubdivMesh>(rec, std::move(mesh), 0, nfaces));
 }
 
 }  // namespace umbra::geometry

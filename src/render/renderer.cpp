@@ -624,13 +624,23 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
         if (a.atmosphere) pa.atmosphere = shading->instantiate(*a.atmosphere, shading::ShaderKind::Volume);
     };
 
+    // Subdivision meshes dice their regular regions in blocks only where no
+    // shader can tell the blocks' u, v from the faces' (geometry/primitive.h).
+    const geometry::ParameterReaders parameterReaders = [this](const scene::Attributes& a) {
+        if (a.displacement) return true;
+        if (!a.surface) return false;  // defaultsurface reads neither
+        const auto path = shading->findFile(a.surface->name);
+        if (!path) return true;
+        const auto shader = shading->compile(*path);
+        return !shader || shader->readsSurfaceParameters();
+    };
     std::vector<geometry::PrimitivePtr> prims;
     for (const auto& rec : world.primitives) {
         // Not owning: `world` outlives every primitive of this frame, and a
         // copy of each record doubled the scene's memory.
         const std::shared_ptr<const scene::PrimitiveRecord> borrowed(std::shared_ptr<void>(), &rec);
         try {
-            auto made = geometry::makePrimitives(borrowed, diag, procedurals);
+            auto made = geometry::makePrimitives(borrowed, diag, procedurals, parameterReaders);
             if (prims.empty()) {
                 prims = std::move(made);  // a run of 10^6 polygons: not a second array
                 continue;

@@ -35,7 +35,7 @@ constexpr const char* kStandard[] = {
     // umbra's own options (docs/shadows.md).
     "uniform integer shadowmapsize", "uniform float dualoffset", "uniform integer tilecachemb",
     "uniform string depthcull", "uniform float depthshadingrate",
-    "uniform integer depthlayers", "uniform integer reusemaps",
+    "uniform integer depthlayers", "uniform integer reusemaps", "uniform integer patchblock",
     // Option "searchpath", "limits", "statistics".
     "uniform string shader", "uniform string texture", "uniform string archive",
     "uniform string procedural", "uniform string resource", "uniform string display",

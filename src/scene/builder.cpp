@@ -58,6 +58,7 @@ constexpr UmbraNumber kUmbraNumbers[] = {
     {"depthshadingrate", 0, 1e6, "a rate of 0 (the surfaces' own) or more"},
     {"dualoffset", 0, 1e6, "an offset of 0 or more"},
     {"reusemaps", 0, 1, "0 (render every automatic map) or 1"},
+    {"patchblock", 0, 64, "an integer from 0 to 64 (patches along a block's side; 0 or 1: patch by patch)"},
 };
 
 /// Whether `p`, a parameter of Option or Attribute "umbra", holds a value

@@ -90,6 +90,23 @@ bool Shader::variesByFrame() const {
     return false;
 }
 
+bool Shader::readsSurfaceParameters() const {
+    const CompiledShader& cs = *m_code;
+    auto surfaceParameter = [&](int r) {
+        if (r < 0) return false;
+        for (GlobalId g : {gS, gT, gU, gV})
+            if (r == cs.globalRegs[g]) return true;
+        return false;
+    };
+    for (const Instr& in : cs.code) {
+        if (surfaceParameter(in.dst) || surfaceParameter(in.a) || surfaceParameter(in.b) || surfaceParameter(in.c))
+            return true;
+        for (int k = 0; k < in.nargs; ++k)
+            if (surfaceParameter(cs.args[size_t(in.argBase + k)])) return true;
+    }
+    return false;
+}
+
 // --- ShadingGrid ----------------------------------------------------------
 
 void ShadingGrid::resize(int uVertices, int vVertices) {

@@ -7,6 +7,7 @@
 #include "umbra/util/error.h"
 #include "umbra/util/math.h"
 
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -99,11 +100,19 @@ private:
 /// returning nothing for them.
 std::vector<PrimitivePtr> makePrimitives(std::shared_ptr<const scene::PrimitiveRecord> record, Diagnostics& diag);
 
+/// Asked by makePrimitives about a record's attributes: true when the
+/// shaders that will run on it may tell how its surface is cut into grids
+/// (a displacement shader, or a surface shader reading u, v, s or t).
+/// Subdivision meshes dice their regular regions as bicubic blocks
+/// (geometry/subdivision.h) only when it answers false; without it, never.
+using ParameterReaders = std::function<bool(const scene::Attributes&)>;
+
 class ProceduralContext;
 /// makePrimitives() that also makes `Procedural` records into procedural
 /// primitives (geometry/procedural.h) expanding in `procedurals`' world;
 /// without a context they are skipped with a warning.
 std::vector<PrimitivePtr> makePrimitives(std::shared_ptr<const scene::PrimitiveRecord> record, Diagnostics& diag,
-                                         const std::shared_ptr<ProceduralContext>& procedurals);
+                                         const std::shared_ptr<ProceduralContext>& procedurals,
+                                         const ParameterReaders& readers = {});
 
 }  // namespace umbra::geometry

@@ -96,7 +96,17 @@ private:
 /// Builds the SubdivMesh of a SubdivisionMesh record (scheme, nvertices,
 /// vertices, tags, nargs, intargs, floatargs; RI spec 3.2 §5.6), reporting
 /// malformed records and unknown tags with the record's location.
+///
+/// With `blockSide` > 1, a Catmull-Clark mesh whose variables are all of
+/// vertex or constant class also gives its regular regions as BicubicBlocks
+/// (geometry/patch.h): a face all of whose corners are smooth interior
+/// vertices of valence 4 among quads and no holes is exactly the uniform
+/// bicubic B-spline patch of the 16 vertices around it, and up to
+/// blockSide x blockSide such faces whose parameterisations line up are diced as one grid. A
+/// block's grid u, v run over [0, columns] x [0, rows] (face by face, each
+/// face's own u, v plus its offset), so the caller allows it only where no
+/// shader reads u, v, s or t and nothing displaces (ParameterReaders).
 void makeSubdivisionMesh(const std::shared_ptr<const scene::PrimitiveRecord>& record, Diagnostics& diag,
-                         std::vector<PrimitivePtr>& out);
+                         std::vector<PrimitivePtr>& out, int blockSide = 0);
 
 }  // namespace umbra::geometry

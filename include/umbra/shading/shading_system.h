@@ -55,6 +55,11 @@ public:
     /// shadow() (stochastic, and maps made per frame) or option() (e.g.
     /// "FrameNumber").
     bool variesByFrame() const;
+    /// Whether it reads the surface parameters u, v or the texture
+    /// coordinates s, t (texture() without coordinates reads s and t):
+    /// such a shader can tell how a surface was cut into grids, so
+    /// geometry that changes the cut (subdivision blocks) must not.
+    bool readsSurfaceParameters() const;
     const CompiledShader& code() const { return *m_code; }
 
 private:

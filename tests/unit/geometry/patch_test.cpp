@@ -174,6 +174,17 @@ TEST(Patch, PzIsAHeightFieldOverTheUnitSquare) {
 
 namespace {
 
+// Attribute "umbra" "patchblock" [0]: a bicubic mesh diced patch by patch,
+// one primitive per patch, as these tests count and check them
+// (patch_blocks_test.cpp checks the blocks against them).
+void patchByPatch(scene::Attributes& attrs) {
+    ri::Param side;
+    side.decl.name = "patchblock";
+    side.decl.type = ri::ParamType::Integer;
+    side.ints = {0};
+    attrs.user["umbra:patchblock"] = side;
+}
+
 std::shared_ptr<scene::PrimitiveRecord> meshRecord(const std::string& kind, int nu, const std::string& uwrap, int nv,
                                                    const std::string& vwrap, const scene::Basis& basis,
                                                    std::vector<ri::Param> extra = {}) {
@@ -186,6 +197,7 @@ std::shared_ptr<scene::PrimitiveRecord> meshRecord(const std::string& kind, int 
     rec->intArgs = {nu, nv};
     auto attrs = std::make_shared<scene::Attributes>();
     attrs->uBasis = attrs->vBasis = basis;
+    patchByPatch(*attrs);
     rec->attributes = attrs;
     return rec;
 }
@@ -235,6 +247,7 @@ TEST(PatchMesh, PeriodicBSplineTubeIsClosedAndContinuous) {
     rec->intArgs = {8, 4};
     auto attrs = std::make_shared<scene::Attributes>();
     attrs->uBasis = attrs->vBasis = scene::Basis::bspline();
+    patchByPatch(*attrs);
     rec->attributes = attrs;
     Diagnostics diag;
     auto prims = makePrimitives(rec, diag);
