@@ -148,3 +148,32 @@ TEST(StandardShaders, PlasticUnderSpotlightMatchesConeFalloff) {
     EXPECT_GT(lit, 0);
     EXPECT_GT(dark, 0);
 }
+
+// Subdivision blocks (docs/subdivision.md) number u and v across a block
+// of faces, so they are used only when no shader reads u, v, s or t; a
+// texture() call without coordinates reads s and t.
+TEST(StandardShaders, ReadsSurfaceParametersSeesUVSTAndImplicitTextureCoordinates) {
+    Harness h;
+    for (const char* name : {"plastic", "matte", "metal", "constant"}) {
+        auto sh = h.sys.find(name);
+        ASSERT_TRUE(sh) << name;
+        EXPECT_FALSE(sh->readsSurfaceParameters()) << name;
+    }
+    auto painted = h.sys.find("paintedplastic");
+    ASSERT_TRUE(painted);
+    EXPECT_TRUE(painted->readsSurfaceParameters());
+    const std::pair<const char*, bool> sources[] = {
+        {"surface a() { Ci = u; }", true},
+        {"surface b() { Ci = color(0, v, 0); }", true},
+        {"surface c() { Ci = color(s, t, 0); }", true},
+        {"surface d() { float k = t * 2; Ci = k; }", true},
+        {"surface e() { Ci = color texture(\"x.tx\"); }", true},
+        {"surface f() { float uu = 1; Ci = uu * Cs; }", false},
+        {"surface g() { Ci = Cs * normalize(N).(0, 0, 1); }", false},
+    };
+    for (const auto& [src, reads] : sources) {
+        auto sh = h.sys.compileSource(src, "test.sl");
+        ASSERT_TRUE(sh) << src << "\n" << h.messages();
+        EXPECT_EQ(sh->readsSurfaceParameters(), reads) << src;
+    }
+}
