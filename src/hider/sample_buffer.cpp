@@ -575,6 +575,46 @@ struct Corner {
     float x, y, d;  // raster x, y; z, or 1/z under perspective
 };
 
+/// Two motion keys: the least and greatest first-key coordinate of a
+/// micropolygon's four corners (lo, hi) and of their motions to the second
+/// key (dlo, dhi). At weight f >= 0 every corner lies inside [lo + f * dlo,
+/// hi + f * dhi]: exactly for a micropolygon that translates, a deforming
+/// one's few ulps more only cost a test.
+template <class Index>
+void boundKeyMotion(const MicroGrid& g, const Index (&corner)[4], size_t nverts, float lo[2], float hi[2],
+                    float dlo[2], float dhi[2]) {
+    for (int axis = 0; axis < 2; ++axis) {
+        lo[axis] = dlo[axis] = kInfinity;
+        hi[axis] = dhi[axis] = -kInfinity;
+    }
+    for (Index c : corner) {
+        const Vec3& a = g.P[size_t(c)];
+        const Vec3& b = g.P[nverts + size_t(c)];
+        const float ax[2] = {a.x, a.y}, d[2] = {b.x - a.x, b.y - a.y};
+        for (int axis = 0; axis < 2; ++axis) {
+            lo[axis] = std::min(lo[axis], ax[axis]);
+            hi[axis] = std::max(hi[axis], ax[axis]);
+            dlo[axis] = std::min(dlo[axis], d[axis]);
+            dhi[axis] = std::max(dhi[axis], d[axis]);
+        }
+    }
+}
+
+/// What such a bound is widened by on one axis: the ulps of testSample's
+/// interpolation, and `pad`, the lens's reach.
+float keyMotionMargin(float lo, float hi, float dlo, float dhi, float pad) {
+    return 1e-3f + pad + 1e-5f * std::max({std::abs(lo), std::abs(hi), std::abs(lo + dlo), std::abs(hi + dhi)});
+}
+
+/// Narrows [first, last] to the weights f at which [lo + f * dlo, hi + f *
+/// dhi] can meet [r0, r1]: lo + f * dlo <= r1 and hi + f * dhi >= r0.
+void clipKeyMotion(float lo, float hi, float dlo, float dhi, float r0, float r1, float& first, float& last) {
+    if (dlo > 0) last = std::min(last, (r1 - lo) / dlo);
+    if (dlo < 0) first = std::max(first, (r1 - lo) / dlo);
+    if (dhi > 0) first = std::max(first, (r0 - hi) / dhi);
+    if (dhi < 0) last = std::min(last, (r0 - hi) / dhi);
+}
+
 }  // namespace
 
 void SampleBuffer::tabulateStrata(const uint16_t* (SamplePattern::*row)(int) const,
@@ -731,31 +771,14 @@ bool SampleBuffer::boundMotion(const MicroGrid& g) {
             if (!(maxz >= nearZ && minz <= farZ)) continue;
             // The first key's bound and the motion's, as rasterizeBlurred
             // finds them.
-            float lo[2] = {kInfinity, kInfinity}, hi[2] = {-kInfinity, -kInfinity};
-            float dlo[2] = {kInfinity, kInfinity}, dhi[2] = {-kInfinity, -kInfinity};
-            for (size_t c : corner) {
-                const Vec3& a = g.P[c];
-                const Vec3& e = g.P[nverts + c];
-                const float ax[2] = {a.x, a.y}, d[2] = {e.x - a.x, e.y - a.y};
-                for (int axis = 0; axis < 2; ++axis) {
-                    lo[axis] = std::min(lo[axis], ax[axis]);
-                    hi[axis] = std::max(hi[axis], ax[axis]);
-                    dlo[axis] = std::min(dlo[axis], d[axis]);
-                    dhi[axis] = std::max(dhi[axis], d[axis]);
-                }
-            }
+            float lo[2], hi[2], dlo[2], dhi[2];
+            boundKeyMotion(g, corner, nverts, lo, hi, dlo, dhi);
             float fFirst = 0.0f, fLast = 1.0f;
             bool finite = true;
             for (int axis = 0; axis < 2; ++axis) {
-                const float margin = 1e-3f + 1e-5f * std::max({std::abs(lo[axis]), std::abs(hi[axis]),
-                                                               std::abs(lo[axis] + dlo[axis]),
-                                                               std::abs(hi[axis] + dhi[axis])});
-                const float r0 = region0[axis] - margin, r1 = region1[axis] + margin;
-                // lo + f * dlo <= r1 and hi + f * dhi >= r0.
-                if (dlo[axis] > 0) fLast = std::min(fLast, (r1 - lo[axis]) / dlo[axis]);
-                if (dlo[axis] < 0) fFirst = std::max(fFirst, (r1 - lo[axis]) / dlo[axis]);
-                if (dhi[axis] > 0) fFirst = std::max(fFirst, (r0 - hi[axis]) / dhi[axis]);
-                if (dhi[axis] < 0) fLast = std::min(fLast, (r0 - hi[axis]) / dhi[axis]);
+                const float margin = keyMotionMargin(lo[axis], hi[axis], dlo[axis], dhi[axis], 0.0f);
+                clipKeyMotion(lo[axis], hi[axis], dlo[axis], dhi[axis], region0[axis] - margin,
+                              region1[axis] + margin, fFirst, fLast);
                 finite = finite && std::isfinite(lo[axis]) && std::isfinite(hi[axis]) && std::isfinite(dlo[axis]) &&
                          std::isfinite(dhi[axis]) && std::isfinite(margin);
                 b.lo[axis] = lo[axis];
@@ -1198,17 +1221,7 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
                 dhi[axis] = bound->dhi[axis];
             }
         else if (linear)
-            for (int c = 0; c < 4; ++c) {
-                const Vec3& a = g.P[size_t(corner[c])];
-                const Vec3& b = g.P[size_t(nverts) + size_t(corner[c])];
-                const float ax[2] = {a.x, a.y}, d[2] = {b.x - a.x, b.y - a.y};
-                for (int axis = 0; axis < 2; ++axis) {
-                    lo[axis] = std::min(lo[axis], ax[axis]);
-                    hi[axis] = std::max(hi[axis], ax[axis]);
-                    dlo[axis] = std::min(dlo[axis], d[axis]);
-                    dhi[axis] = std::max(dhi[axis], d[axis]);
-                }
-            }
+            boundKeyMotion(g, corner, size_t(nverts), lo, hi, dlo, dhi);
         // Two keys: the weights at which the micropolygon's bound overlaps
         // this bucket's region (it often crosses a region in a few strata).
         float fFirst = 0.0f, fLast = 1.0f;
@@ -1231,31 +1244,19 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
             boxTimeScale = span > 0 ? 1.0f / span : 0.0f;
             timeBox = finite && std::isfinite(boxTimeScale) && !m_strataTime.empty();
         } else if (linear) {
-            const float region0[2] = {m_fx0, m_fy0}, region1[2] = {m_fx1, m_fy1}, pad[2] = {padX, padY};
-            for (int axis = 0; axis < 2; ++axis) {
-                const float margin = 1e-3f + pad[axis] + 1e-5f * std::max({std::abs(lo[axis]), std::abs(hi[axis]),
-                                                                          std::abs(lo[axis] + dlo[axis]),
-                                                                          std::abs(hi[axis] + dhi[axis])});
-                const float r0 = region0[axis] - margin, r1 = region1[axis] + margin;
-                // lo + f * dlo <= r1 and hi + f * dhi >= r0.
-                if (dlo[axis] > 0) fLast = std::min(fLast, (r1 - lo[axis]) / dlo[axis]);
-                if (dlo[axis] < 0) fFirst = std::max(fFirst, (r1 - lo[axis]) / dlo[axis]);
-                if (dhi[axis] > 0) fFirst = std::max(fFirst, (r0 - hi[axis]) / dhi[axis]);
-                if (dhi[axis] < 0) fLast = std::min(fLast, (r0 - hi[axis]) / dhi[axis]);
-            }
             // Between the strata's times, a corner at weight f lies in
-            // [lo + f * dlo, hi + f * dhi] (f >= 0), exactly; the margin
-            // covers the ulps of testSample's interpolation and the lens
-            // (the inside test is within the corners' bound). Coordinates
-            // that are not finite leave the samples to testSample.
+            // [lo + f * dlo, hi + f * dhi] (f >= 0); the margin covers the
+            // ulps of testSample's interpolation and the lens (the inside
+            // test is within the corners' bound). Coordinates that are not
+            // finite leave the samples to testSample.
+            const float region0[2] = {m_fx0, m_fy0}, region1[2] = {m_fx1, m_fy1}, pad[2] = {padX, padY};
             bool finite = true;
             for (int axis = 0; axis < 2; ++axis) {
+                const float margin = keyMotionMargin(lo[axis], hi[axis], dlo[axis], dhi[axis], pad[axis]);
+                clipKeyMotion(lo[axis], hi[axis], dlo[axis], dhi[axis], region0[axis] - margin,
+                              region1[axis] + margin, fFirst, fLast);
                 finite = finite && std::isfinite(lo[axis]) && std::isfinite(hi[axis]) &&
                          std::isfinite(dlo[axis]) && std::isfinite(dhi[axis]);
-                const float pad[2] = {padX, padY};
-                const float margin = 1e-3f + pad[axis] + 1e-5f * std::max({std::abs(lo[axis]), std::abs(hi[axis]),
-                                                                          std::abs(lo[axis] + dlo[axis]),
-                                                                          std::abs(hi[axis] + dhi[axis])});
                 boxLo[axis] = lo[axis] - margin;
                 boxHi[axis] = hi[axis] + margin;
                 boxDlo[axis] = dlo[axis];
