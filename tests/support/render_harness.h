@@ -80,12 +80,10 @@ private:
 
 /// Renders RIB text; returns the renderer's statistics. Errors are recorded
 /// in `diag` (pass one with setRecord(true) to inspect them); `failedFrames`,
-/// if given, receives the number of frames that failed.
-inline nlohmann::json renderRib(const std::string& rib, Diagnostics& diag, int threads = 0, int bucketSize = 0,
+/// if given, receives the number of frames that failed. The settings are
+/// the caller's, made quiet and given the project's shaders.
+inline nlohmann::json renderRib(const std::string& rib, Diagnostics& diag, render::RenderSettings settings,
                                 int* failedFrames = nullptr) {
-    render::RenderSettings settings;
-    settings.threads = threads;
-    settings.bucketSize = bucketSize;
     settings.quiet = true;
     settings.shaderPath = {std::string(UMBRA_SOURCE_DIR) + "/shaders_dsl"};
     render::Renderer renderer(settings, diag);
@@ -94,6 +92,14 @@ inline nlohmann::json renderRib(const std::string& rib, Diagnostics& diag, int t
     ri::parseString(rib, "test.rib", builder, diag);
     if (failedFrames) *failedFrames = renderer.failedFrames();
     return renderer.statistics();
+}
+
+inline nlohmann::json renderRib(const std::string& rib, Diagnostics& diag, int threads = 0, int bucketSize = 0,
+                                int* failedFrames = nullptr) {
+    render::RenderSettings settings;
+    settings.threads = threads;
+    settings.bucketSize = bucketSize;
+    return renderRib(rib, diag, settings, failedFrames);
 }
 
 /// Renders RIB text whose Display writes `imagePath` and reads that image

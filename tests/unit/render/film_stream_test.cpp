@@ -40,15 +40,8 @@ nlohmann::json renderFrame(const std::string& rib, bool stream, int threads, int
     render::RenderSettings settings;
     settings.threads = threads;
     settings.bucketSize = bucketSize;
-    settings.quiet = true;
     settings.filmStream = stream;
-    settings.shaderPath = {std::string(UMBRA_SOURCE_DIR) + "/shaders_dsl"};
-    render::Renderer renderer(settings, diag);
-    scene::Builder builder(renderer, diag);
-    renderer.prepare(builder, "test.rib");
-    ri::parseString(rib, "test.rib", builder, diag);
-    if (failed) *failed = renderer.failedFrames();
-    const nlohmann::json stats = renderer.statistics();
+    const nlohmann::json stats = test::renderRib(rib, diag, settings, failed);
     return stats["frames"].empty() ? nlohmann::json() : stats["frames"][0];
 }
 
