@@ -255,7 +255,7 @@ struct Score {
 /// the .shd written by a light-view RIB; automatic: map "auto"), and
 /// scores it against the closed form.
 Score renderAndScore(const ScratchDir& dir, const Scene& s, const std::string& filter, bool twoPass,
-                     bool mirroredCamera, bool mirroredLight) {
+                     bool mirroredCamera, bool mirroredLight, float bias = 0) {
     std::ofstream(dir.file("qdist.sl")) << kDistantShader;
     std::ofstream(dir.file("term.sl")) << kTermShader;
     const std::string search = fmt::format("Option \"searchpath\" \"shader\" [\"{}:&\"]\n", dir.file(""));
@@ -278,10 +278,11 @@ Score renderAndScore(const ScratchDir& dir, const Scene& s, const std::string& f
     std::string rib = search + autoOptions +
                       fmt::format("Format {0} {0} 1\nPixelSamples 2 2\nPixelFilter \"box\" 1 1\n"
                                   "Display \"{1}\" \"file\" \"rgb\"\n{2}WorldBegin\n"
-                                  "LightSource \"qdist\" 1 \"from\" [{3} {4} {5}] \"to\" [0 0 0] \"shadowname\" [\"{6}\"]\n"
+                                  "LightSource \"qdist\" 1 \"from\" [{3} {4} {5}] \"to\" [0 0 0] \"shadowname\" [\"{6}\"] "
+                                  "\"bias\" [{9}]\n"
                                   "Surface \"term\"\n{7}{8}WorldEnd\n",
                                   kImage, image, downCamera(mirroredCamera), s.towardLight.x, s.towardLight.y,
-                                  s.towardLight.z, map, casters(s), kFloor);
+                                  s.towardLight.z, map, casters(s), kFloor, bias);
     test::renderRib(rib, diag);
     EXPECT_EQ(diag.errorCount(), 0);
     Image img;
@@ -360,5 +361,45 @@ TEST(OpenFloor, SecondDepthKeepsTheFarSideOfARimInsideOneGrid) {
             EXPECT_GT(sc.scored, kImage * kImage / 3);
             EXPECT_EQ(sc.acne, 0.0) << filter << (twoPass ? " two-pass" : " auto");
             EXPECT_LE(sc.leak, 0.2) << filter << (twoPass ? " two-pass" : " auto");
+        }
+}
+
+// The baseline: `min` (Reeves' PCF) on the same scenes, at the
+// constant bias of a sweep that scores best, reported beside the
+// bias-free filters. (A call's bias of 0 means the default, PRMan's 0.225,
+// so the sweep starts above it.) A constant bias only moves every
+// comparison the same way (a sample is shadowed when z - bias > stored z),
+// so raising it can only light points: acne never grows and leak never
+// shrinks along the sweep; a bias applied with the wrong sign or scale
+// breaks that. Under the light 16 degrees up, the floor's depth changes by
+// about 0.08 across a texel of the 256^2 map, so a bias far below that
+// leaves the floor shadowing itself (Reeves' Figure 9).
+TEST(OpenFloor, MinIsReportedAtItsBestConstantBias) {
+    ScratchDir dir("open-floor-min");
+    const float biases[] = {0.005f, 0.01f, 0.02f, 0.05f, 0.1f, 0.2f, 0.3f};
+    for (const Scene& s : {sphereScene(), boxesScene()})
+        for (bool twoPass : {true, false}) {
+            Score best;
+            float bestBias = 0;
+            std::optional<Score> previous;
+            for (float bias : biases) {
+                Score sc = renderAndScore(dir, s, "min", twoPass, false, false, bias);
+                std::printf("%-7s min %-9s bias %-5g acne %6.3f%%  leak %6.3f%%  (%d px)\n", s.name,
+                            twoPass ? "two-pass" : "auto", bias, sc.acne, sc.leak, sc.scored);
+                EXPECT_GT(sc.scored, kImage * kImage / 3);
+                if (previous) {
+                    EXPECT_LE(sc.acne, previous->acne) << s.name << " bias " << bias;
+                    EXPECT_GE(sc.leak, previous->leak) << s.name << " bias " << bias;
+                } else if (std::string(s.name) == "boxes") {
+                    EXPECT_GT(sc.acne, 10.0) << "bias " << bias;
+                }
+                if (!previous || sc.acne + sc.leak < best.acne + best.leak) {
+                    best = sc;
+                    bestBias = bias;
+                }
+                previous = sc;
+            }
+            std::printf("%-7s min %-9s best bias %g: acne %.3f%%  leak %.3f%%\n", s.name,
+                        twoPass ? "two-pass" : "auto", bestBias, best.acne, best.leak);
         }
 }
