@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 namespace umbra::render {
 
@@ -147,10 +148,16 @@ std::array<Pass, 6> cubeFacePasses(const LightGeometry& light, int resolution, c
     return passes;
 }
 
-DepthImage depthImageOf(const film::Film& film, const Pass& pass, DepthFilter filter, float dualOffset) {
+namespace {
+
+/// The image's header from the pass; its depths from the film's layers,
+/// nearest depths read through `z1Row(y)` (x from the film's x0), which may
+/// be the image's own rows: each texel is read before it is written.
+template <typename Z1Row>
+void fillDepthImage(DepthImage& image, const film::Film& film, Z1Row z1Row, const Pass& pass, DepthFilter filter,
+                    float dualOffset) {
     const hider::Camera& camera = pass.camera;
     const bool frontCulled = pass.cull == Pass::Cull::Front;
-    DepthImage image(film.xResolution(), film.yResolution());
     image.lightFromWorld = camera.cameraFromWorld;
     image.ndcFromWorld = camera.ndcFromScreen() * camera.screenFromCamera() * camera.cameraFromWorld;
     image.projection = camera.perspective ? Projection::Perspective : Projection::Orthographic;
@@ -162,9 +169,9 @@ DepthImage depthImageOf(const film::Film& film, const Pass& pass, DepthFilter fi
     auto convert = [&](auto layer) {
         const bool pair = film.hasDepthPair();
         for (int y = film.y0(); y < film.y1(); ++y) {
-            const float* z1row = film.zRow(y);
+            const float* z1row = z1Row(y);
             const float* z2row = pair ? film.z2Row(y) : nullptr;
-            float* out = &image.at(film.x0(), y);
+            float* out = &image.z[size_t(y) * size_t(image.width) + size_t(film.x0())];
             const float v = 2.0f * (float(y) + 0.5f) / float(image.height) - 1.0f;
             for (int x = film.x0(), i = 0; x < film.x1(); ++x, ++i) {
                 const float z1 = z1row[i];
@@ -180,7 +187,10 @@ DepthImage depthImageOf(const film::Film& film, const Pass& pass, DepthFilter fi
     switch (filter) {
     case DepthFilter::Min:
     case DepthFilter::Max:
-    case DepthFilter::Average: convert([](float z1, float) { return z1; }); break;  // the hider already reduced the pixel's samples
+    case DepthFilter::Average:
+        if (!pass.discOnly && z1Row(film.y0()) == &image.z[size_t(film.y0()) * size_t(image.width)]) return;  // in place
+        convert([](float z1, float) { return z1; });  // the hider already reduced the pixel's samples
+        break;
     case DepthFilter::Second: convert([&](float z1, float z2) { return frontCulled ? z1 : z2; }); break;  // single layer: +infinity
     case DepthFilter::Midpoint:
         // Single layer: the dual rule keeps the midpoint finite.
@@ -192,6 +202,26 @@ DepthImage depthImageOf(const film::Film& film, const Pass& pass, DepthFilter fi
         });
         break;
     }
+}
+
+}  // namespace
+
+DepthImage depthImageOf(const film::Film& film, const Pass& pass, DepthFilter filter, float dualOffset) {
+    DepthImage image(film.xResolution(), film.yResolution());
+    fillDepthImage(image, film, [&](int y) { return film.zRow(y); }, pass, filter, dualOffset);
+    return image;
+}
+
+DepthImage depthImageOf(film::Film&& film, const Pass& pass, DepthFilter filter, float dualOffset) {
+    FloatPlane plane = film.takeDepth();
+    if (plane.empty()) return depthImageOf(std::as_const(film), pass, filter, dualOffset);
+    DepthImage image;
+    image.width = film.xResolution();
+    image.height = film.yResolution();
+    image.z = std::move(plane);
+    const float* z1 = image.z.data();
+    fillDepthImage(image, film, [&](int y) { return z1 + size_t(y) * size_t(image.width); }, pass, filter,
+                   dualOffset);
     return image;
 }
 

@@ -58,5 +58,8 @@ Mat4 lookAt(const Vec3& from, const Vec3& to);
 /// nearest remaining surface the second depth (Wang & Molnar's culling), so
 /// "second" then stores that.
 DepthImage depthImageOf(const film::Film& film, const Pass& pass, DepthFilter filter, float dualOffset);
+/// The same, the film's nearest-depth plane becoming the image's (no copy)
+/// when the film covers the whole image.
+DepthImage depthImageOf(film::Film&& film, const Pass& pass, DepthFilter filter, float dualOffset);
 
 }  // namespace umbra::render

@@ -1037,7 +1037,7 @@ LightMap Renderer::Impl::makeLightMap(FrameState& frame, LightMapJob& job,
                                {"counts", schedulerJson(r.counters)},
                                {"samples", r.samples},
                                {"bucket_size", {r.bucketSize[0], r.bucketSize[1]}}});
-        return depthImageOf(film, pass, filter, job.dualOffset);
+        return depthImageOf(std::move(film), pass, filter, job.dualOffset);
     };
 
     // The map goes to this frame's lookups from memory: its header from the

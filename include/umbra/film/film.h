@@ -10,6 +10,7 @@
 #include "umbra/scene/scene.h"
 #include "umbra/util/error.h"
 #include "umbra/util/math.h"
+#include "umbra/util/zeroed_allocator.h"
 
 #include <sys/mman.h>
 
@@ -194,6 +195,15 @@ public:
     const float* zRow(int y) const { return &m_z[index(m_x0, y)]; }
     const float* z2Row(int y) const { return &m_z2[index(m_x0, y)]; }
     float& z2(int x, int y) { return m_z2[index(x, y)]; }
+    /// Hands the nearest-depth plane over, rows of the whole image, when
+    /// the film covers its whole image (a depth pass's film becoming its
+    /// map's image without a copy: on hosts where a page's first touch
+    /// costs microseconds, the copy was a third of a small map's pass).
+    /// Empty, the film unchanged, otherwise. The film has no depths after.
+    FloatPlane takeDepth() {
+        if (m_x0 != 0 || m_y0 != 0 || m_width != m_xres || m_height != m_yres) return {};
+        return std::move(m_z);
+    }
     float z2(int x, int y) const { return m_z2[index(x, y)]; }
     float* aov(int x, int y) { return m_aov.data() + size_t(m_aovFloats) * index(x, y); }
     const float* aov(int x, int y) const { return m_aov.data() + size_t(m_aovFloats) * index(x, y); }
@@ -279,48 +289,12 @@ private:
     template <typename Plane>
     static void releasePages(Plane& plane, size_t from, size_t to);
 
-    /// Memory that starts as zeros without being written: fresh pages are
-    /// zero already, so a frame's planes cost nothing until the bucket
-    /// workers first touch them, in parallel (zeroing 4.9 MB of RGBA took
-    /// 1.2 ms of every frame's serial start). Large planes are their own
-    /// anonymous mappings, so a streamed film can give finished rows back
-    /// with madvise (releasePages) whatever malloc's thresholds are.
-    static constexpr size_t kMappedBytes = size_t(64) << 10;
-    template <typename T>
-    struct ZeroedAllocator {
-        using value_type = T;
-        ZeroedAllocator() = default;
-        template <typename U>
-        ZeroedAllocator(const ZeroedAllocator<U>&) {}
-        T* allocate(size_t n) {
-            if (n * sizeof(T) >= kMappedBytes) {
-                void* p = ::mmap(nullptr, n * sizeof(T), PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
-                if (p == MAP_FAILED) throw std::bad_alloc();
-                return static_cast<T*>(p);
-            }
-            if (void* p = std::calloc(n, sizeof(T))) return static_cast<T*>(p);
-            throw std::bad_alloc();
-        }
-        void deallocate(T* p, size_t n) {
-            if (n * sizeof(T) >= kMappedBytes)
-                ::munmap(p, n * sizeof(T));
-            else
-                std::free(p);
-        }
-        template <typename U>
-        void construct(U*) {}  // value-initialised elements: already zero
-        template <typename U, typename... Args>
-        void construct(U* p, Args&&... args) {
-            ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
-        }
-        bool operator==(const ZeroedAllocator&) const { return true; }
-        bool operator!=(const ZeroedAllocator&) const { return false; }
-    };
-    std::vector<float, ZeroedAllocator<float>> m_rgba, m_aov;
-    std::vector<float, ZeroedAllocator<float>> m_z, m_z2;
+    static constexpr size_t kMappedBytes = ZeroedAllocator<float>::kMappedBytes;
+    FloatPlane m_rgba, m_aov;
+    FloatPlane m_z, m_z2;
     struct FilterLayer {
         PixelFilter filter;
-        std::vector<float, ZeroedAllocator<float>> rgba, aov;
+        FloatPlane rgba, aov;
     };
     std::vector<FilterLayer> m_layers;  // layers 1..
     std::unique_ptr<FilmStream> m_stream;  // openStream .. finishStream

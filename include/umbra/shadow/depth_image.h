@@ -19,6 +19,7 @@
 
 #include "umbra/util/error.h"
 #include "umbra/util/math.h"
+#include "umbra/util/zeroed_allocator.h"
 
 #include <array>
 #include <string>
@@ -46,11 +47,11 @@ struct DepthImage {
     int width = 0, height = 0;
     /// width*height light camera-space depths, row-major, row 0 at the top;
     /// +infinity where no surface was hit.
-    std::vector<float> z;
+    FloatPlane z;
     /// Optional second layer (second-nearest depth), same layout; empty if
     /// absent. Written as channel "Z2" (inside the bounding box of the
     /// finite first-layer depths, which holds every finite z2 when z2 >= z).
-    std::vector<float> z2;
+    FloatPlane z2;
     /// RenderMan "worldToCamera" of the light (column-vector convention here).
     Mat4 lightFromWorld;
     /// RenderMan "worldToNDC" of the light (column-vector convention here).
