@@ -54,6 +54,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <system_error>
@@ -332,8 +333,15 @@ void Film::cropPixels(int xres, int yres, const float crop[4], int* x0, int* x1,
     *y1 = clamp(edge(yres, crop[3]), *y0, yres);
 }
 
+struct Film::DepthBook {
+    std::mutex mutex;
+    DepthWindow written{std::numeric_limits<int>::max(), std::numeric_limits<int>::max(),
+                        std::numeric_limits<int>::min(), std::numeric_limits<int>::min()};
+    std::vector<DepthWindow> empty;
+};
+
 Film::Film(int xResolution, int yResolution, const float cropWindow[4], PixelFilter filter,
-           std::vector<AovChannel> aovs, FilmContent content)
+           std::vector<AovChannel> aovs, FilmContent content, DepthStart depthStart)
     : m_xres(xResolution), m_yres(yResolution), m_filter(std::move(filter)), m_aovs(std::move(aovs)),
       m_content(content) {
     UMBRA_CHECK(xResolution > 0 && yResolution > 0, "bad film resolution {}x{}", xResolution, yResolution);
@@ -350,8 +358,15 @@ Film::Film(int xResolution, int yResolution, const float cropWindow[4], PixelFil
     // Depth passes never touch colour: not allocating it saves clearing
     // 16 bytes a pixel (6.5 MB for a 640^2 map) per pass.
     if (hasColour()) m_rgba.resize(4 * n);  // zeros (ZeroedAllocator)
-    if (hasDepth()) m_z.assign(n, kInfinity);
-    if (content == FilmContent::DepthPair) m_z2.assign(n, kInfinity);
+    if (hasDepth() && depthStart == DepthStart::Unset) {
+        // Untouched zero pages until a bucket writes them (settleDepth).
+        m_unsetDepth = std::make_unique<DepthBook>();
+        m_z.resize(n);
+        if (content == FilmContent::DepthPair) m_z2.resize(n);
+    } else {
+        if (hasDepth()) m_z.assign(n, kInfinity);
+        if (content == FilmContent::DepthPair) m_z2.assign(n, kInfinity);
+    }
     m_aov.resize(n * size_t(m_aovFloats));
 }
 
@@ -1020,7 +1035,35 @@ bool Film::openStream(const std::vector<scene::DisplayRecord>& displays, const s
     return ok;
 }
 
+void Film::noteDepthWritten(int x0, int y0, int x1, int y1) {
+    std::lock_guard<std::mutex> lock(m_unsetDepth->mutex);
+    DepthWindow& w = m_unsetDepth->written;
+    w = {std::min(w.x0, x0), std::min(w.y0, y0), std::max(w.x1, x1), std::max(w.y1, y1)};
+}
+
+Film::DepthWindow Film::settleDepth() {
+    if (!m_unsetDepth) return {m_x0, m_y0, x1(), y1()};
+    DepthBook& book = *m_unsetDepth;
+    DepthWindow w = book.written;
+    w = {std::max(w.x0, m_x0), std::max(w.y0, m_y0), std::min(w.x1, x1()), std::min(w.y1, y1())};
+    if (w.x0 >= w.x1 || w.y0 >= w.y1) w = {m_x0, m_y0, m_x0, m_y0};
+    for (const DepthWindow& e : book.empty) {
+        const int ex0 = std::max(e.x0, w.x0), ex1 = std::min(e.x1, w.x1);
+        for (int y = std::max(e.y0, w.y0); y < std::min(e.y1, w.y1) && ex0 < ex1; ++y) {
+            std::fill(&z(ex0, y), &z(ex0, y) + (ex1 - ex0), kInfinity);
+            if (hasDepthPair()) std::fill(&z2(ex0, y), &z2(ex0, y) + (ex1 - ex0), kInfinity);
+        }
+    }
+    m_unsetDepth.reset();  // settled: the window's depths are all defined
+    return w;
+}
+
 void Film::clearDepth(int x0, int y0, int x1, int y1) {
+    if (m_unsetDepth) {
+        std::lock_guard<std::mutex> lock(m_unsetDepth->mutex);
+        m_unsetDepth->empty.push_back({x0, y0, x1, y1});
+        return;
+    }
     if (!m_stream || !hasDepth()) return;
     x0 = std::max(x0, m_x0), y0 = std::max(y0, m_y0), x1 = std::min(x1, this->x1()), y1 = std::min(y1, this->y1());
     for (int y = y0; y < y1; ++y)

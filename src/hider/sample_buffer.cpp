@@ -1658,8 +1658,14 @@ void SampleBuffer::resolve(film::Film& film) {
         for (int py = by0; py < by1; ++py) {
             const size_t row = size_t(py - m_ry0) * size_t(m_sw) + size_t(bx0 - m_rx0);
             std::copy_n(&m_z[row], bx1 - bx0, &film.z(bx0, py));
-            if (film.hasDepthPair() && m_cfg.depthLayers > 1) std::copy_n(&m_z2[row], bx1 - bx0, &film.z2(bx0, py));
+            if (film.hasDepthPair()) {
+                if (m_cfg.depthLayers > 1)
+                    std::copy_n(&m_z2[row], bx1 - bx0, &film.z2(bx0, py));
+                else
+                    std::fill_n(&film.z2(bx0, py), bx1 - bx0, kInfinity);  // its depths may start unset
+            }
         }
+        film.depthWritten(bx0, by0, bx1, by1);
         return;
     }
     if (m_cfg.mode == HiderMode::Depth) {
@@ -1687,8 +1693,9 @@ void SampleBuffer::resolve(film::Film& film) {
         for (int py = by0; py < by1; ++py)
             for (int px = bx0; px < bx1; ++px) {
                 film.z(px, py) = reduce(px, py);
-                if (film.hasDepthPair() && m_cfg.depthLayers > 1) film.z2(px, py) = minOver(m_z2, px, py);
+                if (film.hasDepthPair()) film.z2(px, py) = m_cfg.depthLayers > 1 ? minOver(m_z2, px, py) : kInfinity;
             }
+        film.depthWritten(bx0, by0, bx1, by1);
         return;
     }
     UMBRA_CHECK(film.aovFloats() == m_cfg.aovCount, "film has {} AOV floats, the sample buffer {}", film.aovFloats(),

@@ -166,14 +166,17 @@ void fillDepthImage(DepthImage& image, const film::Film& film, Z1Row z1Row, cons
     image.timeTile = pass.timeTile;
     // Row by row, with the filter's rule chosen once (a switch per pixel
     // cost more than the copy).
+    // Only the texels the pass wrote (the image's window, inside the film).
+    const int wx0 = std::max(film.x0(), image.columnBegin()), wx1 = std::min(film.x1(), image.columnEnd());
+    const int wy0 = std::max(film.y0(), image.rowBegin()), wy1 = std::min(film.y1(), image.rowEnd());
     auto convert = [&](auto layer) {
         const bool pair = film.hasDepthPair();
-        for (int y = film.y0(); y < film.y1(); ++y) {
-            const float* z1row = z1Row(y);
-            const float* z2row = pair ? film.z2Row(y) : nullptr;
-            float* out = &image.z[size_t(y) * size_t(image.width) + size_t(film.x0())];
+        for (int y = wy0; y < wy1; ++y) {
+            const float* z1row = z1Row(y) + (wx0 - film.x0());
+            const float* z2row = pair ? film.z2Row(y) + (wx0 - film.x0()) : nullptr;
+            float* out = &image.z[size_t(y) * size_t(image.width) + size_t(wx0)];
             const float v = 2.0f * (float(y) + 0.5f) / float(image.height) - 1.0f;
-            for (int x = film.x0(), i = 0; x < film.x1(); ++x, ++i) {
+            for (int x = wx0, i = 0; x < wx1; ++x, ++i) {
                 const float z1 = z1row[i];
                 float z = std::isfinite(z1) ? layer(z1, z2row ? z2row[i] : kInfinity) : kInfinity;
                 if (pass.discOnly) {
@@ -188,7 +191,8 @@ void fillDepthImage(DepthImage& image, const film::Film& film, Z1Row z1Row, cons
     case DepthFilter::Min:
     case DepthFilter::Max:
     case DepthFilter::Average:
-        if (!pass.discOnly && z1Row(film.y0()) == &image.z[size_t(film.y0()) * size_t(image.width)]) return;  // in place
+        if (!pass.discOnly && (wy0 >= wy1 || z1Row(wy0) == &image.z[size_t(wy0) * size_t(image.width)]))
+            return;  // in place
         convert([](float z1, float) { return z1; });  // the hider already reduced the pixel's samples
         break;
     case DepthFilter::Second: convert([&](float z1, float z2) { return frontCulled ? z1 : z2; }); break;  // single layer: +infinity
@@ -213,15 +217,24 @@ DepthImage depthImageOf(const film::Film& film, const Pass& pass, DepthFilter fi
 }
 
 DepthImage depthImageOf(film::Film&& film, const Pass& pass, DepthFilter filter, float dualOffset) {
+    const film::Film::DepthWindow written = film.settleDepth();
     FloatPlane plane = film.takeDepth();
-    if (plane.empty()) return depthImageOf(std::as_const(film), pass, filter, dualOffset);
-    DepthImage image;
-    image.width = film.xResolution();
-    image.height = film.yResolution();
-    image.z = std::move(plane);
-    const float* z1 = image.z.data();
-    fillDepthImage(image, film, [&](int y) { return z1 + size_t(y) * size_t(image.width); }, pass, filter,
-                   dualOffset);
+    const bool taken = !plane.empty();
+    DepthImage image = taken ? DepthImage() : DepthImage(film.xResolution(), film.yResolution());
+    if (taken) {
+        image.width = film.xResolution();
+        image.height = film.yResolution();
+        image.z = std::move(plane);
+    }
+    image.writtenX0 = written.x0, image.writtenY0 = written.y0;
+    image.writtenX1 = written.x1, image.writtenY1 = written.y1;
+    if (taken) {
+        const float* z1 = image.z.data();
+        fillDepthImage(image, film, [&](int y) { return z1 + size_t(y) * size_t(image.width); }, pass, filter,
+                       dualOffset);
+    } else {
+        fillDepthImage(image, film, [&](int y) { return film.zRow(y); }, pass, filter, dualOffset);
+    }
     return image;
 }
 

@@ -1028,7 +1028,12 @@ LightMap Renderer::Impl::makeLightMap(FrameState& frame, LightMapJob& job,
         film::Film film = allocating(
             job.loc, film::Film::bytesFor(job.size, job.size, crop, {}, content),
             fmt::format("the {0}x{0} film of the light's depth pass \"{1}\"", job.size, pass.name),
-            [&] { return film::Film(job.size, job.size, crop, *film::PixelFilter::create("box", 1, 1), {}, content); });
+            [&] {
+                // Depths start unset: the pages of texels no caster reaches
+                // are never touched (depthImageOf settles the rest).
+                return film::Film(job.size, job.size, crop, *film::PixelFilter::create("box", 1, 1), {}, content,
+                                  film::Film::DepthStart::Unset);
+            });
         PassResult r = runPass(frame, pass, prims, film, fmt::format("depth map {}", pass.name));
         made.passes.push_back({{"name", pass.name},
                                {"wall_seconds", r.wall},

@@ -92,18 +92,20 @@ bool prepareMap(const DepthImage& image, PreparedMap& out, std::string& why) {
     // finite depth four at a time; a row with one is trimmed from both
     // ends and what is left scanned without branches (the map is built
     // while the frame waits for it).
+    // Only the texels the pass wrote are read (DepthImage::writtenX0...).
     int x0 = w, y0 = h, x1 = -1, y1 = -1;
     int64_t finite = 0;
     float minZ = kInfinity, maxZ = -kInfinity;
-    for (int y = 0; y < h; ++y) {
+    const int cx0 = image.columnBegin(), cx1 = image.columnEnd();
+    for (int y = image.rowBegin(); y < image.rowEnd() && cx0 < cx1; ++y) {
         const float* row = image.z.data() + size_t(y) * size_t(w);
         I4 any{};
-        int x = 0;
-        for (; x + 4 <= w; x += 4) any |= finite4(load4(row + x));
+        int x = cx0;
+        for (; x + 4 <= cx1; x += 4) any |= finite4(load4(row + x));
         bool hasDepth = (any[0] | any[1] | any[2] | any[3]) != 0;
-        for (; x < w; ++x) hasDepth = hasDepth || isFiniteDepth(row[x]);
+        for (; x < cx1; ++x) hasDepth = hasDepth || isFiniteDepth(row[x]);
         if (!hasDepth) continue;
-        int first = 0, last = w - 1;
+        int first = cx0, last = cx1 - 1;
         while (!isFiniteDepth(row[first])) ++first;
         while (!isFiniteDepth(row[last])) --last;
         x0 = std::min(x0, first);
@@ -120,7 +122,8 @@ bool prepareMap(const DepthImage& image, PreparedMap& out, std::string& why) {
         }
         finite += rowFinite;
     }
-    if (finite == 0) x0 = y0 = x1 = y1 = 0;  // OpenEXR needs a non-empty data window
+    const bool none = finite == 0;
+    if (none) x0 = y0 = x1 = y1 = 0;  // OpenEXR needs a non-empty data window (of +infinity)
     const int dw = x1 - x0 + 1, dh = y1 - y0 + 1;
     const int tilesX = (dw + kMapTileSize - 1) / kMapTileSize, tilesY = (dh + kMapTileSize - 1) / kMapTileSize;
 
@@ -141,7 +144,7 @@ bool prepareMap(const DepthImage& image, PreparedMap& out, std::string& why) {
             const int xa = tx * kMapTileSize, xb = std::min(dw, xa + kMapTileSize);
             float lo = rowMin[tx], hi = rowMax[tx];
             for (int x = xa; x < xb; ++x) {
-                const float z = sanitize(in[x]);
+                const float z = none ? kInfinity : sanitize(in[x]);
                 crop[x] = z;
                 lo = std::min(lo, z);
                 hi = std::max(hi, z);
@@ -150,7 +153,7 @@ bool prepareMap(const DepthImage& image, PreparedMap& out, std::string& why) {
             rowMax[tx] = hi;
         }
         if (!out.crop2.empty())
-            for (int x = 0; x < dw; ++x) out.crop2[dst + size_t(x)] = sanitize(image.z2[src + size_t(x)]);
+            for (int x = 0; x < dw; ++x) out.crop2[dst + size_t(x)] = none ? kInfinity : sanitize(image.z2[src + size_t(x)]);
     }
 
     Imath::Box2i display(Imath::V2i(0, 0), Imath::V2i(w - 1, h - 1));

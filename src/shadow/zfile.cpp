@@ -74,7 +74,16 @@ bool writeZFileImpl(const std::string& named, const DepthImage& image, std::stri
         out.write(reinterpret_cast<const char*>(&h), 2);
         out.write(reinterpret_cast<const char*>(np), sizeof np);
         out.write(reinterpret_cast<const char*>(nl), sizeof nl);
-        out.write(reinterpret_cast<const char*>(image.z.data()), std::streamsize(image.z.size() * sizeof(float)));
+        if (image.whole()) {
+            out.write(reinterpret_cast<const char*>(image.z.data()), std::streamsize(image.z.size() * sizeof(float)));
+        } else {
+            // Row by row, +infinity outside the texels the pass wrote.
+            std::vector<float> row(size_t(image.width));
+            for (int y = 0; y < image.height; ++y) {
+                for (int x = 0; x < image.width; ++x) row[size_t(x)] = image.at(x, y);
+                out.write(reinterpret_cast<const char*>(row.data()), std::streamsize(row.size() * sizeof(float)));
+            }
+        }
         out.flush();
         if (!out) {
             out.close();

@@ -110,8 +110,11 @@ inline bool contentHasColour(FilmContent c) { return c == FilmContent::Colour ||
 
 class Film {
 public:
+    /// How a film's depths start: at +infinity, or unset (see settleDepth).
+    enum class DepthStart { Infinity, Unset };
     Film(int xResolution, int yResolution, const float cropWindow[4], PixelFilter filter,
-         std::vector<AovChannel> aovs = {}, FilmContent content = FilmContent::Colour);
+         std::vector<AovChannel> aovs = {}, FilmContent content = FilmContent::Colour,
+         DepthStart depthStart = DepthStart::Infinity);
     ~Film();  // an open stream is abandoned: its temporary files removed
     Film(Film&&) noexcept;
     Film& operator=(Film&&) noexcept;
@@ -247,9 +250,25 @@ public:
     /// the stream's lock, and releases their rows' storage. Also counts the
     /// rows held (see rowsHeldPeak); without a stream nothing is written.
     void bucketDone(int x0, int y0, int x1, int y1);
-    /// A depth bucket no primitive reaches, in a streamed film: its depths
-    /// are set to +infinity (a streamed film's depth starts unset).
+    /// A depth bucket no primitive reaches: in a streamed film its depths
+    /// are set to +infinity (a streamed film's depth starts unset); in a
+    /// film whose depths start unset it is remembered for settleDepth.
     void clearDepth(int x0, int y0, int x1, int y1);
+    /// A bucket resolved its depths into [x0, x1) x [y0, y1). Thread-safe.
+    void depthWritten(int x0, int y0, int x1, int y1) {
+        if (m_unsetDepth) noteDepthWritten(x0, y0, x1, y1);
+    }
+    /// The rectangle [x0, x1) x [y0, y1) of a film's written depths.
+    struct DepthWindow {
+        int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+    };
+    /// After a pass: the bounding box of the buckets that wrote depths,
+    /// the buckets inside it that did not set to +infinity, so that every
+    /// texel in the box is defined; outside it the depths are +infinity
+    /// and their pages were never touched (a sparse light map's film costs
+    /// only what its casters cover). A film whose depths started at
+    /// +infinity: its whole crop region.
+    DepthWindow settleDepth();
     /// Writes what is left, each file's directory, and renames the files
     /// into place. Errors (a failed write, here or while streaming) are
     /// reported at the display; a failed display leaves no file, and an
@@ -298,6 +317,10 @@ private:
     };
     std::vector<FilterLayer> m_layers;  // layers 1..
     std::unique_ptr<FilmStream> m_stream;  // openStream .. finishStream
+    /// Depths that start unset: which buckets wrote them, which were empty.
+    struct DepthBook;
+    std::unique_ptr<DepthBook> m_unsetDepth;
+    void noteDepthWritten(int x0, int y0, int x1, int y1);
 };
 
 /// The file `display` is written to: its name, with ".tif" appended for a

@@ -21,6 +21,7 @@
 #include "umbra/util/math.h"
 #include "umbra/util/zeroed_allocator.h"
 
+#include <algorithm>
 #include <array>
 #include <string>
 #include <vector>
@@ -64,11 +65,27 @@ struct DepthImage {
     /// times interleaved over tiles of timeTile x timeTile texels, so a
     /// lookup filters over at least one tile (docs/motion.md); 0: still.
     int timeTile = 0;
+    /// The texels a light's depth pass wrote: outside [writtenX0, writtenX1)
+    /// x [writtenY0, writtenY1) every texel is +infinity and its storage is
+    /// never read (the pass left those pages untouched: on these hosts each
+    /// page's first touch costs a fault of microseconds). Unset: the whole
+    /// image.
+    int writtenX0 = 0, writtenY0 = 0, writtenX1 = kWholeImage, writtenY1 = kWholeImage;
+    static constexpr int kWholeImage = 1 << 30;
+    /// The written window clipped to the image (empty when x1 <= x0).
+    int rowBegin() const { return std::max(writtenY0, 0); }
+    int rowEnd() const { return std::min(writtenY1, height); }
+    int columnBegin() const { return std::max(writtenX0, 0); }
+    int columnEnd() const { return std::min(writtenX1, width); }
+    bool whole() const { return rowBegin() == 0 && rowEnd() == height && columnBegin() == 0 && columnEnd() == width; }
 
     DepthImage() = default;
     /// An image of the given size filled with +infinity.
     DepthImage(int w, int h) : width(w), height(h), z(size_t(w) * size_t(h), kInfinity) {}
-    float at(int x, int y) const { return z[size_t(y) * size_t(width) + size_t(x)]; }
+    float at(int x, int y) const {
+        if (x < columnBegin() || x >= columnEnd() || y < rowBegin() || y >= rowEnd()) return kInfinity;
+        return z[size_t(y) * size_t(width) + size_t(x)];
+    }
     float& at(int x, int y) { return z[size_t(y) * size_t(width) + size_t(x)]; }
 };
 
