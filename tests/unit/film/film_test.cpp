@@ -452,3 +452,42 @@ TEST(Film, FramebufferWritesAFile) {
     EXPECT_TRUE(fs::exists(dir / "preview.tif"));
     EXPECT_EQ(diag.warningCount(), 1);
 }
+
+// A light's depth film whose depths start unset: buckets that wrote give
+// the window, empty buckets inside it become +infinity, both layers.
+TEST(Film, UnsetDepthsSettleToTheWindowTheBucketsWrote) {
+    Film f(64, 64, kFull, PixelFilter(film::FilterKind::Box, 1, 1), {}, film::FilmContent::DepthPair,
+           Film::DepthStart::Unset);
+    auto written = [](int bx, int by) { return (bx == 1 && by == 1) || (bx == 2 && by == 2); };
+    for (int by = 0; by < 4; ++by)
+        for (int bx = 0; bx < 4; ++bx) {
+            const int x0 = 16 * bx, y0 = 16 * by;
+            if (!written(bx, by)) {
+                f.clearDepth(x0, y0, x0 + 16, y0 + 16);
+                continue;
+            }
+            for (int y = y0; y < y0 + 16; ++y)
+                for (int x = x0; x < x0 + 16; ++x) {
+                    f.z(x, y) = 1.0f + float(x);
+                    f.z2(x, y) = 2.0f + float(y);
+                }
+            f.depthWritten(x0, y0, x0 + 16, y0 + 16);
+        }
+    const Film::DepthWindow w = f.settleDepth();
+    EXPECT_EQ(w.x0, 16);
+    EXPECT_EQ(w.y0, 16);
+    EXPECT_EQ(w.x1, 48);
+    EXPECT_EQ(w.y1, 48);
+    for (int y = w.y0; y < w.y1; ++y)
+        for (int x = w.x0; x < w.x1; ++x) {
+            const bool wrote = written(x / 16, y / 16);
+            ASSERT_EQ(f.z(x, y), wrote ? 1.0f + float(x) : kInfinity) << x << " " << y;
+            ASSERT_EQ(f.z2(x, y), wrote ? 2.0f + float(y) : kInfinity) << x << " " << y;
+        }
+    // A film whose depths start at +infinity: its whole crop region.
+    Film g(8, 6, kFull, PixelFilter(film::FilterKind::Box, 1, 1), {}, film::FilmContent::Depth);
+    const Film::DepthWindow all = g.settleDepth();
+    EXPECT_EQ(all.x1 - all.x0, 8);
+    EXPECT_EQ(all.y1 - all.y0, 6);
+    EXPECT_EQ(g.z(7, 5), kInfinity);
+}

@@ -728,5 +728,43 @@ TEST(MakeShadow, FromScanlineExrWithMatrices) {
         for (int x = 0; x < 50; ++x) ASSERT_EQ(map->texel(x, y), px[size_t(y) * 50 + x]);
 }
 
+// A light's depth pass leaves the pages of texels no caster reached
+// untouched (zeros): the image's written window says so, and every writer
+// and the map read them as empty, never as depth 0.
+TEST(DepthMap, TexelsOutsideTheWrittenWindowAreEmptyWhateverTheirStorageHolds) {
+    const DepthImage reference = sampleImage();  // finite depths in [13, 81] x [7, 66]
+    DepthImage windowed = sampleImage();
+    windowed.writtenX0 = 10, windowed.writtenX1 = 90, windowed.writtenY0 = 5, windowed.writtenY1 = 68;
+    for (int y = 0; y < 70; ++y)
+        for (int x = 0; x < 100; ++x)
+            if (x < 10 || x >= 90 || y < 5 || y >= 68) windowed.z[size_t(y) * 100 + size_t(x)] = 0.0f;
+    EXPECT_EQ(std::as_const(windowed).at(0, 0), kInfinity);
+    EXPECT_FALSE(windowed.whole());
+    Diagnostics diag;
+    DepthImage a, b;
+    ASSERT_TRUE(writeDepthMap(scratchFile("window-ref.exr"), reference, diag));
+    ASSERT_TRUE(writeDepthMap(scratchFile("window.exr"), windowed, diag));
+    ASSERT_TRUE(readDepthImage(scratchFile("window-ref.exr"), a, diag));
+    ASSERT_TRUE(readDepthImage(scratchFile("window.exr"), b, diag));
+    EXPECT_EQ(a.z, b.z);
+    ASSERT_TRUE(writeZFile(scratchFile("window.z"), windowed));
+    DepthImage z;
+    ASSERT_TRUE(readZFile(scratchFile("window.z"), z, diag));
+    EXPECT_EQ(z.z, reference.z);
+    // Nothing written: an empty map, though every texel's storage is 0.
+    DepthImage none(100, 70);
+    std::fill(none.z.begin(), none.z.end(), 0.0f);
+    none.writtenX0 = none.writtenX1 = 40, none.writtenY0 = none.writtenY1 = 30;
+    test::setRasterIsWorld(none);
+    auto map = ShadowMap::fromImage(none, scratchFile("none.exr"), {}, diag, {});
+    ASSERT_TRUE(map);
+    EXPECT_TRUE(map->empty());
+    ASSERT_TRUE(writeDepthMap(scratchFile("none.exr"), none, diag));
+    DepthImage back;
+    ASSERT_TRUE(readDepthImage(scratchFile("none.exr"), back, diag));
+    for (float v : back.z) ASSERT_EQ(v, kInfinity);
+    EXPECT_EQ(diag.errorCount(), 0);
+}
+
 }  // namespace
 }  // namespace umbra
