@@ -79,7 +79,7 @@ Mat4 fromImath(const Imath::M44f& m) {
     return Mat4::fromRib(v);
 }
 
-bool prepareMap(const DepthImage& image, PreparedMap& out, std::string& why) {
+bool prepareMap(const DepthImage& image, PreparedMap& out, std::string& why, bool layers) {
     const int w = image.width, h = image.height;
     if (w <= 0 || h <= 0 || image.z.size() != size_t(w) * size_t(h) ||
         (!image.z2.empty() && image.z2.size() != image.z.size())) {
@@ -130,14 +130,15 @@ bool prepareMap(const DepthImage& image, PreparedMap& out, std::string& why) {
     // The cropped layers and the per-tile depth ranges: all known before the
     // file is opened, because OpenEXR writes the header at open. Rows are
     // taken a tile wide at a time, the range kept in registers.
-    out.crop.resize(size_t(dw) * dh);
+    out.crop.clear();
     out.crop2.clear();
-    if (!image.z2.empty()) out.crop2.resize(out.crop.size());
+    if (layers) out.crop.resize(size_t(dw) * dh);
+    if (layers && !image.z2.empty()) out.crop2.resize(out.crop.size());
     std::vector<float> tileMin(size_t(tilesX) * tilesY, kInfinity), tileMax(size_t(tilesX) * tilesY, -kInfinity);
     for (int y = 0; y < dh; ++y) {
         const size_t src = size_t(y + y0) * size_t(w) + size_t(x0), dst = size_t(y) * size_t(dw);
         const float* in = image.z.data() + src;
-        float* crop = out.crop.data() + dst;
+        float* crop = layers ? out.crop.data() + dst : nullptr;
         float* rowMin = tileMin.data() + size_t(y / kMapTileSize) * size_t(tilesX);
         float* rowMax = tileMax.data() + size_t(y / kMapTileSize) * size_t(tilesX);
         for (int tx = 0; tx < tilesX; ++tx) {
@@ -145,7 +146,7 @@ bool prepareMap(const DepthImage& image, PreparedMap& out, std::string& why) {
             float lo = rowMin[tx], hi = rowMax[tx];
             for (int x = xa; x < xb; ++x) {
                 const float z = none ? kInfinity : sanitize(in[x]);
-                crop[x] = z;
+                if (crop) crop[x] = z;
                 lo = std::min(lo, z);
                 hi = std::max(hi, z);
             }
@@ -161,7 +162,7 @@ bool prepareMap(const DepthImage& image, PreparedMap& out, std::string& why) {
     Imf::Header header(display, out.data, 1.0f, Imath::V2f(0, 0), 1.0f, Imf::INCREASING_Y, Imf::ZIP_COMPRESSION);
     header.setTileDescription(Imf::TileDescription(kMapTileSize, kMapTileSize, Imf::ONE_LEVEL));
     header.channels().insert("Z", Imf::Channel(Imf::FLOAT));
-    if (!out.crop2.empty()) header.channels().insert("Z2", Imf::Channel(Imf::FLOAT));
+    if (!image.z2.empty()) header.channels().insert("Z2", Imf::Channel(Imf::FLOAT));
     header.insert(kAttrWorldToCamera, Imf::M44fAttribute(toImath(image.lightFromWorld)));
     header.insert(kAttrWorldToNDC, Imf::M44fAttribute(toImath(image.ndcFromWorld)));
     header.insert(kAttrProjection, Imf::StringAttribute(projectionName(image.projection)));

@@ -52,7 +52,9 @@ struct PreparedMap {
 
 /// Prepares `image` for storing (see writeDepthMap for what the header
 /// holds). False with a reason in `why` when the image is malformed.
-bool prepareMap(const DepthImage& image, PreparedMap& out, std::string& why);
+/// Without `layers` only the header and tile counts are made (a map built
+/// from memory reads its tiles from the image; the crop is its file's).
+bool prepareMap(const DepthImage& image, PreparedMap& out, std::string& why, bool layers = true);
 
 /// The projection-related header fields of a map.
 struct MapMatrices {
