@@ -256,65 +256,75 @@ TEST(BlobbyRender, RenderIsTheSameWhateverTheThreadCount) {
 }
 
 TEST(BlobbyRender, RepellingPlaneKeepsTheBlobOffTheGroundItsMapStores) {
-    // The ground's depth map is rendered by umbra from above (a zfile, as
-    // PRMan's "zfile" display writes it); the blob over it is seen from the
-    // side. Its silhouette is where the field, the sphere's plus the plane's
-    // of the height z above the ground, reaches the threshold at y = 0 (the
-    // plane does not depend on y, so the field is largest there), computed
-    // here at 4x4 points per pixel: the render must match it pixel by pixel
-    // but for antialiased edges, and in total within 1%.
+    // The ground's depth map is rendered by umbra from 5 units above it: a
+    // zfile from an orthographic view (as PRMan's "zfile" display writes
+    // it) and a tiled EXR map (the "shadow" display) from a perspective
+    // one, where the height is still measured along the view axis. The blob
+    // over it is seen from the side. Its silhouette is where the field, the
+    // sphere's plus the plane's of the height z above the ground, reaches
+    // the threshold at y = 0 (the plane does not depend on y, so the field
+    // is largest there), computed here at 4x4 points per pixel: the render
+    // must match it pixel by pixel but for antialiased edges, and in total
+    // within 1%.
     ScratchDir dir("blobby-plane");
-    const std::string map = dir.file("ground.zfile");
-    Diagnostics mapDiag;
-    mapDiag.setQuiet(true);
-    test::renderRib(fmt::format(R"(
+    for (const bool perspective : {false, true}) {
+        SCOPED_TRACE(perspective ? "perspective EXR map" : "orthographic zfile");
+        const std::string map = dir.file(perspective ? "ground.exr" : "ground.zfile");
+        Diagnostics mapDiag;
+        mapDiag.setQuiet(true);
+        test::renderRib(fmt::format(R"(
 Format 64 64 1
 PixelSamples 1 1
-Display "{}" "zfile" "z"
-Projection "orthographic" ScreenWindow -2 2 -2 2
+Display "{}" "{}" "z"
+{}
 Scale 1 1 -1 Translate 0 0 -5
 WorldBegin
-Polygon "P" [-3 -3 0  3 -3 0  3 3 0  -3 3 0]
+Polygon "P" [-6 -6 0  6 -6 0  6 6 0  -6 6 0]
 WorldEnd
 )",
-                                map),
-                    mapDiag);
-    ASSERT_EQ(mapDiag.errorCount(), 0);
-    ASSERT_TRUE(std::filesystem::exists(map));
-    Diagnostics diag;
-    diag.setRecord(true);
-    constexpr int W = 160, H = 160;
-    const Image img = renderBlobby(dir, blobOverGround(map), kSideCamera, W, H, "", 0, &diag);
-    EXPECT_EQ(diag.warningCount(), 0);
-    auto field = [](double x, double z) { return sphere(1.2, 0, x, 0, z - 0.45) + repulsion(z, 0.4, 0.01, 0.3, 0.08); };
-    double expectedTotal = 0;
-    int wrong = 0, edges = 0, lowestRow = -1;
-    for (int py = 0; py < H; ++py)
-        for (int px = 0; px < W; ++px) {
-            int in = 0;
-            for (int sy = 0; sy < 4; ++sy)
-                for (int sx = 0; sx < 4; ++sx) {
-                    const double x = -1 + (px + (sx + 0.5) / 4) / 80, z = 1.5 - (py + (sy + 0.5) / 4) / 80;
-                    in += field(x, z) >= kT;
+                                    map, perspective ? "shadow" : "zfile",
+                                    perspective ? "Projection \"perspective\" \"fov\" 60"
+                                                : "Projection \"orthographic\" ScreenWindow -2 2 -2 2"),
+                        mapDiag);
+        ASSERT_EQ(mapDiag.errorCount(), 0);
+        ASSERT_TRUE(std::filesystem::exists(map));
+        Diagnostics diag;
+        diag.setRecord(true);
+        constexpr int W = 160, H = 160;
+        const Image img = renderBlobby(dir, blobOverGround(map), kSideCamera, W, H, "", 0, &diag);
+        EXPECT_EQ(diag.warningCount(), 0);
+        auto field = [](double x, double z) {
+            return sphere(1.2, 0, x, 0, z - 0.45) + repulsion(z, 0.4, 0.01, 0.3, 0.08);
+        };
+        double expectedTotal = 0;
+        int wrong = 0, edges = 0, lowestRow = -1;
+        for (int py = 0; py < H; ++py)
+            for (int px = 0; px < W; ++px) {
+                int in = 0;
+                for (int sy = 0; sy < 4; ++sy)
+                    for (int sx = 0; sx < 4; ++sx) {
+                        const double x = -1 + (px + (sx + 0.5) / 4) / 80, z = 1.5 - (py + (sy + 0.5) / 4) / 80;
+                        in += field(x, z) >= kT;
+                    }
+                expectedTotal += in / 16.0;
+                const float a = img.at(px, py, 3);
+                if (a > 0.5f) lowestRow = std::max(lowestRow, py);
+                if (in == 0 || in == 16) {
+                    if (std::fabs(a - in / 16.0) > 0.5) ++wrong;
+                } else {
+                    ++edges;
                 }
-            expectedTotal += in / 16.0;
-            const float a = img.at(px, py, 3);
-            if (a > 0.5f) lowestRow = std::max(lowestRow, py);
-            if (in == 0 || in == 16) {
-                if (std::fabs(a - in / 16.0) > 0.5) ++wrong;
-            } else {
-                ++edges;
             }
-        }
-    EXPECT_EQ(wrong, 0);
-    EXPECT_GT(edges, 0);
-    EXPECT_NEAR(alphaSum(img), expectedTotal, 0.01 * expectedTotal);
-    // The lowest point, on the vertical through the centre, by bisection:
-    // 0.037 above the ground, where the sphere alone reaches 0.15 under it.
-    double lo = 1e-6, hi = 0.45;
-    for (int k = 0; k < 60; ++k) (field(0, (lo + hi) / 2) >= kT ? hi : lo) = (lo + hi) / 2;
-    EXPECT_GT(hi, 0.03);
-    EXPECT_NEAR(1.5 - (lowestRow + 0.5) / 80, hi, 1.5 / 80);
+        EXPECT_EQ(wrong, 0);
+        EXPECT_GT(edges, 0);
+        EXPECT_NEAR(alphaSum(img), expectedTotal, 0.01 * expectedTotal);
+        // The lowest point, on the vertical through the centre, by bisection:
+        // 0.037 above the ground, where the sphere alone reaches 0.15 under it.
+        double lo = 1e-6, hi = 0.45;
+        for (int k = 0; k < 60; ++k) (field(0, (lo + hi) / 2) >= kT ? hi : lo) = (lo + hi) / 2;
+        EXPECT_GT(hi, 0.03);
+        EXPECT_NEAR(1.5 - (lowestRow + 0.5) / 80, hi, 1.5 / 80);
+    }
 }
 
 TEST(BlobbyRender, RepellingPlaneWithoutItsMapIsWarnedAtTheRequestAndLeavesTheBlobAlone) {
