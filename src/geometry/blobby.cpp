@@ -619,6 +619,36 @@ Vec3 BlobbyField::project(const Vec3& start, float maxStep, Vec3* outward) const
         Vec3 gNew;
         const float fNew = evaluate(next, nullptr, &gNew);
         if (!std::isfinite(fNew)) break;
+        if ((fNew - kBlobbyThreshold) * (f - kBlobbyThreshold) < 0 &&
+            std::abs(fNew - kBlobbyThreshold) > std::abs(f - kBlobbyThreshold)) {
+            // The step crossed the surface and landed farther from it than
+            // it started: Newton overshooting where the field is strongly
+            // curved (a repelling plane's -B/z), possibly into a region
+            // with no slope to come back along (under a plane's surface).
+            // The step brackets the surface: bisect it there.
+            Vec3 a = p, b = next;
+            float fa = f, fb = fNew;
+            for (int k = 0; k < 40 && std::abs(fb - kBlobbyThreshold) >= 1e-6f; ++k) {
+                const Vec3 m = (a + b) * 0.5f;
+                if (m == a || m == b) break;  // no float between them
+                const float fm = evaluate(m, nullptr, nullptr);
+                if ((fm - kBlobbyThreshold) * (fa - kBlobbyThreshold) > 0) {
+                    a = m;
+                    fa = fm;
+                } else {
+                    b = m;
+                    fb = fm;
+                }
+                if (std::abs(fa - kBlobbyThreshold) < std::abs(fb - kBlobbyThreshold)) {
+                    std::swap(a, b);  // b: the nearer the threshold
+                    std::swap(fa, fb);
+                }
+            }
+            p = b;
+            f = evaluate(p, nullptr, &gNew);
+            if (length(gNew) > 1e-12f && length(gNew) < 1e30f) g = gNew;
+            break;
+        }
         p = next;
         f = fNew;
         if (length(gNew) > 1e-12f && length(gNew) < 1e30f) g = gNew;

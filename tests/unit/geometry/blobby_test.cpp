@@ -354,37 +354,48 @@ TEST(Blobby, DepthMapPlaneFieldIsTheNotesRepulsionOfTheHeightAboveTheMap) {
 }
 
 TEST(Blobby, DepthMapPlanePushesTheDicedSurfaceOffTheGround) {
-    // A sphere leaf of surface radius 0.6 centred 0.45 above a flat ground,
-    // added to the spec's example plane: alone its lowest point would be
-    // 0.15 under the ground; the plane pushes it up to where the combined
-    // field along the vertical through the centre first reaches the
-    // threshold (the field is largest on that line at every height, so the
-    // surface's lowest point is on it). Found here by bisection.
+    // A sphere leaf of surface radius 0.6 above a flat ground, added to the
+    // spec's example plane: the plane pushes its bottom up to where the
+    // combined field along the vertical through the centre first reaches
+    // the threshold (the field is largest on that line at every height, so
+    // the surface's lowest point is on it). Found here by bisection. Centred
+    // 0.45 up, the sphere alone would reach 0.15 under the ground; centred
+    // 0.02 under it, Newton steps from inside overshoot into the ground,
+    // where the plane's field is flat, and must come back.
     const std::string map = writeGroundMap("blobby-flat", 0);
     const double A = 0.4, B = 0.01, C = 0.3, D = 0.08;
-    auto axis = [&](double z) { return bump((z - 0.45) * (z - 0.45) / 1.44) + noteRepulsion(z, A, B, C, D); };
-    double lo = 1e-6, hi = 0.45;
-    for (int k = 0; k < 60; ++k) (axis((lo + hi) / 2) >= kT ? hi : lo) = (lo + hi) / 2;
-    const double lowest = hi;
-    EXPECT_GT(lowest, 0.03);  // off the ground, where it was 0.15 under it
-    Diagnostics diag;
-    auto prims = makePrimitives(sphereOverPlane(1.2f, {0, 0, 0.45f}, map, {float(A), float(B), float(C), float(D)}),
-                                diag);
-    EXPECT_EQ(diag.warningCount() + diag.errorCount(), 0);
-    ASSERT_EQ(prims.size(), 1u);
-    float minZ = kInfinity, maxZ = -kInfinity;
-    for (const auto& piece : splitToDiceable(std::move(prims))) {
-        const Grid g = piece->dice(8, 8);
-        for (const Vec3& p : g.P) {
-            minZ = std::min(minZ, p.z);
-            maxZ = std::max(maxZ, p.z);
-            const double r2 = double(dot(p, p) - p.z * p.z) + (p.z - 0.45) * (p.z - 0.45);
-            EXPECT_NEAR(bump(r2 / 1.44) + noteRepulsion(p.z, A, B, C, D), kT, 1e-4);
+    for (const double centre : {0.45, -0.02}) {
+        SCOPED_TRACE(centre);
+        auto field = [&](double r2xy, double z) {
+            return bump((r2xy + (z - centre) * (z - centre)) / 1.44) + noteRepulsion(z, A, B, C, D);
+        };
+        double lo = 1e-6, hi = 0.3;
+        for (int k = 0; k < 60; ++k) (field(0, (lo + hi) / 2) >= kT ? hi : lo) = (lo + hi) / 2;
+        const double lowest = hi;
+        EXPECT_GT(lowest, centre > 0 ? 0.03 : 0.005);  // off the ground
+        Diagnostics diag;
+        auto prims = makePrimitives(
+            sphereOverPlane(1.2f, {0, 0, float(centre)}, map, {float(A), float(B), float(C), float(D)}), diag);
+        EXPECT_EQ(diag.warningCount() + diag.errorCount(), 0);
+        ASSERT_EQ(prims.size(), 1u);
+        float minZ = kInfinity, maxZ = -kInfinity;
+        int outsideBound = 0, offSurface = 0;
+        for (const auto& piece : splitToDiceable(std::move(prims))) {
+            const Grid g = piece->dice(8, 8);
+            const Bound3 b = piece->bound();
+            for (const Vec3& p : g.P) {
+                outsideBound += !inside(b, p, 1e-5f);
+                minZ = std::min(minZ, p.z);
+                maxZ = std::max(maxZ, p.z);
+                offSurface += !(std::abs(field(double(p.x * p.x + p.y * p.y), p.z) - kT) < 1e-4);
+            }
         }
+        EXPECT_EQ(offSurface, 0);
+        EXPECT_EQ(outsideBound, 0);  // each piece's bound holds its surface, flattened part and all
+        EXPECT_GE(minZ, lowest - 1e-4);
+        EXPECT_NEAR(minZ, lowest, 5e-3);
+        EXPECT_NEAR(maxZ, centre + 0.6, 2e-3);  // the top, above the cut-off height, is the sphere's
     }
-    EXPECT_GE(minZ, lowest - 1e-4);
-    EXPECT_NEAR(minZ, lowest, 5e-3);
-    EXPECT_NEAR(maxZ, 1.05, 2e-3);  // the top, above the cut-off height, is the sphere's
     std::filesystem::remove(map);
 }
 
