@@ -15,6 +15,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <functional>
 
 using namespace umbra;
 using namespace umbra::geometry;
@@ -67,9 +68,9 @@ double noteRepulsion(double z, double A, double B, double C, double D) {
 }
 
 // A 64x64 zfile seen from world z = 5 looking down -z (orthographic, over
-// x, y in [-2, 2]: a texel is 1/16 unit) of the ground z = slope * x: each
-// texel stores the depth 5 - slope * x of its centre.
-std::string writeGroundMap(const std::string& name, float slope) {
+// x, y in [-2, 2]: a texel is 1/16 unit) of the ground z = ground(x, y):
+// each texel stores the depth 5 - ground of its centre.
+std::string writeGroundMap(const std::string& name, const std::function<float(float, float)>& ground) {
     DepthImage img(64, 64);
     img.projection = Projection::Orthographic;
     img.lightFromWorld.m[2][2] = -1;
@@ -80,7 +81,7 @@ std::string writeGroundMap(const std::string& name, float slope) {
     img.ndcFromWorld.m[1][1] = -0.25f;
     img.ndcFromWorld.m[1][3] = 0.5f;
     for (int j = 0; j < 64; ++j)
-        for (int i = 0; i < 64; ++i) img.at(i, j) = 5 - slope * ((float(i) + 0.5f) / 16 - 2);
+        for (int i = 0; i < 64; ++i) img.at(i, j) = 5 - ground((float(i) + 0.5f) / 16 - 2, 2 - (float(j) + 0.5f) / 16);
     const std::string path =
         (std::filesystem::temp_directory_path() / (name + "-" + std::to_string(::getpid()) + ".zfile")).string();
     EXPECT_TRUE(writeZFile(path, img));
@@ -302,7 +303,7 @@ TEST(Blobby, DepthMapPlaneFieldIsTheNotesRepulsionOfTheHeightAboveTheMap) {
     // moved by (0.3, -0.2, 0.1) in the world, so a point p is at height
     // (p + t).z - 0.1 (p + t).x above the ground (bilinear filtering between
     // texel centres is exact for the linear depth).
-    const std::string map = writeGroundMap("blobby-slope", 0.1f);
+    const std::string map = writeGroundMap("blobby-slope", [](float x, float) { return 0.1f * x; });
     const Vec3 t(0.3f, -0.2f, 0.1f), c(0.1f, 0.1f, 0.35f);
     const double A = 0.4, B = 0.01, C = 0.3, D = 0.08;
     auto rec = sphereOverPlane(1.2f, c, map, {float(A), float(B), float(C), float(D)});
@@ -362,7 +363,7 @@ TEST(Blobby, DepthMapPlanePushesTheDicedSurfaceOffTheGround) {
     // 0.45 up, the sphere alone would reach 0.15 under the ground; centred
     // 0.02 under it, Newton steps from inside overshoot into the ground,
     // where the plane's field is flat, and must come back.
-    const std::string map = writeGroundMap("blobby-flat", 0);
+    const std::string map = writeGroundMap("blobby-flat", [](float, float) { return 0.0f; });
     const double A = 0.4, B = 0.01, C = 0.3, D = 0.08;
     for (const double centre : {0.45, -0.02}) {
         SCOPED_TRACE(centre);
@@ -396,6 +397,41 @@ TEST(Blobby, DepthMapPlanePushesTheDicedSurfaceOffTheGround) {
         EXPECT_NEAR(minZ, lowest, 5e-3);
         EXPECT_NEAR(maxZ, centre + 0.6, 2e-3);  // the top, above the cut-off height, is the sphere's
     }
+    std::filesystem::remove(map);
+}
+
+TEST(Blobby, DepthMapPlaneOverAWavyGroundKeepsEveryDicedPointOnTheSurfaceAboveIt) {
+    // Three blobs pressed into a wavy ground: coarse triangles bridge its
+    // hollows, so some points start under it, where the plane's field is
+    // flat; each must still end on the threshold (the field evaluated by
+    // the code under test, whose values are checked above) and above the
+    // ground (within the bilinear map's error, about 0.002 here).
+    auto ground = [](float x, float y) { return 0.12f * std::sin(4 * x) * std::cos(3 * y); };
+    const std::string map = writeGroundMap("blobby-wavy", ground);
+    auto rec = blobby(4, {1001, 0, 1001, 16, 1001, 32, 1003, 0, 48, 0, 4, 0, 1, 2, 3},
+                      concat(concat(concat(sphereLeaf(1.6f, {-0.5f, 0, 0.2f}), sphereLeaf(1.2f, {0.4f, 0.3f, 0.1f})),
+                                    sphereLeaf(1.0f, {0.1f, -0.5f, 0.0f})),
+                             {0.4f, 0.01f, 0.3f, 0.08f}));
+    rec->stringArgs = {map};
+    Diagnostics diag;
+    auto prims = makePrimitives(rec, diag);
+    ASSERT_EQ(prims.size(), 1u);
+    auto f = field(rec);
+    ASSERT_TRUE(f);
+    int points = 0, offSurface = 0, under = 0;
+    for (const auto& piece : splitToDiceable(std::move(prims))) {
+        const Grid g = piece->dice(6, 6);
+        for (const Vec3& p : g.P) {
+            ++points;
+            // Distance to the surface, to first order: within float
+            // precision (near the ground the field is steep).
+            offSurface += !(std::abs(f->value(p) - kT) / std::max(1.0f, length(f->gradient(p))) < 1e-5f);
+            under += p.z < ground(p.x, p.y) + 0.002f;
+        }
+    }
+    EXPECT_GT(points, 10000);
+    EXPECT_EQ(offSurface, 0);
+    EXPECT_EQ(under, 0);
     std::filesystem::remove(map);
 }
 
