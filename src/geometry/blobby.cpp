@@ -2,9 +2,12 @@
 
 #include "umbra/shadow/depth_image.h"
 
+#include <sys/stat.h>
+
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <mutex>
 #include <unordered_map>
 
 namespace umbra::geometry {
@@ -50,6 +53,32 @@ float repulsion(float z, float A, float B, float C, float D, float* dz) {
     const float f = D * bump - B / z;
     if (!clamped) *dz = (D * dbump + B / (z * z)) * (1 - ease) - f * dease;
     return f * (1 - ease);
+}
+
+// A repelling plane's depth map, read whole. Blobbies naming the same
+// unchanged file (same device, inode, size and modification time: a map
+// written again, atomically, is a new inode) share one copy while any of
+// them holds it, so a thousand droplets over one ground read it once.
+// Null when it cannot be read (the reasons in `reading`).
+std::shared_ptr<const DepthImage> readPlaneMap(const std::string& name, Diagnostics& reading) {
+    static std::mutex mutex;
+    static std::map<std::string, std::weak_ptr<const DepthImage>> shared;
+    struct stat st {};
+    std::string key;
+    if (::stat(name.c_str(), &st) == 0)
+        key = fmt::format("{}:{}:{}:{}.{}", st.st_dev, st.st_ino, st.st_size, st.st_mtim.tv_sec, st.st_mtim.tv_nsec);
+    if (!key.empty()) {
+        std::lock_guard<std::mutex> lock(mutex);
+        if (auto hit = shared[key].lock()) return hit;
+    }
+    auto image = std::make_shared<DepthImage>();
+    if (!readDepthFile(name, *image, reading)) return nullptr;
+    if (!key.empty()) {
+        std::lock_guard<std::mutex> lock(mutex);
+        for (auto it = shared.begin(); it != shared.end();) it = it->second.expired() ? shared.erase(it) : ++it;
+        shared[key] = image;
+    }
+    return image;
 }
 
 using Op = BlobbyField::Op;
@@ -249,15 +278,13 @@ std::shared_ptr<const BlobbyField> BlobbyField::fromRecord(const scene::Primitiv
             const std::string& name = rec.stringArgs[size_t(stringIndex)];
             auto known = maps.find(name);
             if (known == maps.end()) {
-                // Read once per Blobby; what the reader says becomes one
-                // warning at the request.
+                // Read once per Blobby (at most); what the reader says
+                // becomes one warning at the request.
                 Diagnostics reading;
                 reading.setRecord(true);
                 reading.setSink([](const Diagnostic&) {});
-                auto image = std::make_shared<DepthImage>();
-                const bool ok = readDepthFile(name, *image, reading);
-                known = maps.emplace(name, ok ? std::move(image) : nullptr).first;
-                if (!ok) {
+                known = maps.emplace(name, readPlaneMap(name, reading)).first;
+                if (!known->second) {
                     std::string why;
                     for (const Diagnostic& d : reading.recorded()) why += (why.empty() ? "" : "; ") + d.message;
                     diag.warningOnce("blobby:plane:" + rec.loc.str() + ":" + name, rec.loc,

@@ -27,9 +27,10 @@
 // is a leaf whose field is a function of a point's height above the
 // surface a depth map stores, measured along the map's view axis: strongly
 // negative near that surface, 0 from the cut-off height up, so a Blobby
-// *adding* it is pushed away from, e.g., a ground. Its map is read once per
-// Blobby. Having no support of its own, it acts only inside the support box
-// of the other leaves (docs/rib.md, "Blobby").
+// *adding* it is pushed away from, e.g., a ground. Its map is read once,
+// when the Blobby is made, and shared with other Blobbies naming the same
+// unchanged file. Having no support of its own, it acts only inside the
+// support box of the other leaves (docs/rib.md, "Blobby").
 
 #include "umbra/geometry/primitive.h"
 #include "umbra/geometry/primvars.h"

@@ -354,6 +354,27 @@ TEST(Blobby, DepthMapPlaneFieldIsTheNotesRepulsionOfTheHeightAboveTheMap) {
     std::filesystem::remove(map);
 }
 
+TEST(Blobby, DepthMapPlaneReadsItsMapAgainOnceItIsRewritten) {
+    // Blobbies naming one map share what was read, but not past a rewrite:
+    // the ground moves from z = 0 to z = 0.1 under the same name while the
+    // first Blobby still holds the old one.
+    const double A = 0.4, B = 0.01, C = 0.3, D = 0.08;
+    const Vec3 p(0.1f, 0, 0.15f);
+    const double sphere = sphereField(p, 1.2f, {0, 0, 0.45f});
+    const std::string map = writeGroundMap("blobby-rewrite", [](float, float) { return 0.0f; });
+    auto make = [&] {
+        return field(sphereOverPlane(1.2f, {0, 0, 0.45f}, map, {float(A), float(B), float(C), float(D)}));
+    };
+    auto before = make();
+    EXPECT_EQ(writeGroundMap("blobby-rewrite", [](float, float) { return 0.1f; }), map);
+    auto after = make(), again = make();
+    ASSERT_TRUE(before && after && again);
+    EXPECT_NEAR(before->value(p), sphere + noteRepulsion(0.15, A, B, C, D), 1e-5);
+    EXPECT_NEAR(after->value(p), sphere + noteRepulsion(0.05, A, B, C, D), 1e-4);
+    EXPECT_EQ(again->value(p), after->value(p));
+    std::filesystem::remove(map);
+}
+
 TEST(Blobby, DepthMapPlanePushesTheDicedSurfaceOffTheGround) {
     // A sphere leaf of surface radius 0.6 above a flat ground, added to the
     // spec's example plane: the plane pushes its bottom up to where the
