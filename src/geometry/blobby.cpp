@@ -1,12 +1,85 @@
 #include "umbra/geometry/blobby.h"
 
+#include "umbra/shadow/depth_image.h"
+
+#include <sys/stat.h>
+
 #include <algorithm>
 #include <cmath>
+#include <map>
+#include <mutex>
 #include <unordered_map>
 
 namespace umbra::geometry {
 
+/// A repelling plane (opcode 1003): the depth map, read once per Blobby,
+/// how the Blobby's object space maps onto it, and Application Note #31's
+/// parameters A (cut-off height), B (the barrier's strength), C (height of
+/// the bulge's peak) and D (the bulge's value there); heights are in the
+/// map's camera-space units.
+struct BlobbyField::Plane {
+    std::shared_ptr<const DepthImage> map;
+    Mat4 ndcFromObject;    // the map's worldToNDC after the Blobby's transform (projective)
+    Mat4 lightFromObject;  // the map's worldToCamera after it (affine)
+    float cutoff = 1, barrier = 0, bulgeHeight = 1, bulge = 0;
+
+    /// The leaf's field at object-space `p`; with `gradient`, its gradient.
+    float value(const Vec3& p, Vec3* gradient) const;
+};
+
 namespace {
+
+// Application Note #31's field of a repelling plane at height z above the
+// surface in its map, with the derivative in z in *dz:
+//   (D bump(z/C) - B/z) (1 - ease(z/A)) for z < A, 0 from A up,
+// where bump(r) = r^3 (2 - r)^3 on [0, 2] (0 with two zero derivatives at
+// both ends, 1 at r = 1) and ease(r) = r^2 (3 - 2r) on [0, 1]. Heights
+// below 1e-6 (points at or under the surface) count as 1e-6, the note's
+// ZCLAMP.
+float repulsion(float z, float A, float B, float C, float D, float* dz) {
+    *dz = 0;
+    if (z >= A) return 0;
+    const bool clamped = z <= 1e-6f;
+    if (clamped) z = 1e-6f;
+    const float r = z / C;
+    float bump = 0, dbump = 0;
+    if (r > 0 && r < 2) {
+        const float q = r * (2 - r);
+        bump = q * q * q;
+        dbump = 3 * q * q * (2 - 2 * r) / C;
+    }
+    const float e = std::min(z / A, 1.0f);
+    const float ease = e * e * (3 - 2 * e), dease = 6 * e * (1 - e) / A;
+    const float f = D * bump - B / z;
+    if (!clamped) *dz = (D * dbump + B / (z * z)) * (1 - ease) - f * dease;
+    return f * (1 - ease);
+}
+
+// A repelling plane's depth map, read whole. Blobbies naming the same
+// unchanged file (same device, inode, size and modification time: a map
+// written again, atomically, is a new inode) share one copy while any of
+// them holds it, so a thousand droplets over one ground read it once.
+// Null when it cannot be read (the reasons in `reading`).
+std::shared_ptr<const DepthImage> readPlaneMap(const std::string& name, Diagnostics& reading) {
+    static std::mutex mutex;
+    static std::map<std::string, std::weak_ptr<const DepthImage>> shared;
+    struct stat st {};
+    std::string key;
+    if (::stat(name.c_str(), &st) == 0)
+        key = fmt::format("{}:{}:{}:{}.{}", st.st_dev, st.st_ino, st.st_size, st.st_mtim.tv_sec, st.st_mtim.tv_nsec);
+    if (!key.empty()) {
+        std::lock_guard<std::mutex> lock(mutex);
+        if (auto hit = shared[key].lock()) return hit;
+    }
+    auto image = std::make_shared<DepthImage>();
+    if (!readDepthFile(name, *image, reading)) return nullptr;
+    if (!key.empty()) {
+        std::lock_guard<std::mutex> lock(mutex);
+        for (auto it = shared.begin(); it != shared.end();) it = it->second.expired() ? shared.erase(it) : ++it;
+        shared[key] = image;
+    }
+    return image;
+}
 
 using Op = BlobbyField::Op;
 
@@ -32,6 +105,51 @@ Vec3 nearestOnSegment(const Vec3& q, const Vec3& a, const Vec3& b) {
 }
 
 }  // namespace
+
+float BlobbyField::Plane::value(const Vec3& p, Vec3* gradient) const {
+    // The point's raster position in the map (NDC scaled by its size) and
+    // the stored depth there, bilinear between texel centres; where one of
+    // the four texels is empty, the nearest texel's. Off the map, behind a
+    // perspective map's eye or over an empty texel there is no surface to
+    // be repelled from: 0.
+    const DepthImage& img = *map;
+    const auto& N = ndcFromObject.m;
+    const float hx = N[0][0] * p.x + N[0][1] * p.y + N[0][2] * p.z + N[0][3];
+    const float hy = N[1][0] * p.x + N[1][1] * p.y + N[1][2] * p.z + N[1][3];
+    const float hw = N[3][0] * p.x + N[3][1] * p.y + N[3][2] * p.z + N[3][3];
+    if (!(hw > 0)) return 0;
+    const float W = float(img.width), H = float(img.height);
+    const float nx = hx / hw, ny = hy / hw, x = nx * W, y = ny * H;
+    if (!(x >= 0 && x < W && y >= 0 && y < H)) return 0;
+    const float fx = x - 0.5f, fy = y - 0.5f;
+    const int i0 = int(std::floor(fx)), j0 = int(std::floor(fy));
+    const float tx = fx - float(i0), ty = fy - float(j0);
+    const int ia = std::clamp(i0, 0, img.width - 1), ib = std::clamp(i0 + 1, 0, img.width - 1);
+    const int ja = std::clamp(j0, 0, img.height - 1), jb = std::clamp(j0 + 1, 0, img.height - 1);
+    const float z00 = img.at(ia, ja), z10 = img.at(ib, ja), z01 = img.at(ia, jb), z11 = img.at(ib, jb);
+    float depth, dDepthDx = 0, dDepthDy = 0;
+    if (std::isfinite(z00 + z10 + z01 + z11)) {
+        depth = (z00 * (1 - tx) + z10 * tx) * (1 - ty) + (z01 * (1 - tx) + z11 * tx) * ty;
+        if (ia != ib) dDepthDx = (z10 - z00) * (1 - ty) + (z11 - z01) * ty;
+        if (ja != jb) dDepthDy = (z01 - z00) * (1 - tx) + (z11 - z10) * tx;
+    } else {
+        depth = img.at(std::min(int(x), img.width - 1), std::min(int(y), img.height - 1));
+        if (!std::isfinite(depth)) return 0;
+    }
+    // Height above the stored surface along the map's view axis (its
+    // camera-space z grows away from the eye).
+    const auto& L = lightFromObject.m;
+    const float height = depth - (L[2][0] * p.x + L[2][1] * p.y + L[2][2] * p.z + L[2][3]);
+    float dz = 0;
+    const float v = repulsion(height, cutoff, barrier, bulgeHeight, bulge, &dz);
+    if (gradient && dz != 0) {
+        // d(raster)/dp of the projective map, then the chain rule.
+        const Vec3 dx = Vec3(N[0][0] - nx * N[3][0], N[0][1] - nx * N[3][1], N[0][2] - nx * N[3][2]) * (W / hw);
+        const Vec3 dy = Vec3(N[1][0] - ny * N[3][0], N[1][1] - ny * N[3][1], N[1][2] - ny * N[3][2]) * (H / hw);
+        *gradient = (dx * dDepthDx + dy * dDepthDy - Vec3(L[2][0], L[2][1], L[2][2])) * dz;
+    }
+    return v;
+}
 
 std::shared_ptr<const BlobbyField> BlobbyField::fromRecord(const scene::PrimitiveRecord& rec, Diagnostics& diag) {
     if (rec.intArgs.empty()) {
@@ -71,6 +189,7 @@ std::shared_ptr<const BlobbyField> BlobbyField::fromRecord(const scene::Primitiv
         return true;
     };
     const Bound3 unit(Vec3(-1), Vec3(1));
+    std::map<std::string, std::shared_ptr<const DepthImage>> maps;  // by name; null: unreadable
     while (pc < code.size()) {
         const int opcode = code[pc++];
         Instruction ins;
@@ -140,16 +259,54 @@ std::shared_ptr<const BlobbyField> BlobbyField::fromRecord(const scene::Primitiv
             if (!operand("the string index of a depth-map plane", &stringIndex) ||
                 !operand("the float index of a depth-map plane", &idx))
                 return nullptr;
-            if (!floatsAt(idx, 4, "depth-map plane")) return nullptr;
-            const std::string name = stringIndex >= 0 && size_t(stringIndex) < rec.stringArgs.size()
-                                         ? rec.stringArgs[size_t(stringIndex)]
-                                         : std::string("?");
-            diag.warningOnce("blobby:plane", rec.loc,
-                             "Blobby: depth-map repelling planes (opcode 1003, \"{}\") are not supported; the leaf "
-                             "contributes nothing to the field",
-                             name);
-            ins.op = Op::Skipped;
+            const float* f = floatsAt(idx, 4, "depth-map plane");
+            if (!f) return nullptr;
+            if (stringIndex < 0 || size_t(stringIndex) >= rec.stringArgs.size()) {
+                diag.error(rec.loc,
+                           "Blobby: instruction {} (depth-map plane) reads string {}, but the strings array has {}",
+                           self, stringIndex, rec.stringArgs.size());
+                return nullptr;
+            }
+            if (!(f[0] > 0) || !(f[2] > 0) || !std::isfinite(f[0] + f[1] + f[2] + f[3])) {
+                diag.error(rec.loc,
+                           "Blobby: instruction {} (depth-map plane) has parameters {} {} {} {}, expected finite "
+                           "ones with a positive cut-off height (the first) and bulge height (the third)",
+                           self, f[0], f[1], f[2], f[3]);
+                return nullptr;
+            }
             ins.leaf = field->m_leaves++;
+            const std::string& name = rec.stringArgs[size_t(stringIndex)];
+            auto known = maps.find(name);
+            if (known == maps.end()) {
+                // Read once per Blobby (at most); what the reader says
+                // becomes one warning at the request.
+                Diagnostics reading;
+                reading.setRecord(true);
+                reading.setSink([](const Diagnostic&) {});
+                known = maps.emplace(name, readPlaneMap(name, reading)).first;
+                if (!known->second) {
+                    std::string why;
+                    for (const Diagnostic& d : reading.recorded()) why += (why.empty() ? "" : "; ") + d.message;
+                    diag.warningOnce("blobby:plane:" + rec.loc.str() + ":" + name, rec.loc,
+                                     "Blobby: cannot read the depth map of repelling plane leaf {} (opcode 1003): "
+                                     "{}; the leaf contributes nothing to the field",
+                                     ins.leaf, why);
+                }
+            }
+            if (!known->second) {
+                ins.op = Op::Skipped;
+                break;
+            }
+            auto plane = std::make_shared<Plane>();
+            plane->map = known->second;
+            plane->ndcFromObject = plane->map->ndcFromWorld * rec.worldFromObject;
+            plane->lightFromObject = plane->map->lightFromWorld * rec.worldFromObject;
+            plane->cutoff = f[0];
+            plane->barrier = f[1];
+            plane->bulgeHeight = f[2];
+            plane->bulge = f[3];
+            ins.op = Op::Plane;
+            ins.plane = std::move(plane);
             break;
         }
         case 0:
@@ -191,6 +348,11 @@ std::shared_ptr<const BlobbyField> BlobbyField::fromRecord(const scene::Primitiv
                    field->m_leaves);
         return nullptr;
     }
+    // A plane has no support of its own (it stretches as far as its map):
+    // it acts inside the other leaves' support box only, so the surface
+    // stays bounded there whatever the plane's parameters.
+    for (Instruction& ins : field->m_code)
+        if (ins.op == Op::Plane) ins.support = field->m_support;
     if (!field->m_support.empty()) {
         const Vec3 lo = field->m_support.min, hi = field->m_support.max;
         const bool finite = std::isfinite(lo.x) && std::isfinite(lo.y) && std::isfinite(lo.z) &&
@@ -233,7 +395,8 @@ std::vector<BlobbyField::Instruction> BlobbyField::reduce(const std::vector<Inst
         switch (ins.op) {
         case Op::Constant: isZero = ins.constant == 0; break;
         case Op::Ellipsoid:
-        case Op::Segment: {
+        case Op::Segment:
+        case Op::Plane: {
             const Bound3& b = ins.support;
             isZero = b.max.x < region.min.x || b.max.y < region.min.y || b.max.z < region.min.z ||
                      b.min.x > region.max.x || b.min.y > region.max.y || b.min.z > region.max.z;
@@ -407,6 +570,10 @@ float BlobbyField::evaluate(const Vec3& p, float* leafValues, Vec3* gradient) co
             leaf(q - nearestOnSegment(q, ins.a, ins.b));
             break;
         }
+        case Op::Plane:
+            if (outside()) break;
+            v = ins.plane->value(p, grad ? &g : nullptr);
+            break;
         case Op::Skipped: break;
         case Op::Add:
             for (int o : ins.operands) {
@@ -479,6 +646,36 @@ Vec3 BlobbyField::project(const Vec3& start, float maxStep, Vec3* outward) const
         Vec3 gNew;
         const float fNew = evaluate(next, nullptr, &gNew);
         if (!std::isfinite(fNew)) break;
+        if ((fNew - kBlobbyThreshold) * (f - kBlobbyThreshold) < 0 &&
+            std::abs(fNew - kBlobbyThreshold) > std::abs(f - kBlobbyThreshold)) {
+            // The step crossed the surface and landed farther from it than
+            // it started: Newton overshooting where the field is strongly
+            // curved (a repelling plane's -B/z), possibly into a region
+            // with no slope to come back along (under a plane's surface).
+            // The step brackets the surface: bisect it there.
+            Vec3 a = p, b = next;
+            float fa = f, fb = fNew;
+            for (int k = 0; k < 40 && std::abs(fb - kBlobbyThreshold) >= 1e-6f; ++k) {
+                const Vec3 m = (a + b) * 0.5f;
+                if (m == a || m == b) break;  // no float between them
+                const float fm = evaluate(m, nullptr, nullptr);
+                if ((fm - kBlobbyThreshold) * (fa - kBlobbyThreshold) > 0) {
+                    a = m;
+                    fa = fm;
+                } else {
+                    b = m;
+                    fb = fm;
+                }
+                if (std::abs(fa - kBlobbyThreshold) < std::abs(fb - kBlobbyThreshold)) {
+                    std::swap(a, b);  // b: the nearer the threshold
+                    std::swap(fa, fb);
+                }
+            }
+            p = b;
+            f = evaluate(p, nullptr, &gNew);
+            if (length(gNew) > 1e-12f && length(gNew) < 1e30f) g = gNew;
+            break;
+        }
         p = next;
         f = fNew;
         if (length(gNew) > 1e-12f && length(gNew) < 1e30f) g = gNew;

@@ -177,30 +177,39 @@ bool readZFile(const std::string& path, DepthImage& out, Diagnostics& diag, cons
     return true;
 }
 
-bool makeShadow(const std::string& in, const std::string& out, Diagnostics& diag, const FileLoc& loc) {
+namespace {
+
+// readDepthFile, its messages starting with `what` ("MakeShadow: ").
+bool readDepthFileAs(const char* what, const std::string& in, DepthImage& image, Diagnostics& diag,
+                     const FileLoc& loc) {
     uint32_t magic = 0;
     {
         std::ifstream f(in, std::ios::binary);
         if (!f) {
-            diag.error(loc, "MakeShadow: cannot open \"{}\"", in);
+            diag.error(loc, "{}cannot open \"{}\"", what, in);
             return false;
         }
         f.read(reinterpret_cast<char*>(&magic), 4);
         if (!f) {
-            diag.error(loc, "MakeShadow: \"{}\" is too short to be a zfile or an OpenEXR image", in);
+            diag.error(loc, "{}\"{}\" is too short to be a zfile or an OpenEXR image", what, in);
             return false;
         }
     }
+    if (magic == kZFileMagic || magic == byteSwap(kZFileMagic)) return readZFile(in, image, diag, loc);
+    if (magic == kExrMagic) return readDepthImage(in, image, diag, loc);
+    diag.error(loc, "{}\"{}\" is neither a zfile nor an OpenEXR depth image (magic {:#010x})", what, in, magic);
+    return false;
+}
+
+}  // namespace
+
+bool readDepthFile(const std::string& path, DepthImage& out, Diagnostics& diag, const FileLoc& loc) {
+    return readDepthFileAs("", path, out, diag, loc);
+}
+
+bool makeShadow(const std::string& in, const std::string& out, Diagnostics& diag, const FileLoc& loc) {
     DepthImage image;
-    if (magic == kZFileMagic || magic == byteSwap(kZFileMagic)) {
-        if (!readZFile(in, image, diag, loc)) return false;
-    } else if (magic == kExrMagic) {
-        if (!readDepthImage(in, image, diag, loc)) return false;
-    } else {
-        diag.error(loc, "MakeShadow: \"{}\" is neither a zfile nor an OpenEXR depth image (magic {:#010x})", in,
-                   magic);
-        return false;
-    }
+    if (!readDepthFileAs("MakeShadow: ", in, image, diag, loc)) return false;
     return writeDepthMap(out, image, diag, loc);
 }
 

@@ -2,8 +2,10 @@
 // here: the closed-form threshold surface of a lone ellipsoid (its unit
 // sphere scaled by 1/2: the field (1 - r^2)^3 equals 0.75^3 at r = 0.5), the
 // silhouettes of combined fields evaluated in the test, a sphere's shadow on
-// a floor under a distant light, displacement along the outward normal, and
-// the flopped picture under a flopping camera.
+// a floor under a distant light, displacement along the outward normal, the
+// flopped picture under a flopping camera, and a blob pushed off a ground by
+// a repelling plane whose depth map umbra rendered (PRMan Application Note
+// #31's field of the height above the map, written here).
 
 #include "support/render_harness.h"
 
@@ -12,6 +14,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 
@@ -24,7 +27,7 @@ namespace {
 constexpr double kT = 0.421875;  // 0.75^3
 
 Image renderBlobby(const ScratchDir& dir, const std::string& body, const std::string& camera, int width, int height,
-             const std::string& options = "", int threads = 0) {
+             const std::string& options = "", int threads = 0, Diagnostics* recorded = nullptr) {
     const std::string image = dir.file("blobby.tif");
     const std::string rib = fmt::format(R"(
 Option "searchpath" "shader" ["{}:&"]
@@ -38,7 +41,8 @@ WorldBegin
 WorldEnd
 )",
                                         dir.file(""), options, width, height, image, camera, body);
-    Diagnostics diag;
+    Diagnostics own;
+    Diagnostics& diag = recorded ? *recorded : own;
     diag.setQuiet(true);
     Image img = test::renderImage(rib, image, diag, threads);
     EXPECT_EQ(diag.errorCount(), 0) << rib;
@@ -56,6 +60,29 @@ double bump(double r2) { return r2 < 1 ? std::pow(1 - r2, 3) : 0; }
 double sphere(double s, double cx, double x, double y, double z) {
     const double dx = (x - cx) / s, dy = y / s, dz = z / s;
     return bump(dx * dx + dy * dy + dz * dz);
+}
+
+// A repelling plane's field at height z above its map's surface, written
+// again from Application Note #31.
+double repulsion(double z, double A, double B, double C, double D) {
+    auto bump2 = [](double r) { return r <= 0 || r >= 2 ? 0 : (((6 - r) * r - 12) * r + 8) * r * r * r; };
+    auto ease = [](double r) { return r <= 0 ? 0 : r >= 1 ? 1 : r * r * (3 - 2 * r); };
+    if (z >= A) return 0;
+    if (z <= 1e-6) z = 1e-6;
+    return (D * bump2(z / C) - B / z) * (1 - ease(z / A));
+}
+
+// Side view for the ground scenes: orthographic along world +y, 80 pixels
+// per unit, world x in [-1, 1] across and z in [-0.5, 1.5] up.
+const char* const kSideCamera =
+    "Projection \"orthographic\" ScreenWindow -1 1 -0.5 1.5 Transform [1 0 0 0  0 0 1 0  0 1 0 0  0 0 5 1]";
+
+// A blob of surface radius 0.6 centred 0.45 above the ground z = 0, added
+// to RI spec 3.2's example plane (A B C D = 0.4 0.01 0.3 0.08) of `map`.
+std::string blobOverGround(const std::string& map) {
+    return fmt::format("Surface \"constant\" Translate 0 0 0.45 Blobby 2 [1001 0 1003 0 16 0 2 0 1] [{}  0.4 0.01 "
+                       "0.3 0.08] [\"{}\"]",
+                       sphereLeaf(1.2, 0, 0, 0), map);
 }
 
 }  // namespace
@@ -226,4 +253,96 @@ TEST(BlobbyRender, RenderIsTheSameWhateverTheThreadCount) {
     const std::string camera = "Projection \"perspective\" \"fov\" 30 Translate 0 0 5";
     Image one = renderBlobby(dir, body, camera, 96, 64, "", 1), four = renderBlobby(dir, body, camera, 96, 64, "", 4);
     EXPECT_EQ(test::maxAbsDiff(one, four, 4), 0.0);
+}
+
+TEST(BlobbyRender, RepellingPlaneKeepsTheBlobOffTheGroundItsMapStores) {
+    // The ground's depth map is rendered by umbra from 5 units above it: a
+    // zfile from an orthographic view (as PRMan's "zfile" display writes
+    // it) and a tiled EXR map (the "shadow" display) from a perspective
+    // one, where the height is still measured along the view axis. The blob
+    // over it is seen from the side. Its silhouette is where the field, the
+    // sphere's plus the plane's of the height z above the ground, reaches
+    // the threshold at y = 0 (the plane does not depend on y, so the field
+    // is largest there), computed here at 4x4 points per pixel: the render
+    // must match it pixel by pixel but for antialiased edges, and in total
+    // within 1%.
+    ScratchDir dir("blobby-plane");
+    for (const bool perspective : {false, true}) {
+        SCOPED_TRACE(perspective ? "perspective EXR map" : "orthographic zfile");
+        const std::string map = dir.file(perspective ? "ground.exr" : "ground.zfile");
+        Diagnostics mapDiag;
+        mapDiag.setQuiet(true);
+        test::renderRib(fmt::format(R"(
+Format 64 64 1
+PixelSamples 1 1
+Display "{}" "{}" "z"
+{}
+Scale 1 1 -1 Translate 0 0 -5
+WorldBegin
+Polygon "P" [-6 -6 0  6 -6 0  6 6 0  -6 6 0]
+WorldEnd
+)",
+                                    map, perspective ? "shadow" : "zfile",
+                                    perspective ? "Projection \"perspective\" \"fov\" 60"
+                                                : "Projection \"orthographic\" ScreenWindow -2 2 -2 2"),
+                        mapDiag);
+        ASSERT_EQ(mapDiag.errorCount(), 0);
+        ASSERT_TRUE(std::filesystem::exists(map));
+        Diagnostics diag;
+        diag.setRecord(true);
+        constexpr int W = 160, H = 160;
+        const Image img = renderBlobby(dir, blobOverGround(map), kSideCamera, W, H, "", 0, &diag);
+        EXPECT_EQ(diag.warningCount(), 0);
+        auto field = [](double x, double z) {
+            return sphere(1.2, 0, x, 0, z - 0.45) + repulsion(z, 0.4, 0.01, 0.3, 0.08);
+        };
+        double expectedTotal = 0;
+        int wrong = 0, edges = 0, lowestRow = -1;
+        for (int py = 0; py < H; ++py)
+            for (int px = 0; px < W; ++px) {
+                int in = 0;
+                for (int sy = 0; sy < 4; ++sy)
+                    for (int sx = 0; sx < 4; ++sx) {
+                        const double x = -1 + (px + (sx + 0.5) / 4) / 80, z = 1.5 - (py + (sy + 0.5) / 4) / 80;
+                        in += field(x, z) >= kT;
+                    }
+                expectedTotal += in / 16.0;
+                const float a = img.at(px, py, 3);
+                if (a > 0.5f) lowestRow = std::max(lowestRow, py);
+                if (in == 0 || in == 16) {
+                    if (std::fabs(a - in / 16.0) > 0.5) ++wrong;
+                } else {
+                    ++edges;
+                }
+            }
+        EXPECT_EQ(wrong, 0);
+        EXPECT_GT(edges, 0);
+        EXPECT_NEAR(alphaSum(img), expectedTotal, 0.01 * expectedTotal);
+        // The lowest point, on the vertical through the centre, by bisection:
+        // 0.037 above the ground, where the sphere alone reaches 0.15 under it.
+        double lo = 1e-6, hi = 0.45;
+        for (int k = 0; k < 60; ++k) (field(0, (lo + hi) / 2) >= kT ? hi : lo) = (lo + hi) / 2;
+        EXPECT_GT(hi, 0.03);
+        EXPECT_NEAR(1.5 - (lowestRow + 0.5) / 80, hi, 1.5 / 80);
+    }
+}
+
+TEST(BlobbyRender, RepellingPlaneWithoutItsMapIsWarnedAtTheRequestAndLeavesTheBlobAlone) {
+    ScratchDir dir("blobby-nomap");
+    const std::string map = dir.file("missing.zfile");
+    Diagnostics diag;
+    diag.setRecord(true);
+    const std::string body = blobOverGround(map);
+    const Image img = renderBlobby(dir, body, kSideCamera, 160, 160, "", 0, &diag);
+    ASSERT_EQ(diag.recorded().size(), 1u);
+    EXPECT_EQ(diag.recorded()[0].str(),
+              fmt::format("test.rib:9:{}: warning: Blobby: cannot read the depth map of repelling plane leaf 1 (opcode "
+                          "1003): cannot open \"{}\"; the leaf contributes nothing to the field",
+                          body.find("Blobby") + 1, map));
+    // The picture of the ellipsoid alone, pixel for pixel.
+    const Image alone = renderBlobby(
+        dir, "Surface \"constant\" Translate 0 0 0.45 Blobby 1 [1001 0] [" + sphereLeaf(1.2, 0, 0, 0) + "] [\"\"]",
+        kSideCamera, 160, 160);
+    EXPECT_EQ(test::maxAbsDiff(img, alone, 4), 0.0);
+    EXPECT_GT(alphaSum(alone), 0.9 * kPi * 0.36 * 80 * 80);
 }

@@ -22,6 +22,15 @@
 // The REYES loop then bounds, splits and dices those pieces like any
 // parametric surface, so the dicing rate follows the raster size and the
 // shading rate, in the camera pass and in depth passes alike.
+//
+// A depth-map repelling plane (opcode 1003; PRMan Application Note #31)
+// is a leaf whose field is a function of a point's height above the
+// surface a depth map stores, measured along the map's view axis: strongly
+// negative near that surface, 0 from the cut-off height up, so a Blobby
+// *adding* it is pushed away from, e.g., a ground. Its map is read once,
+// when the Blobby is made, and shared with other Blobbies naming the same
+// unchanged file. Having no support of its own, it acts only inside the
+// support box of the other leaves (docs/rib.md, "Blobby").
 
 #include "umbra/geometry/primitive.h"
 #include "umbra/geometry/primvars.h"
@@ -29,6 +38,10 @@
 #include <array>
 #include <memory>
 #include <vector>
+
+namespace umbra {
+struct DepthImage;
+}
 
 namespace umbra::geometry {
 
@@ -40,20 +53,26 @@ constexpr float kBlobbyThreshold = 0.421875f;
 /// them, evaluated in object space.
 class BlobbyField {
 public:
-    enum class Op { Constant, Ellipsoid, Segment, Skipped, Add, Multiply, Max, Min, Subtract, Divide, Negate, Identity };
+    enum class Op {
+        Constant, Ellipsoid, Segment, Plane, Skipped, Add, Multiply, Max, Min, Subtract, Divide, Negate, Identity
+    };
+    /// A repelling plane's depth map and parameters (defined in blobby.cpp).
+    struct Plane;
     struct Instruction {
         Op op = Op::Constant;
         int leaf = -1;                // leaf number (order of appearance) for leaf opcodes
         float constant = 0;           // Constant
         Mat4 leafFromObject;          // Ellipsoid, Segment: into the leaf's unit space
         Vec3 a, b;                    // Segment end points (leaf space, divided by the radius)
-        Bound3 support;               // Ellipsoid, Segment: object-space box outside which the leaf is 0
+        Bound3 support;               // Ellipsoid, Segment, Plane: object-space box outside which the leaf is 0
+        std::shared_ptr<const Plane> plane;  // Plane
         std::vector<int> operands;    // instruction indices of earlier results
     };
 
     /// Reads and validates the code, floats and strings of a Blobby record;
     /// reports problems at record.loc ("Blobby: ...") and returns null.
-    /// A depth-map plane (opcode 1003) is reported once and contributes 0.
+    /// Reads the depth map of each repelling plane (opcode 1003) once; one
+    /// that cannot be read is warned at record.loc and contributes 0.
     static std::shared_ptr<const BlobbyField> fromRecord(const scene::PrimitiveRecord& record, Diagnostics& diag);
 
     /// The field at object-space `p`; `leafValues` (nleaf entries), when
@@ -68,7 +87,8 @@ public:
     Vec3 project(const Vec3& p, float maxStep, Vec3* outward) const;
 
     int leafCount() const { return m_leaves; }
-    /// Where the non-constant leaves are non-zero (object space).
+    /// Where the ellipsoid and segment leaves are non-zero (object space);
+    /// repelling planes act only inside it.
     const Bound3& support() const { return m_support; }
     /// The smallest surface radius of any non-constant leaf (object units):
     /// what the coarse lattice must resolve.

@@ -145,9 +145,13 @@ bool writeZFile(const std::string& path, const DepthImage& image, Diagnostics& d
 /// is inferred from Np (orthographic when its w column is (0,0,0,1)).
 bool readZFile(const std::string& path, DepthImage& out, Diagnostics& diag, const FileLoc& loc = {});
 
-/// RenderMan's MakeShadow: converts `in` (a zfile, recognised by its magic,
-/// or any OpenEXR depth image readDepthImage accepts) into the tiled map
-/// `out`. Errors name `loc` (the RIB request) and the file.
+/// Reads a zfile (recognised by its magic) or any OpenEXR depth image
+/// readDepthImage accepts, a depth map written by writeDepthMap among them.
+/// False (with an error naming `loc` and the file) on failure.
+bool readDepthFile(const std::string& path, DepthImage& out, Diagnostics& diag, const FileLoc& loc = {});
+
+/// RenderMan's MakeShadow: converts `in` (what readDepthFile reads) into
+/// the tiled map `out`. Errors name `loc` (the RIB request) and the file.
 bool makeShadow(const std::string& in, const std::string& out, Diagnostics& diag, const FileLoc& loc = {});
 
 }  // namespace umbra

@@ -1,15 +1,21 @@
 // Blobby implicit surfaces: the field against its closed form (written
 // again here), the diced surface on the threshold with outward normals and
-// windings, per-leaf values blended by field weight, and malformed code
-// reported at the request's location.
+// windings, per-leaf values blended by field weight, depth-map repelling
+// planes against Application Note #31's field of the height above a map
+// written here, and malformed code reported at the request's location.
 
 #include "geometry_test_util.h"
 
 #include "umbra/geometry/blobby.h"
+#include "umbra/shadow/depth_image.h"
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <cmath>
+#include <filesystem>
+#include <functional>
 
 using namespace umbra;
 using namespace umbra::geometry;
@@ -49,6 +55,46 @@ std::shared_ptr<const BlobbyField> field(const std::shared_ptr<scene::PrimitiveR
     auto f = BlobbyField::fromRecord(*r, diag);
     EXPECT_EQ(diag.errorCount(), 0);
     return f;
+}
+
+// A repelling plane's field, written again from PRMan Application Note #31:
+// z is the height above the surface stored in the plane's depth map.
+double noteBump(double r) { return r <= 0 || r >= 2 ? 0 : (((6 - r) * r - 12) * r + 8) * r * r * r; }
+double noteEase(double r) { return r <= 0 ? 0 : r >= 1 ? 1 : r * r * (3 - 2 * r); }
+double noteRepulsion(double z, double A, double B, double C, double D) {
+    if (z >= A) return 0;
+    if (z <= 1e-6) z = 1e-6;
+    return (D * noteBump(z / C) - B / z) * (1 - noteEase(z / A));
+}
+
+// A 64x64 zfile seen from world z = 5 looking down -z (orthographic, over
+// x, y in [-2, 2]: a texel is 1/16 unit) of the ground z = ground(x, y):
+// each texel stores the depth 5 - ground of its centre.
+std::string writeGroundMap(const std::string& name, const std::function<float(float, float)>& ground) {
+    DepthImage img(64, 64);
+    img.projection = Projection::Orthographic;
+    img.lightFromWorld.m[2][2] = -1;
+    img.lightFromWorld.m[2][3] = 5;
+    img.ndcFromWorld = img.lightFromWorld;
+    img.ndcFromWorld.m[0][0] = 0.25f;
+    img.ndcFromWorld.m[0][3] = 0.5f;
+    img.ndcFromWorld.m[1][1] = -0.25f;
+    img.ndcFromWorld.m[1][3] = 0.5f;
+    for (int j = 0; j < 64; ++j)
+        for (int i = 0; i < 64; ++i) img.at(i, j) = 5 - ground((float(i) + 0.5f) / 16 - 2, 2 - (float(j) + 0.5f) / 16);
+    const std::string path =
+        (std::filesystem::temp_directory_path() / (name + "-" + std::to_string(::getpid()) + ".zfile")).string();
+    EXPECT_TRUE(writeZFile(path, img));
+    return path;
+}
+
+// An ellipsoid (sphere leaf of scale `s` at `c`) added to a repelling plane
+// with parameters A B C D, RI spec 3.2's example code.
+std::shared_ptr<scene::PrimitiveRecord> sphereOverPlane(float s, Vec3 c, const std::string& map,
+                                                        std::vector<float> abcd) {
+    auto rec = blobby(2, {1001, 0, 1003, 0, 16, 0, 2, 0, 1}, concat(sphereLeaf(s, c), abcd));
+    rec->stringArgs = {map};
+    return rec;
 }
 
 }  // namespace
@@ -206,6 +252,11 @@ TEST(Blobby, MalformedCodeIsReportedAtTheRequest) {
         {1, {1001, 0, 42}, 16, "test.rib:3:1: error: Blobby: unknown opcode 42 at code position 2, expected 0-7 "
                                "(operations) or 1000-1003 (leaves)"},
         {1, {1001, 0, 0, 0}, 16, "test.rib:3:1: error: Blobby: instruction 1 has 0 operands, expected at least 1"},
+        {2, {1001, 0, 1003, 1, 16, 0, 2, 0, 1}, 20, "test.rib:3:1: error: Blobby: instruction 1 (depth-map plane) "
+                                                    "reads string 1, but the strings array has 1"},
+        {2, {1001, 0, 1003, 0, 16, 0, 2, 0, 1}, 20, "test.rib:3:1: error: Blobby: instruction 1 (depth-map plane) has "
+                                                    "parameters 0 0 0 0, expected finite ones with a positive cut-off "
+                                                    "height (the first) and bulge height (the third)"},
     };
     for (const Case& c : cases) {
         Diagnostics diag;
@@ -219,19 +270,190 @@ TEST(Blobby, MalformedCodeIsReportedAtTheRequest) {
     }
 }
 
-TEST(Blobby, DepthMapPlaneIsWarnedAndTheRestRenders) {
-    // RI spec 3.2's example: an ellipsoid added to a repelling plane.
-    auto rec = blobby(2, {1001, 0, 1003, 0, 16, 0, 2, 0, 1},
-                      {1.5f, 0, 0, 0, 0, 1.5f, 0, 0, 0, 0, 1.5f, 0, 0, 0, -.1f, 1, .4f, .01f, .3f, .08f});
-    rec->stringArgs = {"flat.zfile"};
+TEST(Blobby, DepthMapPlaneWhoseMapCannotBeReadIsWarnedAndContributesNothing) {
+    // RI spec 3.2's example: an ellipsoid added to a repelling plane, whose
+    // map is not there.
+    auto rec = sphereOverPlane(1.5f, {0, 0, -.1f}, "no-such-dir/flat.zfile", {.4f, .01f, .3f, .08f});
     Diagnostics diag;
     diag.setRecord(true);
     diag.setQuiet(true);
     auto prims = makePrimitives(rec, diag);
     EXPECT_EQ(prims.size(), 1u);
     ASSERT_EQ(diag.recorded().size(), 1u);
-    EXPECT_EQ(diag.recorded()[0].str(), "test.rib:3:1: warning: Blobby: depth-map repelling planes (opcode 1003, "
-                                  "\"flat.zfile\") are not supported; the leaf contributes nothing to the field");
+    EXPECT_EQ(diag.recorded()[0].str(),
+              "test.rib:3:1: warning: Blobby: cannot read the depth map of repelling plane leaf 1 (opcode 1003): "
+              "cannot open \"no-such-dir/flat.zfile\"; the leaf contributes nothing to the field");
+    // The field is the ellipsoid's alone, and so is the surface.
+    auto f = field(rec);
+    auto alone = field(blobby(1, {1001, 0}, sphereLeaf(1.5f, {0, 0, -.1f})));
+    ASSERT_TRUE(f && alone);
+    for (int i = 0; i < 50; ++i) {
+        const Vec3 p(std::sin(1.3f * float(i)), std::cos(0.7f * float(i)), 0.04f * float(i) - 1);
+        EXPECT_EQ(f->value(p), alone->value(p)) << i;
+    }
+    Diagnostics quiet;
+    auto aloneMade = makePrimitives(blobby(1, {1001, 0}, sphereLeaf(1.5f, {0, 0, -.1f})), quiet);
+    ASSERT_EQ(aloneMade.size(), 1u);
+    EXPECT_EQ(prims[0]->bound().min, aloneMade[0]->bound().min);
+    EXPECT_EQ(prims[0]->bound().max, aloneMade[0]->bound().max);
+}
+
+TEST(Blobby, DepthMapPlaneFieldIsTheNotesRepulsionOfTheHeightAboveTheMap) {
+    // A sloping ground z = 0.1 x in a zfile; the Blobby's object space is
+    // moved by (0.3, -0.2, 0.1) in the world, so a point p is at height
+    // (p + t).z - 0.1 (p + t).x above the ground (bilinear filtering between
+    // texel centres is exact for the linear depth).
+    const std::string map = writeGroundMap("blobby-slope", [](float x, float) { return 0.1f * x; });
+    const Vec3 t(0.3f, -0.2f, 0.1f), c(0.1f, 0.1f, 0.35f);
+    const double A = 0.4, B = 0.01, C = 0.3, D = 0.08;
+    auto rec = sphereOverPlane(1.2f, c, map, {float(A), float(B), float(C), float(D)});
+    rec->worldFromObject = Mat4::translate(t);
+    auto f = field(rec);
+    ASSERT_TRUE(f);
+    auto expected = [&](double x, double y, double z) {
+        const double dx = (x - c.x) / 1.2, dy = (y - c.y) / 1.2, dz = (z - c.z) / 1.2;
+        const double height = (z + t.z) - 0.1 * (x + t.x);
+        return bump(dx * dx + dy * dy + dz * dz) + noteRepulsion(height, A, B, C, D);
+    };
+    int compared = 0, repelled = 0, bulged = 0, gradients = 0;
+    float leaves[2];
+    for (int i = 0; i < 2000; ++i) {
+        const Vec3 p = c + Vec3(std::sin(1.7f * float(i)), std::cos(2.3f * float(i)), std::sin(0.37f * float(i))) *
+                               1.1f;
+        const double height = double(p.z + t.z) - 0.1 * double(p.x + t.x);
+        if (std::abs(height) < 0.01) continue;  // B / z: the float height's rounding would dominate
+        const double e = expected(p.x, p.y, p.z);
+        EXPECT_NEAR(f->value(p, leaves), e, 1e-4 * std::abs(e) + 1e-5) << i;
+        EXPECT_NEAR(leaves[1], e - bump(double(dot((p - c) / 1.2f, (p - c) / 1.2f))), 1e-4 * std::abs(e) + 1e-5);
+        ++compared;
+        repelled += leaves[1] < -0.01f;
+        bulged += leaves[1] > 0.001f;
+        // The gradient, against central differences of the field written
+        // here, away from the clamp and the cut-off's kinks.
+        if (height > 0.02 && height < A - 0.02) {
+            const double h = 1e-5;
+            const Vec3 g = f->gradient(p);
+            const double gx = (expected(p.x + h, p.y, p.z) - expected(p.x - h, p.y, p.z)) / (2 * h);
+            const double gy = (expected(p.x, p.y + h, p.z) - expected(p.x, p.y - h, p.z)) / (2 * h);
+            const double gz = (expected(p.x, p.y, p.z + h) - expected(p.x, p.y, p.z - h)) / (2 * h);
+            const double tol = 2e-3 * std::max(1.0, std::sqrt(gx * gx + gy * gy + gz * gz));
+            EXPECT_NEAR(g.x, gx, tol) << i;
+            EXPECT_NEAR(g.y, gy, tol) << i;
+            EXPECT_NEAR(g.z, gz, tol) << i;
+            ++gradients;
+        }
+    }
+    EXPECT_GT(compared, 1500);
+    EXPECT_GT(repelled, 100);
+    EXPECT_GT(bulged, 50);
+    EXPECT_GT(gradients, 100);
+    // Outside the ellipsoid's support box the plane does not act (it has
+    // no support of its own), even right at the ground.
+    const Vec3 far(c.x + 1.3f, c.y, 0.1f * (c.x + 1.3f + t.x) - t.z + 0.05f);
+    EXPECT_EQ(f->value(far), 0.0f);
+    std::filesystem::remove(map);
+}
+
+TEST(Blobby, DepthMapPlaneReadsItsMapAgainOnceItIsRewritten) {
+    // Blobbies naming one map share what was read, but not past a rewrite:
+    // the ground moves from z = 0 to z = 0.1 under the same name while the
+    // first Blobby still holds the old one.
+    const double A = 0.4, B = 0.01, C = 0.3, D = 0.08;
+    const Vec3 p(0.1f, 0, 0.15f);
+    const double sphere = sphereField(p, 1.2f, {0, 0, 0.45f});
+    const std::string map = writeGroundMap("blobby-rewrite", [](float, float) { return 0.0f; });
+    auto make = [&] {
+        return field(sphereOverPlane(1.2f, {0, 0, 0.45f}, map, {float(A), float(B), float(C), float(D)}));
+    };
+    auto before = make();
+    EXPECT_EQ(writeGroundMap("blobby-rewrite", [](float, float) { return 0.1f; }), map);
+    auto after = make(), again = make();
+    ASSERT_TRUE(before && after && again);
+    EXPECT_NEAR(before->value(p), sphere + noteRepulsion(0.15, A, B, C, D), 1e-5);
+    EXPECT_NEAR(after->value(p), sphere + noteRepulsion(0.05, A, B, C, D), 1e-4);
+    EXPECT_EQ(again->value(p), after->value(p));
+    std::filesystem::remove(map);
+}
+
+TEST(Blobby, DepthMapPlanePushesTheDicedSurfaceOffTheGround) {
+    // A sphere leaf of surface radius 0.6 above a flat ground, added to the
+    // spec's example plane: the plane pushes its bottom up to where the
+    // combined field along the vertical through the centre first reaches
+    // the threshold (the field is largest on that line at every height, so
+    // the surface's lowest point is on it). Found here by bisection. Centred
+    // 0.45 up, the sphere alone would reach 0.15 under the ground; centred
+    // 0.02 under it, Newton steps from inside overshoot into the ground,
+    // where the plane's field is flat, and must come back.
+    const std::string map = writeGroundMap("blobby-flat", [](float, float) { return 0.0f; });
+    const double A = 0.4, B = 0.01, C = 0.3, D = 0.08;
+    for (const double centre : {0.45, -0.02}) {
+        SCOPED_TRACE(centre);
+        auto field = [&](double r2xy, double z) {
+            return bump((r2xy + (z - centre) * (z - centre)) / 1.44) + noteRepulsion(z, A, B, C, D);
+        };
+        double lo = 1e-6, hi = 0.3;
+        for (int k = 0; k < 60; ++k) (field(0, (lo + hi) / 2) >= kT ? hi : lo) = (lo + hi) / 2;
+        const double lowest = hi;
+        EXPECT_GT(lowest, centre > 0 ? 0.03 : 0.005);  // off the ground
+        Diagnostics diag;
+        auto prims = makePrimitives(
+            sphereOverPlane(1.2f, {0, 0, float(centre)}, map, {float(A), float(B), float(C), float(D)}), diag);
+        EXPECT_EQ(diag.warningCount() + diag.errorCount(), 0);
+        ASSERT_EQ(prims.size(), 1u);
+        float minZ = kInfinity, maxZ = -kInfinity;
+        int outsideBound = 0, offSurface = 0;
+        for (const auto& piece : splitToDiceable(std::move(prims))) {
+            const Grid g = piece->dice(8, 8);
+            const Bound3 b = piece->bound();
+            for (const Vec3& p : g.P) {
+                outsideBound += !inside(b, p, 1e-5f);
+                minZ = std::min(minZ, p.z);
+                maxZ = std::max(maxZ, p.z);
+                offSurface += !(std::abs(field(double(p.x * p.x + p.y * p.y), p.z) - kT) < 1e-4);
+            }
+        }
+        EXPECT_EQ(offSurface, 0);
+        EXPECT_EQ(outsideBound, 0);  // each piece's bound holds its surface, flattened part and all
+        EXPECT_GE(minZ, lowest - 1e-4);
+        EXPECT_NEAR(minZ, lowest, 5e-3);
+        EXPECT_NEAR(maxZ, centre + 0.6, 2e-3);  // the top, above the cut-off height, is the sphere's
+    }
+    std::filesystem::remove(map);
+}
+
+TEST(Blobby, DepthMapPlaneOverAWavyGroundKeepsEveryDicedPointOnTheSurfaceAboveIt) {
+    // Three blobs pressed into a wavy ground: coarse triangles bridge its
+    // hollows, so some points start under it, where the plane's field is
+    // flat; each must still end on the threshold (the field evaluated by
+    // the code under test, whose values are checked above) and above the
+    // ground (within the bilinear map's error, about 0.002 here).
+    auto ground = [](float x, float y) { return 0.12f * std::sin(4 * x) * std::cos(3 * y); };
+    const std::string map = writeGroundMap("blobby-wavy", ground);
+    auto rec = blobby(4, {1001, 0, 1001, 16, 1001, 32, 1003, 0, 48, 0, 4, 0, 1, 2, 3},
+                      concat(concat(concat(sphereLeaf(1.6f, {-0.5f, 0, 0.2f}), sphereLeaf(1.2f, {0.4f, 0.3f, 0.1f})),
+                                    sphereLeaf(1.0f, {0.1f, -0.5f, 0.0f})),
+                             {0.4f, 0.01f, 0.3f, 0.08f}));
+    rec->stringArgs = {map};
+    Diagnostics diag;
+    auto prims = makePrimitives(rec, diag);
+    ASSERT_EQ(prims.size(), 1u);
+    auto f = field(rec);
+    ASSERT_TRUE(f);
+    int points = 0, offSurface = 0, under = 0;
+    for (const auto& piece : splitToDiceable(std::move(prims))) {
+        const Grid g = piece->dice(6, 6);
+        for (const Vec3& p : g.P) {
+            ++points;
+            // Distance to the surface, to first order: within float
+            // precision (near the ground the field is steep).
+            offSurface += !(std::abs(f->value(p) - kT) / std::max(1.0f, length(f->gradient(p))) < 1e-5f);
+            under += p.z < ground(p.x, p.y) + 0.002f;
+        }
+    }
+    EXPECT_GT(points, 10000);
+    EXPECT_EQ(offSurface, 0);
+    EXPECT_EQ(under, 0);
+    std::filesystem::remove(map);
 }
 
 TEST(Blobby, PolygonisationIsCappedWithAWarning) {
