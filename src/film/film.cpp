@@ -913,11 +913,14 @@ void Film::releasePages(Plane& plane, size_t from, size_t to) {
     using T = typename Plane::value_type;
     const size_t bytes = plane.size() * sizeof(T);
     if (bytes < kMappedBytes || to <= from) return;
-    static const size_t page = size_t(::sysconf(_SC_PAGESIZE));
-    const size_t begin = from * sizeof(T) / page * page;
-    // The plane's last page is its own whole: released with the last row.
-    const size_t end = to >= plane.size() ? (bytes + page - 1) / page * page : to * sizeof(T) / page * page;
-    if (end > begin) ::madvise(reinterpret_cast<char*>(plane.data()) + begin, end - begin, MADV_DONTNEED);
+    // Whole pages only, inside the plane's block (its first and last
+    // partial pages stay): rows before `from` were given back already.
+    static const uintptr_t page = uintptr_t(::sysconf(_SC_PAGESIZE));
+    const uintptr_t base = reinterpret_cast<uintptr_t>(plane.data());
+    const uintptr_t firstWhole = (base + page - 1) / page * page;  // malloc's header sits before base
+    const uintptr_t begin = std::max(firstWhole, (base + from * sizeof(T)) / page * page);
+    const uintptr_t end = (base + std::min(to, plane.size()) * sizeof(T)) / page * page;
+    if (end > begin) ::madvise(reinterpret_cast<void*>(begin), end - begin, MADV_DONTNEED);
 }
 
 /// A streamed film's outputs and its bookkeeping of finished rows.

@@ -3,8 +3,6 @@
 // become its map's image without a copy.
 #pragma once
 
-#include <sys/mman.h>
-
 #include <cstddef>
 #include <cstdlib>
 #include <new>
@@ -13,33 +11,27 @@
 
 namespace umbra {
 
-/// Fresh pages are zero already, so a frame's planes cost nothing until
-/// the bucket workers first touch them, in parallel (zeroing 4.9 MB of
-/// RGBA took 1.2 ms of every frame's serial start). Large blocks are their
-/// own anonymous mappings, so a streamed film can give finished rows back
-/// with madvise whatever malloc's thresholds are.
+/// Memory from calloc: fresh pages are zero already (calloc does not
+/// clear what it takes fresh from the system), so a frame's planes cost
+/// nothing until the bucket workers first touch them, in parallel (zeroing
+/// 4.9 MB of RGBA took 1.2 ms of every frame's serial start); and memory a
+/// finished pass gave back is taken again without new page faults (on
+/// these hosts a page's first touch costs 11-12 us: a 2048^2 plane in
+/// fresh pages costs 49 ms of faults). A streamed film gives finished rows
+/// back with madvise (Film::releasePages), page-aligned inside the block.
 template <typename T>
 struct ZeroedAllocator {
+    /// Planes from this size up may give pages back (Film::releasePages).
     static constexpr size_t kMappedBytes = size_t(64) << 10;
     using value_type = T;
     ZeroedAllocator() = default;
     template <typename U>
     ZeroedAllocator(const ZeroedAllocator<U>&) {}
     T* allocate(size_t n) {
-        if (n * sizeof(T) >= kMappedBytes) {
-            void* p = ::mmap(nullptr, n * sizeof(T), PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
-            if (p == MAP_FAILED) throw std::bad_alloc();
-            return static_cast<T*>(p);
-        }
         if (void* p = std::calloc(n, sizeof(T))) return static_cast<T*>(p);
         throw std::bad_alloc();
     }
-    void deallocate(T* p, size_t n) {
-        if (n * sizeof(T) >= kMappedBytes)
-            ::munmap(p, n * sizeof(T));
-        else
-            std::free(p);
-    }
+    void deallocate(T* p, size_t) { std::free(p); }
     template <typename U>
     void construct(U*) {}  // value-initialised elements: already zero
     template <typename U, typename... Args>
