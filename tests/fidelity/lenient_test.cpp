@@ -148,6 +148,34 @@ WorldEnd
     EXPECT_EQ(maxAbsDiff(both.image, plain.image, 4), 0.0);
 }
 
+TEST(Lenient, ASearchPathMarkerInsideAnEntryStillReachesTheStandardShaders) {
+    // Houdini's BMRT-era output writes ".:../&" for ".:..:&". The standard
+    // light and surface must still be found: the same picture as the scene
+    // with no searchpath at all, with no error.
+    ScratchDir dir("searchpath-marker");
+    constexpr const char* scene = R"(
+{}
+Format 64 48 1
+Display "{}" "file" "rgb"
+Projection "perspective" "fov" 40
+Translate 0 0 5
+WorldBegin
+LightSource "ambientlight" 1 "intensity" [0.2]
+LightSource "distantlight" 2 "from" [1 1 -1] "to" [0 0 0]
+Color [0.9 0.5 0.2]
+Surface "matte"
+Sphere 1 -1 1 360
+WorldEnd
+)";
+    const std::string marked = dir.file("marked.tif"), plain = dir.file("plain.tif");
+    Rendered a = renderScene(fmt::format(scene, R"(Option "searchpath" "shader" [".:../&"])", marked), marked);
+    Rendered b = renderScene(fmt::format(scene, "", plain), plain);
+    EXPECT_EQ(a.errors, 0);
+    EXPECT_EQ(b.errors, 0);
+    EXPECT_GT(b.image.channelSum(0), 100.0);
+    EXPECT_EQ(maxAbsDiff(a.image, b.image, 3), 0.0);
+}
+
 TEST(Lenient, LightShadersReadTheSurfacesNormalAsNs) {
     // Ns in a light shader is the shaded point's normal (PRMan, Pixie and
     // Aqsis give it): a light making Cl from it equals the surface doing so.
