@@ -176,6 +176,38 @@ WorldEnd
     EXPECT_EQ(maxAbsDiff(a.image, b.image, 3), 0.0);
 }
 
+TEST(Lenient, ALightShadersPIsWhereTheLightWasPlaced) {
+    // The Companion's listing 12.5 writes its spotlight as
+    // `illuminate(P)`: P of a light that is not an area light is the light
+    // itself, the origin of its shader space. The same light written with
+    // that point spelled out must draw the same picture, and light it.
+    ScratchDir dir("light-p");
+    std::ofstream(dir.file("fromp.sl")) << "light fromp(float intensity = 1) { illuminate(P) Cl = intensity; }\n";
+    std::ofstream(dir.file("fromorigin.sl"))
+        << "light fromorigin(float intensity = 1) { illuminate(point \"shader\" (0, 0, 0)) Cl = intensity; }\n";
+    constexpr const char* scene = R"(Option "searchpath" "shader" ["{}:&"]
+Format 64 64 1
+Display "{}" "file" "rgb"
+Projection "perspective" "fov" 60
+Translate 0 0 3
+WorldBegin
+TransformBegin
+Translate 1 1 -2
+LightSource "{}" 1 "intensity" [0.8]
+TransformEnd
+Surface "matte"
+Polygon "P" [-1 -1 0  -1 1 0  1 1 0  1 -1 0]
+WorldEnd
+)";
+    const std::string a = dir.file("p.tif"), b = dir.file("origin.tif");
+    Rendered fromP = renderScene(fmt::format(scene, dir.file(""), a, "fromp"), a);
+    Rendered fromOrigin = renderScene(fmt::format(scene, dir.file(""), b, "fromorigin"), b);
+    EXPECT_EQ(fromP.errors, 0);
+    EXPECT_EQ(fromOrigin.errors, 0);
+    EXPECT_GT(fromOrigin.image.channelSum(0), 100.0);
+    EXPECT_EQ(maxAbsDiff(fromP.image, fromOrigin.image, 3), 0.0);
+}
+
 TEST(Lenient, LightShadersReadTheSurfacesNormalAsNs) {
     // Ns in a light shader is the shaded point's normal (PRMan, Pixie and
     // Aqsis give it): a light making Cl from it equals the surface doing so.
