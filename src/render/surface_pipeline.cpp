@@ -145,6 +145,29 @@ Bound3 SurfacePipeline::sweptBound(const geometry::Primitive& prim, const dice::
     return b;
 }
 
+float SurfacePipeline::displacementAllowance(const scene::Attributes& attrs, const Mat4& cameraFromObject) const {
+    // The bound is in its "coordinatesystem" (object space by default): the
+    // longest axis of that space, in camera space, scales it.
+    if (!(attrs.displacementBound > 0)) return 0;
+    const Mat4& cameraFromWorld = m_pass.camera.cameraFromWorld;
+    const std::string& space = attrs.displacementBoundSpace;
+    Mat4 c = cameraFromObject;
+    if (space == "world") {
+        c = cameraFromWorld;
+    } else if (space == "camera" || space == "current") {
+        c = Mat4::identity();
+    } else if (space == "shader" && attrs.displacement) {
+        c = cameraFromWorld * attrs.displacement->worldFromShader;
+    } else if (space != "object") {
+        const auto& systems = m_frame.world->coordinateSystems;
+        auto it = systems.find(space);
+        if (it != systems.end()) c = cameraFromWorld * it->second;
+    }
+    const float scale =
+        std::max({length(c.vector({1, 0, 0})), length(c.vector({0, 1, 0})), length(c.vector({0, 0, 1}))});
+    return attrs.displacementBound * scale;
+}
+
 float SurfacePipeline::confusionRadius(float z) const {
     const hider::Camera& cam = m_pass.camera;
     if (!(m_pass.lensRadius > 0) || !cam.perspective) return 0;
@@ -182,12 +205,7 @@ dice::DiceParams SurfacePipeline::diceParams(const geometry::Primitive& prim) co
     p.maxEyeSplits = m_frame.world->options.eyeSplits;
     p.orthographic = !cam.perspective;
     p.binary = attrs.binaryDice;
-    if (attrs.displacementBound > 0) {
-        // The bound is in object units: the longest transformed axis scales it.
-        const Mat4& c = p.cameraFromObject;
-        float scale = std::max({length(c.vector({1, 0, 0})), length(c.vector({0, 1, 0})), length(c.vector({0, 0, 1}))});
-        p.displacementBound = attrs.displacementBound * scale;
-    }
+    p.displacementBound = displacementAllowance(attrs, p.cameraFromObject);
     thread_local std::vector<float> times;
     placementTimes(prim, times);
     const bool lens = m_pass.lensRadius > 0 && cam.perspective;
@@ -355,6 +373,7 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
         m_frame.shading->shade(sg, request, m_services);
         if (weight) m_frame.shadingNanoseconds += weight * uint64_t(std::max(0.0, threadCpuSeconds() - t0) * 1e9);
         positions = &sg.P;
+        if (pa.displacement) warnPastDisplacementBound(rec, c, g.P, sg.P, n);
     }
     const std::vector<Vec3>& P = *positions;
 
@@ -446,6 +465,29 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
         out.Oi.assign(sg.Oi.begin(), sg.Oi.begin() + n);
     fillAovs(sg, out);
     return true;
+}
+
+void SurfacePipeline::warnPastDisplacementBound(const scene::PrimitiveRecord& rec, const Mat4& cameraFromObject,
+                                                const std::vector<Vec3>& before, const std::vector<Vec3>& after,
+                                                int n) const {
+    // Pieces are placed in buckets, and culled, by their bounds grown by the
+    // displacement bound before they are shaded; a surface displaced past
+    // it loses the pieces whose bucket was already done (the RenderMan
+    // Companion's torn figure 17.13). PRMan warns too. Once per
+    // Displacement request, at it.
+    const scene::Attributes& attrs = *rec.attributes;
+    const float allowed = displacementAllowance(attrs, cameraFromObject);
+    float moved = 0, size = 0;
+    for (int i = 0; i < n; ++i) {
+        moved = std::max(moved, length(after[size_t(i)] - before[size_t(i)]));
+        size = std::max(size, length(before[size_t(i)]));
+    }
+    if (moved <= allowed * 1.01f + 1e-5f * size) return;
+    const scene::ShaderRecord& d = *attrs.displacement;
+    m_diag.warningOnce(fmt::format("displacementbound:{}", static_cast<const void*>(&d)), d.loc,
+                       "Displacement \"{}\" moves {} {:.3g} camera units but its Attribute \"displacementbound\" "
+                       "\"sphere\" allows {:.3g}: pieces displaced past their bound may be missing from the picture",
+                       d.name, rec.type, moved, allowed);
 }
 
 void SurfacePipeline::noteBlur(const hider::ShadedGrid& out) const {

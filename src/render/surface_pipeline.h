@@ -60,6 +60,9 @@ private:
     /// Raster pixels the thin lens spreads a point at camera depth z over,
     /// as a radius (0 for a pinhole).
     float confusionRadius(float z) const;
+    /// Attribute "displacementbound" "sphere" in camera units, read in its
+    /// "coordinatesystem" (object, world, camera, shader or a named space).
+    float displacementAllowance(const scene::Attributes& attrs, const Mat4& cameraFromObject) const;
     /// The dicing parameters of a primitive in this pass.
     dice::DiceParams diceParams(const geometry::Primitive& prim) const;
     void fillAovs(const shading::ShadingGrid& sg, hider::ShadedGrid& out) const;
@@ -71,6 +74,11 @@ private:
     void markLeaving(const std::vector<Vec3>& P, bool flip, hider::ShadedGrid& out) const;
     /// Adds a blurred grid's bound growth to the frame's statistics.
     void noteBlur(const hider::ShadedGrid& out) const;
+    /// Warns (once per Displacement request) when a displacement shader
+    /// moved the grid's camera-space points `before` to `after` further
+    /// than the primitive's displacement bound allows.
+    void warnPastDisplacementBound(const scene::PrimitiveRecord& rec, const Mat4& cameraFromObject,
+                                   const std::vector<Vec3>& before, const std::vector<Vec3>& after, int n) const;
 
     FrameState& m_frame;
     const Pass& m_pass;

@@ -114,17 +114,30 @@ void Exec::setup(const CompiledShader& code, const ShaderInstance* instance, Sha
     illum.clear();
     currentLight = -1;
     lightConstruct = 0;
+    // "shader" space: the instance's worldFromShader seen from camera space.
+    if (!context.haveWorld) {
+        Mat4 m;
+        if (!context.services->getMatrix(g, "world", &m)) m = Mat4::identity();
+        context.currentFromWorld = m;
+        context.haveWorld = true;
+    }
+    currentFromShader = instance ? context.currentFromWorld * instance->worldFromShader() : context.currentFromWorld;
     if (code.kind == ShaderKind::Light) {
         lit.assign(size_t(n), 0);
         ownPs.resize(size_t(n));
         for (int i = 0; i < n; ++i) ownPs[size_t(i)] = Ps ? Vec3(Ps[3 * i * PsStride], Ps[3 * i * PsStride + 1], Ps[3 * i * PsStride + 2]) : g.P[size_t(i)];
+        // A light's P is the point on the light (RI 3.2, light source
+        // variables); a light that is not an area light is its shader
+        // space's origin, so the Companion's `illuminate(P)` shines from
+        // where the light was placed (as Aqsis; Pixie gives the lit point).
+        lightP.assign(size_t(n), currentFromShader.point({0, 0, 0}));
     }
     // Which globals live in the grid's own arrays.
     auto gridArray = [&](int gid) -> float* {
         auto v3 = [](std::vector<Vec3>& v) { return reinterpret_cast<float*>(v.data()); };
         bool light = code.kind == ShaderKind::Light;
         switch (gid) {
-        case gP: return light ? v3(ownPs) : v3(g.P);
+        case gP: return light ? v3(lightP) : v3(g.P);
         case gPs: return light ? v3(ownPs) : nullptr;
         case gN: return v3(g.N);
         case gNs: return light ? v3(g.N) : nullptr;
@@ -188,14 +201,6 @@ void Exec::setup(const CompiledShader& code, const ShaderInstance* instance, Sha
     frames[0].assign(size_t(n), 1);
     depth = 0;
     refreshActive();
-    // "shader" space: the instance's worldFromShader seen from camera space.
-    if (!context.haveWorld) {
-        Mat4 m;
-        if (!context.services->getMatrix(g, "world", &m)) m = Mat4::identity();
-        context.currentFromWorld = m;
-        context.haveWorld = true;
-    }
-    currentFromShader = instance ? context.currentFromWorld * instance->worldFromShader() : context.currentFromWorld;
 }
 
 namespace {

@@ -109,6 +109,7 @@ struct Exec {
     int lightConstruct = 0;
     std::vector<uint8_t> lit;        // light shaders: points some illuminate/solar reached
     std::vector<Vec3> ownPs;         // light shaders: Ps
+    std::vector<Vec3> lightP;        // light shaders: P, the light's origin
     std::vector<Vec3> lightDir;      // light shaders: unit -L, for diffuse()/specular()
     Mat4 currentFromShader;
     /// Random numbers (random(), shadow()'s samples) come from the grid's

@@ -30,14 +30,19 @@ std::string joinSearchPath(const std::vector<std::string>& dirs) {
 }
 
 std::string expandSearchPath(const std::string& spec, const std::string& previous, const std::string& builtin) {
+    // A marker inside an entry ("../&", "shaders@") is still a marker: the
+    // text on either side becomes an entry of its own and the marker's list
+    // goes between, as Pixie and Aqsis read it (exported scenes write
+    // ".:../&" for ".:..:&").
     std::vector<std::string> out;
     for (const std::string& part : splitSearchPath(spec)) {
-        if (part == "&") {
-            for (auto& d : splitSearchPath(previous)) out.push_back(d);
-        } else if (part == "@") {
-            for (auto& d : splitSearchPath(builtin)) out.push_back(d);
-        } else {
-            out.push_back(part);
+        size_t start = 0;
+        for (size_t i = 0; i <= part.size(); ++i) {
+            if (i < part.size() && part[i] != '&' && part[i] != '@') continue;
+            if (i > start) out.push_back(part.substr(start, i - start));
+            if (i < part.size())
+                for (auto& d : splitSearchPath(part[i] == '&' ? previous : builtin)) out.push_back(d);
+            start = i + 1;
         }
     }
     return joinSearchPath(out);

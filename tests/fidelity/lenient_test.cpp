@@ -148,6 +148,66 @@ WorldEnd
     EXPECT_EQ(maxAbsDiff(both.image, plain.image, 4), 0.0);
 }
 
+TEST(Lenient, ASearchPathMarkerInsideAnEntryStillReachesTheStandardShaders) {
+    // Houdini's BMRT-era output writes ".:../&" for ".:..:&". The standard
+    // light and surface must still be found: the same picture as the scene
+    // with no searchpath at all, with no error.
+    ScratchDir dir("searchpath-marker");
+    constexpr const char* scene = R"(
+{}
+Format 64 48 1
+Display "{}" "file" "rgb"
+Projection "perspective" "fov" 40
+Translate 0 0 5
+WorldBegin
+LightSource "ambientlight" 1 "intensity" [0.2]
+LightSource "distantlight" 2 "from" [1 1 -1] "to" [0 0 0]
+Color [0.9 0.5 0.2]
+Surface "matte"
+Sphere 1 -1 1 360
+WorldEnd
+)";
+    const std::string marked = dir.file("marked.tif"), plain = dir.file("plain.tif");
+    Rendered a = renderScene(fmt::format(scene, R"(Option "searchpath" "shader" [".:../&"])", marked), marked);
+    Rendered b = renderScene(fmt::format(scene, "", plain), plain);
+    EXPECT_EQ(a.errors, 0);
+    EXPECT_EQ(b.errors, 0);
+    EXPECT_GT(b.image.channelSum(0), 100.0);
+    EXPECT_EQ(maxAbsDiff(a.image, b.image, 3), 0.0);
+}
+
+TEST(Lenient, ALightShadersPIsWhereTheLightWasPlaced) {
+    // The Companion's listing 12.5 writes its spotlight as
+    // `illuminate(P)`: P of a light that is not an area light is the light
+    // itself, the origin of its shader space. The same light written with
+    // that point spelled out must draw the same picture, and light it.
+    ScratchDir dir("light-p");
+    std::ofstream(dir.file("fromp.sl")) << "light fromp(float intensity = 1) { illuminate(P) Cl = intensity; }\n";
+    std::ofstream(dir.file("fromorigin.sl"))
+        << "light fromorigin(float intensity = 1) { illuminate(point \"shader\" (0, 0, 0)) Cl = intensity; }\n";
+    constexpr const char* scene = R"(Option "searchpath" "shader" ["{}:&"]
+Format 64 64 1
+Display "{}" "file" "rgb"
+Projection "perspective" "fov" 60
+Translate 0 0 3
+WorldBegin
+TransformBegin
+Translate 1 1 -2
+LightSource "{}" 1 "intensity" [0.8]
+TransformEnd
+Surface "matte"
+Polygon "P" [-1 -1 0  -1 1 0  1 1 0  1 -1 0]
+WorldEnd
+)";
+    const std::string a = dir.file("p.tif"), b = dir.file("origin.tif");
+    Rendered fromP = renderScene(fmt::format(scene, dir.file(""), a, "fromp"), a);
+    Rendered fromOrigin = renderScene(fmt::format(scene, dir.file(""), b, "fromorigin"), b);
+    EXPECT_EQ(fromP.errors, 0);
+    EXPECT_EQ(fromOrigin.errors, 0);
+    EXPECT_GT(fromOrigin.image.channelSum(0), 100.0);
+    EXPECT_EQ(maxAbsDiff(fromP.image, fromOrigin.image, 3), 0.0);
+}
+
 TEST(Lenient, LightShadersReadTheSurfacesNormalAsNs) {
     // Ns in a light shader is the shaded point's normal (PRMan, Pixie and
     // Aqsis give it): a light making Cl from it equals the surface doing so.

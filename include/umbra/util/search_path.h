@@ -11,8 +11,9 @@
 
 namespace umbra {
 
-/// `spec` with each `&` replaced by `previous` and each `@` by `builtin`;
-/// empty entries are dropped. The result has no `&` or `@` left.
+/// `spec` with each `&` replaced by `previous` and each `@` by `builtin`,
+/// also inside an entry (`../&` is `../` then `previous`); empty entries
+/// are dropped. The result has no `&` or `@` left.
 std::string expandSearchPath(const std::string& spec, const std::string& previous, const std::string& builtin);
 
 /// The directories of a search path, in order, without empty entries.

@@ -47,9 +47,13 @@ TEST(SearchPath, EmptyEntriesAndEmptyExpansionsVanish) {
     EXPECT_EQ(joinSearchPath({"/x", "", "y"}), "/x:y");
 }
 
-TEST(SearchPath, OnlyWholeEntriesAreSpecial) {
-    // A directory named "&dir" or "a@b" is a directory, not an expansion.
-    EXPECT_EQ(expandSearchPath("&dir:a@b", "/p", "/d"), "&dir:a@b");
+TEST(SearchPath, AMarkerInsideAnEntryIsAMarkerToo) {
+    // BMRT-era scenes write ".:../&" meaning ".:..:&"; Pixie and Aqsis both
+    // find the standard shaders through it. The text beside the marker
+    // stays an entry of its own.
+    EXPECT_EQ(expandSearchPath(".:../&", "/p:/q", "/d"), ".:../:/p:/q");
+    EXPECT_EQ(expandSearchPath("&dir:a@b", "/p", "/d"), "/p:dir:a:/d:b");
+    EXPECT_EQ(expandSearchPath("x&&", "/p", "/d"), "x:/p:/p");
 }
 
 TEST(SearchPath, BuiltinShadersOfABuildTreeAreTheSourceShaders) {
