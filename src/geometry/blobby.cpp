@@ -84,8 +84,12 @@ std::shared_ptr<const DepthImage> readPlaneMap(const std::string& name, Diagnost
 using Op = BlobbyField::Op;
 
 // The smallest share of its coarse triangle's (u, v) domain a piece may
-// have before split() drops it instead (24 halvings).
-constexpr float kMinPieceArea = 1.0f / float(1 << 24);
+// have before split() drops it instead (16 halvings: a 1/256 of the
+// triangle's edge, under a pixel unless one triangle spans hundreds of
+// pixels). A field divided by a thin leaf jumps where the divisor's
+// support ends, and pieces across the jump never shrink on screen: at 24
+// halvings one such Blobby took 396,000 splits.
+constexpr float kMinPieceArea = 1.0f / float(1 << 16);
 
 // A leaf's field at squared unit distance r2: 1 at the centre, falling to 0
 // with zero slope and curvature at r2 = 1 (Aqsis's 1 - 3r2 + 3r2^2 - r2^3).
@@ -841,7 +845,7 @@ Bound3 BlobbyPiece::bound() const {
 void BlobbyPiece::split(bool splitU, std::vector<PrimitivePtr>& out) const {
     // Projection is discontinuous where a coarse triangle spans a gap the
     // lattice missed (points on either side go to different sheets): no
-    // split makes such a piece small on screen. Past 2^-24 of the
+    // split makes such a piece small on screen. Past 2^-16 of the
     // triangle's parameter area it is dropped (a pinhole at most) rather
     // than split without end.
     if ((m_range.u1 - m_range.u0) * (m_range.v1 - m_range.v0) < kMinPieceArea) return;
