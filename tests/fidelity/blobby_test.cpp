@@ -354,9 +354,10 @@ TEST(BlobbyRender, RepellingPlaneWithoutItsMapIsWarnedAtTheRequestAndLeavesTheBl
 // (well under a pixel here); at the earlier 2^-24 this frame took 396,000
 // splits (56 s) and now takes 62,000.
 TEST(BlobbyRender, DividingByAThinLeafSplitsABoundedNumberOfTimes) {
+    ScratchDir dir("blobby-divide");
     const std::string rib =
-        "Format 200 150 1\nProjection \"perspective\" \"fov\" 5\nDisplay \"null\" \"null\" \"rgba\"\n"
-        "Translate 0 0 30\nWorldBegin\nLightSource \"distantlight\" 1\nSurface \"plastic\"\n"
+        "Format 200 150 1\nProjection \"perspective\" \"fov\" 5\nDisplay \"" + dir.file("divide.tif") +
+        "\" \"file\" \"rgba\"\nTranslate 0 0 30\nWorldBegin\nLightSource \"distantlight\" 1\nSurface \"plastic\"\n"
         "Translate .7 .55 0\nRotate 140 1 -1 1\n"
         "Blobby 2 [1001 0 1001 16 5 0 1] [1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1 "
         "5 0 0 0 0 0.4 0 0 0 0 0.4 0 0 0 0 1] [\"\"]\nWorldEnd\n";
