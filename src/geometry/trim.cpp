@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace umbra::geometry {
 
@@ -70,6 +71,11 @@ std::shared_ptr<const TrimRegion> TrimRegion::make(const scene::TrimCurveRecord&
         for (size_t k = 0; k < np; ++k) {
             const size_t k1 = (k + 1) % np;
             if (loop[2 * k] == loop[2 * k1] && loop[2 * k + 1] == loop[2 * k1 + 1]) continue;
+            // A zero or negative weight sends a point to infinity (or NaN):
+            // its segments bound nothing a float can hold, and are dropped.
+            const auto usable = [](double c) { return std::abs(c) <= double(std::numeric_limits<float>::max()); };
+            if (!usable(loop[2 * k]) || !usable(loop[2 * k + 1]) || !usable(loop[2 * k1]) || !usable(loop[2 * k1 + 1]))
+                continue;
             r->m_seg.insert(r->m_seg.end(),
                             {float(loop[2 * k]), float(loop[2 * k + 1]), float(loop[2 * k1]), float(loop[2 * k1 + 1])});
         }

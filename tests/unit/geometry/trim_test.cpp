@@ -133,3 +133,28 @@ TEST(TrimRegion, NuPatchPiecesKnowWhetherTheTrimReachesThem) {
     for (const auto& p : pieces) away += p->trimmedAway();
     EXPECT_GT(away, 0);
 }
+
+// A zero weight (found by fuzz_render: `TrimCurve ... [1 1 0]`) puts a
+// curve point at infinity or NaN: its segments are dropped, and the rest
+// of the region still trims where it did.
+TEST(TrimRegion, AZeroWeightDropsItsSegmentsAndKeepsTheRest) {
+    scene::TrimCurveRecord rec;
+    addSquare(rec, 0.2f, 0.8f);
+    rec.ncurves.push_back(1);  // a triangle with one point of weight 0
+    rec.order.push_back(2);
+    rec.n.push_back(3);
+    for (float k : {0, 0, 1, 2, 2}) rec.knot.push_back(k);
+    rec.min.push_back(0);
+    rec.max.push_back(2);
+    const float u[3] = {0.2f, 0.8f, 0.2f}, v[3] = {0.2f, 0.5f, 0.8f}, w[3] = {1, 1, 0};
+    for (int i = 0; i < 3; ++i) {
+        rec.u.push_back(u[i]);
+        rec.v.push_back(v[i]);
+        rec.w.push_back(w[i]);
+    }
+    auto region = TrimRegion::make(rec, true);
+    for (float c : region->segments()) ASSERT_TRUE(std::isfinite(c));
+    EXPECT_FALSE(region->insideLoops(0.1f, 0.1f));
+    EXPECT_FALSE(region->insideLoops(0.9f, 0.5f));
+    EXPECT_FALSE(region->insideLoops(std::nanf(""), 0.5f));
+}
