@@ -912,7 +912,7 @@ template <typename Plane>
 void Film::releasePages(Plane& plane, size_t from, size_t to) {
     using T = typename Plane::value_type;
     const size_t bytes = plane.size() * sizeof(T);
-    if (bytes < kMappedBytes || to <= from) return;
+    if (bytes < kReleasableBytes || to <= from) return;
     // Whole pages only, inside the plane's block (its first and last
     // partial pages stay): rows before `from` were given back already.
     static const uintptr_t page = uintptr_t(::sysconf(_SC_PAGESIZE));

@@ -151,10 +151,10 @@ std::array<Pass, 6> cubeFacePasses(const LightGeometry& light, int resolution, c
 namespace {
 
 /// The image's header from the pass; its depths from the film's layers,
-/// nearest depths read through `z1Row(y)` (x from the film's x0), which may
-/// be the image's own rows: each texel is read before it is written.
-template <typename Z1Row>
-void fillDepthImage(DepthImage& image, const film::Film& film, Z1Row z1Row, const Pass& pass, DepthFilter filter,
+/// the nearest depths read from the film's plane or, `inPlace`, from the
+/// image itself (the plane taken whole): each texel is read before it is
+/// written.
+void fillDepthImage(DepthImage& image, const film::Film& film, bool inPlace, const Pass& pass, DepthFilter filter,
                     float dualOffset) {
     const hider::Camera& camera = pass.camera;
     const bool frontCulled = pass.cull == Pass::Cull::Front;
@@ -172,7 +172,8 @@ void fillDepthImage(DepthImage& image, const film::Film& film, Z1Row z1Row, cons
     auto convert = [&](auto layer) {
         const bool pair = film.hasDepthPair();
         for (int y = wy0; y < wy1; ++y) {
-            const float* z1row = z1Row(y) + (wx0 - film.x0());
+            const float* z1row = inPlace ? &image.z[size_t(y) * size_t(image.width) + size_t(wx0)]
+                                         : film.zRow(y) + (wx0 - film.x0());
             const float* z2row = pair ? film.z2Row(y) + (wx0 - film.x0()) : nullptr;
             float* out = &image.z[size_t(y) * size_t(image.width) + size_t(wx0)];
             const float v = 2.0f * (float(y) + 0.5f) / float(image.height) - 1.0f;
@@ -191,8 +192,7 @@ void fillDepthImage(DepthImage& image, const film::Film& film, Z1Row z1Row, cons
     case DepthFilter::Min:
     case DepthFilter::Max:
     case DepthFilter::Average:
-        if (!pass.discOnly && (wy0 >= wy1 || z1Row(wy0) == &image.z[size_t(wy0) * size_t(image.width)]))
-            return;  // in place
+        if (inPlace && !pass.discOnly) return;  // the image holds them already
         convert([](float z1, float) { return z1; });  // the hider already reduced the pixel's samples
         break;
     case DepthFilter::Second: convert([&](float z1, float z2) { return frontCulled ? z1 : z2; }); break;  // single layer: +infinity
@@ -212,29 +212,23 @@ void fillDepthImage(DepthImage& image, const film::Film& film, Z1Row z1Row, cons
 
 DepthImage depthImageOf(const film::Film& film, const Pass& pass, DepthFilter filter, float dualOffset) {
     DepthImage image(film.xResolution(), film.yResolution());
-    fillDepthImage(image, film, [&](int y) { return film.zRow(y); }, pass, filter, dualOffset);
+    fillDepthImage(image, film, false, pass, filter, dualOffset);
     return image;
 }
 
 DepthImage depthImageOf(film::Film&& film, const Pass& pass, DepthFilter filter, float dualOffset) {
     const film::Film::DepthWindow written = film.settleDepth();
     FloatPlane plane = film.takeDepth();
-    const bool taken = !plane.empty();
-    DepthImage image = taken ? DepthImage() : DepthImage(film.xResolution(), film.yResolution());
-    if (taken) {
+    const bool inPlace = !plane.empty();
+    DepthImage image = inPlace ? DepthImage() : DepthImage(film.xResolution(), film.yResolution());
+    if (inPlace) {
         image.width = film.xResolution();
         image.height = film.yResolution();
         image.z = std::move(plane);
     }
     image.writtenX0 = written.x0, image.writtenY0 = written.y0;
     image.writtenX1 = written.x1, image.writtenY1 = written.y1;
-    if (taken) {
-        const float* z1 = image.z.data();
-        fillDepthImage(image, film, [&](int y) { return z1 + size_t(y) * size_t(image.width); }, pass, filter,
-                       dualOffset);
-    } else {
-        fillDepthImage(image, film, [&](int y) { return film.zRow(y); }, pass, filter, dualOffset);
-    }
+    fillDepthImage(image, film, inPlace, pass, filter, dualOffset);
     return image;
 }
 

@@ -302,13 +302,14 @@ private:
     void writeCompleteStrips();
     /// Gives rows [m_y0, m_y0 + rows) of every plane back to the system.
     void releaseRows(int rows);
-    /// Gives the pages wholly inside values [0, to) of a mapped plane back
-    /// to the system (they read as zeros after), those before `from` being
-    /// given back already. Small (malloc'ed) planes keep theirs.
+    /// Gives the whole pages inside values [from, to) of a plane back to
+    /// the system (they read as zeros after); those before `from` were
+    /// given back already. Planes under kReleasableBytes keep theirs.
     template <typename Plane>
     static void releasePages(Plane& plane, size_t from, size_t to);
 
-    static constexpr size_t kMappedBytes = ZeroedAllocator<float>::kMappedBytes;
+    /// Planes from this size up give finished rows back (releasePages).
+    static constexpr size_t kReleasableBytes = size_t(64) << 10;
     FloatPlane m_rgba, m_aov;
     FloatPlane m_z, m_z2;
     struct FilterLayer {

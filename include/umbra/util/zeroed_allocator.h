@@ -21,8 +21,6 @@ namespace umbra {
 /// back with madvise (Film::releasePages), page-aligned inside the block.
 template <typename T>
 struct ZeroedAllocator {
-    /// Planes from this size up may give pages back (Film::releasePages).
-    static constexpr size_t kMappedBytes = size_t(64) << 10;
     using value_type = T;
     ZeroedAllocator() = default;
     template <typename U>
