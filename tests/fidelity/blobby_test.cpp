@@ -55,6 +55,32 @@ std::string sphereLeaf(double s, double x, double y, double z) {
 
 double alphaSum(const Image& img) { return img.channelSum(3); }
 
+/// A render's alpha against a silhouette known at 4x4 points per pixel:
+/// `inside(x, y)` at raster positions (pixel px spans [px, px + 1)).
+/// Pixels wholly in or out must agree to within half; the others are
+/// edges; expectedTotal is the silhouette's area in pixels.
+struct SilhouetteScore {
+    double expectedTotal = 0;
+    int wrong = 0, edges = 0;
+};
+SilhouetteScore scoreSilhouette(const Image& img, int width, int height,
+                                const std::function<bool(double, double)>& inside) {
+    SilhouetteScore score;
+    for (int py = 0; py < height; ++py)
+        for (int px = 0; px < width; ++px) {
+            int in = 0;
+            for (int sy = 0; sy < 4; ++sy)
+                for (int sx = 0; sx < 4; ++sx) in += inside(px + (sx + 0.5) / 4, py + (sy + 0.5) / 4);
+            score.expectedTotal += in / 16.0;
+            if (in == 0 || in == 16) {
+                if (std::fabs(img.at(px, py, 3) - in / 16.0) > 0.5) ++score.wrong;
+            } else {
+                ++score.edges;
+            }
+        }
+    return score;
+}
+
 // The leaf field, written again: (1 - r^2)^3 inside the unit ball.
 double bump(double r2) { return r2 < 1 ? std::pow(1 - r2, 3) : 0; }
 double sphere(double s, double cx, double x, double y, double z) {
@@ -132,34 +158,20 @@ TEST(BlobbyRender, CombinedFieldsHaveTheSilhouettesOfTheFieldEvaluatedHere) {
         Image img = renderBlobby(dir,
                            fmt::format("Surface \"constant\" Blobby 2 [{}] [{}] [\"\"]", c.code, c.floats),
                            "Projection \"orthographic\" ScreenWindow -1.5 1.5 -0.75 0.75 Translate 0 0 5", W, H);
-        double expectedTotal = 0;
-        int wrong = 0, edges = 0;
-        for (int py = 0; py < H; ++py)
-            for (int px = 0; px < W; ++px) {
-                int in = 0;
-                for (int sy = 0; sy < 4; ++sy)
-                    for (int sx = 0; sx < 4; ++sx) {
-                        const double x = -1.5 + (px + (sx + 0.5) / 4) / 50, y = 0.75 - (py + (sy + 0.5) / 4) / 50;
-                        double best = -1e9;
-                        for (int k = -50; k <= 50; ++k) best = std::max(best, c.field(x, y, k * 0.02));
-                        in += best >= kT;
-                    }
-                expectedTotal += in / 16.0;
-                const float a = img.at(px, py, 3);
-                if (in == 0 || in == 16) {
-                    if (std::fabs(a - in / 16.0) > 0.5) ++wrong;
-                } else {
-                    ++edges;
-                }
-            }
-        EXPECT_EQ(wrong, 0) << c.name;
-        EXPECT_NEAR(alphaSum(img), expectedTotal, 0.01 * expectedTotal) << c.name;
+        const SilhouetteScore sc = scoreSilhouette(img, W, H, [&](double rx, double ry) {
+            const double x = -1.5 + rx / 50, y = 0.75 - ry / 50;
+            double best = -1e9;
+            for (int k = -50; k <= 50; ++k) best = std::max(best, c.field(x, y, k * 0.02));
+            return best >= kT;
+        });
+        EXPECT_EQ(sc.wrong, 0) << c.name;
+        EXPECT_NEAR(alphaSum(img), sc.expectedTotal, 0.01 * sc.expectedTotal) << c.name;
         // The centre pixel: bridged by add, a gap under max, carved out by
         // subtract only off centre (checked by the pixels above).
         const float centre = img.at(W / 2, H / 2, 3);
         if (c.name[0] == 'a') EXPECT_GT(centre, 0.99f);
         if (c.name[1] == 'a') EXPECT_LT(centre, 0.01f);
-        EXPECT_GT(edges, 0) << c.name;
+        EXPECT_GT(sc.edges, 0) << c.name;
     }
 }
 
@@ -296,28 +308,15 @@ WorldEnd
         auto field = [](double x, double z) {
             return sphere(1.2, 0, x, 0, z - 0.45) + repulsion(z, 0.4, 0.01, 0.3, 0.08);
         };
-        double expectedTotal = 0;
-        int wrong = 0, edges = 0, lowestRow = -1;
+        const SilhouetteScore sc = scoreSilhouette(
+            img, W, H, [&](double rx, double ry) { return field(-1 + rx / 80, 1.5 - ry / 80) >= kT; });
+        EXPECT_EQ(sc.wrong, 0);
+        EXPECT_GT(sc.edges, 0);
+        EXPECT_NEAR(alphaSum(img), sc.expectedTotal, 0.01 * sc.expectedTotal);
+        int lowestRow = -1;
         for (int py = 0; py < H; ++py)
-            for (int px = 0; px < W; ++px) {
-                int in = 0;
-                for (int sy = 0; sy < 4; ++sy)
-                    for (int sx = 0; sx < 4; ++sx) {
-                        const double x = -1 + (px + (sx + 0.5) / 4) / 80, z = 1.5 - (py + (sy + 0.5) / 4) / 80;
-                        in += field(x, z) >= kT;
-                    }
-                expectedTotal += in / 16.0;
-                const float a = img.at(px, py, 3);
-                if (a > 0.5f) lowestRow = std::max(lowestRow, py);
-                if (in == 0 || in == 16) {
-                    if (std::fabs(a - in / 16.0) > 0.5) ++wrong;
-                } else {
-                    ++edges;
-                }
-            }
-        EXPECT_EQ(wrong, 0);
-        EXPECT_GT(edges, 0);
-        EXPECT_NEAR(alphaSum(img), expectedTotal, 0.01 * expectedTotal);
+            for (int px = 0; px < W; ++px)
+                if (img.at(px, py, 3) > 0.5f) lowestRow = std::max(lowestRow, py);
         // The lowest point, on the vertical through the centre, by bisection:
         // 0.037 above the ground, where the sphere alone reaches 0.15 under it.
         double lo = 1e-6, hi = 0.45;
