@@ -384,6 +384,42 @@ bool ShadowMap::batchDecided(const ShadowBatch& batch, const ShadowParams& param
     return true;
 }
 
+const ShadowMap::TangentPlane* ShadowMap::makePlanes(const ShadowBatch& batch, BatchPlanes& bp) const {
+    const int n = batch.count;
+    bp.planes->resize(size_t(n));
+    TangentPlane* out = bp.planes->data();
+    bp.ready = true;
+    int i = 0;
+    if (m_virtualMode != 0) {
+        const PlaneFrame& frame = *bp.frame;
+        const auto& M = frame.rasterPlaneFromSpace.m;
+        const Vec3 L = frame.light;
+        const bool perspective = m_projection == Projection::Perspective;
+        for (; i + 4 <= n; i += 4) {
+            const Vec3* P = batch.P + i;
+            const Vec3* N = batch.N + i;
+            const F4 px{P[0].x, P[1].x, P[2].x, P[3].x}, py{P[0].y, P[1].y, P[2].y, P[3].y},
+                pz{P[0].z, P[1].z, P[2].z, P[3].z};
+            const F4 nx{N[0].x, N[1].x, N[2].x, N[3].x}, ny{N[0].y, N[1].y, N[2].y, N[3].y},
+                nz{N[0].z, N[1].z, N[2].z, N[3].z};
+            // tangentPlane(), lane by lane.
+            const F4 c3 = -(nx * px + ny * py + nz * pz);
+            F4 pl[4];
+            for (int r = 0; r < 4; ++r) pl[r] = M[r][0] * nx + M[r][1] * ny + M[r][2] * nz + M[r][3] * c3;
+            const I4 ok = (abs4(pl[2]) > 1e-30f) & finite4(pl[0] + pl[1] + pl[2] + pl[3]);
+            const F4 inv = -1.0f / (ok ? pl[2] : F4{} + 1.0f);
+            // An invalid plane is all zeros, as TangentPlane() is.
+            const F4 a = ok ? pl[0] * inv : F4{}, b = ok ? pl[1] * inv : F4{}, d = ok ? pl[3] * inv : F4{};
+            const I4 faces = perspective ? nx * (L.x - px) + ny * (L.y - py) + nz * (L.z - pz) > 0.0f
+                                         : nx * L.x + ny * L.y + nz * L.z < 0.0f;
+            const I4 valid = ok & 1, facing = ok & faces & 1;
+            for (int l = 0; l < 4; ++l) out[i + l] = TangentPlane{a[l], b[l], d[l], valid[l], facing[l]};
+        }
+    }
+    for (; i < n; ++i) out[i] = tangentPlane(*bp.frame, batch.P[i], batch.N[i]);
+    return out;
+}
+
 ShadowMap::PlaneFrame ShadowMap::planeFrame(const Mat4& spaceFromLight) const {
     // A plane covector c of the space becomes (spaceFromLight)^T c in the
     // light's camera space and m_planeFromLight times that in its raster
@@ -657,7 +693,9 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
         bool pointPlaneKnown = false;
         auto planeOfPoint = [&]() -> const TangentPlane& {
             if (!pointPlaneKnown) {
-                pointPlane = batchPlanes.ready ? t_planes[size_t(i)] : tangentPlane(planes, P, batch.N[i]);
+                // The whole batch's, four at a time, when the first point
+                // needs one: most points of a grid that needs one do.
+                pointPlane = planesOf(batch, batchPlanes)[i];
                 pointPlaneKnown = true;
             }
             return pointPlane;

@@ -362,13 +362,11 @@ private:
         bool ready = false;
     };
     const TangentPlane* planesOf(const ShadowBatch& batch, BatchPlanes& bp) const {
-        if (!bp.ready) {
-            bp.planes->resize(size_t(batch.count));
-            for (int i = 0; i < batch.count; ++i) (*bp.planes)[size_t(i)] = tangentPlane(*bp.frame, batch.P[i], batch.N[i]);
-            bp.ready = true;
-        }
-        return bp.planes->data();
+        return bp.ready ? bp.planes->data() : makePlanes(batch, bp);
     }
+    /// Four points at a time, each plane exactly the one tangentPlane()
+    /// gives (the same operations lane by lane).
+    const TangentPlane* makePlanes(const ShadowBatch& batch, BatchPlanes& bp) const;
     /// True when at every texel centre of [i0, i1] x [j0, j1] every plane
     /// of `env` lies deeper than `limit` as the sample loop's virtual
     /// comparison finds it (rounding included): a light-facing point whose
