@@ -978,8 +978,10 @@ void Builder::takeScreenTransform(const FileLoc& loc) {
     float linear[4] = {a, b, c, d};
     for (float& e : linear)
         if (std::abs(e) <= 1e-7f * size) e = 0;
-    const float det = linear[0] * linear[3] - linear[1] * linear[2];
-    bool degenerate = !(std::abs(det) > 1e-30f) || !std::isfinite(det);
+    // Flattened to a line (or a point): no picture. Relative to the size,
+    // so a tiny uniform scale still counts.
+    const double det = double(linear[0]) * linear[3] - double(linear[1]) * linear[2];
+    const bool degenerate = !(std::abs(det) > 1e-10 * double(size) * size) || !std::isfinite(det) || !(size > 1e-20f);
     if (degenerate) {
         m_diag.warning(loc, "Projection: the screen transformation scales the image to nothing; ignored");
         linear[0] = linear[3] = 1;
