@@ -2,9 +2,9 @@
 // before `Projection` apply after the projection, in screen space. DCC
 // exporters write `Scale -1 1 1` there to mirror the image. Each case is
 // compared with the scene the screen transform describes, written plainly:
-// the unmirrored image flopped pixel by pixel, or a ScreenWindow scaled or
-// shifted by hand (screen x' = s x + t sees the window [l, r] as
-// [(l - t)/s, (r - t)/s]).
+// the unmirrored image flopped or turned pixel by pixel, a ScreenWindow
+// scaled or shifted by hand (screen x' = s x + t sees the window [l, r] as
+// [(l - t)/s, (r - t)/s]), or a closed-form area and centroid.
 
 #include "support/render_harness.h"
 
