@@ -1,5 +1,6 @@
 #include "umbra/hider/camera.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace umbra::hider {
@@ -21,10 +22,8 @@ Camera Camera::fromOptions(const scene::Options& o) {
         c.screenWindow[0] = -1;          c.screenWindow[1] = 1;
         c.screenWindow[2] = -1 / aspect; c.screenWindow[3] = 1 / aspect;
     }
-    for (int i = 0; i < 2; ++i) {
-        c.screenScale[i] = o.screenScale[i];
-        c.screenOffset[i] = o.screenOffset[i];
-    }
+    for (int i = 0; i < 4; ++i) c.screenLinear[i] = o.screenLinear[i];
+    for (int i = 0; i < 2; ++i) c.screenOffset[i] = o.screenOffset[i];
     c.nearClip = o.nearClip;
     c.farClip = o.farClip;
     c.cameraFromWorld = o.cameraFromWorld;
@@ -35,13 +34,19 @@ Camera Camera::fromOptions(const scene::Options& o) {
 void Camera::finish() {
     m_xScale = float(xResolution) / (screenWindow[1] - screenWindow[0]);
     m_yScale = float(yResolution) / (screenWindow[3] - screenWindow[2]);
+    m_screenDiagonal = screenLinear[1] == 0 && screenLinear[2] == 0;
+    float R[4];
+    rasterFromProjected(R);
+    m_maxProjectedScale = m_screenDiagonal ? std::max(std::abs(R[0]), std::abs(R[3])) : largestSingularValue(R);
 }
 
 Mat4 Camera::screenFromCamera() const {
     // The screen transformation, after the projection.
     Mat4 st;
-    st.m[0][0] = screenScale[0];
-    st.m[1][1] = screenScale[1];
+    st.m[0][0] = screenLinear[0];
+    st.m[0][1] = screenLinear[1];
+    st.m[1][0] = screenLinear[2];
+    st.m[1][1] = screenLinear[3];
     st.m[0][3] = screenOffset[0];
     st.m[1][3] = screenOffset[1];
     if (!perspective) return st;

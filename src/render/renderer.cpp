@@ -478,9 +478,24 @@ PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const st
     if (pass.lensRadius > 0 && pass.camera.perspective) {
         ss.sampling.lens = true;
         const float perUnit = pass.lensRadius / pass.camera.tanHalfFov;
-        // Signed: a mirroring screen transform mirrors the blur's offsets too.
-        ss.sampling.lensScaleX = perUnit * pass.camera.projectedScaleX();
-        ss.sampling.lensScaleY = -perUnit * pass.camera.projectedScaleY();  // raster y runs down
+        float R[4];
+        pass.camera.rasterFromProjected(R);
+        if (pass.camera.screenDiagonal()) {
+            // Signed: a mirroring screen transform mirrors the blur's offsets too.
+            ss.sampling.lensScaleX = perUnit * R[0];
+            ss.sampling.lensScaleY = perUnit * R[3];  // negative: raster y runs down
+        } else {
+            // The hider's lens offsets are per axis. The lens disc maps to
+            // raster as R times the disc, an ellipse whose x and y extents
+            // are the lengths of R's rows. A rotated or mirrored disc is the
+            // same disc, so for a rotation with a uniform scale these scales
+            // give the same blur (another pairing of samples with lens
+            // positions); a shear or an uneven scale at a turn has its
+            // ellipse approximated by the axis-aligned one of the same
+            // extents.
+            ss.sampling.lensScaleX = perUnit * std::hypot(R[0], R[1]);
+            ss.sampling.lensScaleY = -perUnit * std::hypot(R[2], R[3]);
+        }
         ss.sampling.inverseFocalDistance = 1.0f / pass.focalDistance;
     }
     if (pass.depthOnly) ss.filterMargin = 0;  // depths are per-pixel minima, never filtered
@@ -1133,7 +1148,7 @@ MapContent Renderer::Impl::mapContentOf(const FrameState& frame, const scene::Li
         settingsHash.flag(pass.openSurfacesAreOwnSecondLayer).i32(pass.timeTile);
         const hider::Camera& c = pass.camera;
         viewHash.flag(c.perspective).f32(c.tanHalfFov).bytes(c.screenWindow, sizeof c.screenWindow);
-        viewHash.bytes(c.screenScale, sizeof c.screenScale).bytes(c.screenOffset, sizeof c.screenOffset);
+        viewHash.bytes(c.screenLinear, sizeof c.screenLinear).bytes(c.screenOffset, sizeof c.screenOffset);
         viewHash.i32(c.xResolution).i32(c.yResolution).f32(c.nearClip).f32(c.farClip).matrix(c.cameraFromWorld);
     }
     content.settings = settingsHash.value();

@@ -171,7 +171,7 @@ float SurfacePipeline::displacementAllowance(const scene::Attributes& attrs, con
 float SurfacePipeline::confusionRadius(float z) const {
     const hider::Camera& cam = m_pass.camera;
     if (!(m_pass.lensRadius > 0) || !cam.perspective) return 0;
-    const float scale = std::max(std::abs(cam.projectedScaleX()), std::abs(cam.projectedScaleY())) / cam.tanHalfFov;
+    const float scale = cam.maxProjectedScale() / cam.tanHalfFov;
     return m_pass.lensRadius * scale * std::abs(1.0f / m_pass.focalDistance - 1.0f / z);
 }
 

@@ -972,20 +972,20 @@ void Builder::takeScreenTransform(const FileLoc& loc) {
     const float a = t.m[0][0], b = t.m[0][1], c = t.m[1][0], d = t.m[1][1];
     const float size = std::max({std::abs(a), std::abs(b), std::abs(c), std::abs(d)});
     const float eps = 1e-6f * std::max(size, 1.0f);
-    float sx = a, sy = d;
-    if (std::abs(b) > eps || std::abs(c) > eps) {
-        // Rotation or shear: keep each axis's length (and a mirror's sign),
-        // not its turn.
-        m_diag.warning(loc, "Projection: the screen transformation (transforms before Projection) rotates or "
-                            "shears the image; only its scale and offset are supported, the rest is ignored");
-        // (A diagonal entry that is only rounding, as at a quarter turn,
-        // does not decide a mirror.)
-        sx = a < -eps ? -std::hypot(a, c) : std::hypot(a, c);
-        sy = d < -eps ? -std::hypot(b, d) : std::hypot(b, d);
-    }
-    if (!(std::abs(sx) > 1e-20f && std::abs(sy) > 1e-20f) || !std::isfinite(sx) || !std::isfinite(sy)) {
+    // Rotation, shear, scale and mirror are all kept. Entries that are only
+    // rounding (the cosine of a quarter turn) become exact zeros, so a
+    // quarter turn is an exact permutation and a still image stays diagonal.
+    float linear[4] = {a, b, c, d};
+    for (float& e : linear)
+        if (std::abs(e) <= 1e-7f * size) e = 0;
+    // Flattened to a line (or a point): no picture. Relative to the size,
+    // so a tiny uniform scale still counts.
+    const double det = double(linear[0]) * linear[3] - double(linear[1]) * linear[2];
+    const bool degenerate = !(std::abs(det) > 1e-10 * double(size) * size) || !std::isfinite(det) || !(size > 1e-20f);
+    if (degenerate) {
         m_diag.warning(loc, "Projection: the screen transformation scales the image to nothing; ignored");
-        sx = sy = 1;
+        linear[0] = linear[3] = 1;
+        linear[1] = linear[2] = 0;
     }
     bool depth = std::abs(t.m[2][2] - 1) > eps || std::abs(t.m[2][3]) > eps;
     for (int i = 0; i < 2; ++i) depth |= std::abs(t.m[2][i]) > eps || std::abs(t.m[i][2]) > eps;
@@ -996,10 +996,9 @@ void Builder::takeScreenTransform(const FileLoc& loc) {
     for (int i = 0; i < 3; ++i) projective |= std::abs(t.m[3][i]) > eps;
     if (projective)
         m_diag.warning(loc, "Projection: the screen transformation is projective (a Perspective before "
-                            "Projection); only its scale and offset are used");
+                            "Projection); only its affine x/y part (scale, rotation, shear, offset) is used");
     const float w = projective && std::abs(t.m[3][3]) > eps ? t.m[3][3] : 1.0f;
-    m_options.screenScale[0] = sx / w;
-    m_options.screenScale[1] = sy / w;
+    for (int i = 0; i < 4; ++i) m_options.screenLinear[i] = degenerate ? linear[i] : linear[i] / w;
     m_options.screenOffset[0] = std::isfinite(t.m[0][3] / w) ? t.m[0][3] / w : 0.0f;
     m_options.screenOffset[1] = std::isfinite(t.m[1][3] / w) ? t.m[1][3] / w : 0.0f;
 }

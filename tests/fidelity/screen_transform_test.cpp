@@ -2,9 +2,9 @@
 // before `Projection` apply after the projection, in screen space. DCC
 // exporters write `Scale -1 1 1` there to mirror the image. Each case is
 // compared with the scene the screen transform describes, written plainly:
-// the unmirrored image flopped pixel by pixel, or a ScreenWindow scaled or
-// shifted by hand (screen x' = s x + t sees the window [l, r] as
-// [(l - t)/s, (r - t)/s]).
+// the unmirrored image flopped or turned pixel by pixel, a ScreenWindow
+// scaled or shifted by hand (screen x' = s x + t sees the window [l, r] as
+// [(l - t)/s, (r - t)/s]), or a closed-form area and centroid.
 
 #include "support/render_harness.h"
 
@@ -69,11 +69,11 @@ struct Rendered {
 };
 
 Rendered renderFrame(const ScratchDir& dir, const std::string& before, const std::string& window = "",
-                const std::string& projection = "perspective") {
+                const std::string& projection = "perspective", int width = kWidth, int height = kHeight) {
     const std::string image = dir.file("st.tif");
     const std::string fov = projection == "perspective" ? "\"fov\" 45" : "";
     // Orthographic: the default window is 8/3 units wide, the scene 4.
-    const std::string rib = fmt::format(kScene, fmt::arg("w", kWidth), fmt::arg("h", kHeight),
+    const std::string rib = fmt::format(kScene, fmt::arg("w", width), fmt::arg("h", height),
                                         fmt::arg("image", image), fmt::arg("window", window),
                                         fmt::arg("before", before), fmt::arg("projection", projection),
                                         fmt::arg("fov", fov));
@@ -94,6 +94,16 @@ Image flopped(const Image& a) {
         for (int x = 0; x < a.width; ++x)
             for (int c = 0; c < a.channels; ++c)
                 b.pixels[(size_t(y) * a.width + x) * a.channels + c] = a.at(a.width - 1 - x, y, c);
+    return b;
+}
+
+/// The image turned a quarter turn counter-clockwise (a square one).
+Image quarterTurned(const Image& a) {
+    Image b = a;
+    for (int y = 0; y < a.height; ++y)
+        for (int x = 0; x < a.width; ++x)
+            for (int c = 0; c < a.channels; ++c)
+                b.pixels[(size_t(y) * a.width + x) * a.channels + c] = a.at(a.width - 1 - y, x, c);
     return b;
 }
 
@@ -219,17 +229,104 @@ TEST(ScreenTransform, TranslateEqualsAShiftedScreenWindow) {
     EXPECT_LT(meanAbsDiff(both.image, bothWindow.image), 1e-4);
 }
 
-TEST(ScreenTransform, RotationWarnsAndIsIgnored) {
+TEST(ScreenTransform, QuarterTurnTurnsTheImageCounterClockwise) {
+    // Screen = M * projected, M a quarter turn: what the plain camera sees at
+    // screen (x, y) is seen at (-y, x), a counter-clockwise turn of the
+    // picture (screen y up). Aqsis 1.8.4 and Pixie 2.2.6 turn it the same
+    // way. A square image, regular samples and a filter symmetric under the
+    // turn: the turned camera's samples are the plain one's turned.
     ScratchDir dir("screen-rotate");
-    Rendered plain = renderFrame(dir, "");
-    Rendered rotated = renderFrame(dir, "Rotate 30 0 0 1");
-    EXPECT_EQ(rotated.errors, 0);
-    EXPECT_EQ(warningsMentioning(rotated, "rotates or shears"), 1);
-    EXPECT_LT(meanAbsDiff(rotated.image, plain.image), 1e-5);
-    // A rotation with a mirror keeps the mirror.
-    Rendered mirroredTurn = renderFrame(dir, "Scale -1 1 1\nRotate 20 0 0 1");
-    EXPECT_EQ(warningsMentioning(mirroredTurn, "rotates or shears", 10), 1);
-    EXPECT_LT(meanAbsDiff(mirroredTurn.image, flopped(plain.image)), 1e-4);
+    constexpr int kSide = 64;
+    Rendered plain = renderFrame(dir, "", "", "perspective", kSide, kSide);
+    Rendered turned = renderFrame(dir, "Rotate 90 0 0 1", "", "perspective", kSide, kSide);
+    ASSERT_EQ(turned.errors, 0);
+    EXPECT_EQ(warnings(turned), 0);
+    const Image expected = quarterTurned(plain.image);
+    ASSERT_GT(meanAbsDiff(plain.image, expected), 0.05);  // the turn is visible
+    ASSERT_GT(meanAbsDiff(turned.image, quarterTurned(quarterTurned(expected))), 0.05);  // and its direction
+    // Shading is in camera space, untouched by the turn; coverage is the
+    // turned coverage sample for sample (but for sample tests exactly on
+    // an edge, which rounding may decide the other way).
+    EXPECT_LT(meanAbsDiff(turned.image, expected), 1e-5);
+    EXPECT_LE(differingPixels(turned.image, expected, 1e-3), 2);
+    // Three quarter turns and a turn with a mirror compose as matrices do.
+    Rendered back = renderFrame(dir, "Rotate -90 0 0 1", "", "perspective", kSide, kSide);
+    EXPECT_LT(meanAbsDiff(back.image, quarterTurned(quarterTurned(expected))), 1e-5);
+    Rendered mirroredTurn = renderFrame(dir, "Scale -1 1 1\nRotate 90 0 0 1", "", "perspective", kSide, kSide);
+    EXPECT_EQ(warnings(mirroredTurn), 0);
+    EXPECT_LT(meanAbsDiff(mirroredTurn.image, flopped(expected)), 1e-5);
+}
+
+TEST(ScreenTransform, TurnedAndShearedSquareCoversItsClosedFormArea) {
+    // A constant unit square seen orthographically through the window
+    // [-1, 1]^2 at 64 x 64 (32 pixels per unit), 8 x 8 regular samples and
+    // a box filter: its alpha sums to its area in pixels, |det M| * 32^2,
+    // and its alpha's centroid is M c + t for its centre c. Sampling moves
+    // each edge by at most half a sample spacing (1/16 pixel), so the sum is
+    // within perimeter / 16 pixels (7 to 8.5 here); the tolerance, 1% of
+    // the area, is above that in each case and far below a wrong matrix (a
+    // dropped scale changes the area by 20%, a dropped shear moves the
+    // centroid by 2 pixels; the centroid is checked to 0.1 pixel).
+    ScratchDir dir("screen-area");
+    constexpr const char* scene = R"(
+Format 64 64 1
+PixelSamples 8 8
+PixelFilter "box" 1 1
+Hider "hidden" "jitter" [0]
+Quantize "rgba" 0 0 0 0
+Display "{image}" "file" "rgba"
+ScreenWindow -1 1 -1 1
+{before}
+Projection "orthographic"
+Translate 0 0 5
+WorldBegin
+Surface "constant"
+Polygon "P" [-0.1 -0.4 0  0.9 -0.4 0  0.9 0.6 0  -0.1 0.6 0]
+WorldEnd
+)";
+    struct Case {
+        const char* before;
+        float m[4], t[2];
+    };
+    const float c = std::cos(3.14159265f / 6), s = std::sin(3.14159265f / 6);
+    const Case cases[] = {
+        {"", {1, 0, 0, 1}, {0, 0}},
+        {"Rotate 30 0 0 1", {c, -s, s, c}, {0, 0}},
+        // x' = x + 0.5 y (RIB matrices are row-vector), then a shift.
+        {"Translate -0.3 0.1 0\nConcatTransform [1 0 0 0  0.5 1 0 0  0 0 1 0  0 0 0 1]", {1, 0.5f, 0, 1}, {-0.3f, 0.1f}},
+        // An uneven scale after a turn: a parallelogram, mirrored.
+        {"Scale -1 0.8 1\nRotate 30 0 0 1", {-c, s, 0.8f * s, 0.8f * c}, {0, 0}},
+    };
+    for (const Case& k : cases) {
+        // The whole square stays inside the window.
+        for (const float x : {-0.1f, 0.9f})
+            for (const float y : {-0.4f, 0.6f}) {
+                ASSERT_LT(std::abs(k.m[0] * x + k.m[1] * y + k.t[0]), 1.0f) << k.before;
+                ASSERT_LT(std::abs(k.m[2] * x + k.m[3] * y + k.t[1]), 1.0f) << k.before;
+            }
+        const std::string image = dir.file("area.tif");
+        Diagnostics diag;
+        diag.setQuiet(true);
+        const Image img = test::renderImage(
+            fmt::format(scene, fmt::arg("image", image), fmt::arg("before", k.before)), image, diag);
+        ASSERT_EQ(img.width, 64) << k.before;
+        EXPECT_EQ(diag.errorCount() + diag.warningCount(), 0) << k.before;
+        double sum = 0, sx = 0, sy = 0;
+        for (int y = 0; y < img.height; ++y)
+            for (int x = 0; x < img.width; ++x) {
+                const double a = img.at(x, y, 3);
+                sum += a;
+                sx += a * (x + 0.5);
+                sy += a * (y + 0.5);
+            }
+        const double det = double(k.m[0]) * k.m[3] - double(k.m[1]) * k.m[2];
+        const double area = std::abs(det) * 32 * 32;
+        EXPECT_NEAR(sum, area, 0.01 * area) << k.before;
+        // The square's centre (0.4, 0.1), transformed, in raster (y down).
+        const double cx = k.m[0] * 0.4 + k.m[1] * 0.1 + k.t[0], cy = k.m[2] * 0.4 + k.m[3] * 0.1 + k.t[1];
+        EXPECT_NEAR(sx / sum, (cx + 1) * 32, 0.1) << k.before;
+        EXPECT_NEAR(sy / sum, (1 - cy) * 32, 0.1) << k.before;
+    }
 }
 
 TEST(ScreenTransform, DepthPartWarnsAndIsDropped) {
@@ -270,7 +367,8 @@ Polygon "P" [-20 20 0  20 20 0  20 -20 0  -20 -20 0]
 WorldEnd
 )";
     for (const char* projection : {"perspective", "orthographic"})
-        for (const char* before : {"", "Scale -1 1 1", "Scale 1.5 -2 1\nTranslate 0.1 0.2 0"}) {
+        for (const char* before : {"", "Scale -1 1 1", "Scale 1.5 -2 1\nTranslate 0.1 0.2 0", "Rotate 30 0 0 1",
+                                   "Rotate 90 0 0 1\nScale 1 -1 1"}) {
             const std::string image = dir.file("ndc.tif");
             Diagnostics diag;
             diag.setQuiet(true);

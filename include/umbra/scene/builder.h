@@ -236,9 +236,9 @@ private:
     /// The current transform becomes `m`, not moving.
     void setTransform(const Mat4& m);
     /// At `Projection`: the current transform is the screen transformation
-    /// (RI Spec 3.2). Its x/y scale (a negative one mirrors) and offset go
-    /// to the options; a rotation or shear in x/y, a depth part or a
-    /// projective part are warned about at `loc` and dropped.
+    /// (RI Spec 3.2). Its 2D affine x/y part (scale, rotation, shear,
+    /// mirror, offset) goes to the options; a depth part or a projective
+    /// part is warned about at `loc` and dropped.
     void takeScreenTransform(const FileLoc& loc);
     /// Composes a transform request; inside a motion block, collects it.
     void concat(const Mat4& m, bool absolute = false);

@@ -204,10 +204,12 @@ struct Options {
     float fov = 90.0f;                        // degrees, perspective only
     /// The screen transformation (RI Spec 3.2, Projection): transforms given
     /// before `Projection` apply after it, in screen space. umbra keeps the
-    /// part a screen transform can mean for a picture, x' = sx x + tx and
-    /// y' = sy y + ty (a negative scale mirrors); Builder::takeScreenTransform
-    /// warns about and drops the rest.
-    float screenScale[2] = {1, 1};
+    /// part a screen transform can mean for a picture, the 2D affine map
+    /// x' = a x + b y + tx, y' = c x + d y + ty with screenLinear = {a, b,
+    /// c, d} (rotation, shear, scale; a negative determinant mirrors);
+    /// Builder::takeScreenTransform warns about and drops the rest (depth,
+    /// projective parts).
+    float screenLinear[4] = {1, 0, 0, 1};
     float screenOffset[2] = {0, 0};
     float nearClip = 1e-10f, farClip = 1e30f; // RenderMan's RI_EPSILON / RI_INFINITY
     int pixelSamples[2] = {2, 2};

@@ -23,6 +23,14 @@ constexpr float kInfinity = std::numeric_limits<float>::infinity();
 inline float radians(float deg) { return deg * (kPi / 180.0f); }
 inline float degrees(float rad) { return rad * (180.0f / kPi); }
 inline float lerp(float t, float a, float b) { return a + t * (b - a); }
+/// The larger singular value of the 2x2 matrix {m[0], m[1]; m[2], m[3]}: the
+/// most it stretches a unit vector. sigma^2 is the larger eigenvalue of
+/// M^T M, (s + sqrt(s^2 - 4 det^2)) / 2 with s the sum of squared entries.
+inline float largestSingularValue(const float m[4]) {
+    const double a = m[0], b = m[1], c = m[2], d = m[3];
+    const double s = a * a + b * b + c * c + d * d, det = a * d - b * c;
+    return float(std::sqrt(0.5 * (s + std::sqrt(std::max(0.0, s * s - 4 * det * det)))));
+}
 template <typename T> inline T clamp(T x, T lo, T hi) { return x < lo ? lo : (x > hi ? hi : x); }
 
 /// floor(v) as an int in [lo, hi], clamped before the conversion: a float

@@ -85,31 +85,63 @@ TEST(Builder, TransformsBeforeProjectionAreTheScreenTransformation) {
     ASSERT_EQ(r->sink.worlds.size(), 1u);
     EXPECT_EQ(r->messages(), std::vector<std::string>{});
     const Options& o = r->sink.worlds[0].options;
-    EXPECT_FLOAT_EQ(o.screenScale[0], -2.0f);
-    EXPECT_FLOAT_EQ(o.screenScale[1], 3.0f);
+    EXPECT_FLOAT_EQ(o.screenLinear[0], -2.0f);
+    EXPECT_EQ(o.screenLinear[1], 0.0f);
+    EXPECT_EQ(o.screenLinear[2], 0.0f);
+    EXPECT_FLOAT_EQ(o.screenLinear[3], 3.0f);
     EXPECT_FLOAT_EQ(o.screenOffset[0], -1.0f);
     EXPECT_FLOAT_EQ(o.screenOffset[1], 0.75f);
     expectNear(o.cameraFromWorld.point({1, 2, 3}), {1, 2, 8});
     // A later Projection takes the transform current then (the identity).
     auto again = run("Scale -1 1 1 Projection \"orthographic\" Projection \"perspective\" WorldBegin WorldEnd");
-    EXPECT_EQ(again->sink.worlds.at(0).options.screenScale[0], 1.0f);
+    EXPECT_EQ(again->sink.worlds.at(0).options.screenLinear[0], 1.0f);
 }
 
-TEST(Builder, ScreenRotationAndDepthAreWarnedAndDropped) {
+TEST(Builder, ScreenRotationIsKeptAndDepthIsWarnedAndDropped) {
     auto r = run("Rotate 90 0 0 1\nScale 2 2 -1\nProjection \"perspective\"\nWorldBegin WorldEnd");
     const std::vector<std::string> m = r->messages();
-    ASSERT_EQ(m.size(), 2u);
-    EXPECT_EQ(m[0].rfind("s.rib:3:1: warning: Projection: the screen transformation (transforms before Projection) "
-                         "rotates or shears",
-                         0),
-              0u)
-        << m[0];
-    EXPECT_EQ(m[1].rfind("s.rib:3:1: warning: Projection: the screen transformation changes depth", 0), 0u) << m[1];
-    // Each axis keeps its length: a quarter turn of a scale by 2 is a scale by 2.
+    ASSERT_EQ(m.size(), 1u);
+    EXPECT_EQ(m[0].rfind("s.rib:3:1: warning: Projection: the screen transformation changes depth", 0), 0u) << m[0];
+    // A quarter turn of a scale by 2: x' = -2 y, y' = 2 x, the cosines'
+    // rounding made exact zeros.
     const Options& o = r->sink.worlds.at(0).options;
-    EXPECT_NEAR(o.screenScale[0], 2.0f, 1e-5f);
-    EXPECT_NEAR(o.screenScale[1], 2.0f, 1e-5f);
+    EXPECT_EQ(o.screenLinear[0], 0.0f);
+    EXPECT_NEAR(o.screenLinear[1], -2.0f, 1e-6f);
+    EXPECT_NEAR(o.screenLinear[2], 2.0f, 1e-6f);
+    EXPECT_EQ(o.screenLinear[3], 0.0f);
     EXPECT_EQ(o.screenOffset[0], 0.0f);
+}
+
+TEST(Builder, ScreenTransformationIsAGeneralAffineMap) {
+    // screen = R(30) * S(2, 1) * T(0.5, 0) applied to projected points:
+    // the linear part R(30) diag(2, 1), the offset R(30) (1, 0). No warning.
+    auto r = run("Rotate 30 0 0 1 Scale 2 1 1 Translate .5 0 0\nProjection \"perspective\"\nWorldBegin WorldEnd");
+    EXPECT_EQ(r->messages(), std::vector<std::string>{});
+    const Options& o = r->sink.worlds.at(0).options;
+    const float c = std::cos(3.14159265f / 6), s = std::sin(3.14159265f / 6);
+    EXPECT_NEAR(o.screenLinear[0], 2 * c, 1e-6f);
+    EXPECT_NEAR(o.screenLinear[1], -s, 1e-6f);
+    EXPECT_NEAR(o.screenLinear[2], 2 * s, 1e-6f);
+    EXPECT_NEAR(o.screenLinear[3], c, 1e-6f);
+    EXPECT_NEAR(o.screenOffset[0], c, 1e-6f);
+    EXPECT_NEAR(o.screenOffset[1], s, 1e-6f);
+    // A shear (a ConcatTransform before Projection) is kept too; one that
+    // flattens the image to a line is not.
+    auto shear = run("ConcatTransform [1 0 0 0  0.5 1 0 0  0 0 1 0  0 0 0 1]\nProjection \"orthographic\"\n"
+                     "WorldBegin WorldEnd");
+    EXPECT_EQ(shear->messages(), std::vector<std::string>{});
+    const Options& so = shear->sink.worlds.at(0).options;
+    // RIB matrices are row-vector: this one maps (x, y) to (x + 0.5 y, y).
+    EXPECT_EQ(so.screenLinear[0], 1.0f);
+    EXPECT_EQ(so.screenLinear[1], 0.5f);
+    EXPECT_EQ(so.screenLinear[2], 0.0f);
+    EXPECT_EQ(so.screenLinear[3], 1.0f);
+    auto flat = run("ConcatTransform [1 1 0 0  1 1 0 0  0 0 1 0  0 0 0 1]\nProjection \"orthographic\"\n"
+                    "WorldBegin WorldEnd");
+    ASSERT_EQ(flat->messages().size(), 1u);
+    EXPECT_NE(flat->messages()[0].find("scales the image to nothing"), std::string::npos);
+    EXPECT_EQ(flat->sink.worlds.at(0).options.screenLinear[0], 1.0f);
+    EXPECT_EQ(flat->sink.worlds.at(0).options.screenLinear[1], 0.0f);
 }
 
 TEST(Builder, AttributeAndTransformScoping) {
