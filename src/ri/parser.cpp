@@ -1100,9 +1100,17 @@ private:
                                       "type[[n]]\", e.g. \"varying color\")", args[1].str, args[0].str, why);
                 return;
             }
-            d.name = args[0].str;
-            if (d.name.empty() || d.name.find_first_of(" \t") != std::string::npos) {
-                m_parser.m_diag.error(where, "Declare: bad parameter name \"{}\" (expected one word)", d.name);
+            // Blanks around the name are dropped. A name with blanks inside
+            // (a parser test of Aqsis's writes one) could never be told from
+            // an inline declaration when used: Aqsis and Pixie take it
+            // without a word, umbra warns and leaves it undeclared.
+            const std::string& given = args[0].str;
+            const size_t first = given.find_first_not_of(" \t\r\n");
+            const size_t last = given.find_last_not_of(" \t\r\n");
+            d.name = first == std::string::npos ? std::string() : given.substr(first, last - first + 1);
+            if (d.name.empty() || d.name.find_first_of(" \t\r\n") != std::string::npos) {
+                m_parser.m_diag.warning(where, "Declare: parameter name \"{}\" is not one word; the declaration is "
+                                               "ignored (no parameter list could name it)", given);
                 return;
             }
             m_parser.m_decls.declare(d);

@@ -117,6 +117,24 @@ TEST(Parser, DeclarationsInlineAndDeclared) {
     EXPECT_EQ(l.params()[1].loc.str(), "t.rib:2:29");
 }
 
+TEST(Parser, DeclaredNamesLoseTheirBlanksAndNamesOfSeveralWordsAreWarnedAndIgnored) {
+    // As a parser test of Aqsis's writes them; Aqsis and Pixie take both.
+    auto p = parse("Declare \"  padded \" \"uniform float\"\n"
+                   "Declare \"  two words  \" \"constant string\"\n"
+                   "Declare \" \" \"uniform float\"\n"
+                   "Surface \"s\" \"padded\" 2");
+    EXPECT_TRUE(p->ok);
+    EXPECT_EQ(messages(p->diag), (std::vector<std::string>{
+        "t.rib:2:1: warning: Declare: parameter name \"  two words  \" is not one word; the declaration is ignored "
+        "(no parameter list could name it)",
+        "t.rib:3:1: warning: Declare: parameter name \" \" is not one word; the declaration is ignored (no "
+        "parameter list could name it)"}));
+    ASSERT_EQ(p->rec.params.size(), 1u);
+    ASSERT_EQ(p->rec.params[0].size(), 1u);
+    EXPECT_EQ(p->rec.params[0].params()[0].decl.str(), "uniform float padded");
+    EXPECT_FALSE(p->rec.params[0].params()[0].decl.inferred);
+}
+
 TEST(Parser, ParameterErrorsDropOnlyTheParameter) {
     auto p = parse("Surface \"s\" \"Cs\" [1 0] \"Kd\" \"a\" \"constant float c\" [1 2] \"Ka\" 0.25 \"Ks\"");
     EXPECT_EQ(messages(p->diag), (std::vector<std::string>{
