@@ -18,7 +18,10 @@ namespace umbra::ri {
 namespace {
 inline bool isSpace(unsigned char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\f' || c == '\v'; }
 // Characters that end a bare word (a number or a request name).
-inline bool endsWord(unsigned char c) { return isSpace(c) || c == '[' || c == ']' || c == '"' || c == '#'; }
+// A byte >= 0200 is a binary token, which needs no space before it.
+inline bool endsWord(unsigned char c) {
+    return isSpace(c) || c == '[' || c == ']' || c == '"' || c == '#' || c >= 0200;
+}
 constexpr double kInfinityD = std::numeric_limits<double>::infinity();
 // "nan", "inf" and "infinity" in any case: never a request name, always a
 // number that is not one.
@@ -33,6 +36,18 @@ bool isNonFiniteName(std::string_view w) {
 }
 std::string notFinite(std::string_view word) {
     return fmt::format("not a finite number \"{}\" (expected a finite number)", word);
+}
+// An unsigned binary-RIB field, most significant byte first.
+uint64_t bigEndian(const char* p, size_t count) {
+    uint64_t v = 0;
+    for (size_t k = 0; k < count; ++k) v = (v << 8) | static_cast<unsigned char>(p[k]);
+    return v;
+}
+float bigEndianFloat(const char* p) {
+    const uint32_t bits = uint32_t(bigEndian(p, 4));
+    float f;
+    std::memcpy(&f, &bits, sizeof f);
+    return f;
 }
 }  // namespace
 
@@ -94,6 +109,15 @@ Token Lexer::inputError(int line, int column) {
 
 Token Lexer::next() {
     for (;;) {
+        bool definition = false;
+        Token t = lexToken(&definition);
+        if (!definition) return t;
+    }
+}
+
+Token Lexer::lexToken(bool* definition) {
+    if (m_inArray) return lexArrayElement();
+    for (;;) {
         const char* s = m_s;
         const size_t n = m_n;
         size_t pos = m_pos;
@@ -140,20 +164,235 @@ Token Lexer::next() {
         return t;
     }
     if (c == '"') return lexString(t.line, t.column);
-    if (c >= 0x80 || (c < 0x20 && !isSpace(c))) {
-        // Binary RIB encodes requests and values in bytes >= 0x80; skip the
-        // whole run so one stray byte gives one message.
+    if (c >= 0200) return lexBinary(t.line, t.column, definition);
+    if (c < 0x20 && !isSpace(c)) {
+        // Skip the whole run so one stray stretch gives one message.
         for (;;) {
             while (m_pos < m_n) {
                 unsigned char d = static_cast<unsigned char>(m_s[m_pos]);
-                if (!(d >= 0x80 || (d < 0x20 && !isSpace(d)))) break;
+                if (!(d < 0x20 && !isSpace(d))) break;
                 ++m_pos;
             }
             if (m_pos < m_n || !refill(m_pos)) break;
         }
-        return makeError(t.line, t.column, "unexpected binary data (only ASCII RIB is supported)");
+        return makeError(t.line, t.column, fmt::format("unexpected control character 0x{:02x} (not RIB)", c));
     }
     return lexWord(t.line, t.column);
+}
+
+bool Lexer::ensure(size_t count) {
+    while (m_n - m_pos < count)
+        if (!refill(m_pos)) {
+            m_overlong = false;
+            return false;
+        }
+    return true;
+}
+
+namespace {
+// Binary RIB's first bytes (RI Spec 3.2, table C.1), in octal as the spec
+// writes them.
+constexpr unsigned kFixedFirst = 0200, kFixedLast = 0217;   // integers and fixed point
+constexpr unsigned kShortString = 0220, kLongStringLast = 0243;  // 0220 + length, 0240 + bytes of length - 1
+constexpr unsigned kLongString = 0240;
+constexpr unsigned kFloat = 0244, kDouble = 0245, kRequest = 0246;
+constexpr unsigned kFloatArray = 0310, kFloatArrayLast = 0313;  // 0310 + bytes of count - 1
+constexpr unsigned kDefineRequest = 0314;
+constexpr unsigned kDefineString = 0315, kDefineStringLast = 0316;  // 0315 + bytes of token - 1
+constexpr unsigned kString = 0317, kStringLast = 0320;              // 0317 + bytes of token - 1
+bool isReserved(unsigned c) {
+    return (c > kRequest && c < kFloatArray) || c > kStringLast;
+}
+}  // namespace
+
+bool Lexer::definedString(std::string* out, std::string* why) {
+    if (!ensure(1)) {
+        *why = "the input ends before its string";
+        return false;
+    }
+    const unsigned c = static_cast<unsigned char>(m_s[m_pos]);
+    if (c == '"') {
+        const Token s = lexString(m_line, columnAt(m_pos));
+        if (s.kind != TokenKind::String) {
+            *why = std::string(s.text);
+            return false;
+        }
+        out->assign(s.text);
+        return true;
+    }
+    if (c < kShortString || c > kLongStringLast) {
+        *why = fmt::format("expected a string after it, got byte 0{:o}", c);
+        return false;
+    }
+    const size_t lengthBytes = c >= kLongString ? c - kLongString + 1 : 0;
+    if (!ensure(1 + lengthBytes)) {
+        *why = "the input ends inside its string";
+        return false;
+    }
+    const uint64_t length = lengthBytes ? bigEndian(m_s + m_pos + 1, lengthBytes) : c - kShortString;
+    const bool overlong = length >= kMaxTokenBytes - 8;  // with its prefix, within what the buffer keeps
+    if (overlong || !ensure(1 + lengthBytes + size_t(length))) {
+        *why = overlong ? fmt::format("its string is longer than {} MiB", kMaxTokenBytes >> 20)
+                        : "the input ends inside its string";
+        m_pos = m_n;
+        return false;
+    }
+    out->assign(m_s + m_pos + 1 + lengthBytes, size_t(length));
+    m_pos += 1 + lengthBytes + size_t(length);
+    return true;
+}
+
+Token Lexer::lexBinary(int line, int column, bool* definition) {
+    const unsigned c = static_cast<unsigned char>(m_s[m_pos]);
+    Token t;
+    t.line = line;
+    t.column = column;
+    t.offset = m_base + m_pos;
+    // The rest of the input is consumed: a cut token leaves nothing to
+    // resynchronise on.
+    auto truncated = [&]() {
+        m_pos = m_n;
+        if (!m_sourceError.empty()) return inputError(line, column);
+        return makeError(line, column, fmt::format("binary RIB: the input ends inside an encoded token (byte 0{:o})", c));
+    };
+    auto number = [&](double v, bool isInt) {
+        t.kind = TokenKind::Number;
+        t.number = v;
+        t.isInt = isInt;
+        m_scratch = fmt::format("{}", v);
+        t.text = m_scratch;
+        return t;
+    };
+    if (c <= kFixedLast) {
+        // 0200 + 4 d + w: a signed (w + 1)-byte integer, its bottom d bytes
+        // after the point.
+        const size_t bytes = (c - kFixedFirst) % 4 + 1, fraction = (c - kFixedFirst) / 4;
+        if (!ensure(1 + bytes)) return truncated();
+        const unsigned shift = unsigned(64 - 8 * bytes);
+        const int64_t v = int64_t(bigEndian(m_s + m_pos + 1, bytes) << shift) >> shift;
+        m_pos += 1 + bytes;
+        return number(double(v) / double(uint64_t(1) << (8 * fraction)), fraction == 0);
+    }
+    if (c <= kLongStringLast) {
+        const size_t lengthBytes = c >= kLongString ? c - kLongString + 1 : 0;
+        if (!ensure(1 + lengthBytes)) return truncated();
+        const uint64_t length = lengthBytes ? bigEndian(m_s + m_pos + 1, lengthBytes) : c - kShortString;
+        if (length >= kMaxTokenBytes - 8) {  // with its prefix, within what the buffer keeps
+            m_pos = m_n;
+            return makeError(line, column, fmt::format("binary RIB: string longer than {} MiB", kMaxTokenBytes >> 20));
+        }
+        if (!ensure(1 + lengthBytes + size_t(length))) return truncated();
+        t.kind = TokenKind::String;
+        t.text = std::string_view(m_s + m_pos + 1 + lengthBytes, size_t(length));
+        m_pos += 1 + lengthBytes + size_t(length);
+        return t;
+    }
+    if (c == kFloat || c == kDouble) {
+        const size_t bytes = c == kFloat ? 4 : 8;
+        if (!ensure(1 + bytes)) return truncated();
+        double v;
+        if (bytes == 4) {
+            v = bigEndianFloat(m_s + m_pos + 1);
+        } else {
+            const uint64_t bits = bigEndian(m_s + m_pos + 1, 8);
+            std::memcpy(&v, &bits, sizeof v);
+        }
+        m_pos += 1 + bytes;
+        if (!(std::fabs(v) <= double(FLT_MAX)))
+            return makeError(line, column, fmt::format("binary RIB: number {} is not a finite 32-bit float", v));
+        return number(v, false);
+    }
+    if (c == kRequest) {
+        if (!ensure(2)) return truncated();
+        const unsigned code = static_cast<unsigned char>(m_s[m_pos + 1]);
+        m_pos += 2;
+        if (m_requests[code].empty())
+            return makeError(line, column,
+                             fmt::format("binary RIB: request code {} used before it was defined (0314)", code));
+        t.kind = TokenKind::Name;
+        t.text = m_requests[code];
+        return t;
+    }
+    if (c >= kFloatArray && c <= kFloatArrayLast) {
+        const size_t countBytes = c - kFloatArray + 1;
+        if (!ensure(1 + countBytes)) return truncated();
+        m_arrayLeft = bigEndian(m_s + m_pos + 1, countBytes);
+        m_pos += 1 + countBytes;
+        m_inArray = true;
+        t.kind = TokenKind::ArrayBegin;
+        return t;
+    }
+    if (c == kDefineRequest || (c >= kDefineString && c <= kDefineStringLast)) {
+        const size_t idBytes = c == kDefineRequest ? 1 : c - kDefineString + 1;
+        if (!ensure(1 + idBytes)) return truncated();
+        const uint32_t id = uint32_t(bigEndian(m_s + m_pos + 1, idBytes));
+        m_pos += 1 + idBytes;
+        std::string value, why;
+        if (!definedString(&value, &why))
+            return makeError(line, column, fmt::format("binary RIB: {} definition 0{:o} {}: {}",
+                                                       c == kDefineRequest ? "request" : "string", c, id, why));
+        if (c == kDefineRequest) {
+            const bool word = !value.empty() && std::none_of(value.begin(), value.end(), [](char ch) {
+                return endsWord(static_cast<unsigned char>(ch)) || static_cast<unsigned char>(ch) < 0x20;
+            });
+            if (!word)
+                return makeError(line, column,
+                                 fmt::format("binary RIB: request code {} defined as \"{}\" (expected a request name)",
+                                             id, value));
+            m_requests[id] = std::move(value);
+        } else {
+            m_strings[id] = std::move(value);
+        }
+        *definition = true;
+        return t;
+    }
+    if (c == kString || c == kStringLast) {
+        const size_t idBytes = c - kString + 1;
+        if (!ensure(1 + idBytes)) return truncated();
+        const uint32_t id = uint32_t(bigEndian(m_s + m_pos + 1, idBytes));
+        m_pos += 1 + idBytes;
+        const auto it = m_strings.find(id);
+        if (it == m_strings.end())
+            return makeError(line, column, fmt::format("binary RIB: string token {} used before it was defined (0315)", id));
+        t.kind = TokenKind::String;
+        t.text = it->second;
+        return t;
+    }
+    // Reserved bytes: the whole run, so a stretch of them gives one message.
+    for (;;) {
+        while (m_pos < m_n && isReserved(static_cast<unsigned char>(m_s[m_pos]))) ++m_pos;
+        if (m_pos < m_n || !refill(m_pos)) break;
+    }
+    return makeError(line, column, fmt::format("binary RIB: reserved byte 0{:o} (not a RIB token)", c));
+}
+
+Token Lexer::lexArrayElement() {
+    Token t;
+    t.line = m_line;
+    t.column = columnAt(m_pos);
+    t.offset = m_base + m_pos;
+    if (m_arrayLeft == 0) {
+        m_inArray = false;
+        t.kind = TokenKind::ArrayEnd;
+        return t;
+    }
+    if (!ensure(4)) {
+        m_inArray = false;
+        m_arrayLeft = 0;
+        m_pos = m_n;
+        if (!m_sourceError.empty()) return inputError(t.line, t.column);
+        return makeError(t.line, t.column, "binary RIB: the input ends inside an encoded float array");
+    }
+    --m_arrayLeft;
+    const float v = bigEndianFloat(m_s + m_pos);
+    m_pos += 4;
+    if (!std::isfinite(v))
+        return makeError(t.line, t.column, fmt::format("binary RIB: array element {} is not a finite number", v));
+    t.kind = TokenKind::Number;
+    t.number = v;
+    m_scratch = fmt::format("{}", v);
+    t.text = m_scratch;
+    return t;
 }
 
 Token Lexer::lexWord(int line, int column) {

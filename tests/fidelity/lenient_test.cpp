@@ -10,7 +10,9 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <cstring>
 #include <fstream>
+#include <map>
 
 #include <unistd.h>
 
@@ -293,6 +295,78 @@ WorldEnd
     Rendered plain = renderScene(fmt::format(scene, image, ""), image);
     ASSERT_GT(plain.image.channelSum(0), 50.0);
     EXPECT_LT(meanAbsDiff(binary.image, plain.image), 2e-3);
+}
+
+TEST(Lenient, BinaryEncodedRibDrawsWhatItsAsciiFormDraws) {
+    // RIB writers' binary mode (RI Spec 3.2, appendix C), as a compact
+    // writer uses it: each request defined once and then sent as its code,
+    // repeated strings as defined tokens, integers in fixed point, other
+    // numbers as floats, float arrays as counted runs.
+    ScratchDir dir("binary-rib");
+    const std::string image = dir.file("b.tif");
+    std::string bin;
+    std::map<std::string, int> requests, strings;
+    auto bytes = [&](std::initializer_list<int> b) {
+        for (int x : b) bin.push_back(char(x));
+    };
+    auto request = [&](const std::string& name) {
+        if (!requests.count(name)) {
+            const int code = int(requests.size());
+            requests[name] = code;
+            bytes({0314, code, 0220 + int(name.size())});
+            bin += name;
+        }
+        bytes({0246, requests[name]});
+    };
+    auto string = [&](const std::string& v) {
+        if (!strings.count(v)) {
+            const int token = int(strings.size());
+            strings[v] = token;
+            bytes({0315, token, 0240, int(v.size())});
+            bin += v;
+        }
+        bytes({0317, strings[v]});
+    };
+    auto floatBits = [&](float f) {
+        uint32_t u;
+        std::memcpy(&u, &f, 4);
+        bytes({int(u >> 24) & 255, int(u >> 16) & 255, int(u >> 8) & 255, int(u) & 255});
+    };
+    auto integer = [&](int v) { bytes({0201, (v >> 8) & 255, v & 255}); };
+    auto real = [&](float f) {
+        bytes({0244});
+        floatBits(f);
+    };
+    auto floats = [&](std::initializer_list<float> v) {
+        bytes({0310, int(v.size())});
+        for (float f : v) floatBits(f);
+    };
+    request("Format"), integer(64), integer(48), integer(1);
+    request("Display"), string(image), string("file"), string("rgb");
+    request("Projection"), string("perspective"), string("fov"), real(40);
+    request("WorldBegin");
+    request("LightSource"), string("distantlight"), integer(1), string("from"), floats({-1, 1, -1}), string("to"),
+        floats({0, 0, 0});
+    request("Surface"), string("plastic"), string("roughness"), real(0.2f);
+    request("Translate"), integer(0), real(-0.25f), integer(5);
+    request("Sphere"), integer(1), integer(-1), integer(1), integer(360);
+    request("WorldEnd");
+    Rendered binary = renderScene(bin, image);
+    EXPECT_EQ(binary.errors, 0);
+    EXPECT_EQ(binary.warnings, 0);
+    Rendered plain = renderScene(fmt::format(R"(
+Format 64 48 1
+Display "{}" "file" "rgb"
+Projection "perspective" "fov" 40
+WorldBegin
+LightSource "distantlight" 1 "from" [-1 1 -1] "to" [0 0 0]
+Surface "plastic" "roughness" 0.2
+Translate 0 -0.25 5
+Sphere 1 -1 1 360
+WorldEnd
+)", image), image);
+    ASSERT_GT(plain.image.channelSum(0), 50.0);
+    EXPECT_EQ(maxAbsDiff(binary.image, plain.image, 3), 0.0);
 }
 
 TEST(Lenient, RenderMan13RequestsDrawWhatThePlainSceneDraws) {

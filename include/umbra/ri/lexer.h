@@ -1,12 +1,18 @@
 #pragma once
 // The RIB tokenizer (RI spec 3.2, appendix C "Language binding details"):
-// ASCII RIB only. Tokens are request names, numbers, strings and the array
-// brackets; `#` comments (including `##` structure comments) are skipped.
+// ASCII RIB and the binary encoding, freely mixed. Tokens are request
+// names, numbers, strings and the array brackets; `#` comments (including
+// `##` structure comments) are skipped. Binary tokens (bytes 0200-0377)
+// become the same tokens: an encoded request its name, an encoded float
+// array its brackets and numbers; request and string definitions (0314,
+// 0315-0316) give no token of their own.
 
 #include <climits>
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <string_view>
+#include <unordered_map>
 
 namespace umbra::ri {
 
@@ -78,6 +84,19 @@ public:
     std::string endCapture(size_t offset);
 
 private:
+    /// One token; *definition is set when the bytes read were a binary
+    /// definition, which gives no token (next() reads on).
+    Token lexToken(bool* definition);
+    /// A binary token at m_pos (its first byte is >= 0200).
+    Token lexBinary(int line, int column, bool* definition);
+    /// The next element of an encoded float array, or its closing bracket.
+    Token lexArrayElement();
+    /// At least `count` bytes held from m_pos on (streaming: refills,
+    /// keeping them); false when the input ends first.
+    bool ensure(size_t count);
+    /// The string a binary definition names: an encoded string (0220-0243)
+    /// or a quoted ASCII one, right after the definition's code.
+    bool definedString(std::string* out, std::string* why);
     Token makeError(int line, int column, std::string message);
     Token inputError(int line, int column);
     Token lexString(int line, int column);
@@ -107,6 +126,12 @@ private:
     std::string m_sourceError;       // a read failure, reported once
     bool m_sourceDone = false;
     bool m_overlong = false;
+    // Binary RIB: the requests (by code) and strings (by token) the stream
+    // defined, and the floats still to come of an encoded array.
+    std::string m_requests[256];
+    std::unordered_map<uint32_t, std::string> m_strings;
+    bool m_inArray = false;
+    uint64_t m_arrayLeft = 0;
     bool m_capturing = false;
     size_t m_captureFrom = 0;  // input offset of the first byte not yet copied into m_capture
     std::string m_capture;

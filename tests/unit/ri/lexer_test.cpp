@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <random>
 #include <string>
@@ -167,12 +168,77 @@ TEST(Lexer, IntegersOutOfRangeAreFloats) {
     EXPECT_EQ(t[2].number, 1000.0);
 }
 
-TEST(Lexer, BinaryBytesGiveOneError) {
-    std::string s = "A \x81\x82\x83 B";
-    auto t = lexAll(s);
-    ASSERT_EQ(t.size(), 4u);
-    EXPECT_EQ(t[1].kind, TokenKind::Error);
-    EXPECT_EQ(t[2].text, "B");
+// Binary RIB (RI Spec 3.2, appendix C): the bytes of a float, most
+// significant first.
+std::string floatBytes(float f) {
+    uint32_t bits;
+    std::memcpy(&bits, &f, 4);
+    return {char(bits >> 24), char(bits >> 16), char(bits >> 8), char(bits)};
+}
+
+TEST(Lexer, BinaryTokensDecodeAsTheSpecEncodesThem) {
+    using K = TokenKind;
+    uint64_t quarter;
+    const double q = 0.25;
+    std::memcpy(&quarter, &q, 8);
+    std::string d8(8, '\0');
+    for (int k = 0; k < 8; ++k) d8[size_t(k)] = char(quarter >> (56 - 8 * k));
+    const std::string s = std::string("\x80\x05") +       // 0200: one-byte integer 5
+                          "\x81\xff\xfe" +                // 0201: two-byte integer -2
+                          "\x85\x01\x80" +                // 0205: two bytes, one after the point: 1.5
+                          "\x93" "abc" +                   // 0223: a 3-byte string
+                          "\xa0\x03" "xyz" +               // 0240: a string with a one-byte length
+                          "\xa4" + floatBytes(2.5f) +      // 0244: a float
+                          "\xa5" + d8 +                    // 0245: a double
+                          "\xcc\x07\x96" "Sphere" +        // 0314: request 7 is Sphere (no token)
+                          "\xa6\x07" +                     // 0246: request 7
+                          "\xcd\x02\"Cs\"" +               // 0315: string 2 is "Cs", given in ASCII
+                          "\xcf\x02" +                     // 0317: string 2
+                          "\xc8\x02" + floatBytes(1.0f) + floatBytes(-0.5f) +  // 0310: a two-float array
+                          "Translate\x80\x01";             // ASCII and binary need no space between
+    const auto t = lexAll(s);
+    const std::vector<std::pair<K, std::string>> expected = {
+        {K::Number, "5"},      {K::Number, "-2"},    {K::Number, "1.5"},      {K::String, "abc"},
+        {K::String, "xyz"},    {K::Number, "2.5"},   {K::Number, "0.25"},     {K::Name, "Sphere"},
+        {K::String, "Cs"},     {K::ArrayBegin, ""},  {K::Number, "1"},        {K::Number, "-0.5"},
+        {K::ArrayEnd, ""},     {K::Name, "Translate"}, {K::Number, "1"},      {K::End, ""}};
+    ASSERT_EQ(t.size(), expected.size());
+    for (size_t k = 0; k < t.size(); ++k) {
+        EXPECT_EQ(t[k].kind, expected[k].first) << "token " << k;
+        EXPECT_EQ(t[k].text, expected[k].second) << "token " << k;
+    }
+    EXPECT_TRUE(t[0].isInt);
+    EXPECT_EQ(t[1].number, -2.0);
+    EXPECT_FALSE(t[2].isInt);
+    EXPECT_EQ(t[2].number, 1.5);
+    EXPECT_EQ(t[6].number, 0.25);
+    EXPECT_EQ(t[11].number, -0.5);
+}
+
+TEST(Lexer, BadBinaryTokensAreErrorsAndLexingGoesOn) {
+    using K = TokenKind;
+    auto kinds = [](const std::vector<Tok>& t) {
+        std::vector<K> k;
+        for (const Tok& x : t) k.push_back(x.kind);
+        return k;
+    };
+    // A request code never defined, a run of reserved bytes, a non-finite
+    // float: one error each, then the next token.
+    auto t = lexAll(std::string("\xa6\x09 A \xd1\xd2\xff B \xa4") + floatBytes(INFINITY) + " C");
+    EXPECT_EQ(kinds(t), (std::vector<K>{K::Error, K::Name, K::Error, K::Name, K::Error, K::Name, K::End}));
+    EXPECT_EQ(t[0].text, "binary RIB: request code 9 used before it was defined (0314)");
+    EXPECT_EQ(t[2].text, "binary RIB: reserved byte 0321 (not a RIB token)");
+    // A definition that names no request, and one without its string.
+    t = lexAll(std::string("\xcc\x01\x93" "a b") + " D \xcc\x02 E");
+    EXPECT_EQ(kinds(t), (std::vector<K>{K::Error, K::Name, K::Error, K::Name, K::End}));
+    EXPECT_EQ(t[0].text, "binary RIB: request code 1 defined as \"a b\" (expected a request name)");
+    // Cut short: a float, a string, an array.
+    using namespace std::string_literals;  // "..."s keeps NUL bytes
+    for (const std::string& cut : {"A \xa4\x40"s, "A \xa1\x00\x10xy"s, "A \xc8\x03"s + floatBytes(1.0f)}) {
+        t = lexAll(cut);
+        EXPECT_EQ(t.back().kind, K::End);
+        EXPECT_EQ(t[t.size() - 2].kind, K::Error) << t[t.size() - 2].text;
+    }
 }
 
 TEST(Lexer, StreamingGivesTheSameTokensWhereverTheReadsEnd) {
@@ -189,7 +255,7 @@ TEST(Lexer, StreamingGivesTheSameTokensWhereverTheReadsEnd) {
 TEST(Lexer, StreamingMatchesInMemoryOnRandomText) {
     // 3000 strings over RIB's awkward characters (quotes, escapes,
     // comments, brackets, number-like words, binary bytes), fixed seed.
-    const std::string alphabet = " \n\r\t\"\\#[]0123456789.eE+-naifSphere\x81\x01";
+    const std::string alphabet = " \n\r\t\"\\#[]0123456789.eE+-naifSphere\x81\x01\x93\xa1\xa4\xa6\xc8\xcc\xcd\xcf\xd1";
     std::mt19937 rng(3);
     std::uniform_int_distribution<size_t> pick(0, alphabet.size() - 1), length(0, 120);
     for (int round = 0; round < 3000; ++round) {

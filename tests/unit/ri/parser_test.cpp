@@ -4,6 +4,7 @@
 #include <zlib.h>
 
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -195,6 +196,39 @@ std::string gzipBytes(const std::string& text) {
     out.resize(zs.total_out);
     deflateEnd(&zs);
     return out;
+}
+
+TEST(Parser, BinaryRibReadsAsItsAsciiForm) {
+    // As a RIB writer's binary mode writes it (RI Spec 3.2, appendix C):
+    // requests defined once and referred to by code, parameter names as
+    // defined string tokens, numbers as fixed point, floats and float
+    // arrays; ASCII mixed in where the writer had no encoding.
+    auto floatBytes = [](float f) {
+        uint32_t bits;
+        std::memcpy(&bits, &f, 4);
+        return std::string{char(bits >> 24), char(bits >> 16), char(bits >> 8), char(bits)};
+    };
+    using namespace std::string_literals;  // "..."s keeps the NUL bytes of the encoding
+    const std::string binary = "\xcc\x01\x99" "Translate" "\xcc\x02\x97" "Surface" "\xcc\x03\x96" "Sphere"s +
+                               "\xcd\x00\x92" "Ks" "\xcd\x01\x92" "Kd"s +
+                               "\xa6\x01" "\x80\x01" "\xa4"s + floatBytes(2.5f) + "\x81\xff\xfd"s +
+                               "\xa6\x02" "\x97" "plastic" "\xcf\x00" "\xc8\x01"s + floatBytes(0.5f) +
+                               "\xcf\x01" "\x85\x00\x40" "\n"s +
+                               "\xa6\x03" "\x80\x01" "\x80\xff" "[1] " "\x81\x01\x68" "\n"s;
+    auto fromBinary = parse(binary);
+    ASSERT_TRUE(fromBinary->ok) << fmt::format("{}", fmt::join(messages(fromBinary->diag), "\n"));
+    auto fromAscii = parse("Translate 1 2.5 -3\nSurface \"plastic\" \"Ks\" [0.5] \"Kd\" 0.25\nSphere 1 -1 [1] 360\n");
+    ASSERT_TRUE(fromAscii->ok);
+    EXPECT_TRUE(messages(fromBinary->diag).empty()) << fmt::format("{}", fmt::join(messages(fromBinary->diag), "\n"));
+    ASSERT_EQ(fromBinary->rec.log.size(), 3u);
+    EXPECT_EQ(fromBinary->rec.log[0], fromAscii->rec.log[0]);
+    EXPECT_EQ(fromBinary->rec.log[1], fromAscii->rec.log[1]);
+    EXPECT_EQ(fromBinary->rec.log[2].substr(0, 7), "Sphere@");
+    ASSERT_EQ(fromBinary->rec.params.size(), 2u);
+    for (size_t k = 0; k < 2; ++k) EXPECT_EQ(fromBinary->rec.params[k].size(), fromAscii->rec.params[k].size());
+    EXPECT_EQ(fromBinary->rec.params[0].getFloat("Ks", 0), 0.5f);
+    EXPECT_EQ(fromBinary->rec.params[0].getFloat("Kd", 0), 0.25f);
+    EXPECT_EQ(fromBinary->rec.args.at(0).floats, (std::vector<float>{1, -1, 1, 360}));
 }
 
 TEST(Parser, GzipRoundTrip) {
