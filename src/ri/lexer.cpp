@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <bit>
 #include <cctype>
 #include <cfloat>
 #include <charconv>
@@ -42,12 +43,6 @@ uint64_t bigEndian(const char* p, size_t count) {
     uint64_t v = 0;
     for (size_t k = 0; k < count; ++k) v = (v << 8) | static_cast<unsigned char>(p[k]);
     return v;
-}
-float bigEndianFloat(const char* p) {
-    const uint32_t bits = uint32_t(bigEndian(p, 4));
-    float f;
-    std::memcpy(&f, &bits, sizeof f);
-    return f;
 }
 }  // namespace
 
@@ -205,6 +200,25 @@ bool isReserved(unsigned c) {
 }
 }  // namespace
 
+bool Lexer::field(size_t bytes, uint64_t* value) {
+    if (!ensure(1 + bytes)) return false;
+    *value = bigEndian(m_s + m_pos + 1, bytes);
+    m_pos += 1 + bytes;
+    return true;
+}
+
+Lexer::Encoded Lexer::encodedString(std::string_view* out) {
+    const unsigned c = static_cast<unsigned char>(m_s[m_pos]);
+    uint64_t length = c - kShortString;
+    if (c >= kLongString && !field(c - kLongString + 1, &length)) return Encoded::Cut;
+    if (c < kLongString) ++m_pos;
+    if (length >= kMaxTokenBytes - 8) return Encoded::Overlong;  // with its prefix, within what the buffer keeps
+    if (!ensure(size_t(length))) return Encoded::Cut;
+    *out = std::string_view(m_s + m_pos, size_t(length));
+    m_pos += size_t(length);
+    return Encoded::Ok;
+}
+
 bool Lexer::definedString(std::string* out, std::string* why) {
     if (!ensure(1)) {
         *why = "the input ends before its string";
@@ -224,22 +238,14 @@ bool Lexer::definedString(std::string* out, std::string* why) {
         *why = fmt::format("expected a string after it, got byte 0{:o}", c);
         return false;
     }
-    const size_t lengthBytes = c >= kLongString ? c - kLongString + 1 : 0;
-    if (!ensure(1 + lengthBytes)) {
-        *why = "the input ends inside its string";
-        return false;
+    std::string_view text;
+    switch (encodedString(&text)) {
+    case Encoded::Ok: out->assign(text); return true;
+    case Encoded::Cut: *why = "the input ends inside its string"; break;
+    case Encoded::Overlong: *why = fmt::format("its string is longer than {} MiB", kMaxTokenBytes >> 20); break;
     }
-    const uint64_t length = lengthBytes ? bigEndian(m_s + m_pos + 1, lengthBytes) : c - kShortString;
-    const bool overlong = length >= kMaxTokenBytes - 8;  // with its prefix, within what the buffer keeps
-    if (overlong || !ensure(1 + lengthBytes + size_t(length))) {
-        *why = overlong ? fmt::format("its string is longer than {} MiB", kMaxTokenBytes >> 20)
-                        : "the input ends inside its string";
-        m_pos = m_n;
-        return false;
-    }
-    out->assign(m_s + m_pos + 1 + lengthBytes, size_t(length));
-    m_pos += 1 + lengthBytes + size_t(length);
-    return true;
+    m_pos = m_n;
+    return false;
 }
 
 Token Lexer::lexBinary(int line, int column, bool* definition) {
@@ -263,97 +269,75 @@ Token Lexer::lexBinary(int line, int column, bool* definition) {
         t.text = m_scratch;
         return t;
     };
+    uint64_t value = 0;
     if (c <= kFixedLast) {
         // 0200 + 4 d + w: a signed (w + 1)-byte integer, its bottom d bytes
         // after the point.
         const size_t bytes = (c - kFixedFirst) % 4 + 1, fraction = (c - kFixedFirst) / 4;
-        if (!ensure(1 + bytes)) return truncated();
+        if (!field(bytes, &value)) return truncated();
         const unsigned shift = unsigned(64 - 8 * bytes);
-        const int64_t v = int64_t(bigEndian(m_s + m_pos + 1, bytes) << shift) >> shift;
-        m_pos += 1 + bytes;
+        const int64_t v = int64_t(value << shift) >> shift;
         return number(double(v) / double(uint64_t(1) << (8 * fraction)), fraction == 0);
     }
     if (c <= kLongStringLast) {
-        const size_t lengthBytes = c >= kLongString ? c - kLongString + 1 : 0;
-        if (!ensure(1 + lengthBytes)) return truncated();
-        const uint64_t length = lengthBytes ? bigEndian(m_s + m_pos + 1, lengthBytes) : c - kShortString;
-        if (length >= kMaxTokenBytes - 8) {  // with its prefix, within what the buffer keeps
+        switch (encodedString(&t.text)) {
+        case Encoded::Ok: t.kind = TokenKind::String; return t;
+        case Encoded::Cut: return truncated();
+        case Encoded::Overlong:
             m_pos = m_n;
             return makeError(line, column, fmt::format("binary RIB: string longer than {} MiB", kMaxTokenBytes >> 20));
         }
-        if (!ensure(1 + lengthBytes + size_t(length))) return truncated();
-        t.kind = TokenKind::String;
-        t.text = std::string_view(m_s + m_pos + 1 + lengthBytes, size_t(length));
-        m_pos += 1 + lengthBytes + size_t(length);
-        return t;
     }
     if (c == kFloat || c == kDouble) {
-        const size_t bytes = c == kFloat ? 4 : 8;
-        if (!ensure(1 + bytes)) return truncated();
-        double v;
-        if (bytes == 4) {
-            v = bigEndianFloat(m_s + m_pos + 1);
-        } else {
-            const uint64_t bits = bigEndian(m_s + m_pos + 1, 8);
-            std::memcpy(&v, &bits, sizeof v);
-        }
-        m_pos += 1 + bytes;
+        if (!field(c == kFloat ? 4 : 8, &value)) return truncated();
+        const double v = c == kFloat ? double(std::bit_cast<float>(uint32_t(value))) : std::bit_cast<double>(value);
         if (!(std::fabs(v) <= double(FLT_MAX)))
             return makeError(line, column, fmt::format("binary RIB: number {} is not a finite 32-bit float", v));
         return number(v, false);
     }
     if (c == kRequest) {
-        if (!ensure(2)) return truncated();
-        const unsigned code = static_cast<unsigned char>(m_s[m_pos + 1]);
-        m_pos += 2;
-        if (m_requests[code].empty())
+        if (!field(1, &value)) return truncated();
+        if (m_requests[value].empty())
             return makeError(line, column,
-                             fmt::format("binary RIB: request code {} used before it was defined (0314)", code));
+                             fmt::format("binary RIB: request code {} used before it was defined (0314)", value));
         t.kind = TokenKind::Name;
-        t.text = m_requests[code];
+        t.text = m_requests[value];
         return t;
     }
     if (c >= kFloatArray && c <= kFloatArrayLast) {
-        const size_t countBytes = c - kFloatArray + 1;
-        if (!ensure(1 + countBytes)) return truncated();
-        m_arrayLeft = bigEndian(m_s + m_pos + 1, countBytes);
-        m_pos += 1 + countBytes;
+        if (!field(c - kFloatArray + 1, &m_arrayLeft)) return truncated();
         m_inArray = true;
         t.kind = TokenKind::ArrayBegin;
         return t;
     }
     if (c == kDefineRequest || (c >= kDefineString && c <= kDefineStringLast)) {
-        const size_t idBytes = c == kDefineRequest ? 1 : c - kDefineString + 1;
-        if (!ensure(1 + idBytes)) return truncated();
-        const uint32_t id = uint32_t(bigEndian(m_s + m_pos + 1, idBytes));
-        m_pos += 1 + idBytes;
-        std::string value, why;
-        if (!definedString(&value, &why))
+        if (!field(c == kDefineRequest ? 1 : c - kDefineString + 1, &value)) return truncated();
+        const uint32_t id = uint32_t(value);
+        std::string defined, why;
+        if (!definedString(&defined, &why))
             return makeError(line, column, fmt::format("binary RIB: {} definition 0{:o} {}: {}",
                                                        c == kDefineRequest ? "request" : "string", c, id, why));
         if (c == kDefineRequest) {
-            const bool word = !value.empty() && std::none_of(value.begin(), value.end(), [](char ch) {
+            const bool word = !defined.empty() && std::none_of(defined.begin(), defined.end(), [](char ch) {
                 return endsWord(static_cast<unsigned char>(ch)) || static_cast<unsigned char>(ch) < 0x20;
             });
             if (!word)
                 return makeError(line, column,
                                  fmt::format("binary RIB: request code {} defined as \"{}\" (expected a request name)",
-                                             id, value));
-            m_requests[id] = std::move(value);
+                                             id, defined));
+            m_requests[id] = std::move(defined);
         } else {
-            m_strings[id] = std::move(value);
+            m_strings[id] = std::move(defined);
         }
         *definition = true;
         return t;
     }
     if (c == kString || c == kStringLast) {
-        const size_t idBytes = c - kString + 1;
-        if (!ensure(1 + idBytes)) return truncated();
-        const uint32_t id = uint32_t(bigEndian(m_s + m_pos + 1, idBytes));
-        m_pos += 1 + idBytes;
-        const auto it = m_strings.find(id);
+        if (!field(c - kString + 1, &value)) return truncated();
+        const auto it = m_strings.find(uint32_t(value));
         if (it == m_strings.end())
-            return makeError(line, column, fmt::format("binary RIB: string token {} used before it was defined (0315)", id));
+            return makeError(line, column,
+                             fmt::format("binary RIB: string token {} used before it was defined (0315)", value));
         t.kind = TokenKind::String;
         t.text = it->second;
         return t;
@@ -384,7 +368,7 @@ Token Lexer::lexArrayElement() {
         return makeError(t.line, t.column, "binary RIB: the input ends inside an encoded float array");
     }
     --m_arrayLeft;
-    const float v = bigEndianFloat(m_s + m_pos);
+    const float v = std::bit_cast<float>(uint32_t(bigEndian(m_s + m_pos, 4)));
     m_pos += 4;
     if (!std::isfinite(v))
         return makeError(t.line, t.column, fmt::format("binary RIB: array element {} is not a finite number", v));

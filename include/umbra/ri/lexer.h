@@ -94,6 +94,13 @@ private:
     /// At least `count` bytes held from m_pos on (streaming: refills,
     /// keeping them); false when the input ends first.
     bool ensure(size_t count);
+    /// A binary token's field of `bytes` bytes after its first byte (most
+    /// significant first); m_pos moves past both. False when cut short.
+    bool field(size_t bytes, uint64_t* value);
+    /// An encoded string (its first byte 0220-0243 at m_pos); `out` views
+    /// the held bytes until the next read.
+    enum class Encoded { Ok, Cut, Overlong };
+    Encoded encodedString(std::string_view* out);
     /// The string a binary definition names: an encoded string (0220-0243)
     /// or a quoted ASCII one, right after the definition's code.
     bool definedString(std::string* out, std::string* why);
