@@ -290,12 +290,8 @@ DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, co
         // (The larger singular value of the x/y part when a screen
         // transformation rotates or shears.)
         const auto& m = p.rasterFromCamera.m;
-        const float S = m[0][1] == 0 && m[1][0] == 0
-                            ? std::max(std::abs(m[0][0]), std::abs(m[1][1]))
-                            : [&] {
-                                  const float xy[4] = {m[0][0], m[0][1], m[1][0], m[1][1]};
-                                  return largestSingularValue(xy);
-                              }();
+        const float xy[4] = {m[0][0], m[0][1], m[1][0], m[1][1]};
+        const float S = largestSingularValue(xy);
         const float scale = S / std::abs(m[3][2] * nearest + m[3][3]);
         for (Vec3& v : pixelSpace) v.z *= scale;
         if (p.flatness > 0) flatnessCounts(pixelSpace.data(), n, p.flatness, &flatU, &flatV);

@@ -37,7 +37,7 @@ void Camera::finish() {
     m_screenDiagonal = screenLinear[1] == 0 && screenLinear[2] == 0;
     float R[4];
     rasterFromProjected(R);
-    m_maxProjectedScale = m_screenDiagonal ? std::max(std::abs(R[0]), std::abs(R[3])) : largestSingularValue(R);
+    m_maxProjectedScale = largestSingularValue(R);
 }
 
 Mat4 Camera::screenFromCamera() const {

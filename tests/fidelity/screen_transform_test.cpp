@@ -14,6 +14,7 @@
 
 #include <fstream>
 #include <string>
+#include <utility>
 
 using namespace umbra;
 using umbra::test::Image;
@@ -87,33 +88,31 @@ Rendered renderFrame(const ScratchDir& dir, const std::string& before, const std
     return r;
 }
 
-/// The image flopped left to right.
-Image flopped(const Image& a) {
+/// The image with pixel (x, y) taken from `a` at source(x, y).
+template <typename Source>
+Image remapped(const Image& a, Source source) {
     Image b = a;
     for (int y = 0; y < a.height; ++y)
-        for (int x = 0; x < a.width; ++x)
+        for (int x = 0; x < a.width; ++x) {
+            const auto [sx, sy] = source(x, y);
             for (int c = 0; c < a.channels; ++c)
-                b.pixels[(size_t(y) * a.width + x) * a.channels + c] = a.at(a.width - 1 - x, y, c);
+                b.pixels[(size_t(y) * a.width + x) * a.channels + c] = a.at(sx, sy, c);
+        }
     return b;
+}
+
+/// The image flopped left to right.
+Image flopped(const Image& a) {
+    return remapped(a, [&](int x, int y) { return std::pair(a.width - 1 - x, y); });
 }
 
 /// The image turned a quarter turn counter-clockwise (a square one).
 Image quarterTurned(const Image& a) {
-    Image b = a;
-    for (int y = 0; y < a.height; ++y)
-        for (int x = 0; x < a.width; ++x)
-            for (int c = 0; c < a.channels; ++c)
-                b.pixels[(size_t(y) * a.width + x) * a.channels + c] = a.at(a.width - 1 - y, x, c);
-    return b;
+    return remapped(a, [&](int x, int y) { return std::pair(a.width - 1 - y, x); });
 }
 
 Image flipped(const Image& a) {
-    Image b = a;
-    for (int y = 0; y < a.height; ++y)
-        for (int x = 0; x < a.width; ++x)
-            for (int c = 0; c < a.channels; ++c)
-                b.pixels[(size_t(y) * a.width + x) * a.channels + c] = a.at(x, a.height - 1 - y, c);
-    return b;
+    return remapped(a, [&](int x, int y) { return std::pair(x, a.height - 1 - y); });
 }
 
 /// Warnings containing `word`, each expected at the Projection request:

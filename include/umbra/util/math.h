@@ -24,9 +24,11 @@ inline float radians(float deg) { return deg * (kPi / 180.0f); }
 inline float degrees(float rad) { return rad * (180.0f / kPi); }
 inline float lerp(float t, float a, float b) { return a + t * (b - a); }
 /// The larger singular value of the 2x2 matrix {m[0], m[1]; m[2], m[3]}: the
-/// most it stretches a unit vector. sigma^2 is the larger eigenvalue of
-/// M^T M, (s + sqrt(s^2 - 4 det^2)) / 2 with s the sum of squared entries.
+/// most it stretches a unit vector. Exactly max(|m[0]|, |m[3]|) for a
+/// diagonal one; otherwise sigma^2 is the larger eigenvalue of M^T M,
+/// (s + sqrt(s^2 - 4 det^2)) / 2 with s the sum of squared entries.
 inline float largestSingularValue(const float m[4]) {
+    if (m[1] == 0 && m[2] == 0) return std::max(std::abs(m[0]), std::abs(m[3]));
     const double a = m[0], b = m[1], c = m[2], d = m[3];
     const double s = a * a + b * b + c * c + d * d, det = a * d - b * c;
     return float(std::sqrt(0.5 * (s + std::sqrt(std::max(0.0, s * s - 4 * det * det)))));
