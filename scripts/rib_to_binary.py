@@ -4,7 +4,8 @@ as a RIB writer's binary mode would: each request defined once (0314) and sent
 by code (0246), strings as defined tokens (0315/0317) while there are codes
 left, integers as two-byte fixed point (0201), other numbers as floats (0244),
 arrays of numbers as counted float arrays (0310 + n). For testing the reader
-(the fuzz seed tests/fuzz/render_corpus/binary.rib was made with it).
+(a binary form of the geometry fuzz seed found a subdivision input that
+never finishes: see the session note).
 
     scripts/rib_to_binary.py in.rib out.rib
 """
