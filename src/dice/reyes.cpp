@@ -193,6 +193,38 @@ void turningCounts(const Vec3* Q, int n, float maxTurn, float* countU, float* co
     *countV = count(tv);
 }
 
+namespace {
+
+/// Keeps a split's direction, or turns it when the primitive cannot cut
+/// that way (a parameter range at float resolution); false when it can cut
+/// neither way, so splitting would make the same piece forever.
+bool splittable(const geometry::Primitive& prim, DiceResult& res) {
+    if (prim.canSplit(res.splitU)) return true;
+    res.splitU = !res.splitU;
+    return prim.canSplit(res.splitU);
+}
+
+/// Counts for a piece too large for one grid that cannot be split: scaled
+/// down together until they fit. Its micropolygons are then larger than
+/// the shading rate asks, which the warning says; the alternative is a
+/// piece that never finishes.
+void coarsenToFit(const geometry::Primitive& prim, float gridSize, Diagnostics* diag, float* fu, float* fv) {
+    if (diag)
+        diag->warningOnce("dice:precision", prim.record().loc,
+                          "{}: a piece spans more pixels than float precision lets it be split into; diced "
+                          "coarser than the shading rate (are its coordinates corrupt or enormous?)",
+                          prim.record().type);
+    const float scale = std::sqrt(gridSize / (*fu * *fv));
+    if (std::isfinite(scale) && scale > 0) {
+        *fu = std::max(1.0f, std::floor(*fu * scale));
+        *fv = std::max(1.0f, std::floor(*fv * scale));
+    } else {
+        *fu = *fv = std::max(1.0f, std::floor(std::sqrt(gridSize)));
+    }
+}
+
+}  // namespace
+
 DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, const DiceParams& p, int eyeSplits,
                   Diagnostics* diag) {
     DiceResult res;
@@ -235,6 +267,14 @@ DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, co
                 zv = std::max(zv, hi - lo);
             }
             res.splitU = zu >= zv;
+        }
+        if (!splittable(prim, res)) {
+            if (diag)
+                diag->warningOnce("dice:eyeprecision", prim.record().loc,
+                                  "{}: geometry crosses the eye plane in a piece too small to split in float "
+                                  "precision; culling it (are its coordinates corrupt or enormous?)",
+                                  prim.record().type);
+            return DiceResult{};
         }
         return res;
     }
@@ -315,7 +355,8 @@ DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, co
     if (!(fu * fv <= gridSize)) {
         res.decision = Decision::Split;
         res.splitU = !(fv > fu);
-        return res;
+        if (splittable(prim, res)) return res;
+        coarsenToFit(prim, gridSize, diag, &fu, &fv);
     }
     // However coarse the rate, a curved primitive keeps enough
     // micropolygons for none of their edges to turn by more than maxTurn:
@@ -344,10 +385,11 @@ DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, co
         if (bu * bv > gridSize) {
             res.decision = Decision::Split;
             res.splitU = !(bv > bu);
-            return res;
+            if (splittable(prim, res)) return res;
+        } else {
+            fu = bu;
+            fv = bv;
         }
-        fu = bu;
-        fv = bv;
     }
     res.decision = Decision::Dice;
     res.nu = int(fu);

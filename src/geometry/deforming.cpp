@@ -13,6 +13,12 @@ DeformingPrimitive::DeformingPrimitive(std::vector<PrimitivePtr> shapes)
     for (const PrimitivePtr& s : m_shapes) m_bound.extend(s->bound());
 }
 
+bool DeformingPrimitive::canSplit(bool splitU) const {
+    for (const PrimitivePtr& s : m_shapes)
+        if (!s->canSplit(splitU)) return false;
+    return true;
+}
+
 void DeformingPrimitive::split(bool splitU, std::vector<PrimitivePtr>& out) const {
     std::vector<std::vector<PrimitivePtr>> pieces(m_shapes.size());
     for (size_t k = 0; k < m_shapes.size(); ++k) m_shapes[k]->split(splitU, pieces[k]);

@@ -177,22 +177,27 @@ SubdivFace::SubdivFace(RecordPtr record, std::shared_ptr<const SubdivMeshData> m
     const bool whole = range.u0 == 0 && range.v0 == 0 && range.u1 == 1 && range.v1 == 1;
     if (whole || !diceable()) return;
     // A part of a face: the limit points of a 9 x 9 lattice of the range,
-    // padded by the largest step between neighbours (a curve between two
+    // padded by the longest step between neighbours (a curve between two
     // samples strays from their bound by a fraction of their distance
     // unless it turns sharply), clipped to the hull bound that always holds.
+    // A step's length is bounded by sqrt(3) times its largest coordinate
+    // difference, not computed: squaring coordinates beyond 1.8e19
+    // overflows float, and an infinite pad kept every piece at the hull,
+    // so splitting never shrank it.
     constexpr int n = 8;
     std::vector<Vec3> P;
     dicePositions(n, n, P);
     Bound3 b;
     float step = 0;
+    auto widen = [&step](const Vec3& d) { step = std::max({step, std::abs(d.x), std::abs(d.y), std::abs(d.z)}); };
     for (int j = 0; j <= n; ++j)
         for (int i = 0; i <= n; ++i) {
             const Vec3& p = P[size_t(j * (n + 1) + i)];
             b.extend(p);
-            if (i < n) step = std::max(step, length(P[size_t(j * (n + 1) + i + 1)] - p));
-            if (j < n) step = std::max(step, length(P[size_t((j + 1) * (n + 1) + i)] - p));
+            if (i < n) widen(P[size_t(j * (n + 1) + i + 1)] - p);
+            if (j < n) widen(P[size_t((j + 1) * (n + 1) + i)] - p);
         }
-    const Vec3 pad(step);
+    const Vec3 pad(step * 1.7320508f);
     m_bound = Bound3(vmax(b.min - pad, m_bound.min), vmin(b.max + pad, m_bound.max));
 }
 

@@ -225,6 +225,7 @@ struct Frame {
         std::make_heap(w.queue.begin(), w.queue.end(), nearestOnTop);
         size_t nextWaiting = 0;
         while (!w.queue.empty() || nextWaiting < w.waiting.size()) {
+            if (interrupted()) break;  // a bucket of many pieces must not hold off Ctrl-C
             Node* node;
             const bool fromQueue = !w.queue.empty();
             if (fromQueue) {

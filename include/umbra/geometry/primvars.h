@@ -18,6 +18,8 @@
 #include "umbra/ri/param_list.h"
 #include "umbra/scene/scene.h"
 
+#include <algorithm>
+#include <cmath>
 #include <memory>
 #include <string>
 #include <vector>
@@ -111,6 +113,17 @@ struct ParamRange {
             (second ? r.v0 : r.v1) = m;
         }
         return r;
+    }
+    /// Whether half(splitU, ...) gives two ranges narrower than this one
+    /// and wide enough for a test lattice's steps to differ.
+    bool halvable(bool splitU) const { return splitU ? spanHalvable(u0, u1) : spanHalvable(v0, v1); }
+    static bool spanHalvable(float lo, float hi) {
+        // Above 2^-22 of the span's magnitude: each half keeps at least two
+        // float steps, and a [0, 1] range halves 22 times each way (pieces
+        // four millionths of the surface across: a surface 60 million
+        // pixels wide still dices into 16-pixel pieces).
+        const float scale = std::max({1.0f, std::abs(lo), std::abs(hi)});
+        return std::abs(hi - lo) > scale * 0x1p-22f;
     }
     /// The parameters of an nu x nv dicing of this range: nu+1 values of u
     /// in `us`, nv+1 of v in `vs`.

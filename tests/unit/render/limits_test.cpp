@@ -290,6 +290,55 @@ TEST(Limits, HugeShadingRateDicesBlockyButPresent) {
     EXPECT_LE(counts["micropolygons"].get<uint64_t>(), 64u);  // coarse: far fewer than the ~1000 pixels at rate 1
 }
 
+TEST(Limits, SurfacesBeyondFloatPrecisionFinishAndCoverWhatTheyShould) {
+    // A split halves a parameter range, and float halves [0, 1] only about
+    // 24 times: a surface needing more (a ground plane 10^8 units across,
+    // a patch 10^12 wide seen orthographically) once split on into pieces
+    // equal to their parent, doubling forever until memory ran out. Such
+    // pieces are now diced coarsely, with one warning.
+    ScratchDir dir("limits-precision");
+    const std::string ortho = R"(Display "{}" "openexr" "rgba" "string type" "float"
+Format 64 48 1
+WorldBegin
+Surface "constant"
+{}
+WorldEnd
+)";
+    // The orthographic view is [-4/3, 4/3] x [-1, 1]: the patch covers it all.
+    const ChildRun wide = renderInChild(
+        dir, "wide.rib",
+        fmt::format(fmt::runtime(ortho), dir.file("wide.exr"), "Patch \"bilinear\" \"P\" [-1e12 -1e12 5  1e12 -1e12 5  "
+                                                 "-1e12 1e12 5  1e12 1e12 5]"));
+    ASSERT_TRUE(wide.exited && wide.status == 0) << wide.describe();
+    EXPECT_TRUE(contains(wide.messages, "wide.rib:5:1: warning: Patch: a piece spans more pixels than float "
+                                        "precision lets it be split into"))
+        << wide.messages;
+    EXPECT_NEAR(coverage(dir.file("wide.exr")), 64.0 * 48.0, 1e-3);
+
+    // The ground y = -1 from z = 1 to 10^8 under a 40-degree camera at the
+    // origin: it reaches from below the frame to the horizon, row 24 (at
+    // z = 10^8 it is 10^-7 pixels below it), across the whole width.
+    const ChildRun ground = renderInChild(dir, "ground.rib",
+                                          frame(dir.file("ground.exr"), "Translate 0 0 -5",
+                                                "Patch \"bilinear\" \"P\" [-1e8 -1 1  1e8 -1 1  -1e8 -1 1e8  "
+                                                "1e8 -1 1e8]"));
+    ASSERT_TRUE(ground.exited && ground.status == 0) << ground.describe();
+    EXPECT_NEAR(coverage(dir.file("ground.exr")), 64.0 * 24.0, 0.01 * 64 * 24);
+
+    // A Catmull-Clark cube, half of its corners thrown out to 10^21 ..
+    // 10^31 (a mutation the render fuzzer made): a limit-surface step's
+    // length squared its coordinates and overflowed, so every piece kept
+    // the whole face's bound and splitting never shrank it.
+    const ChildRun cube = renderInChild(
+        dir, "cube.rib",
+        fmt::format(fmt::runtime(ortho), dir.file("cube.exr"),
+                    "SubdivisionMesh \"catmull-clark\" [4 4 4 4 4 4] "
+                    "[0 1 3 2 2 3 5 4 4 5 7 6 6 7 1 0 1 7 5 3 6 0 2 4] [] [] [] []\n"
+                    "  \"P\" [-1 -1 1  1 -1 1  -1 1 1  1 1 1  4.5e21 1.8e31 -1.4e8  7.5e28 8.2e30 0  "
+                    "1.1e27 -1.5e8 0  7.2e22 1.1e27 1.1e21]"));
+    ASSERT_TRUE(cube.exited && cube.status == 0) << cube.describe();
+}
+
 TEST(Limits, SigtermStopsTheRenderWritesNoImageAndLeavesNoTemporaries) {
     // A frame far longer than the test: the signal is sent once the render
     // reports progress, so the handlers are in place; how soon the render
