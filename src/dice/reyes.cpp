@@ -199,9 +199,23 @@ namespace {
 /// that way (a parameter range at float resolution); false when it can cut
 /// neither way, so splitting would make the same piece forever.
 bool splittable(const geometry::Primitive& prim, DiceResult& res) {
-    if (prim.canSplit(res.splitU)) return true;
+    if (prim.splitsLeft(res.splitU) > 0) return true;
     res.splitU = !res.splitU;
-    return prim.canSplit(res.splitU);
+    return prim.splitsLeft(res.splitU) > 0;
+}
+
+/// True when every halving float allows would still leave pieces of this
+/// one far larger than the frame (256 times its larger side) along u or v:
+/// the piece ends diced coarsely however it is split, and splitting it
+/// first only multiplies pieces that all stay in view (the wedges around a
+/// pole, a ribbon wider than the frame), which once ran a render out of
+/// memory. No picture of ordinary geometry comes near: a ground plane 10^8
+/// units long seen from a unit above is within a few thousand pixels.
+bool beyondPrecision(const geometry::Primitive& prim, const DiceParams& p, float lenU, float lenV) {
+    const float frame = std::max(p.rasterWindow[1] - p.rasterWindow[0], p.rasterWindow[3] - p.rasterWindow[2]);
+    if (!std::isfinite(frame)) return false;
+    const float limit = 256.0f * std::max(frame, 1.0f);
+    return std::ldexp(lenU, -prim.splitsLeft(true)) > limit || std::ldexp(lenV, -prim.splitsLeft(false)) > limit;
 }
 
 /// Counts for a piece too large for one grid that cannot be split: scaled
@@ -215,12 +229,15 @@ void coarsenToFit(const geometry::Primitive& prim, float gridSize, Diagnostics* 
                           "coarser than the shading rate (are its coordinates corrupt or enormous?)",
                           prim.record().type);
     const float scale = std::sqrt(gridSize / (*fu * *fv));
-    if (std::isfinite(scale) && scale > 0) {
-        *fu = std::max(1.0f, std::floor(*fu * scale));
-        *fv = std::max(1.0f, std::floor(*fv * scale));
-    } else {
+    if (!(std::isfinite(scale) && scale > 0)) {
         *fu = *fv = std::max(1.0f, std::floor(std::sqrt(gridSize)));
+        return;
     }
+    // A count that scales below 1 stays 1, and the other takes its share.
+    const float u = clamp(std::floor(*fu * scale), 1.0f, gridSize);
+    const float v = clamp(std::floor(*fv * scale), 1.0f, std::floor(gridSize / u));
+    *fu = std::min(std::max(1.0f, std::floor(*fu)), std::floor(gridSize / v));
+    *fv = v;
 }
 
 }  // namespace
@@ -355,7 +372,14 @@ DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, co
     if (!(fu * fv <= gridSize)) {
         res.decision = Decision::Split;
         res.splitU = !(fv > fu);
-        if (splittable(prim, res)) return res;
+        // A count along a direction that cannot be split any more is final
+        // (cutting the other way cannot bring it down), so splitting is
+        // worth it only while that count alone fits a grid.
+        const bool canU = prim.splitsLeft(true) > 0, canV = prim.splitsLeft(false) > 0;
+        if (!(res.splitU ? canU : canV)) res.splitU = !res.splitU;
+        const bool worthIt = (canU || canV) && (canU || fu <= gridSize) && (canV || fv <= gridSize) &&
+                             !beyondPrecision(prim, p, lenU, lenV);
+        if (worthIt) return res;
         coarsenToFit(prim, gridSize, diag, &fu, &fv);
     }
     // However coarse the rate, a curved primitive keeps enough

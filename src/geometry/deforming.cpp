@@ -1,5 +1,6 @@
 #include "umbra/geometry/deforming.h"
 
+#include <algorithm>
 #include <atomic>
 
 namespace umbra::geometry {
@@ -13,10 +14,10 @@ DeformingPrimitive::DeformingPrimitive(std::vector<PrimitivePtr> shapes)
     for (const PrimitivePtr& s : m_shapes) m_bound.extend(s->bound());
 }
 
-bool DeformingPrimitive::canSplit(bool splitU) const {
-    for (const PrimitivePtr& s : m_shapes)
-        if (!s->canSplit(splitU)) return false;
-    return true;
+int DeformingPrimitive::splitsLeft(bool splitU) const {
+    int n = kManySplits;
+    for (const PrimitivePtr& s : m_shapes) n = std::min(n, s->splitsLeft(splitU));
+    return n;
 }
 
 void DeformingPrimitive::split(bool splitU, std::vector<PrimitivePtr>& out) const {

@@ -156,7 +156,7 @@ public:
                 int triangle, const ParamRange& range);
     Bound3 bound() const override;
     void split(bool splitU, std::vector<PrimitivePtr>& out) const override;
-    bool canSplit(bool splitU) const override { return m_range.halvable(splitU); }
+    int splitsLeft(bool splitU) const override { return m_range.halvingsLeft(splitU); }
     Grid dice(int nu, int nv) const override;
     void dicePositions(int nu, int nv, std::vector<Vec3>& P) const override;
 

@@ -62,7 +62,7 @@ public:
     /// widest width in the range.
     Bound3 bound() const override;
     void split(bool splitU, std::vector<PrimitivePtr>& out) const override;
-    bool canSplit(bool) const override { return ParamRange::spanHalvable(m_t0, m_t1); }
+    int splitsLeft(bool) const override { return ParamRange::spanHalvings(m_t0, m_t1); }
     Grid dice(int nu, int nv) const override { return diceInView(nu, nv, ViewContext{}); }
     Grid diceInView(int nu, int nv, const ViewContext& view) const override;
     void dicePositions(int nu, int nv, std::vector<Vec3>& P) const override;
@@ -94,7 +94,7 @@ public:
     Bound3 bound() const override;
     /// Halves the points (whatever the direction).
     void split(bool splitU, std::vector<PrimitivePtr>& out) const override;
-    bool canSplit(bool) const override { return m_count > 1; }
+    int splitsLeft(bool) const override { return m_count > 1 ? int(std::ceil(std::log2(double(m_count)))) : 0; }
     bool fixedCounts(int* nu, int* nv) const override;
     Grid dice(int nu, int nv) const override { return diceInView(nu, nv, ViewContext{}); }
     /// One square per point (nu, nv are always fixedCounts()).

@@ -20,7 +20,7 @@ public:
     /// shapes triangulate into different numbers of pieces (a non-convex
     /// polygon turning convex) keeps shape 0 only, and `lostShapes` counts it.
     void split(bool splitU, std::vector<PrimitivePtr>& out) const override;
-    bool canSplit(bool splitU) const override;
+    int splitsLeft(bool splitU) const override;
     bool diceable() const override { return m_shapes[0]->diceable(); }
     Grid dice(int nu, int nv) const override { return m_shapes[0]->dice(nu, nv); }
     Grid diceInView(int nu, int nv, const ViewContext& view) const override {

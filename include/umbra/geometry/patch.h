@@ -25,7 +25,7 @@ public:
 
     Bound3 bound() const override;
     void split(bool splitU, std::vector<PrimitivePtr>& out) const override;
-    bool canSplit(bool splitU) const override { return m_range.halvable(splitU); }
+    int splitsLeft(bool splitU) const override { return m_range.halvingsLeft(splitU); }
     Grid dice(int nu, int nv) const override;
     void dicePositions(int nu, int nv, std::vector<Vec3>& P) const override;
     bool flatQuad() const override { return m_flatQuad; }
@@ -76,7 +76,7 @@ public:
     /// original basis (for rational patches: when all weights are positive).
     Bound3 bound() const override;
     void split(bool splitU, std::vector<PrimitivePtr>& out) const override;
-    bool canSplit(bool splitU) const override { return m_range.halvable(splitU); }
+    int splitsLeft(bool splitU) const override { return m_range.halvingsLeft(splitU); }
     Grid dice(int nu, int nv) const override;
     void dicePositions(int nu, int nv, std::vector<Vec3>& P) const override;
 

@@ -45,13 +45,16 @@ public:
     /// `splitU` asks for a cut across u (halving the u range) rather than
     /// v; primitives that cannot honour the direction may ignore it.
     virtual void split(bool splitU, std::vector<PrimitivePtr>& out) const = 0;
-    /// Whether split(splitU) makes pieces smaller than this one. False once
-    /// the parameter range being cut is at float resolution (its halves
-    /// would be this piece again) or a group holds a single item: coordinates
-    /// near float's range can need more halvings than float can make, and a
-    /// piece that cannot shrink would otherwise split forever. The REYES
-    /// loop then cuts the other way, or gives the piece up with a warning.
-    virtual bool canSplit(bool splitU) const { return true; }
+    /// How many more times split(splitU) can halve this piece into pieces
+    /// smaller than it: 0 once the parameter range being cut is at float
+    /// resolution (its halves would be this piece again) or a group holds a
+    /// single item. Huge coordinates can need more halvings than float can
+    /// make, and a piece that cannot shrink would otherwise split forever;
+    /// the REYES loop cuts the other way, or dices such a piece coarsely
+    /// with a warning (dice::decide). Families whose every split shrinks
+    /// (meshes, blocks, procedurals) keep the default, kManySplits.
+    static constexpr int kManySplits = 64;
+    virtual int splitsLeft(bool splitU) const { return kManySplits; }
     /// False when the primitive must be split before it can be diced
     /// (e.g. a polygon mesh that has not yet been broken into faces).
     virtual bool diceable() const { return true; }

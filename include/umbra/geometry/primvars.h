@@ -114,16 +114,19 @@ struct ParamRange {
         }
         return r;
     }
-    /// Whether half(splitU, ...) gives two ranges narrower than this one
-    /// and wide enough for a test lattice's steps to differ.
-    bool halvable(bool splitU) const { return splitU ? spanHalvable(u0, u1) : spanHalvable(v0, v1); }
-    static bool spanHalvable(float lo, float hi) {
-        // Above 2^-22 of the span's magnitude: each half keeps at least two
-        // float steps, and a [0, 1] range halves 22 times each way (pieces
-        // four millionths of the surface across: a surface 60 million
-        // pixels wide still dices into 16-pixel pieces).
-        const float scale = std::max({1.0f, std::abs(lo), std::abs(hi)});
-        return std::abs(hi - lo) > scale * 0x1p-22f;
+    /// How many times half(splitU, ...) can go on halving the range while
+    /// its halves stay narrower than it and wide enough for a test
+    /// lattice's steps to differ (Primitive::splitsLeft).
+    int halvingsLeft(bool splitU) const { return splitU ? spanHalvings(u0, u1) : spanHalvings(v0, v1); }
+    static int spanHalvings(float lo, float hi) {
+        // Down to 2^-22 of the span's magnitude: each half keeps at least
+        // two float steps, and a [0, 1] range halves 22 times each way
+        // (pieces four millionths of the surface across: a surface 60
+        // million pixels wide still dices into 16-pixel pieces).
+        const float least = std::max({1.0f, std::abs(lo), std::abs(hi)}) * 0x1p-22f;
+        int n = 0;
+        for (float w = std::abs(hi - lo); w > least && n < 64; w *= 0.5f) ++n;
+        return n;
     }
     /// The parameters of an nu x nv dicing of this range: nu+1 values of u
     /// in `us`, nv+1 of v in `vs`.

@@ -69,7 +69,7 @@ public:
     /// An N-gon's whole face splits into its N sub-faces; anything else
     /// halves its range.
     void split(bool splitU, std::vector<PrimitivePtr>& out) const override;
-    bool canSplit(bool splitU) const override { return !diceable() || m_range.halvable(splitU); }
+    int splitsLeft(bool splitU) const override { return diceable() ? m_range.halvingsLeft(splitU) : kManySplits; }
     bool diceable() const override;
     Grid dice(int nu, int nv) const override;
     void dicePositions(int nu, int nv, std::vector<Vec3>& P) const override;

@@ -206,50 +206,54 @@ TEST(Dice, EyeSplitsStraddlingGeometryThenCullsWithOneWarning) {
     EXPECT_NE(diag.recorded()[0].message.find("eye plane after 6 eye splits"), std::string::npos);
 }
 
-TEST(Dice, PiecesAtFloatResolutionAreDicedCoarselyWithOneWarning) {
+TEST(Dice, PiecesBeyondFloatResolutionAreDicedCoarselyWithOneWarning) {
     // A quad 2 * 10^12 units across in a 100-pixels-a-unit orthographic
     // view needs 2^48 pixels' worth of halvings each way; float's [0, 1]
-    // halves about 24 times. Past ParamRange::halvable the pieces are
-    // diced, coarser than the rate, instead of split into copies of
-    // themselves forever.
+    // halves about 24 times, after which a split's pieces equal their
+    // parent. Even 22 halvings leave pieces 5 * 10^7 pixels long, so the
+    // quad is diced coarsely at once (every piece would stay in view and be
+    // coarse anyway). A quad 2 * 10^8 across runs out of halvings only near
+    // the view, where the last pieces are diced coarsely; the rest split
+    // and are culled as usual.
     DiceParams p;
     p.orthographic = true;
     p.rasterFromCamera = Mat4::scale({100, 100, 1});
     p.nearClip = -100;
     p.rasterWindow[0] = -100; p.rasterWindow[1] = 100;
     p.rasterWindow[2] = -100; p.rasterWindow[3] = 100;
-    Diagnostics diag;
-    diag.setRecord(true);
-    diag.setSink([](const Diagnostic&) {});
-    std::vector<PrimitivePtr> prims;
-    prims.push_back(quad({-1e12f, -1e12f, 5}, {1e12f, -1e12f, 5}, {1e12f, 1e12f, 5}, {-1e12f, 1e12f, 5}));
-    int grids = 0;
-    const int steps = runReyes(std::move(prims), p, &diag, [&](const Primitive& piece, const DiceResult& r) {
-        ++grids;
-        EXPECT_LE(r.nu * r.nv, p.gridSize);
-        EXPECT_FALSE(piece.canSplit(true) && piece.canSplit(false));
-    });
-    // Only the pieces over the view go on splitting: about 2 x 22 levels
-    // of a few pieces each.
-    EXPECT_LT(steps, 2000);
-    EXPECT_GT(grids, 0);
-    ASSERT_EQ(diag.warningCount(), 1);
-    EXPECT_NE(diag.recorded()[0].message.find("float precision"), std::string::npos);
+    for (const float size : {1e12f, 1e8f}) {
+        Diagnostics diag;
+        diag.setRecord(true);
+        diag.setSink([](const Diagnostic&) {});
+        std::vector<PrimitivePtr> prims;
+        prims.push_back(quad({-size, -size, 5}, {size, -size, 5}, {size, size, 5}, {-size, size, 5}));
+        int grids = 0;
+        const int steps = runReyes(std::move(prims), p, &diag, [&](const Primitive& piece, const DiceResult& r) {
+            ++grids;
+            EXPECT_LE(r.nu * r.nv, p.gridSize);
+        });
+        EXPECT_LT(steps, size > 1e10f ? 2 : 2000) << size;
+        EXPECT_GT(grids, 0) << size;
+        ASSERT_EQ(diag.warningCount(), 1) << size;
+        EXPECT_NE(diag.recorded()[0].message.find("float precision"), std::string::npos);
+    }
 }
 
 TEST(Dice, ParamRangesHalveUntilFloatCannotTellTheirHalvesApart) {
     for (const bool upper : {false, true}) {
         ParamRange r;
+        EXPECT_EQ(r.halvingsLeft(true), 22);  // 2^-22 of [0, 1]
         int halvings = 0;
-        while (r.halvable(true) && halvings < 100) {
+        while (r.halvingsLeft(true) > 0 && halvings < 100) {
             const ParamRange h = r.half(true, upper);
             EXPECT_LT(h.u1 - h.u0, r.u1 - r.u0);
             EXPECT_LT(h.u0, h.u1);
+            EXPECT_EQ(h.halvingsLeft(true), r.halvingsLeft(true) - 1);
             r = h;
             ++halvings;
         }
-        EXPECT_EQ(halvings, 22) << upper;  // 2^-22 of [0, 1]
-        EXPECT_TRUE(r.halvable(false));    // the other direction is untouched
+        EXPECT_EQ(halvings, 22) << upper;
+        EXPECT_EQ(r.halvingsLeft(false), 22);  // the other direction is untouched
     }
 }
 

@@ -315,6 +315,20 @@ WorldEnd
         << wide.messages;
     EXPECT_NEAR(coverage(dir.file("wide.exr")), 64.0 * 48.0, 1e-3);
 
+    // Pieces that every halving float allows would leave far larger than
+    // the frame are diced coarsely at once: split, they all stayed in view
+    // (the wedges around a sphere's pole, the pieces of a ribbon wider than
+    // the frame) and multiplied until memory ran out. Each covers the view.
+    for (const std::string& shape : {std::string("Sphere 1e12 -1e12 1e12 360"),
+                                     std::string("Curves \"linear\" [2] \"nonperiodic\" \"P\" [-1e12 0 5  1e12 0 5] "
+                                                 "\"constantwidth\" [1e12]")}) {
+        const ChildRun run =
+            renderInChild(dir, "huge.rib", fmt::format(fmt::runtime(ortho), dir.file("huge.exr"), shape));
+        ASSERT_TRUE(run.exited && run.status == 0) << shape << ": " << run.describe();
+        EXPECT_TRUE(contains(run.messages, "float precision")) << run.messages;
+        EXPECT_NEAR(coverage(dir.file("huge.exr")), 64.0 * 48.0, 1e-3) << shape;
+    }
+
     // The ground y = -1 from z = 1 to 10^8 under a 40-degree camera at the
     // origin: it reaches from below the frame to the horizon, row 24 (at
     // z = 10^8 it is 10^-7 pixels below it), across the whole width.
