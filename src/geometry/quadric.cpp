@@ -18,9 +18,18 @@ Bound3 sectorBound(float ta, float tb, float rlo, float rhi, float zlo, float zh
     Bound3 b;
     // cos(pi/2) in float is -4e-8: a pole is on the axis, not across it.
     if (rlo < 0 && rlo > -1e-6f * std::abs(rhi)) rlo = 0;
-    if (rlo < 0 || tb - ta >= 2 * kPi) {
+    if (tb - ta >= 2 * kPi) {
         const float R = std::max(std::abs(rlo), std::abs(rhi));
         b = Bound3({-R, -R, zlo}, {R, R, zhi});
+    } else if (rlo < 0) {
+        // A negative profile radius (a spindle torus's inner part) puts the
+        // point across the axis, at angle theta + pi: the sector turned by
+        // half a turn. Bounding it by the whole disc instead kept every
+        // wedge of that part at the disc, so splitting never shrank them
+        // and a spindle torus around the camera took 72,000 grids.
+        b = sectorBound(ta + kPi, tb + kPi, std::max(-rhi, 0.0f), -rlo, zlo, zhi);
+        if (rhi > 0) b.extend(sectorBound(ta, tb, 0, rhi, zlo, zhi));
+        return b;
     } else {
         auto add = [&](float c, float s) {
             b.extend(Vec3(rlo * c, rlo * s, zlo));

@@ -202,6 +202,29 @@ TEST(Quadric, SplitChildrenCoverTheParent) {
     }
 }
 
+TEST(Quadric, SpindleTorusWedgesAreBoundedByTheirOwnSector) {
+    // Major radius 0.5 < minor radius 2: for cos(phi) < -1/4 the profile
+    // radius is negative and the point lies across the axis. A thin wedge
+    // of that part is bounded by its own sector turned by half a turn, not
+    // by the whole disc: otherwise splitting never shrinks such wedges.
+    auto torus = makeOne("Torus", {0.5f, 2, 0, 360, 360});
+    std::vector<PrimitivePtr> pieces{};
+    torus->split(false, pieces);  // phi in [0, 180] and [180, 360]
+    for (auto& half : pieces) {
+        PrimitivePtr piece = std::move(half);
+        for (int k = 0; k < 6; ++k) {  // theta in [0, 1/64 of a turn]
+            std::vector<PrimitivePtr> wedges;
+            piece->split(true, wedges);
+            piece = std::move(wedges[0]);
+        }
+        const Bound3 b = piece->bound();
+        for (const Vec3& p : piece->dice(16, 64).P) EXPECT_TRUE(inside(b, p, 0)) << p.x << " " << p.y << " " << p.z;
+        // The wedge spans 5.6 degrees at radii up to 2.5: far narrower
+        // than the 5-unit disc in y.
+        EXPECT_LT(b.max.y - b.min.y, 0.6f);
+    }
+}
+
 TEST(Quadric, SplitKeepsGlobalParameters) {
     auto s = makeOne("Sphere", {1, -1, 1, 360});
     std::vector<PrimitivePtr> halves;
