@@ -115,15 +115,16 @@ struct ParamRange {
         return r;
     }
     /// How many times half(splitU, ...) can go on halving the range while
-    /// its halves stay narrower than it and wide enough for a test
-    /// lattice's steps to differ (Primitive::splitsLeft).
+    /// its halves stay narrower than it (Primitive::splitsLeft).
     int halvingsLeft(bool splitU) const { return splitU ? spanHalvings(u0, u1) : spanHalvings(v0, v1); }
     static int spanHalvings(float lo, float hi) {
-        // Down to 2^-22 of the span's magnitude: each half keeps at least
-        // two float steps, and a [0, 1] range halves 22 times each way
-        // (pieces four millionths of the surface across: a surface 60
-        // million pixels wide still dices into 16-pixel pieces).
-        const float least = std::max({1.0f, std::abs(lo), std::abs(hi)}) * 0x1p-22f;
+        // Down to 2^-23 of the span's magnitude, where each half is a float
+        // step or two: a [0, 1] range halves 23 times each way, so a
+        // surface 130 million pixels across still dices into 16-pixel
+        // pieces (a ground plane 10^5 units long seen at 1080p from a unit
+        // above is 10^8 pixels wide at the bottom of the frame; at 2^-22 a
+        // few of its pixels were diced coarsely, at 2^-23 none).
+        const float least = std::max({1.0f, std::abs(lo), std::abs(hi)}) * 0x1p-23f;
         int n = 0;
         for (float w = std::abs(hi - lo); w > least && n < 64; w *= 0.5f) ++n;
         return n;

@@ -210,7 +210,7 @@ TEST(Dice, PiecesBeyondFloatResolutionAreDicedCoarselyWithOneWarning) {
     // A quad 2 * 10^12 units across in a 100-pixels-a-unit orthographic
     // view needs 2^48 pixels' worth of halvings each way; float's [0, 1]
     // halves about 24 times, after which a split's pieces equal their
-    // parent. Even 22 halvings leave pieces 5 * 10^7 pixels long, so the
+    // parent. Even 23 halvings leave pieces 2 * 10^7 pixels long, so the
     // quad is diced coarsely at once (every piece would stay in view and be
     // coarse anyway). A quad 2 * 10^8 across runs out of halvings only near
     // the view, where the last pieces are diced coarsely; the rest split
@@ -242,7 +242,7 @@ TEST(Dice, PiecesBeyondFloatResolutionAreDicedCoarselyWithOneWarning) {
 TEST(Dice, ParamRangesHalveUntilFloatCannotTellTheirHalvesApart) {
     for (const bool upper : {false, true}) {
         ParamRange r;
-        EXPECT_EQ(r.halvingsLeft(true), 22);  // 2^-22 of [0, 1]
+        EXPECT_EQ(r.halvingsLeft(true), 23);  // 2^-23 of [0, 1]
         int halvings = 0;
         while (r.halvingsLeft(true) > 0 && halvings < 100) {
             const ParamRange h = r.half(true, upper);
@@ -252,8 +252,8 @@ TEST(Dice, ParamRangesHalveUntilFloatCannotTellTheirHalvesApart) {
             r = h;
             ++halvings;
         }
-        EXPECT_EQ(halvings, 22) << upper;
-        EXPECT_EQ(r.halvingsLeft(false), 22);  // the other direction is untouched
+        EXPECT_EQ(halvings, 23) << upper;
+        EXPECT_EQ(r.halvingsLeft(false), 23);  // the other direction is untouched
     }
 }
 
