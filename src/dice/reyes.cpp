@@ -218,16 +218,11 @@ bool beyondPrecision(const geometry::Primitive& prim, const DiceParams& p, float
     return std::ldexp(lenU, -prim.splitsLeft(true)) > limit || std::ldexp(lenV, -prim.splitsLeft(false)) > limit;
 }
 
-/// Counts for a piece too large for one grid that cannot be split: scaled
-/// down together until they fit. Its micropolygons are then larger than
-/// the shading rate asks, which the warning says; the alternative is a
+/// Counts for a piece too large for one grid that is not to be split:
+/// scaled down together until they fit. Its micropolygons are then larger
+/// than the shading rate asks (the callers warn); the alternative is a
 /// piece that never finishes.
-void coarsenToFit(const geometry::Primitive& prim, float gridSize, Diagnostics* diag, float* fu, float* fv) {
-    if (diag)
-        diag->warningOnce("dice:precision", prim.record().loc,
-                          "{}: a piece spans more pixels than float precision lets it be split into; diced "
-                          "coarser than the shading rate (are its coordinates corrupt or enormous?)",
-                          prim.record().type);
+void coarsenToFit(float gridSize, float* fu, float* fv) {
     const float scale = std::sqrt(gridSize / (*fu * *fv));
     if (!(std::isfinite(scale) && scale > 0)) {
         *fu = *fv = std::max(1.0f, std::floor(std::sqrt(gridSize)));
@@ -238,6 +233,28 @@ void coarsenToFit(const geometry::Primitive& prim, float gridSize, Diagnostics* 
     const float v = clamp(std::floor(*fv * scale), 1.0f, std::floor(gridSize / u));
     *fu = std::min(std::max(1.0f, std::floor(*fu)), std::floor(gridSize / v));
     *fv = v;
+}
+
+/// True when the piece's split budget (DiceParams::splitBudget) leaves
+/// room for two grids at its shading rate.
+bool splitAffordable(const DiceParams& p, float gridSize) {
+    return p.splitBudget >= 2.0 * double(std::max(p.shadingRate, 1e-6f)) * double(gridSize);
+}
+
+void warnPrecision(const geometry::Primitive& prim, Diagnostics* diag) {
+    if (diag)
+        diag->warningOnce("dice:precision", prim.record().loc,
+                          "{}: a piece spans more pixels than float precision lets it be split into; diced "
+                          "coarser than the shading rate (are its coordinates corrupt or enormous?)",
+                          prim.record().type);
+}
+
+void warnBudget(const geometry::Primitive& prim, Diagnostics* diag) {
+    if (diag)
+        diag->warningOnce("dice:budget", prim.record().loc,
+                          "{}: its pieces would cover the frame many times over (a surface folded on itself, "
+                          "or corrupt control points); the rest is diced coarser than the shading rate",
+                          prim.record().type);
 }
 
 }  // namespace
@@ -379,8 +396,13 @@ DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, co
         if (!(res.splitU ? canU : canV)) res.splitU = !res.splitU;
         const bool worthIt = (canU || canV) && (canU || fu <= gridSize) && (canV || fv <= gridSize) &&
                              !beyondPrecision(prim, p, lenU, lenV);
-        if (worthIt) return res;
-        coarsenToFit(prim, gridSize, diag, &fu, &fv);
+        if (!worthIt)
+            warnPrecision(prim, diag);
+        else if (!splitAffordable(p, gridSize))
+            warnBudget(prim, diag);
+        else
+            return res;
+        coarsenToFit(gridSize, &fu, &fv);
     }
     // However coarse the rate, a curved primitive keeps enough
     // micropolygons for none of their edges to turn by more than maxTurn:
@@ -409,7 +431,7 @@ DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, co
         if (bu * bv > gridSize) {
             res.decision = Decision::Split;
             res.splitU = !(bv > bu);
-            if (splittable(prim, res)) return res;
+            if (splittable(prim, res) && splitAffordable(p, gridSize)) return res;
         } else {
             fu = bu;
             fv = bv;

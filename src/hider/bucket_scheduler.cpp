@@ -68,6 +68,7 @@ struct Node {
     geometry::PrimitivePtr owned;  // pieces made by splitting own their primitive
     uint64_t id = 0;
     int eyeSplits = 0;
+    double splitBudget = 0;        // pixels: see Frame::shareBudget
     Bound3 bound;                  // raster x, y; camera z
     int bx0 = 0, by0 = 0, bx1 = -1, by1 = -1;  // buckets covered, inclusive
 
@@ -133,8 +134,45 @@ struct Frame {
         return node.bucketCount() > 0;
     }
 
+    /// The node's bound clipped to the region its buckets sample, in
+    /// pixels, each side lengthened by kEdgeAllowance: a piece reaching
+    /// into the frame by a sliver still splits into pieces a grid wide
+    /// along the frame's edge, however little of them shows.
+    static constexpr double kEdgeAllowance = 16;  // a grid's side at the default size and rate
+    double areaInFrame(const Node& node) const {
+        const double m = settings.filterMargin;
+        const double x0 = std::max(double(node.bound.min.x), double(film.x0()) - m);
+        const double x1 = std::min(double(node.bound.max.x), double(film.x0() + film.width()) + m);
+        const double y0 = std::max(double(node.bound.min.y), double(film.y0()) - m);
+        const double y1 = std::min(double(node.bound.max.y), double(film.y0() + film.height()) + m);
+        return (std::max(x1 - x0, 0.0) + kEdgeAllowance) * (std::max(y1 - y0, 0.0) + kEdgeAllowance);
+    }
+
+    /// The split budget (dice::DiceParams::splitBudget): a primitive's
+    /// pieces may cover kSplitBudget times its own area in the frame
+    /// between them. The pieces of a split share their parent's budget in
+    /// proportion to their areas in the frame, so the pieces of one surface
+    /// can be many only where they tile the image, never by piling up in
+    /// view (a surface folded on itself, wedges that all keep the whole
+    /// frame); pieces that leave the frame give their share to the others.
+    /// A container's pieces (the faces of a mesh, a procedural's output,
+    /// a blob's cells) are whole surfaces of their own and start their own
+    /// budget. Handed down the tree, not counted as pieces are made, so it
+    /// is the same whatever the threads or the bucket order.
+    static constexpr double kSplitBudget = 64;
+
+    void shareBudget(Node& parent) {
+        const bool ownBudgets = !parent.prim->diceable();
+        double total = 0;
+        for (auto& child : parent.children) total += areaInFrame(*child);
+        for (auto& child : parent.children) {
+            const double area = areaInFrame(*child);
+            child->splitBudget = ownBudgets ? kSplitBudget * area : parent.splitBudget * (area / total);
+        }
+    }
+
     void resolve(Node& node, SchedulerStats& stats) {
-        GeometryPipeline::Plan plan = pipeline.plan(*node.prim, node.eyeSplits);
+        GeometryPipeline::Plan plan = pipeline.plan(*node.prim, node.eyeSplits, node.splitBudget);
         if (plan.action == GeometryPipeline::Action::Cull) {
             ++stats.culled;
             node.state = Node::State::Culled;
@@ -155,6 +193,7 @@ struct Frame {
                 else
                     ++stats.culled;
             }
+            shareBudget(node);
             node.state = Node::State::Split;
             return;
         }
@@ -292,6 +331,7 @@ SchedulerStats BucketScheduler::render(const std::vector<geometry::PrimitivePtr>
         node.prim = prims[i].get();
         node.id = uint64_t(i) + 1;
         placed[i] = frame.place(node, nullptr);
+        node.splitBudget = Frame::kSplitBudget * frame.areaInFrame(node);
     });
     std::vector<std::vector<Node*>> perBucket(size_t(std::max(bucketCount, 0)));
     std::vector<size_t> perBucketCount(perBucket.size());

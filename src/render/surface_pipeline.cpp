@@ -271,8 +271,11 @@ Bound3 SurfacePipeline::rasterBound(const geometry::Primitive& prim) {
     return r;
 }
 
-hider::GeometryPipeline::Plan SurfacePipeline::plan(const geometry::Primitive& prim, int eyeSplits) {
-    dice::DiceResult r = dice::decide(prim, prim.bound(), diceParams(prim), eyeSplits, &m_diag);
+hider::GeometryPipeline::Plan SurfacePipeline::plan(const geometry::Primitive& prim, int eyeSplits,
+                                                    double splitBudget) {
+    dice::DiceParams p = diceParams(prim);
+    p.splitBudget = splitBudget;
+    dice::DiceResult r = dice::decide(prim, prim.bound(), p, eyeSplits, &m_diag);
     Plan plan;
     plan.action = r.decision == dice::Decision::Dice    ? Action::Dice
                   : r.decision == dice::Decision::Split ? Action::Split

@@ -90,8 +90,10 @@ public:
     /// bound culls it. Must contain everything shade() can produce.
     virtual Bound3 rasterBound(const geometry::Primitive& prim) = 0;
     /// Cull, split, or dice at which rate. `eyeSplits` counts the splits so
-    /// far caused by the eye plane.
-    virtual Plan plan(const geometry::Primitive& prim, int eyeSplits) = 0;
+    /// far caused by the eye plane; `splitBudget` is the raster area, in
+    /// pixels, the piece's pieces may cover between them (see
+    /// dice::DiceParams::splitBudget).
+    virtual Plan plan(const geometry::Primitive& prim, int eyeSplits, double splitBudget) = 0;
     /// Dices at nu x nv, displaces and shades, and fills `out` in raster
     /// space. Returns false when nothing of it can be seen (e.g. all back
     /// facing). Called concurrently from many threads.

@@ -113,6 +113,43 @@ TEST(Dice, TooBigSplitsAcrossTheLongerDirection) {
     EXPECT_FALSE(r.splitU);
 }
 
+TEST(Dice, APieceWhoseSplitBudgetIsSpentIsDicedIntoOneGridWithAWarning) {
+    // A quad 64 x 32 pixels (orthographic, 16 pixels a unit): 2048
+    // micropolygons at rate 1, 512 at rate 4, more than a grid of 256.
+    // It splits while its budget holds two grids' worth of pixels
+    // (2 x rate x 256); with less it is diced into one grid of the same
+    // proportions, coarser than the rate, and the user is told once.
+    DiceParams p;
+    p.orthographic = true;
+    p.rasterFromCamera = Mat4::scale({16, 16, 1});
+    p.nearClip = -100;
+    auto q = quad({-2, -1, 5}, {2, -1, 5}, {2, 1, 5}, {-2, 1, 5});
+    for (const float rate : {1.0f, 4.0f}) {
+        p.shadingRate = rate;
+        const double twoGrids = 2.0 * rate * p.gridSize;
+        Diagnostics diag;
+        diag.setRecord(true);
+        diag.setSink([](const Diagnostic&) {});
+        for (const double budget : {double(kInfinity), twoGrids}) {
+            p.splitBudget = budget;
+            const DiceResult r = decide(*q, q->bound(), p, 0, &diag);
+            EXPECT_EQ(r.decision, Decision::Split) << rate << " " << budget;
+            EXPECT_TRUE(r.splitU);
+        }
+        EXPECT_EQ(diag.warningCount(), 0);
+        for (const double budget : {twoGrids * 0.99, 0.0}) {
+            p.splitBudget = budget;
+            const DiceResult r = decide(*q, q->bound(), p, 0, &diag);
+            ASSERT_EQ(r.decision, Decision::Dice) << rate << " " << budget;
+            EXPECT_LE(r.nu * r.nv, p.gridSize);
+            EXPECT_GE(r.nu * r.nv, p.gridSize / 2);  // as fine as one grid allows
+            EXPECT_NEAR(r.nu, 2 * r.nv, 1);          // the quad's proportions
+        }
+        ASSERT_EQ(diag.warningCount(), 1);
+        EXPECT_NE(diag.recorded()[0].message.find("would cover the frame many times over"), std::string::npos);
+    }
+}
+
 TEST(Dice, LoopRespectsGridSizeAndShadingRateOnASphere) {
     DiceParams p = perspective(Mat4::translate({0.5f, 0, 6}));
     p.shadingRate = 2;

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include <fcntl.h>
 #include <sys/resource.h>
@@ -71,7 +72,7 @@ std::string readText(const std::string& path) {
 
 /// Renders the scene at `ribPath` with `umbra render --threads 2` in a
 /// child process limited to 1 GiB of address space.
-ChildRun runInChild(const std::string& ribPath) {
+ChildRun runInChild(const std::string& ribPath, const std::vector<std::string>& options = {}) {
     const std::string logPath = ribPath + ".log";
     const pid_t pid = fork();
     if (pid == 0) {
@@ -92,7 +93,11 @@ ChildRun runInChild(const std::string& ribPath) {
             dup2(fd, 2);
         }
         setenv("UMBRA_SHADER_PATH", UMBRA_SOURCE_DIR "/shaders_dsl", 1);
-        execl(UMBRA_APP, "umbra", "render", "--threads", "2", ribPath.c_str(), static_cast<char*>(nullptr));
+        std::vector<const char*> argv{"umbra", "render", "--threads", "2"};
+        for (const std::string& o : options) argv.push_back(o.c_str());
+        argv.push_back(ribPath.c_str());
+        argv.push_back(nullptr);
+        execv(UMBRA_APP, const_cast<char* const*>(argv.data()));
         _exit(127);
     }
     ChildRun run;
@@ -105,13 +110,14 @@ ChildRun runInChild(const std::string& ribPath) {
 }
 
 /// Writes `rib` to dir/name and renders it in a child process (runInChild).
-ChildRun renderInChild(const ScratchDir& dir, const std::string& name, const std::string& rib) {
+ChildRun renderInChild(const ScratchDir& dir, const std::string& name, const std::string& rib,
+                       const std::vector<std::string>& options = {}) {
     const std::string ribPath = dir.file(name);
     {
         std::ofstream out(ribPath);
         out << rib;
     }
-    return runInChild(ribPath);
+    return runInChild(ribPath, options);
 }
 
 /// A 64 x 48 perspective frame of `world`, camera 5 units back; its
@@ -351,6 +357,65 @@ WorldEnd
                     "  \"P\" [-1 -1 1  1 -1 1  -1 1 1  1 1 1  4.5e21 1.8e31 -1.4e8  7.5e28 8.2e30 0  "
                     "1.1e27 -1.5e8 0  7.2e22 1.1e27 1.1e21]"));
     ASSERT_TRUE(cube.exited && cube.status == 0) << cube.describe();
+}
+
+TEST(Limits, ASurfaceWhosePiecesPileUpInViewStopsAtItsSplitBudget) {
+    // A NuPatch with one control point thrown out to (0.3, 2.4e8, 4.5e30)
+    // (a mutation the render fuzzer made), seen orthographically: all of
+    // the patch but slivers along two edges, within 10^-8 of them in v,
+    // lies far off the frame, but those slivers sweep across every row of
+    // it. Pieces along them stay in view down to float precision, and they
+    // multiplied until memory ran out (4 GB in 18 seconds; Aqsis 1.8.4
+    // does not finish it either). A primitive's pieces may now cover 64 times its area in the
+    // frame between them: here the frame, 64 x 48 pixels with the filter's
+    // margin of 1 and 16 pixels of allowance each way, so at most
+    // 64 x 82 x 66 / 256 grids of 256 micropolygons. The sphere beside it
+    // has a budget of its own and renders whole.
+    ScratchDir dir("limits-budget");
+    const std::string scene = R"(Display "{}" "openexr" "rgba" "string type" "float"
+Format 64 48 1
+WorldBegin
+Surface "constant"
+AttributeBegin
+  Translate -0.7 0 5
+  Sphere 0.5 -0.5 0.5 360
+AttributeEnd
+{}
+WorldEnd
+)";
+    const std::string patch = R"(AttributeBegin
+  Translate 1 0 5
+  NuPatch 4 4 [0 0 0 0 1 1 1 1] 0 1 4 4 [0 0 0 0 1 1 1 1] 0 1 "Pw" [
+    -1 -1 0 1  -0.3 -1 0 1  0.3 -1 0 1  1 -1 0 1
+    -1 -0.3 0 1  -0.3 -0.3 1 1  0.3 -0.3 1 1  1 -0.3 0 1
+    -1 0.3 0 1  -0.3 0.3 1 1  0.3 {} 1  1 0.3 0 1
+    -1 1 0 1  -0.3 1 0 1  0.3 1 0 1  1 1 0 1]
+AttributeEnd)";
+    auto render = [&](const std::string& name, const std::string& world, std::vector<std::string> options = {}) {
+        const ChildRun run = renderInChild(dir, name + ".rib",
+                                           fmt::format(fmt::runtime(scene), dir.file(name + ".exr"), world), options);
+        EXPECT_TRUE(run.exited && run.status == 0) << name << ": " << run.describe();
+        return run;
+    };
+    const std::string stats = dir.file("corrupt.json");
+    const ChildRun corrupt =
+        render("corrupt", fmt::format(fmt::runtime(patch), "2.4e8 4.5e30"), {"--stats", stats});
+    EXPECT_TRUE(contains(corrupt.messages, "corrupt.rib:11:3: warning: NuPatch: its pieces would cover the frame "
+                                           "many times over"))
+        << corrupt.messages;
+    const auto counts = nlohmann::json::parse(readText(stats))["frames"][0]["passes"][0]["counts"];
+    EXPECT_LE(counts["grids"].get<uint64_t>(), 64u * 82u * 66u / 256u + 8u);  // + the sphere's
+
+    // The slivers cover what the healthy patch covers, the frame's right
+    // third (x from 0 to 4/3 of [-4/3, 4/3]); the sphere beside it is whole.
+    render("sphere", "");
+    render("healthy", fmt::format(fmt::runtime(patch), "0.3 0"));
+    const double withCorrupt = coverage(dir.file("corrupt.exr")), sphereOnly = coverage(dir.file("sphere.exr")),
+                 withHealthy = coverage(dir.file("healthy.exr"));
+    const double disc = kPi * 0.5 * 0.5 * 24 * 24;  // 24 pixels a unit
+    EXPECT_NEAR(sphereOnly, disc, 0.03 * disc);
+    EXPECT_NEAR(withHealthy, sphereOnly + 32 * 48, 0.01 * 32 * 48);
+    EXPECT_NEAR(withCorrupt, withHealthy, 0.01 * 32 * 48);
 }
 
 TEST(Limits, SigtermStopsTheRenderWritesNoImageAndLeavesNoTemporaries) {
