@@ -211,11 +211,11 @@ bool splittable(const geometry::Primitive& prim, DiceResult& res) {
 /// pole, a ribbon wider than the frame), which once ran a render out of
 /// memory. No picture of ordinary geometry comes near: a ground plane 10^8
 /// units long seen from a unit above is within a few thousand pixels.
-bool beyondPrecision(const geometry::Primitive& prim, const DiceParams& p, float lenU, float lenV) {
+bool beyondPrecision(const DiceParams& p, float lenU, int splitsLeftU, float lenV, int splitsLeftV) {
     const float frame = std::max(p.rasterWindow[1] - p.rasterWindow[0], p.rasterWindow[3] - p.rasterWindow[2]);
     if (!std::isfinite(frame)) return false;
     const float limit = 256.0f * std::max(frame, 1.0f);
-    return std::ldexp(lenU, -prim.splitsLeft(true)) > limit || std::ldexp(lenV, -prim.splitsLeft(false)) > limit;
+    return std::ldexp(lenU, -splitsLeftU) > limit || std::ldexp(lenV, -splitsLeftV) > limit;
 }
 
 /// Counts for a piece too large for one grid that is not to be split:
@@ -392,10 +392,11 @@ DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, co
         // A count along a direction that cannot be split any more is final
         // (cutting the other way cannot bring it down), so splitting is
         // worth it only while that count alone fits a grid.
-        const bool canU = prim.splitsLeft(true) > 0, canV = prim.splitsLeft(false) > 0;
+        const int leftU = prim.splitsLeft(true), leftV = prim.splitsLeft(false);
+        const bool canU = leftU > 0, canV = leftV > 0;
         if (!(res.splitU ? canU : canV)) res.splitU = !res.splitU;
         const bool worthIt = (canU || canV) && (canU || fu <= gridSize) && (canV || fv <= gridSize) &&
-                             !beyondPrecision(prim, p, lenU, lenV);
+                             !beyondPrecision(p, lenU, leftU, lenV, leftV);
         if (!worthIt)
             warnPrecision(prim, diag);
         else if (!splitAffordable(p, gridSize))
