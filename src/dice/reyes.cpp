@@ -195,6 +195,44 @@ void turningCounts(const Vec3* Q, int n, float maxTurn, float* countU, float* co
 
 namespace {
 
+/// Area of triangle abc (x and y) clipped to the window xmin xmax ymin ymax.
+double clippedTriangleArea(const Vec3& a, const Vec3& b, const Vec3& c, const float window[4]) {
+    const auto inside = [&](const Vec3& q) {
+        return q.x >= window[0] && q.x <= window[1] && q.y >= window[2] && q.y <= window[3];
+    };
+    const auto shoelace = [](const double* xs, const double* ys, int n) {
+        double twice = 0;
+        for (int i = 0, j = n - 1; i < n; j = i++) twice += xs[j] * ys[i] - xs[i] * ys[j];
+        return std::abs(twice) * 0.5;
+    };
+    double xs[9] = {a.x, b.x, c.x}, ys[9] = {a.y, b.y, c.y};
+    if (inside(a) && inside(b) && inside(c)) return shoelace(xs, ys, 3);
+    // Sutherland-Hodgman against the window's four sides; a triangle gains
+    // at most one vertex per side.
+    int n = 3;
+    for (int side = 0; side < 4 && n > 0; ++side) {
+        const bool isX = side < 2;
+        const double edge = window[side];
+        const double sign = (side % 2 == 0) ? 1.0 : -1.0;  // keep coordinate >= min, <= max
+        double ox[9], oy[9];
+        int m = 0;
+        for (int i = 0; i < n; ++i) {
+            const int j = (i + 1) % n;
+            const double di = sign * ((isX ? xs[i] : ys[i]) - edge), dj = sign * ((isX ? xs[j] : ys[j]) - edge);
+            if (di >= 0) ox[m] = xs[i], oy[m++] = ys[i];
+            if ((di >= 0) != (dj >= 0)) {
+                const double t = di / (di - dj);
+                ox[m] = xs[i] + t * (xs[j] - xs[i]);
+                oy[m++] = ys[i] + t * (ys[j] - ys[i]);
+            }
+        }
+        n = m;
+        std::copy(ox, ox + m, xs);
+        std::copy(oy, oy + m, ys);
+    }
+    return n >= 3 ? shoelace(xs, ys, n) : 0.0;
+}
+
 /// Keeps a split's direction, or turns it when the primitive cannot cut
 /// that way (a parameter range at float resolution); false when it can cut
 /// neither way, so splitting would make the same piece forever.
@@ -258,6 +296,37 @@ void warnBudget(const geometry::Primitive& prim, Diagnostics* diag) {
 }
 
 }  // namespace
+
+double rasterNeed(const geometry::Primitive& prim, const DiceParams& p) {
+    if (!prim.diceable()) return -1;
+    const Bound3 cb = p.sweep.empty() ? cameraBound(prim.bound(), p) : p.sweep;
+    if (!p.orthographic && cb.min.z < eyePlaneZ(p)) return -1;
+    thread_local std::vector<Vec3> P;
+    // A coarser lattice than decide()'s: a budget needs proportions, not counts.
+    const int n = std::max(p.testGrid / 2, 1);
+    prim.dicePositions(n, n, P);
+    const Mat4 rasterFromObject = p.rasterFromCamera * p.cameraFromObject;
+    for (Vec3& q : P) q = rasterFromObject.point(q);
+    const float* w = p.rasterWindow;
+    Bound3 lattice;
+    for (const Vec3& q : P) lattice.extend(q);
+    const auto inside = [](float lo, float hi, float w0, float w1) {
+        return std::max(std::min(double(hi), double(w1)) - std::max(double(lo), double(w0)), 0.0);
+    };
+    const double across = inside(lattice.min.x, lattice.max.x, w[0], w[1]);
+    const double down = inside(lattice.min.y, lattice.max.y, w[2], w[3]);
+    const int sidesX = (lattice.min.x < w[0]) + (lattice.max.x > w[1]);
+    const int sidesY = (lattice.min.y < w[2]) + (lattice.max.y > w[3]);
+    const double gridSide = std::sqrt(double(std::max(p.gridSize, 1)) * double(std::max(p.shadingRate, 1e-6f)));
+    double need = gridSide * (sidesX * down + sidesY * across);
+    for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+            const Vec3 &a = P[size_t(j * (n + 1) + i)], &b = P[size_t(j * (n + 1) + i + 1)];
+            const Vec3 &c = P[size_t((j + 1) * (n + 1) + i + 1)], &d = P[size_t((j + 1) * (n + 1) + i)];
+            need += clippedTriangleArea(a, b, c, w) + clippedTriangleArea(a, c, d, w);
+        }
+    return std::isfinite(need) ? need : -1;
+}
 
 DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, const DiceParams& p, int eyeSplits,
                   Diagnostics* diag) {
@@ -399,10 +468,12 @@ DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, co
                              !beyondPrecision(p, lenU, leftU, lenV, leftV);
         if (!worthIt)
             warnPrecision(prim, diag);
-        else if (!splitAffordable(p, gridSize))
-            warnBudget(prim, diag);
-        else
+        else if (!splitAffordable(p, gridSize)) {
+            if (p.pieceNeed > double(gridSize) * double(std::max(p.shadingRate, 1e-6f)))
+                warnBudget(prim, diag);
+        } else {
             return res;
+        }
         coarsenToFit(gridSize, &fu, &fv);
     }
     // However coarse the rate, a curved primitive keeps enough

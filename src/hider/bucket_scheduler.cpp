@@ -68,7 +68,8 @@ struct Node {
     geometry::PrimitivePtr owned;  // pieces made by splitting own their primitive
     uint64_t id = 0;
     int eyeSplits = 0;
-    double splitBudget = 0;        // pixels: see Frame::shareBudget
+    double splitBudget = -1;       // pixels (Frame::shareBudget); -1: its own, measured when resolved
+    double need = -1;              // pixels (Frame::need); -1 until measured
     Bound3 bound;                  // raster x, y; camera z
     int bx0 = 0, by0 = 0, bx1 = -1, by1 = -1;  // buckets covered, inclusive
 
@@ -134,45 +135,66 @@ struct Frame {
         return node.bucketCount() > 0;
     }
 
-    /// The node's bound clipped to the region its buckets sample, in
-    /// pixels, each side lengthened by kEdgeAllowance: a piece reaching
-    /// into the frame by a sliver still splits into pieces a grid wide
-    /// along the frame's edge, however little of them shows.
-    static constexpr double kEdgeAllowance = 16;  // a grid's side at the default size and rate
-    double areaInFrame(const Node& node) const {
+    /// The region the buckets sample: the frame and the filter's margin.
+    struct Window {
+        double x0, x1, y0, y1;
+    };
+    Window window() const {
         const double m = settings.filterMargin;
-        const double x0 = std::max(double(node.bound.min.x), double(film.x0()) - m);
-        const double x1 = std::min(double(node.bound.max.x), double(film.x0() + film.width()) + m);
-        const double y0 = std::max(double(node.bound.min.y), double(film.y0()) - m);
-        const double y1 = std::min(double(node.bound.max.y), double(film.y0() + film.height()) + m);
-        return (std::max(x1 - x0, 0.0) + kEdgeAllowance) * (std::max(y1 - y0, 0.0) + kEdgeAllowance);
+        return {double(film.x0()) - m, double(film.x0() + film.width()) + m, double(film.y0()) - m,
+                double(film.y0() + film.height()) + m};
+    }
+
+    /// What a node needs diced in the frame, in pixels: dice::rasterNeed,
+    /// but no more than its bound can hold there (the bound's area in the
+    /// window and a strip kEdgeStrip wide along each side of the window it
+    /// crosses; a lattice near a perspective eye can measure more), and
+    /// that when it cannot be measured; and a little more, so that a piece
+    /// that only touches the frame has a share.
+    static constexpr double kEdgeStrip = 16;  // a grid's side at the default size and rate
+    static constexpr double kLeastNeed = 16;
+    double need(const Node& node) {
+        const Window w = window();
+        const Bound3& b = node.bound;
+        const double across = std::max(std::min(double(b.max.x), w.x1) - std::max(double(b.min.x), w.x0), 0.0);
+        const double down = std::max(std::min(double(b.max.y), w.y1) - std::max(double(b.min.y), w.y0), 0.0);
+        const int sidesX = (b.min.x < w.x0) + (b.max.x > w.x1), sidesY = (b.min.y < w.y0) + (b.max.y > w.y1);
+        const double bounded = across * down + kEdgeStrip * (sidesX * down + sidesY * across);
+        const double measured = pipeline.rasterNeed(*node.prim);
+        return (measured >= 0 ? std::min(measured, bounded) : bounded) + kLeastNeed;
     }
 
     /// The split budget (dice::DiceParams::splitBudget): a primitive's
-    /// pieces may cover kSplitBudget times its own area in the frame
-    /// between them. The pieces of a split share their parent's budget in
-    /// proportion to their areas in the frame, so the pieces of one surface
-    /// can be many only where they tile the image, never by piling up in
-    /// view (a surface folded on itself, wedges that all keep the whole
-    /// frame); pieces that leave the frame give their share to the others.
-    /// A container's pieces (the faces of a mesh, a procedural's output,
-    /// a blob's cells) are whole surfaces of their own and start their own
-    /// budget. Handed down the tree, not counted as pieces are made, so it
-    /// is the same whatever the threads or the bucket order.
+    /// pieces may need kSplitBudget times its own need between them. The
+    /// pieces of a split share their parent's budget in proportion to
+    /// their needs. Needs are measured on the surface, not on bounds, so
+    /// the pieces of a surface that tile the image (a ground plane's
+    /// wedges, whose bounds all reach the horizon; slivers along the
+    /// horizon) keep the budget whole, and only pieces that pile up in
+    /// view (a surface folded on itself, corrupt control points) use it up;
+    /// pieces that leave the frame give their share to the others. A
+    /// container's pieces (the faces of a mesh, a procedural's output, a
+    /// blob's cells) are whole surfaces of their own and start their own
+    /// budget when first resolved, as top-level primitives do. Handed down
+    /// the tree, not counted as pieces are made, so it is the same whatever
+    /// the threads or the bucket order.
     static constexpr double kSplitBudget = 64;
+    static constexpr double kOwnBudget = -1;  // Node::splitBudget: to be measured when resolved
 
     void shareBudget(Node& parent) {
-        const bool ownBudgets = !parent.prim->diceable();
-        double total = 0;
-        for (auto& child : parent.children) total += areaInFrame(*child);
-        for (auto& child : parent.children) {
-            const double area = areaInFrame(*child);
-            child->splitBudget = ownBudgets ? kSplitBudget * area : parent.splitBudget * (area / total);
+        if (!parent.prim->diceable()) {
+            for (auto& child : parent.children) child->splitBudget = kOwnBudget;
+            return;
         }
+        double total = 0;
+        for (auto& child : parent.children) total += child->need = need(*child);
+        for (auto& child : parent.children) child->splitBudget = parent.splitBudget * (child->need / total);
     }
 
     void resolve(Node& node, SchedulerStats& stats) {
-        GeometryPipeline::Plan plan = pipeline.plan(*node.prim, node.eyeSplits, node.splitBudget);
+        if (node.need < 0) node.need = need(node);
+        if (node.splitBudget == kOwnBudget) node.splitBudget = kSplitBudget * node.need;
+        GeometryPipeline::Plan plan = pipeline.plan(*node.prim, node.eyeSplits, node.splitBudget, node.need);
         if (plan.action == GeometryPipeline::Action::Cull) {
             ++stats.culled;
             node.state = Node::State::Culled;
@@ -331,7 +353,7 @@ SchedulerStats BucketScheduler::render(const std::vector<geometry::PrimitivePtr>
         node.prim = prims[i].get();
         node.id = uint64_t(i) + 1;
         placed[i] = frame.place(node, nullptr);
-        node.splitBudget = Frame::kSplitBudget * frame.areaInFrame(node);
+        node.splitBudget = Frame::kOwnBudget;
     });
     std::vector<std::vector<Node*>> perBucket(size_t(std::max(bucketCount, 0)));
     std::vector<size_t> perBucketCount(perBucket.size());

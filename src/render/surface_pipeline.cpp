@@ -272,9 +272,10 @@ Bound3 SurfacePipeline::rasterBound(const geometry::Primitive& prim) {
 }
 
 hider::GeometryPipeline::Plan SurfacePipeline::plan(const geometry::Primitive& prim, int eyeSplits,
-                                                    double splitBudget) {
+                                                    double splitBudget, double need) {
     dice::DiceParams p = diceParams(prim);
     p.splitBudget = splitBudget;
+    p.pieceNeed = need;
     dice::DiceResult r = dice::decide(prim, prim.bound(), p, eyeSplits, &m_diag);
     Plan plan;
     plan.action = r.decision == dice::Decision::Dice    ? Action::Dice
@@ -285,6 +286,26 @@ hider::GeometryPipeline::Plan SurfacePipeline::plan(const geometry::Primitive& p
     plan.nu = r.nu;
     plan.nv = r.nv;
     return plan;
+}
+
+double SurfacePipeline::rasterNeed(const geometry::Primitive& prim) {
+    dice::DiceParams p = diceParams(prim);
+    if (p.sweep.empty()) return dice::rasterNeed(prim, p);
+    // A moving piece: the mean of its needs at its placement times (its
+    // shape at the shutter's opening, placed at each). The mean, not the
+    // most: pieces of a surface that cross the frame's edge in turn add
+    // up to their parent then, as still ones do.
+    thread_local std::vector<float> times;
+    placementTimes(prim, times);
+    p.sweep = Bound3{};
+    double sum = 0;
+    for (const float t : times) {
+        p.cameraFromObject = cameraFromObjectAt(prim.record(), t);
+        const double need = dice::rasterNeed(prim, p);
+        if (need < 0) return -1;
+        sum += need;
+    }
+    return sum / double(times.size());
 }
 
 bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uint64_t id, hider::ShadedGrid& out) {

@@ -36,7 +36,8 @@ public:
                     const film::Film& film);
 
     Bound3 rasterBound(const geometry::Primitive& prim) override;
-    Plan plan(const geometry::Primitive& prim, int eyeSplits, double splitBudget) override;
+    Plan plan(const geometry::Primitive& prim, int eyeSplits, double splitBudget, double need) override;
+    double rasterNeed(const geometry::Primitive& prim) override;
     bool shade(const geometry::Primitive& prim, int nu, int nv, uint64_t id, hider::ShadedGrid& out) override;
 
 private:

@@ -82,6 +82,11 @@ struct DiceParams {
     /// otherwise multiply them without end. Eye-plane splits and fixed
     /// counts do not ask it.
     double splitBudget = kInfinity;
+    /// What the piece itself needs, in the same pixels (rasterNeed()). A
+    /// piece whose budget is spent but that needs no more than one grid's
+    /// worth of pixels is diced into one grid without a warning: its
+    /// micropolygons are then no larger than the shading rate asks.
+    double pieceNeed = kInfinity;
 };
 
 /// The three outcomes of the REYES loop for one primitive.
@@ -110,6 +115,18 @@ Bound3 rasterBound(const Bound3& objectBound, const DiceParams& p);
 
 /// rasterBound() of a camera-space bound (e.g. DiceParams::sweep).
 Bound3 rasterBoundOfCamera(const Bound3& cameraBound, const DiceParams& p);
+
+/// The raster area, in pixels, a primitive needs diced inside
+/// DiceParams::rasterWindow, measured on its test lattice: the area its
+/// cells cover there (each cut into two triangles clipped to the window;
+/// layers that overlap on screen each count), and a strip one grid's side
+/// wide along every side of the window the lattice crosses (a piece
+/// reaching into the frame is cut along its edge into pieces about a grid
+/// wide, however little of them shows). The pieces of a surface that tile
+/// it add up to its need; pieces that pile up in view each keep it.
+/// Negative when it cannot be measured: the primitive is not diceable, or
+/// (perspective) it reaches behind the eye plane.
+double rasterNeed(const geometry::Primitive& prim, const DiceParams& p);
 
 /// True when the camera-space bound cannot reach the raster window or the
 /// clipping range: tested against the window's four side planes in camera

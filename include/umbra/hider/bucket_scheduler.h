@@ -91,9 +91,13 @@ public:
     virtual Bound3 rasterBound(const geometry::Primitive& prim) = 0;
     /// Cull, split, or dice at which rate. `eyeSplits` counts the splits so
     /// far caused by the eye plane; `splitBudget` is the raster area, in
-    /// pixels, the piece's pieces may cover between them (see
-    /// dice::DiceParams::splitBudget).
-    virtual Plan plan(const geometry::Primitive& prim, int eyeSplits, double splitBudget) = 0;
+    /// pixels, the piece's pieces may need between them, and `need` what it
+    /// needs itself (see dice::DiceParams::splitBudget and pieceNeed).
+    virtual Plan plan(const geometry::Primitive& prim, int eyeSplits, double splitBudget, double need) = 0;
+    /// The raster area, in pixels, the piece needs diced inside the region
+    /// the frame samples (dice::rasterNeed); negative when it cannot be
+    /// measured, and the scheduler takes the piece's bound there instead.
+    virtual double rasterNeed(const geometry::Primitive& prim) = 0;
     /// Dices at nu x nv, displaces and shades, and fills `out` in raster
     /// space. Returns false when nothing of it can be seen (e.g. all back
     /// facing). Called concurrently from many threads.

@@ -147,7 +147,47 @@ TEST(Dice, APieceWhoseSplitBudgetIsSpentIsDicedIntoOneGridWithAWarning) {
         }
         ASSERT_EQ(diag.warningCount(), 1);
         EXPECT_NE(diag.recorded()[0].message.find("would cover the frame many times over"), std::string::npos);
+        // A piece that needs no more than one grid's worth of pixels in
+        // the frame (the rest of it off the frame) loses nothing by being
+        // diced into one grid: no warning.
+        Diagnostics quiet;
+        quiet.setRecord(true);
+        quiet.setSink([](const Diagnostic&) {});
+        p.splitBudget = 0;
+        p.pieceNeed = rate * p.gridSize;
+        EXPECT_EQ(decide(*q, q->bound(), p, 0, &quiet).decision, Decision::Dice);
+        EXPECT_EQ(quiet.warningCount(), 0);
+        p.pieceNeed = kInfinity;
     }
+}
+
+TEST(Dice, RasterNeedIsTheAreaInTheWindowAndAStripAlongEachSideCrossed) {
+    // A quad 64 x 32 pixels (orthographic, 16 pixels a unit, x from -32
+    // to 32). Inside the window its need is its area; across the window's
+    // left side (x = 0) it is the part inside, 32 x 32, and a strip a
+    // grid's side wide (sqrt(256 x rate 1) = 16) along the 32 pixels of
+    // that side. Its two halves add up to it, and so would any tiling.
+    DiceParams p;
+    p.orthographic = true;
+    p.rasterFromCamera = Mat4::scale({16, 16, 1});
+    p.nearClip = -100;
+    p.rasterWindow[0] = -100; p.rasterWindow[1] = 100;
+    p.rasterWindow[2] = -100; p.rasterWindow[3] = 100;
+    auto q = quad({-2, -1, 5}, {2, -1, 5}, {2, 1, 5}, {-2, 1, 5});
+    EXPECT_NEAR(rasterNeed(*q, p), 64.0 * 32.0, 1e-3);
+    p.rasterWindow[0] = 0;
+    EXPECT_NEAR(rasterNeed(*q, p), 32.0 * 32.0 + 16.0 * 32.0, 1e-3);
+    std::vector<PrimitivePtr> halves;
+    q->split(true, halves);
+    ASSERT_EQ(halves.size(), 2u);
+    EXPECT_NEAR(rasterNeed(*halves[0], p) + rasterNeed(*halves[1], p), rasterNeed(*q, p), 1e-3);
+    // A quad seen edge-on, inside the window, needs nothing.
+    auto edgeOn = quad({-2, -1, 5}, {2, -1, 5}, {2, -1, 6}, {-2, -1, 6});
+    p.rasterWindow[0] = -100;
+    EXPECT_NEAR(rasterNeed(*edgeOn, p), 0.0, 1e-3);
+    // Not measurable: behind a perspective eye.
+    DiceParams persp = perspective(Mat4::translate({0, 0, -5.5f}));
+    EXPECT_LT(rasterNeed(*q, persp), 0);
 }
 
 TEST(Dice, LoopRespectsGridSizeAndShadingRateOnASphere) {

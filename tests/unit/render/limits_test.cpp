@@ -366,11 +366,12 @@ TEST(Limits, ASurfaceWhosePiecesPileUpInViewStopsAtItsSplitBudget) {
     // lies far off the frame, but those slivers sweep across every row of
     // it. Pieces along them stay in view down to float precision, and they
     // multiplied until memory ran out (4 GB in 18 seconds; Aqsis 1.8.4
-    // does not finish it either). A primitive's pieces may now cover 64 times its area in the
-    // frame between them: here the frame, 64 x 48 pixels with the filter's
-    // margin of 1 and 16 pixels of allowance each way, so at most
-    // 64 x 82 x 66 / 256 grids of 256 micropolygons. The sphere beside it
-    // has a budget of its own and renders whole.
+    // does not finish it either). A primitive's pieces may now need 64
+    // times what it needs between them, its need no more than its bound
+    // holds in the frame: 66 x 50 pixels (64 x 48 and the filter's margin
+    // of 1) and a 16-pixel strip along each side, at most
+    // 64 x (66 x 50 + 16 x 2 x (66 + 50) + 16) pixels, 1,757 grids' worth.
+    // The sphere beside it has a budget of its own and renders whole.
     ScratchDir dir("limits-budget");
     const std::string scene = R"(Display "{}" "openexr" "rgba" "string type" "float"
 Format 64 48 1
@@ -404,7 +405,7 @@ AttributeEnd)";
                                            "many times over"))
         << corrupt.messages;
     const auto counts = nlohmann::json::parse(readText(stats))["frames"][0]["passes"][0]["counts"];
-    EXPECT_LE(counts["grids"].get<uint64_t>(), 64u * 82u * 66u / 256u + 8u);  // + the sphere's
+    EXPECT_LE(counts["grids"].get<uint64_t>(), 64u * (66u * 50u + 16u * 2u * (66u + 50u) + 16u) / 256u + 8u);
 
     // The slivers cover what the healthy patch covers, the frame's right
     // third (x from 0 to 4/3 of [-4/3, 4/3]); the sphere beside it is whole.
@@ -416,6 +417,57 @@ AttributeEnd)";
     EXPECT_NEAR(sphereOnly, disc, 0.03 * disc);
     EXPECT_NEAR(withHealthy, sphereOnly + 32 * 48, 0.01 * 32 * 48);
     EXPECT_NEAR(withCorrupt, withHealthy, 0.01 * 32 * 48);
+}
+
+TEST(Limits, SurfacesThatTileTheImageNeverSpendTheirSplitBudget) {
+    // Ordinary surfaces whose pieces' bounds overlap heavily: a ground
+    // plane 2,000 units wide running from under the camera to the horizon
+    // (every wedge's bound reaches the horizon; slivers along it need more
+    // micropolygons than their area), the same plane crossing the frame
+    // under motion blur, and a sphere filling the frame. The first split
+    // budget, shared by the pieces' bound areas, ran out on the plane and
+    // diced parts of it coarsely with the budget's warning. Measured on the
+    // surface, none of them comes near it; each covers what it should.
+    const std::string ground = R"(Patch "bilinear" "P" [-1000 0 0.1  1000 0 0.1  -1000 0 2000  1000 0 2000])";
+    // The camera is a unit above the ground, 3.1 units from its near edge
+    // and 2,003 from its far one, turned 10 degrees up; the ground covers
+    // the rows between those edges' depression angles (each seen 10
+    // degrees further below the centre), across the whole width.
+    const auto row = [](double depression) { return 120.0 * std::tan(depression + 10 * kPi / 180) / std::tan(kPi / 6); };
+    const double groundShare = (row(std::atan(1 / 3.1)) - row(std::atan(1 / 2003.0))) / 240.0;
+    struct Case {
+        const char* name;
+        std::string options, world;
+        double coverage;  // share of the frame
+    };
+    const std::vector<Case> cases = {
+        {"ground", "Rotate 10 1 0 0\nTranslate 0 -1 0", ground, groundShare},
+        {"moving ground", "Shutter 0 1\nRotate 10 1 0 0\nTranslate 0 -1 0",
+         "MotionBegin [0 1]\nTranslate -3 0 0\nTranslate 3 0 0\nMotionEnd\n" + ground, groundShare},
+        {"sphere", "", "Sphere 3 -3 3 360", 1.0},
+    };
+    for (const Case& c : cases) {
+        ScratchDir dir("limits-tiling");
+        const std::string out = dir.file("out.exr");
+        Diagnostics diag;
+        diag.setRecord(true);
+        diag.setSink([](const Diagnostic&) {});
+        test::renderRib(fmt::format(R"(Display "{}" "openexr" "rgba" "string type" "float"
+Format 320 240 1
+Projection "perspective" "fov" 60
+{}
+Translate 0 0 3
+WorldBegin
+Surface "constant"
+{}
+WorldEnd
+)", out, c.options, c.world), diag);
+        for (const Diagnostic& m : diag.recorded())
+            EXPECT_EQ(m.message.find("would cover the frame"), std::string::npos) << c.name << ": " << m.message;
+        Image img;
+        ASSERT_TRUE(test::readImage(out, &img)) << c.name;
+        EXPECT_NEAR(img.channelSum(3) / (320.0 * 240.0), c.coverage, 0.002) << c.name;  // half a row
+    }
 }
 
 TEST(Limits, SigtermStopsTheRenderWritesNoImageAndLeavesNoTemporaries) {
