@@ -1,4 +1,5 @@
 #include "umbra/geometry/trim.h"
+#include "umbra/util/math.h"
 
 #include <algorithm>
 #include <cmath>
@@ -121,8 +122,10 @@ bool TrimRegion::insideLoops(float u, float v) const {
 TrimRegion::Cover TrimRegion::classify(float u0, float u1, float v0, float v1) const {
     if (!m_bands.empty() && v1 >= m_vLo && v0 <= m_vHi) {
         const int last = int(m_bands.size()) - 1;
-        const int b0 = std::clamp(int((v0 - m_vLo) * m_bandScale), 0, last);
-        const int b1 = std::clamp(int((v1 - m_vLo) * m_bandScale), 0, last);
+        // Clamped before the conversion: a piece's v range can reach far
+        // past the loops' (a corrupt NuPatch's, 2.5e37 once).
+        const int b0 = floorToIntClamped(double(v0 - m_vLo) * m_bandScale, 0, last);
+        const int b1 = floorToIntClamped(double(v1 - m_vLo) * m_bandScale, 0, last);
         for (int b = b0; b <= b1; ++b)
             for (int k : m_bands[size_t(b)]) {
                 const float* s = &m_seg[size_t(k) * 4];

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 
 using namespace umbra;
 using namespace umbra::geometry;
@@ -88,6 +89,23 @@ TEST(TrimRegion, NestedLoopsAndSense) {
     EXPECT_EQ(removeInside->classify(0.0f, 0.05f, 0.0f, 1.0f), Cover::Kept);
     EXPECT_EQ(removeInside->classify(0.3f, 0.5f, 0.3f, 0.5f), Cover::Mixed);
     EXPECT_EQ(keepInside->classify(0.2f, 0.3f, 0.2f, 0.3f), Cover::Kept);
+}
+
+TEST(TrimRegion, RangesFarPastTheLoopsAreClassifiedWithoutOverflow) {
+    // A corrupt NuPatch's pieces (a fuzzer's) reached v = 2.5e37, and the
+    // band index overflowed int (undefined behaviour, caught by UBSan).
+    // Ranges reaching any distance past the loops, or NaN, classify as the
+    // bands at their ends do.
+    scene::TrimCurveRecord rec;
+    addSquare(rec, 0.4f, 0.6f);
+    auto region = TrimRegion::make(rec, true);
+    using Cover = TrimRegion::Cover;
+    EXPECT_EQ(region->classify(0.45f, 0.55f, 0.45f, 2.5e37f), Cover::Mixed);     // crosses the top edge
+    EXPECT_EQ(region->classify(0.45f, 0.55f, -2.5e37f, 0.55f), Cover::Mixed);    // and the bottom one
+    EXPECT_EQ(region->classify(0.0f, 0.1f, -2.5e37f, 2.5e37f), Cover::Kept);     // beside the loop
+    EXPECT_EQ(region->classify(0.0f, 0.1f, -kInfinity, kInfinity), Cover::Kept);
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    EXPECT_EQ(region->classify(0.0f, 0.1f, nan, nan), region->keeps(0.05f, nan) ? Cover::Kept : Cover::Removed);
 }
 
 TEST(TrimRegion, NuPatchPiecesKnowWhetherTheTrimReachesThem) {
