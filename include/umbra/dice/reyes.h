@@ -73,9 +73,9 @@ struct DiceParams {
     /// plane test it; the dicing rate is measured at the shutter's opening
     /// (cameraFromObject), where the grid is shaded. Empty: not moving.
     Bound3 sweep;
-    /// The raster area, in pixels, that this piece and the pieces it splits
-    /// into may cover between them (their bounds clipped to the frame; see
-    /// hider::BucketScheduler). A piece whose budget is less than two
+    /// The raster area, in pixels, that the pieces this piece splits into
+    /// may need between them (rasterNeed(); shared out by the bucket
+    /// scheduler, Frame::shareBudget). A piece whose budget is less than two
     /// grids' worth (2 x shadingRate x gridSize) is diced now, coarser than
     /// the shading rate if it must, with a warning: a surface whose pieces
     /// all stay in view (folded on itself, corrupt control points) would

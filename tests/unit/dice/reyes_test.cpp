@@ -19,6 +19,19 @@ namespace {
 constexpr float kW = 640, kH = 480;
 
 // A 90-degree perspective camera looking down +z: raster = (320 + 320 x/z, 240 - 320 y/z).
+/// An orthographic view of `pixelsPerUnit` pixels a unit, looking down z,
+/// whose raster window is [-halfWindow, halfWindow] each way (unbounded by
+/// default).
+DiceParams orthographic(float pixelsPerUnit, float halfWindow = kInfinity) {
+    DiceParams p;
+    p.orthographic = true;
+    p.rasterFromCamera = Mat4::scale({pixelsPerUnit, pixelsPerUnit, 1});
+    p.nearClip = -100;
+    p.rasterWindow[0] = p.rasterWindow[2] = -halfWindow;
+    p.rasterWindow[1] = p.rasterWindow[3] = halfWindow;
+    return p;
+}
+
 DiceParams perspective(const Mat4& cameraFromObject = Mat4::identity()) {
     DiceParams p;
     p.cameraFromObject = cameraFromObject;
@@ -119,10 +132,7 @@ TEST(Dice, APieceWhoseSplitBudgetIsSpentIsDicedIntoOneGridWithAWarning) {
     // It splits while its budget holds two grids' worth of pixels
     // (2 x rate x 256); with less it is diced into one grid of the same
     // proportions, coarser than the rate, and the user is told once.
-    DiceParams p;
-    p.orthographic = true;
-    p.rasterFromCamera = Mat4::scale({16, 16, 1});
-    p.nearClip = -100;
+    DiceParams p = orthographic(16);
     auto q = quad({-2, -1, 5}, {2, -1, 5}, {2, 1, 5}, {-2, 1, 5});
     for (const float rate : {1.0f, 4.0f}) {
         p.shadingRate = rate;
@@ -167,12 +177,7 @@ TEST(Dice, RasterNeedIsTheAreaInTheWindowAndAStripAlongEachSideCrossed) {
     // left side (x = 0) it is the part inside, 32 x 32, and a strip a
     // grid's side wide (sqrt(256 x rate 1) = 16) along the 32 pixels of
     // that side. Its two halves add up to it, and so would any tiling.
-    DiceParams p;
-    p.orthographic = true;
-    p.rasterFromCamera = Mat4::scale({16, 16, 1});
-    p.nearClip = -100;
-    p.rasterWindow[0] = -100; p.rasterWindow[1] = 100;
-    p.rasterWindow[2] = -100; p.rasterWindow[3] = 100;
+    DiceParams p = orthographic(16, 100);
     auto q = quad({-2, -1, 5}, {2, -1, 5}, {2, 1, 5}, {-2, 1, 5});
     EXPECT_NEAR(rasterNeed(*q, p), 64.0 * 32.0, 1e-3);
     p.rasterWindow[0] = 0;
@@ -292,12 +297,7 @@ TEST(Dice, PiecesBeyondFloatResolutionAreDicedCoarselyWithOneWarning) {
     // coarse anyway). A quad 2 * 10^8 across runs out of halvings only near
     // the view, where the last pieces are diced coarsely; the rest split
     // and are culled as usual.
-    DiceParams p;
-    p.orthographic = true;
-    p.rasterFromCamera = Mat4::scale({100, 100, 1});
-    p.nearClip = -100;
-    p.rasterWindow[0] = -100; p.rasterWindow[1] = 100;
-    p.rasterWindow[2] = -100; p.rasterWindow[3] = 100;
+    DiceParams p = orthographic(100, 100);
     for (const float size : {1e12f, 1e8f}) {
         Diagnostics diag;
         diag.setRecord(true);
