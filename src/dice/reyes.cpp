@@ -287,6 +287,27 @@ void warnPrecision(const geometry::Primitive& prim, Diagnostics* diag) {
                           prim.record().type);
 }
 
+/// How a raster region (a bound) meets DiceParams::rasterWindow: its
+/// width and height inside the window, and the pixels of the strips one
+/// grid's side wide along every side of the window it crosses (a piece
+/// reaching into the frame is cut along the edge into pieces about a grid
+/// wide, however little of them shows).
+struct WindowOverlap {
+    double across, down, strips;
+    WindowOverlap(const Bound3& r, const DiceParams& p) {
+        const float* w = p.rasterWindow;
+        const auto inside = [](float lo, float hi, float w0, float w1) {
+            return std::max(std::min(double(hi), double(w1)) - std::max(double(lo), double(w0)), 0.0);
+        };
+        across = inside(r.min.x, r.max.x, w[0], w[1]);
+        down = inside(r.min.y, r.max.y, w[2], w[3]);
+        const int sidesX = (r.min.x < w[0]) + (r.max.x > w[1]);
+        const int sidesY = (r.min.y < w[2]) + (r.max.y > w[3]);
+        const double gridSide = std::sqrt(double(std::max(p.gridSize, 1)) * double(std::max(p.shadingRate, 1e-6f)));
+        strips = gridSide * (sidesX * down + sidesY * across);
+    }
+};
+
 void warnBudget(const geometry::Primitive& prim, Diagnostics* diag) {
     if (diag)
         diag->warningOnce("dice:budget", prim.record().loc,
@@ -307,25 +328,22 @@ double rasterNeed(const geometry::Primitive& prim, const DiceParams& p) {
     prim.dicePositions(n, n, P);
     const Mat4 rasterFromObject = p.rasterFromCamera * p.cameraFromObject;
     for (Vec3& q : P) q = rasterFromObject.point(q);
-    const float* w = p.rasterWindow;
     Bound3 lattice;
     for (const Vec3& q : P) lattice.extend(q);
-    const auto inside = [](float lo, float hi, float w0, float w1) {
-        return std::max(std::min(double(hi), double(w1)) - std::max(double(lo), double(w0)), 0.0);
-    };
-    const double across = inside(lattice.min.x, lattice.max.x, w[0], w[1]);
-    const double down = inside(lattice.min.y, lattice.max.y, w[2], w[3]);
-    const int sidesX = (lattice.min.x < w[0]) + (lattice.max.x > w[1]);
-    const int sidesY = (lattice.min.y < w[2]) + (lattice.max.y > w[3]);
-    const double gridSide = std::sqrt(double(std::max(p.gridSize, 1)) * double(std::max(p.shadingRate, 1e-6f)));
-    double need = gridSide * (sidesX * down + sidesY * across);
+    double need = WindowOverlap(lattice, p).strips;
     for (int j = 0; j < n; ++j)
         for (int i = 0; i < n; ++i) {
             const Vec3 &a = P[size_t(j * (n + 1) + i)], &b = P[size_t(j * (n + 1) + i + 1)];
             const Vec3 &c = P[size_t((j + 1) * (n + 1) + i + 1)], &d = P[size_t((j + 1) * (n + 1) + i)];
-            need += clippedTriangleArea(a, b, c, w) + clippedTriangleArea(a, c, d, w);
+            need += clippedTriangleArea(a, b, c, p.rasterWindow) + clippedTriangleArea(a, c, d, p.rasterWindow);
         }
     return std::isfinite(need) ? need : -1;
+}
+
+double boundNeed(const Bound3& rasterBound, const DiceParams& p) {
+    if (rasterBound.empty()) return 0;
+    const WindowOverlap o(rasterBound, p);
+    return o.across * o.down + o.strips;
 }
 
 DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, const DiceParams& p, int eyeSplits,

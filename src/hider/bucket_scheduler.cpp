@@ -135,34 +135,11 @@ struct Frame {
         return node.bucketCount() > 0;
     }
 
-    /// The region the buckets sample: the frame and the filter's margin.
-    struct Window {
-        double x0, x1, y0, y1;
-    };
-    Window window() const {
-        const double m = settings.filterMargin;
-        return {double(film.x0()) - m, double(film.x0() + film.width()) + m, double(film.y0()) - m,
-                double(film.y0() + film.height()) + m};
-    }
-
-    /// What a node needs diced in the frame, in pixels: dice::rasterNeed,
-    /// but no more than its bound can hold there (the bound's area in the
-    /// window and a strip kEdgeStrip wide along each side of the window it
-    /// crosses; a lattice near a perspective eye can measure more), and
-    /// that when it cannot be measured; and a little more, so that a piece
+    /// What a node needs diced in the frame, in pixels
+    /// (GeometryPipeline::rasterNeed), and a little more, so that a piece
     /// that only touches the frame has a share.
-    static constexpr double kEdgeStrip = 16;  // a grid's side at the default size and rate
     static constexpr double kLeastNeed = 16;
-    double need(const Node& node) {
-        const Window w = window();
-        const Bound3& b = node.bound;
-        const double across = std::max(std::min(double(b.max.x), w.x1) - std::max(double(b.min.x), w.x0), 0.0);
-        const double down = std::max(std::min(double(b.max.y), w.y1) - std::max(double(b.min.y), w.y0), 0.0);
-        const int sidesX = (b.min.x < w.x0) + (b.max.x > w.x1), sidesY = (b.min.y < w.y0) + (b.max.y > w.y1);
-        const double bounded = across * down + kEdgeStrip * (sidesX * down + sidesY * across);
-        const double measured = pipeline.rasterNeed(*node.prim);
-        return (measured >= 0 ? std::min(measured, bounded) : bounded) + kLeastNeed;
-    }
+    double need(const Node& node) { return pipeline.rasterNeed(*node.prim, node.bound) + kLeastNeed; }
 
     /// The split budget (dice::DiceParams::splitBudget): a primitive's
     /// pieces may need kSplitBudget times its own need between them. The

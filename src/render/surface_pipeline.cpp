@@ -288,8 +288,17 @@ hider::GeometryPipeline::Plan SurfacePipeline::plan(const geometry::Primitive& p
     return plan;
 }
 
-double SurfacePipeline::rasterNeed(const geometry::Primitive& prim) {
+double SurfacePipeline::rasterNeed(const geometry::Primitive& prim, const Bound3& rasterBound) {
     dice::DiceParams p = diceParams(prim);
+    const double measured = measuredNeed(prim, p);
+    // The cap on the frame's own window, not the one a lens widens (which
+    // can be infinite).
+    std::copy(m_rasterWindow, m_rasterWindow + 4, p.rasterWindow);
+    const double bounded = dice::boundNeed(rasterBound, p);
+    return measured >= 0 ? std::min(measured, bounded) : bounded;
+}
+
+double SurfacePipeline::measuredNeed(const geometry::Primitive& prim, dice::DiceParams p) const {
     if (p.sweep.empty()) return dice::rasterNeed(prim, p);
     // A moving piece: the mean of its needs at its placement times (its
     // shape at the shutter's opening, placed at each). The mean, not the

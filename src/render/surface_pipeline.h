@@ -37,7 +37,7 @@ public:
 
     Bound3 rasterBound(const geometry::Primitive& prim) override;
     Plan plan(const geometry::Primitive& prim, int eyeSplits, double splitBudget, double need) override;
-    double rasterNeed(const geometry::Primitive& prim) override;
+    double rasterNeed(const geometry::Primitive& prim, const Bound3& rasterBound) override;
     bool shade(const geometry::Primitive& prim, int nu, int nv, uint64_t id, hider::ShadedGrid& out) override;
 
 private:
@@ -54,6 +54,9 @@ private:
     /// chords of at most kMaxChordTurn). Only the opening when the piece
     /// does not move in this pass.
     void placementTimes(const geometry::Primitive& prim, std::vector<float>& times) const;
+    /// dice::rasterNeed, of a moving piece the mean over its placement
+    /// times; negative when it cannot be measured.
+    double measuredNeed(const geometry::Primitive& prim, dice::DiceParams p) const;
     /// The piece's camera-space bound over the placement times (padded by
     /// the displacement bound as dice::cameraBound pads).
     Bound3 sweptBound(const geometry::Primitive& prim, const dice::DiceParams& p,

@@ -128,6 +128,13 @@ Bound3 rasterBoundOfCamera(const Bound3& cameraBound, const DiceParams& p);
 /// (perspective) it reaches behind the eye plane.
 double rasterNeed(const geometry::Primitive& prim, const DiceParams& p);
 
+/// The most a piece with this raster bound can need inside
+/// DiceParams::rasterWindow: the bound's area there, and the same strips
+/// along the sides it crosses as rasterNeed(). What a piece that cannot be
+/// measured needs, and a cap on what a lattice near a perspective eye
+/// measures. Finite whenever the window is.
+double boundNeed(const Bound3& rasterBound, const DiceParams& p);
+
 /// True when the camera-space bound cannot reach the raster window or the
 /// clipping range: tested against the window's four side planes in camera
 /// space (no division, so it works for bounds behind the eye too).

@@ -95,9 +95,10 @@ public:
     /// needs itself (see dice::DiceParams::splitBudget and pieceNeed).
     virtual Plan plan(const geometry::Primitive& prim, int eyeSplits, double splitBudget, double need) = 0;
     /// The raster area, in pixels, the piece needs diced inside the region
-    /// the frame samples (dice::rasterNeed); negative when it cannot be
-    /// measured, and the scheduler takes the piece's bound there instead.
-    virtual double rasterNeed(const geometry::Primitive& prim) = 0;
+    /// the frame samples (dice::rasterNeed), but no more than its raster
+    /// bound (rasterBound()) holds there (dice::boundNeed), and that when
+    /// it cannot be measured. Never negative.
+    virtual double rasterNeed(const geometry::Primitive& prim, const Bound3& rasterBound) = 0;
     /// Dices at nu x nv, displaces and shades, and fills `out` in raster
     /// space. Returns false when nothing of it can be seen (e.g. all back
     /// facing). Called concurrently from many threads.

@@ -186,6 +186,15 @@ TEST(Dice, RasterNeedIsTheAreaInTheWindowAndAStripAlongEachSideCrossed) {
     q->split(true, halves);
     ASSERT_EQ(halves.size(), 2u);
     EXPECT_NEAR(rasterNeed(*halves[0], p) + rasterNeed(*halves[1], p), rasterNeed(*q, p), 1e-3);
+    // A rectangle facing the camera fills its bound, so the most its bound
+    // can need is what it needs; a larger shading rate widens the strip
+    // to a grid's side at that rate, sqrt(256 x 4) = 32.
+    EXPECT_NEAR(boundNeed(rasterBound(q->bound(), p), p), 32.0 * 32.0 + 16.0 * 32.0, 1e-3);
+    p.shadingRate = 4;
+    EXPECT_NEAR(boundNeed(rasterBound(q->bound(), p), p), 32.0 * 32.0 + 32.0 * 32.0, 1e-3);
+    EXPECT_NEAR(rasterNeed(*q, p), 32.0 * 32.0 + 32.0 * 32.0, 1e-3);
+    p.shadingRate = 1;
+    EXPECT_EQ(boundNeed(Bound3{}, p), 0.0);
     // A quad seen edge-on, inside the window, needs nothing.
     auto edgeOn = quad({-2, -1, 5}, {2, -1, 5}, {2, -1, 6}, {-2, -1, 6});
     p.rasterWindow[0] = -100;
