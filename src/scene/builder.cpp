@@ -1369,6 +1369,14 @@ void Builder::detailRange(const std::array<float, 4>& r, const FileLoc& loc) {
 }
 
 void Builder::geometricApproximation(const std::string& type, float value, const FileLoc& loc) {
+    // "flatness" (RI Spec 3.2) and PRMan's "motionfactor" are honoured;
+    // another renderer's ("tesselation", "focusfactor", ...) would
+    // otherwise be kept without effect and without a word.
+    if (type != "flatness" && type != "motionfactor")
+        unsupported("GeometricApproximation:" + type, loc,
+                    fmt::format("GeometricApproximation \"{}\": not a type umbra knows (it knows \"flatness\" and "
+                                "\"motionfactor\"); ignored",
+                                type));
     ri::Param p;
     p.decl.name = type;
     p.decl.type = ri::ParamType::Float;

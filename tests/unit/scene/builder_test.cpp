@@ -373,6 +373,16 @@ TEST(Builder, UnsupportedRequestsWarnOnce) {
     ASSERT_EQ(r->sink.worlds.at(0).primitives.size(), 1u);
 }
 
+TEST(Builder, GeometricApproximationTypesOfOtherRenderersWarnOnce) {
+    auto r = run("WorldBegin GeometricApproximation \"flatness\" 0.5\n"
+                 "GeometricApproximation \"tesselation\" 4 GeometricApproximation \"tesselation\" 64\n"
+                 "GeometricApproximation \"motionfactor\" 1 Sphere 1 -1 1 360 WorldEnd");
+    EXPECT_EQ(r->messages(), (std::vector<std::string>{
+        "s.rib:2:1: warning: GeometricApproximation \"tesselation\": not a type umbra knows (it knows "
+        "\"flatness\" and \"motionfactor\"); ignored"}));
+    ASSERT_EQ(r->sink.worlds.at(0).primitives.size(), 1u);
+}
+
 TEST(Builder, ProceduralsAreRecordedWithTheirBoundAndStrings) {
     auto r = run("WorldBegin Translate 1 0 0 Color [1 0 0]\n"
                  "Procedural \"DelayedReadArchive\" [\"a.rib\"] [-1 1 -2 2 -3 3]\n"
