@@ -5,13 +5,22 @@
 //   or      := and ( '||' and )*
 //   and     := not ( '&&' not )*
 //   not     := '!' not | compare
-//   compare := primary ( ( '==' | '!=' | '<' | '>' | '<=' | '>=' ) primary )?
+//   compare := sum ( ( '==' | '!=' | '<' | '>' | '<=' | '>=' | '=~' ) sum )?
+//   sum     := product ( ( '+' | '-' ) product )*
+//   product := unary ( ( '*' | '/' ) unary )*
+//   unary   := ( '-' | '+' ) unary | primary
 //   primary := number | 'string' | "string" | reference | 'defined' '(' reference ')'
-//            | 'true' | 'false' | '(' or ')'
-//   reference := '$' name | '${' name '}'     (name: letters, digits, _ : .)
+//            | 'concat' '(' or ( ',' or )* ')' | 'true' | 'false' | '(' or ')'
+//   reference := '$' name | '${' name '}' | '$(' name ')' | '$(' or ')'
+//                (name: letters, digits, _ : .; the last form names what
+//                its expression's value spells)
 //
-// Two numbers compare as numbers, anything else as text. A value is true
-// when it is a non-zero number or a non-empty string.
+// Two numbers compare as numbers, anything else as text. Arithmetic takes
+// numbers and strings that spell one. `a =~ b` is true when the
+// ECMAScript regular expression b matches somewhere in the text of a. In
+// a quoted string a backslash escapes the quote or a backslash. A value
+// is true when it is a non-zero number or a non-empty string. (Pixie's
+// grammar, with PRMan's =~.)
 
 #include <functional>
 #include <string>

@@ -70,6 +70,48 @@ TEST(Condition, DefinedAndUndefinedReferences) {
     EXPECT_EQ(e.undefined, std::vector<std::string>{"user:nope"});
 }
 
+TEST(Condition, ArithmeticAsPixieReadsIt) {
+    Eval e;
+    EXPECT_TRUE(e("1 + 4 * 7.0 == 29"));      // * binds tighter than +
+    EXPECT_TRUE(e("(1 + 4) * 7 == 35"));
+    EXPECT_TRUE(e("$Frame - 1 == 2"));
+    EXPECT_TRUE(e("$Frame/2 == 1.5"));
+    EXPECT_TRUE(e("-$Frame == -3 && - -2 == 2 && +2 == 2"));
+    EXPECT_TRUE(e("10 - 4 - 3 == 3"));          // left to right
+    EXPECT_TRUE(e("$user:lod * 2 > $Frame + 1"));
+    EXPECT_TRUE(e("'12' + 1 == 13"));           // a string that spells a number
+    EXPECT_TRUE(e("1 + 4 * 7.0 == '29'"));      // compared as text, "29" == "29"
+    EXPECT_FALSE(e("1 + 4 * 7.0 == '29' && false"));
+    EXPECT_EQ(e.fails("'abc' + 1"), "arithmetic on the string 'abc' (concat() joins strings)");
+}
+
+TEST(Condition, ConcatMatchAndIndirectReferences) {
+    Eval e;
+    e.values["user:which"] = {true, 0, "pass"};
+    EXPECT_TRUE(e("concat('sha', 'dow') == $user:pass"));
+    EXPECT_TRUE(e("concat('frame', $Frame) == 'frame3'"));
+    EXPECT_TRUE(e("$(concat('user:', $user:which)) == 'shadow'"));  // names what it spells
+    EXPECT_TRUE(e("1 == $(Frame) - 2"));                           // $(name) as ${name}
+    EXPECT_TRUE(e("$user:pass =~ '^sha'"));
+    EXPECT_FALSE(e("$user:pass =~ '^dow'"));
+    EXPECT_TRUE(e("'*abc\\'' =~ '\\*abc?' || 1 == $(Frame)"));  // \' is a quote, \* stays for the pattern
+    EXPECT_EQ(e.fails("'x' =~ '('").substr(0, 24), "=~: '(' is not a regular");
+    // Patterns that make a backtracking matcher take exponential time are
+    // answered at once; too long a pattern is refused.
+    EXPECT_FALSE(e("'aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaa' =~ '^(a*)*b$'"));
+    EXPECT_EQ(e.fails("'x' =~ '" + std::string(300, 'a') + "'"),
+              "=~ takes a text and a pattern of at most 256 characters");
+}
+
+TEST(Condition, DeepNestingIsRefusedNotOverflowed) {
+    Eval e;
+    EXPECT_EQ(e.fails(std::string(100000, '(') + "1" + std::string(100000, ')')),
+              "the expression is nested too deeply");
+    EXPECT_EQ(e.fails(std::string(100000, '!') + "1"), "the expression is nested too deeply");
+    EXPECT_EQ(e.fails(std::string(100000, '-') + "1"), "the expression is nested too deeply");
+    EXPECT_TRUE(e(std::string(50, '(') + "1" + std::string(50, ')')));
+}
+
 TEST(Condition, MalformedExpressionsSayWhere) {
     Eval e;
     EXPECT_EQ(e.fails("$user:pass == "), "expected a value, got the end");
