@@ -199,6 +199,9 @@ const RequestSpec kRequests[] = {
      UMBRA_H(float ang = a.f(); Vec3 d1 = a.v3(); t.skew(ang, d1, a.v3(), l))},
     {"Perspective", "f", "fov", false, UMBRA_H(t.perspective(a.f(), l))},
     {"CoordinateSystem", "s", "name", false, UMBRA_H(t.coordinateSystem(a.s(), l))},
+    // PRMan's: a CoordinateSystem whose name AttributeEnd forgets. Named
+    // for the rest of the frame here (names are rarely reused in a frame).
+    {"ScopedCoordinateSystem", "s", "name", false, UMBRA_H(t.coordinateSystem(a.s(), l))},
     {"ScopedCoordinateSystem", "s", "name", false, UMBRA_H(t.scopedCoordinateSystem(a.s(), l))},
     {"CoordSysTransform", "s", "name", false, UMBRA_H(t.coordSysTransform(a.s(), l))},
     {"Camera", "s", "name", true, UMBRA_H(t.camera(a.s(), std::move(p), l))},
@@ -319,6 +322,36 @@ const RequestSpec* findRequest(std::string_view name) {
         for (const RequestSpec& r : kRequests) m.emplace(r.name, &r);
         return m;
     }();
+    auto it = table.find(name);
+    return it == table.end() ? nullptr : it->second;
+}
+
+/// Requests of later RenderMan versions that umbra does not have. A file
+/// written for them is warned once per request and rendered without them,
+/// as Aqsis renders what it can of such a file, rather than failed with an
+/// error at every use; a misspelt request is still an error.
+const char* foreignRequest(std::string_view name) {
+    static const std::unordered_map<std::string_view, const char*> table = {
+        {"Bxdf", "a RenderMan 19+ (RIS) material umbra does not have; the current Surface shades instead"},
+        {"Pattern", "a RenderMan 19+ (RIS) pattern node umbra does not have; ignored"},
+        {"Integrator", "a RenderMan 19+ (RIS) integrator umbra does not have; the REYES hider renders the frame"},
+        {"Light", "a RenderMan 19+ (RIS) light umbra does not have; it gives no light (LightSource does)"},
+        {"LightFilter", "a RenderMan 19+ (RIS) light filter umbra does not have; ignored"},
+        {"DisplayFilter", "a RenderMan 19+ (RIS) display filter umbra does not have; ignored"},
+        {"SampleFilter", "a RenderMan 19+ (RIS) sample filter umbra does not have; ignored"},
+        {"Shader", "a PRMan 15+ co-shader umbra does not have; ignored"},
+        {"Volume", "a PRMan 16+ volume primitive umbra does not have; ignored"},
+        {"VPSurface", "a PRMan visible-point shader umbra does not have; ignored"},
+        {"VPAtmosphere", "a PRMan visible-point shader umbra does not have; ignored"},
+        {"VPInterior", "a PRMan visible-point shader umbra does not have; ignored"},
+        {"MakeBrickMap", "a PRMan brick map umbra cannot make; ignored"},
+        {"EditBegin", "a PRMan re-rendering edit umbra does not have; ignored"},
+        {"EditEnd", "a PRMan re-rendering edit umbra does not have; ignored"},
+        {"EditAttributeBegin", "a PRMan re-rendering edit umbra does not have; ignored"},
+        {"EditAttributeEnd", "a PRMan re-rendering edit umbra does not have; ignored"},
+        {"EditWorldBegin", "a PRMan re-rendering edit umbra does not have; ignored"},
+        {"EditWorldEnd", "a PRMan re-rendering edit umbra does not have; ignored"},
+    };
     auto it = table.find(name);
     return it == table.end() ? nullptr : it->second;
 }
@@ -606,7 +639,11 @@ private:
         const RequestSpec* spec = findRequest(name);
         bool ok = collectValues(name);
         if (!spec) {
-            error(line, column, name, "unknown request (its arguments are skipped)");
+            if (const char* what = foreignRequest(name))
+                m_parser.m_diag.warningOnce("foreign:" + name, loc(line, column), "{}: {} (its arguments are skipped)",
+                                            name, what);
+            else
+                error(line, column, name, "unknown request (its arguments are skipped)");
             return;
         }
         if (!ok) return;

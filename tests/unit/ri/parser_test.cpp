@@ -105,6 +105,25 @@ TEST(Parser, UnknownRequestSkipsItsArguments) {
     EXPECT_EQ(p->rec.log, (std::vector<std::string>{"Translate 1 2 3"}));
 }
 
+TEST(Parser, RequestsOfLaterRenderManVersionsWarnOnceAndAreSkipped) {
+    // A RenderMan 19+ (RIS) file: its materials, patterns, lights and
+    // integrator are warned once per request name and skipped, the rest
+    // is read; a misspelt request is still an error.
+    auto p = parse("Integrator \"PxrPathTracer\" \"i\" \"int maxPathLength\" [5]\n"
+                   "Pattern \"PxrChecker\" \"c\" \"color colorA\" [1 0 0]\n"
+                   "Bxdf \"PxrDiffuse\" \"d\" \"reference color diffuseColor\" [\"c:resultRGB\"]\n"
+                   "Bxdf \"PxrDiffuse\" \"e\"\nTranslate 1 2 3\nBxdff \"x\"");
+    EXPECT_EQ(messages(p->diag), (std::vector<std::string>{
+        "t.rib:1:1: warning: Integrator: a RenderMan 19+ (RIS) integrator umbra does not have; the REYES hider "
+        "renders the frame (its arguments are skipped)",
+        "t.rib:2:1: warning: Pattern: a RenderMan 19+ (RIS) pattern node umbra does not have; ignored (its "
+        "arguments are skipped)",
+        "t.rib:3:1: warning: Bxdf: a RenderMan 19+ (RIS) material umbra does not have; the current Surface shades "
+        "instead (its arguments are skipped)",
+        "t.rib:6:1: error: Bxdff: unknown request (its arguments are skipped)"}));
+    EXPECT_EQ(p->rec.log, (std::vector<std::string>{"Translate 1 2 3"}));
+}
+
 TEST(Parser, DeclarationsInlineAndDeclared) {
     auto p = parse("Declare \"myfloat\" \"uniform float[2]\"\n"
                    "Surface \"s\" \"myfloat\" [1 2] \"varying color Cq\" [1 0 0] \"Kd\" 0.5 \"texturename\" \"a.tx\"");

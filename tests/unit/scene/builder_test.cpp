@@ -366,6 +366,15 @@ TEST(Builder, CoordinateSystems) {
     ASSERT_EQ(r->messages().size(), 1u);
 }
 
+TEST(Builder, ScopedCoordinateSystemNamesACoordinateSystem) {
+    // PRMan's ScopedCoordinateSystem, as RenderMan for Maya writes it.
+    auto r = run("WorldBegin AttributeBegin Translate 2 0 0 ScopedCoordinateSystem \"proj\" AttributeEnd\n"
+                 "CoordSysTransform \"proj\" Sphere 1 -1 1 360 WorldEnd");
+    const WorldRecord& w = r->sink.worlds.at(0);
+    expectNear(w.primitives.at(0).worldFromObject.point({}), {2, 0, 0});
+    EXPECT_TRUE(r->messages().empty());
+}
+
 TEST(Builder, UnsupportedRequestsWarnOnce) {
     auto r = run("WorldBegin Sphere 1 -1 1 360\n\nClippingPlane 0 0 1 0 0 -1 ClippingPlane 0 0 1 0 0 -1 WorldEnd");
     EXPECT_EQ(r->messages(), (std::vector<std::string>{
