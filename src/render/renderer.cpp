@@ -927,6 +927,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
           {"second_depth_shadowed", shadowStats.secondShadowed},
           {"virtual_sample_points", shadowStats.virtualPoints},
           {"stored_plane_lit", shadowStats.storedPlaneLit},
+          {"stored_plane_grid_points", shadowStats.storedPlaneGridPoints},
           {"lookup_seconds", services->lookupSeconds()},
           {"map_write_seconds", mapWriteSeconds},
           {"map_write_wait_seconds", mapWriteWaitSeconds},

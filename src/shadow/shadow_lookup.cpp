@@ -381,6 +381,7 @@ bool ShadowMap::batchDecided(const ShadowBatch& batch, const ShadowParams& param
     }
     decide(0.0f);
     st.storedPlaneLit += uint64_t(batch.count);
+    st.storedPlaneGridPoints += uint64_t(batch.count);
     return true;
 }
 
@@ -438,7 +439,7 @@ ShadowTile::DepthCoordinate ShadowMap::blockPlanes() const {
     return ShadowTile::DepthCoordinate::None;
 }
 
-ShadowMap::PlaneEnvelope ShadowMap::envelope(const TangentPlane& plane) const {
+inline ShadowMap::PlaneEnvelope ShadowMap::envelope(const TangentPlane& plane) const {
     PlaneEnvelope e;
     const double k = m_wScale;
     e.A = k * plane.a, e.B = k * plane.b, e.D = k * plane.d;
@@ -451,7 +452,15 @@ ShadowMap::PlaneEnvelope ShadowMap::envelopeOfFacing(const TangentPlane* planes,
     PlaneEnvelope env;
     *all = true;
     *any = false;
-    const double xMax = std::max(std::abs(x0), std::abs(x1)) + 1.0, yMax = std::max(std::abs(y0), std::abs(y1)) + 1.0;
+    // Two planes differ by (dA, dB, dD): over [x0 - 1, x1 + 1] x [y0 - 1,
+    // y1 + 1] (the texel centres the points' samples reach) by at most
+    // their difference at its centre plus |dA| and |dB| times its half
+    // extents. About the centre, not the origin: the planes of a flat grid
+    // differ in A, B and D by float rounding whose effects cancel there, and
+    // bounded about the origin they spread past what the stored-plane test
+    // allows on half of a floor's grids.
+    const double xm = 0.5 * (x0 + x1), ym = 0.5 * (y0 + y1);
+    const double hx = 0.5 * std::abs(x1 - x0) + 1.0, hy = 0.5 * std::abs(y1 - y0) + 1.0;
     for (int i = 0; i < count; ++i) {
         if (!planes[i].valid || !planes[i].facesLight) {
             *all = false;
@@ -463,8 +472,8 @@ ShadowMap::PlaneEnvelope ShadowMap::envelopeOfFacing(const TangentPlane* planes,
             *any = true;
             continue;
         }
-        env.spread = std::max(env.spread,
-                              std::abs(e.A - env.A) * xMax + std::abs(e.B - env.B) * yMax + std::abs(e.D - env.D));
+        const double dA = e.A - env.A, dB = e.B - env.B, dD = e.D - env.D;
+        env.spread = std::max(env.spread, std::abs(dA) * hx + std::abs(dB) * hy + std::abs(dA * xm + dB * ym + dD));
         env.absA = std::max(env.absA, e.absA);
         env.absB = std::max(env.absB, e.absB);
         env.absD = std::max(env.absD, e.absD);
@@ -493,30 +502,40 @@ bool ShadowMap::planesDeeper(const PlaneEnvelope& env, int i0, int i1, int j0, i
     return qMin > limit + 1e-6 * std::abs(limit);
 }
 
-bool ShadowMap::onStoredPlanes(const PlaneEnvelope& env, const ShadowTile& tile, int tileX, int tileY, int bx0,
-                               int bx1, int by0, int by1) const {
-    // Per block, with (x, y) from the centre of its texel centres, half
+ShadowMap::PlaneBlock ShadowMap::planeBlock(const ShadowTile& tile, int tileX, int tileY, int bx, int by) {
+    const int bw = tile.width / ShadowTile::kBlocks, bh = tile.height / ShadowTile::kBlocks;
+    const int b = by * ShadowTile::kBlocks + bx;
+    const double q0 = tile.planeQ0[b], gx = tile.planeGx[b], gy = tile.planeGy[b];  // q0 NaN: not planar
+    PlaneBlock k;
+    k.hx = 0.5 * (bw - 1), k.hy = 0.5 * (bh - 1);
+    k.xc = double(tileX + bx * bw) + 0.5 + k.hx, k.yc = double(tileY + by * bh) + 0.5 + k.hy;
+    k.gx = gx, k.gy = gy;
+    k.stored = q0 + gx * k.hx + gy * k.hy;
+    k.least = std::abs(k.stored) - std::abs(gx) * k.hx - std::abs(gy) * k.hy;
+    k.xAbs = std::abs(k.xc) + k.hx, k.yAbs = std::abs(k.yc) + k.hy;
+    return k;
+}
+
+inline bool ShadowMap::onPlaneBlock(const PlaneEnvelope& env, const PlaneBlock& k) const {
+    // With (x, y) from the centre of the block's texel centres, half
     // extents (hx, hy): a receiver's q = A x + B y + D and the stored
     // plane's differ linearly, by at most |gap at the centre| + |slope
     // gaps| (hx, hy) (plus the envelope's spread), and the stored q, linear
     // too, is at least |q at the centre| - |slopes| (hx, hy) in magnitude
     // (of one sign when that is positive). The sample loop's rounding of
-    // the receiver's plane counts against the match as well.
-    const int bw = tile.width / ShadowTile::kBlocks, bh = tile.height / ShadowTile::kBlocks;
-    const double hx = 0.5 * (bw - 1), hy = 0.5 * (bh - 1);
+    // the receiver's plane counts against the match as well. A block that
+    // stores no plane has a NaN `least` and fails.
+    const double gap = std::abs(env.A * k.xc + env.B * k.yc + env.D - k.stored) + std::abs(env.A - k.gx) * k.hx +
+                       std::abs(env.B - k.gy) * k.hy + env.spread;
+    const double evaluation = evaluationError(env, k.xAbs, k.yAbs);
+    return k.least > 0 && gap + evaluation <= kPlaneMatch * k.least;
+}
+
+bool ShadowMap::onStoredPlanes(const PlaneEnvelope& env, const ShadowTile& tile, int tileX, int tileY, int bx0,
+                               int bx1, int by0, int by1) const {
     for (int by = by0; by <= by1; ++by)
-        for (int bx = bx0; bx <= bx1; ++bx) {
-            const int b = by * ShadowTile::kBlocks + bx;
-            const double q0 = tile.planeQ0[b], gx = tile.planeGx[b], gy = tile.planeGy[b];
-            if (!(q0 == q0)) return false;  // not planar
-            const double xc = double(tileX + bx * bw) + 0.5 + hx, yc = double(tileY + by * bh) + 0.5 + hy;
-            const double stored = q0 + gx * hx + gy * hy;
-            const double gap = std::abs(env.A * xc + env.B * yc + env.D - stored) + std::abs(env.A - gx) * hx +
-                               std::abs(env.B - gy) * hy + env.spread;
-            const double least = std::abs(stored) - std::abs(gx) * hx - std::abs(gy) * hy;
-            const double evaluation = evaluationError(env, std::abs(xc) + hx, std::abs(yc) + hy);
-            if (!(least > 0 && gap + evaluation <= kPlaneMatch * least)) return false;
-        }
+        for (int bx = bx0; bx <= bx1; ++bx)
+            if (!onPlaneBlock(env, planeBlock(tile, tileX, tileY, bx, by))) return false;
     return true;
 }
 
@@ -684,6 +703,36 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
         return true;
     };
 
+    // The stored planes of the blocks met so far (PlaneBlock), by their
+    // map-wide block index: consecutive points mostly cover the same ones.
+    // A region's blocks lie within 2x2 tiles (blockRange()), so 8x8 slots
+    // hold them without collisions.
+    struct CachedBlock {
+        int bx = -1, by = -1;
+        PlaneBlock k;
+    };
+    CachedBlock blockCache[64];
+    constexpr int tileBlocksShift = 2;  // log2 of the blocks along a tile's side
+    static_assert(ShadowTile::kBlocks == 1 << tileBlocksShift);
+    auto onCoveredPlanes = [&](const Covered& c, const PlaneEnvelope& env) {
+        const int bx0 = (c.ci0 - m_fileX0) >> m_blockShiftX, bx1 = (c.ci1 - m_fileX0) >> m_blockShiftX;
+        const int by0 = (c.cj0 - m_fileY0) >> m_blockShiftY, by1 = (c.cj1 - m_fileY0) >> m_blockShiftY;
+        for (int by = by0; by <= by1; ++by)
+            for (int bx = bx0; bx <= bx1; ++bx) {
+                CachedBlock& slot = blockCache[((by & 7) << 3) | (bx & 7)];
+                if (slot.bx != bx || slot.by != by) {
+                    const int tx = bx >> tileBlocksShift, ty = by >> tileBlocksShift;
+                    const int tileX = m_fileX0 + (tx << shiftX), tileY = m_fileY0 + (ty << shiftY);
+                    (void)depthAt(tileX, tileY);  // pins the tile in the memo
+                    const ShadowTile& tile = *memo.tile[TileMemo::slot(m_mapId, tx, ty)];
+                    const int mask = ShadowTile::kBlocks - 1;
+                    slot = {bx, by, planeBlock(tile, tileX, tileY, bx & mask, by & mask)};
+                }
+                if (!onPlaneBlock(env, slot.k)) return false;
+            }
+        return true;
+    };
+
     for (int i = 0; i < batch.count; ++i) {
         out[i] = 0;
         ++st.points;
@@ -799,9 +848,7 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
             // (A negative bias could shadow a sample on the plane itself.)
             if (planeLit && blockTests && blocksPlanar && ns * nt > 1 && planeOfPoint().valid &&
                 planeOfPoint().facesLight) {
-                const PlaneEnvelope env = envelope(planeOfPoint());
-                if (everyTileOfBlocks(c, [&](const ShadowTile& tile, int tileX, int tileY, int bx0, int bx1, int by0,
-                                          int by1) { return onStoredPlanes(env, tile, tileX, tileY, bx0, bx1, by0, by1); })) {
+                if (onCoveredPlanes(c, envelope(planeOfPoint()))) {
                     ++st.storedPlaneLit;
                     continue;
                 }

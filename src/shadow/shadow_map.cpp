@@ -35,6 +35,7 @@ ShadowStats& ShadowStats::operator+=(const ShadowStats& o) {
     secondShadowed += o.secondShadowed;
     virtualPoints += o.virtualPoints;
     storedPlaneLit += o.storedPlaneLit;
+    storedPlaneGridPoints += o.storedPlaneGridPoints;
     return *this;
 }
 

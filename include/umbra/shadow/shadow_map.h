@@ -95,6 +95,8 @@ struct ShadowStats {
     /// tangent plane is the plane every covered 8x8 block stores (an open
     /// surface stored as its own second layer), lit without samples.
     uint64_t storedPlaneLit = 0;
+    /// Of storedPlaneLit, points lit a whole grid (batch) at a time.
+    uint64_t storedPlaneGridPoints = 0;
     ShadowStats& operator+=(const ShadowStats& o);
 };
 
@@ -339,7 +341,9 @@ private:
         double A = 0, B = 0, D = 0, spread = 0;
         double absA = 0, absB = 0, absD = 0;
     };
-    PlaneEnvelope envelope(const TangentPlane& plane) const;
+    // Both inline in the lookup's loop (shadow_lookup.cpp, their only
+    // user): called per point, the calls cost as much as their bodies.
+    [[gnu::always_inline]] inline PlaneEnvelope envelope(const TangentPlane& plane) const;
     /// The most the sample loop's float evaluation of a plane of `env` can
     /// be off, in q, at raster |x| <= xAbs, |y| <= yAbs: four roundings of
     /// |a x| + |b y| + |d|.
@@ -352,6 +356,19 @@ private:
     /// compares lit, rounding included.
     bool onStoredPlanes(const PlaneEnvelope& env, const ShadowTile& tile, int tileX, int tileY, int bx0, int bx1,
                         int by0, int by1) const;
+    /// One block's stored plane in the form onStoredPlanes() tests it: the
+    /// centre (xc, yc) of its texel centres, its half extents, the plane's
+    /// q there and its slopes, the least |q| over the block (NaN when the
+    /// block stores no plane), and the extents the rounding bound reads.
+    /// Points of a grid mostly cover the same blocks, so the lookup keeps
+    /// the blocks it has met in this form.
+    struct PlaneBlock {
+        double xc, yc, hx, hy, stored, gx, gy, least, xAbs, yAbs;
+    };
+    /// Block (bx, by) of `tile`, whose first texel is raster (tileX, tileY).
+    static PlaneBlock planeBlock(const ShadowTile& tile, int tileX, int tileY, int bx, int by);
+    /// onStoredPlanes() for one block.
+    [[gnu::always_inline]] inline bool onPlaneBlock(const PlaneEnvelope& env, const PlaneBlock& k) const;
 
     /// The tangent planes of a batch's points, made on first use (all at
     /// once, for tests of the whole batch). `frame` is null when the lookup

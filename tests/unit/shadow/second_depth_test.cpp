@@ -248,6 +248,42 @@ ShadowBatch subBatch(const Surface& s, size_t first, size_t n, uint32_t seed) {
     return b;
 }
 
+TEST(SecondDepth, AFlatGridIsLitFromTheStoredPlanesAWholeGridAtATime) {
+    // A shaded grid's normals are computed point by point, so the tangent
+    // planes of a flat grid differ a little (here by 1e-5 in the normal, a
+    // few hundred times float rounding). The planes through its points
+    // then differ little near the grid and a lot far from it: bounded
+    // about the map's origin (x near 100 texels here) the difference
+    // exceeded what the stored-plane test allows and every grid fell back
+    // to testing its points one by one; bounded about the grid's own
+    // region it is decided whole. Every point is lit either way.
+    auto map = test::writeAndOpen(slopeImage(DepthFilter::Second, true), "grid_planes.exr");
+    ASSERT_TRUE(map);
+    Surface pts;
+    Rng rng(8);
+    const Vec3 du(1, 0, 0.3f), dv(0, 1, 0);
+    const Vec3 floorN = normalize(cross(du, dv)) * -1.0f;
+    constexpr int kGrids = 24;
+    for (int g = 0; g < kGrids; ++g) {
+        const float x0 = 76 + 40 * rng.uniform(), y0 = 8 + 44 * rng.uniform();
+        for (int k = 0; k < 16; ++k) {
+            const float x = x0 + float(k % 4), y = y0 + float(k / 4);
+            pts.P.push_back(Vec3(x, y, 50 + 0.3f * x));
+            pts.du.push_back(du);
+            pts.dv.push_back(dv);
+            pts.N.push_back(normalize(floorN + Vec3(1e-5f * (rng.uniform() - 0.5f), 1e-5f * (rng.uniform() - 0.5f), 0)));
+        }
+    }
+    ShadowParams params;
+    std::vector<float> out(pts.P.size(), -1.0f);
+    ShadowStats st;
+    for (size_t first = 0; first < pts.P.size(); first += 16)
+        map->lookup(subBatch(pts, first, 16, uint32_t(first)), params, out.data() + first, st);
+    for (size_t i = 0; i < pts.P.size(); ++i) EXPECT_EQ(out[i], 0.0f) << pts.P[i].x;
+    EXPECT_EQ(st.storedPlaneLit, pts.P.size());
+    EXPECT_EQ(st.storedPlaneGridPoints, pts.P.size());
+}
+
 TEST(SecondDepth, CullingNeverChangesAResult) {
     // The open floor z = 50 + 0.3 x stored as itself, an occluder's back
     // face at z = 12 over x < 64 (slopeImage). Receivers, in grids of 16
