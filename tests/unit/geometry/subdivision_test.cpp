@@ -293,6 +293,42 @@ TEST(Subdivision, NGonsMatchTheirFirstLevelQuads) {
     EXPECT_LT(worst, 1e-3f);
 }
 
+TEST(Subdivision, InterpolateBoundaryTwoSharpensTheEdgesButNotTheCorners) {
+    // PRMan's interpolateboundary: 1 makes the boundary edges sharp creases
+    // and the corners (boundary vertices of two edges) sharp corners; 2
+    // makes the edges creases and leaves the vertices alone (RenderMan's
+    // subdivision documentation), as RiCPP's one-quad sample writes it.
+    // One quad, 1.8 on a side: with 1 its limit is the square itself; with
+    // 2 its boundary is the closed cubic B-spline of its four corners, each
+    // corner's limit (P_prev + 4 P + P_next) / 6 at |x| = |y| = 0.6 and each
+    // edge's middle (P0 + 23 P1 + 23 P2 + P3) / 48, 0.825 from the centre.
+    // (Pixie and Aqsis read 2 as 1 and draw the square.)
+    const std::vector<float> P = {-0.9f, -0.9f, 0, 0.9f, -0.9f, 0, 0.9f, 0.9f, 0, -0.9f, 0.9f, 0};
+    for (const int mode : {1, 2}) {
+        SCOPED_TRACE(mode);
+        Diagnostics diag;
+        auto pieces =
+            diceablePieces(subdivRecord("catmull-clark", {4}, {0, 1, 2, 3}, P, {"interpolateboundary"}, {1, 0}, {mode}),
+                           diag);
+        EXPECT_EQ(diag.errorCount(), 0);
+        ASSERT_EQ(pieces.size(), 1u);
+        const auto* face = dynamic_cast<const SubdivFace*>(pieces[0].get());
+        ASSERT_NE(face, nullptr);
+        const float corner = mode == 1 ? 0.9f : 0.6f, edge = mode == 1 ? 0.9f : 0.825f;
+        for (const float u : {0.0f, 1.0f})
+            for (const float v : {0.0f, 1.0f}) {
+                const Vec3 c = face->evaluate(u, v);
+                EXPECT_NEAR(std::abs(c.x), corner, 1e-5f) << u << " " << v;
+                EXPECT_NEAR(std::abs(c.y), corner, 1e-5f) << u << " " << v;
+            }
+        for (const Vec3 m : {face->evaluate(0.5f, 0), face->evaluate(0.5f, 1), face->evaluate(0, 0.5f),
+                             face->evaluate(1, 0.5f)}) {
+            EXPECT_NEAR(std::max(std::abs(m.x), std::abs(m.y)), edge, 1e-5f);
+            EXPECT_NEAR(std::min(std::abs(m.x), std::abs(m.y)), 0.0f, 1e-5f);
+        }
+    }
+}
+
 TEST(Subdivision, WholeFaceBoundsHoldTheirLimitSurfaceAndHugRegularFaces) {
     // A bumpy 6 x 6 sheet with its boundary interpolated (regular interior,
     // boundary and corner faces) and the creased, holed cube (irregular
