@@ -157,31 +157,20 @@ private:
         return fail(fmt::format("arithmetic on the string '{}' (concat() joins strings)", v.str));
     }
     // sum := product ( ( '+' | '-' ) product )*
-    bool parseSum(ExprValue* out) {
-        if (!parseProduct(out)) return false;
-        for (;;) {
-            skipSpace();
-            const bool plus = m_s.substr(m_i, 1) == "+", minus = m_s.substr(m_i, 1) == "-";
-            if (!plus && !minus) return true;
-            ++m_i;
-            ExprValue rhs;
-            double a, b;
-            if (!parseProduct(&rhs) || !numeric(*out, &a) || !numeric(rhs, &b)) return false;
-            *out = number(plus ? a + b : a - b);
-        }
-    }
+    bool parseSum(ExprValue* out) { return parseArithmetic(out, "+-", &ConditionParser::parseProduct); }
     // product := unary ( ( '*' | '/' ) unary )*
-    bool parseProduct(ExprValue* out) {
-        if (!parseUnary(out)) return false;
+    bool parseProduct(ExprValue* out) { return parseArithmetic(out, "*/", &ConditionParser::parseUnary); }
+    // operand ( op operand )*, left to right, op one of `ops`.
+    bool parseArithmetic(ExprValue* out, std::string_view ops, bool (ConditionParser::*operand)(ExprValue*)) {
+        if (!(this->*operand)(out)) return false;
         for (;;) {
             skipSpace();
-            const bool times = m_s.substr(m_i, 1) == "*", divide = m_s.substr(m_i, 1) == "/";
-            if (!times && !divide) return true;
-            ++m_i;
+            if (m_i >= m_s.size() || ops.find(m_s[m_i]) == std::string_view::npos) return true;
+            const char op = m_s[m_i++];
             ExprValue rhs;
             double a, b;
-            if (!parseUnary(&rhs) || !numeric(*out, &a) || !numeric(rhs, &b)) return false;
-            *out = number(times ? a * b : a / b);
+            if (!(this->*operand)(&rhs) || !numeric(*out, &a) || !numeric(rhs, &b)) return false;
+            *out = number(op == '+' ? a + b : op == '-' ? a - b : op == '*' ? a * b : a / b);
         }
     }
     // unary := ( '-' | '+' ) unary | primary

@@ -248,6 +248,28 @@ ShadowBatch subBatch(const Surface& s, size_t first, size_t n, uint32_t seed) {
     return b;
 }
 
+/// Grids of 4 x 4 points, one texel apart, on the open floor z = 50 +
+/// 0.3 x of slopeImage(), their first points uniform in [x0, x0 + xSpan) x
+/// [y0, y0 + ySpan), as a renderer passes a floor's grids; each normal
+/// turned by up to `jitter` (drawn from `rng` only when non-zero).
+void appendFloorGrids(Surface& pts, Rng& rng, int grids, float x0, float xSpan, float y0, float ySpan,
+                      float jitter = 0) {
+    const Vec3 du(1, 0, 0.3f), dv(0, 1, 0);
+    const Vec3 floorN = normalize(cross(du, dv)) * -1.0f;
+    for (int g = 0; g < grids; ++g) {
+        const float gx = x0 + xSpan * rng.uniform(), gy = y0 + ySpan * rng.uniform();
+        for (int k = 0; k < 16; ++k) {
+            const float x = gx + float(k % 4), y = gy + float(k / 4);
+            pts.P.push_back(Vec3(x, y, 50 + 0.3f * x));
+            pts.du.push_back(du);
+            pts.dv.push_back(dv);
+            pts.N.push_back(jitter == 0 ? floorN
+                                        : normalize(floorN + Vec3(jitter * (rng.uniform() - 0.5f),
+                                                                  jitter * (rng.uniform() - 0.5f), 0)));
+        }
+    }
+}
+
 TEST(SecondDepth, AFlatGridIsLitFromTheStoredPlanesAWholeGridAtATime) {
     // A shaded grid's normals are computed point by point, so the tangent
     // planes of a flat grid differ a little (here by 1e-5 in the normal, a
@@ -261,19 +283,7 @@ TEST(SecondDepth, AFlatGridIsLitFromTheStoredPlanesAWholeGridAtATime) {
     ASSERT_TRUE(map);
     Surface pts;
     Rng rng(8);
-    const Vec3 du(1, 0, 0.3f), dv(0, 1, 0);
-    const Vec3 floorN = normalize(cross(du, dv)) * -1.0f;
-    constexpr int kGrids = 24;
-    for (int g = 0; g < kGrids; ++g) {
-        const float x0 = 76 + 40 * rng.uniform(), y0 = 8 + 44 * rng.uniform();
-        for (int k = 0; k < 16; ++k) {
-            const float x = x0 + float(k % 4), y = y0 + float(k / 4);
-            pts.P.push_back(Vec3(x, y, 50 + 0.3f * x));
-            pts.du.push_back(du);
-            pts.dv.push_back(dv);
-            pts.N.push_back(normalize(floorN + Vec3(1e-5f * (rng.uniform() - 0.5f), 1e-5f * (rng.uniform() - 0.5f), 0)));
-        }
-    }
+    appendFloorGrids(pts, rng, 24, 76, 40, 8, 44, 1e-5f);
     ShadowParams params;
     std::vector<float> out(pts.P.size(), -1.0f);
     ShadowStats st;
@@ -299,18 +309,7 @@ TEST(SecondDepth, CullingNeverChangesAResult) {
     ASSERT_TRUE(map);
     Surface pts;
     Rng rng(21);
-    const Vec3 du(1, 0, 0.3f), dv(0, 1, 0);
-    const Vec3 floorN = normalize(cross(du, dv)) * -1.0f;
-    for (int g = 0; g < 40; ++g) {
-        const float x0 = 4 + 116 * rng.uniform(), y0 = 4 + 52 * rng.uniform();
-        for (int k = 0; k < 16; ++k) {
-            const float x = x0 + float(k % 4), y = y0 + float(k / 4);
-            pts.P.push_back(Vec3(x, y, 50 + 0.3f * x));
-            pts.du.push_back(du);
-            pts.dv.push_back(dv);
-            pts.N.push_back(floorN);
-        }
-    }
+    appendFloorGrids(pts, rng, 40, 4, 116, 4, 52);
     const size_t steepFrom = pts.P.size();
     // (offset above the floor, slope, first x): within +-2 texels the
     // stored floor rises at most 0.75 above its depth at x, and every 8x8
