@@ -11,20 +11,29 @@ cd "$(dirname "$0")/.."
 scripts/install-deps.sh
 jobs=$(nproc)
 fuzz_seconds=${UMBRA_FUZZ_SECONDS:-60}
+# Each stage's wall time, so that where CI's time goes is on record.
+stage_start=$SECONDS
+stage() {
+  [ -n "${stage_name:-}" ] && echo "-- $stage_name: $((SECONDS - stage_start)) s"
+  stage_name=$1
+  stage_start=$SECONDS
+  [ -n "$1" ] && echo "== $1"
+  return 0
+}
 
-echo "== release build and tests"
+stage "release build and tests"
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build build -j"$jobs"
 ctest --test-dir build -j"$jobs" --output-on-failure --timeout 600
 
-[ "${UMBRA_QUICK:-0}" = 1 ] && exit 0
+if [ "${UMBRA_QUICK:-0}" = 1 ]; then stage ""; exit 0; fi
 
 # Sanitizer builds: -O2 with line tables only (-g1) is enough for the
 # sanitizers' stacks, and compiles and links faster than -g.
 sanitizer_flags=(-DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG"
   -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" -DUMBRA_BENCHMARKS=OFF)
 
-echo "== AddressSanitizer + UndefinedBehaviorSanitizer"
+stage "AddressSanitizer + UndefinedBehaviorSanitizer"
 cmake -S . -B build-asan -G Ninja "${sanitizer_flags[@]}" -DUMBRA_SANITIZE=address,undefined >/dev/null
 cmake --build build-asan -j"$jobs"
 # The Slurm test (label slurm) runs in the Release stage only: its cluster
@@ -33,7 +42,7 @@ cmake --build build-asan -j"$jobs"
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   ctest --test-dir build-asan -j"$jobs" --output-on-failure --timeout 900 -LE slurm
 
-echo "== ThreadSanitizer (concurrent tile cache and bucket scheduler)"
+stage "ThreadSanitizer (concurrent tile cache and bucket scheduler)"
 cmake -S . -B build-tsan -G Ninja "${sanitizer_flags[@]}" -DUMBRA_SANITIZE=thread >/dev/null
 tsan_targets=()
 # The list is read whole: `grep -q` stopping at the first match made ninja
@@ -76,7 +85,7 @@ if [ ${#tsan_targets[@]} -gt 0 ]; then
   done
 fi
 
-echo "== fuzzers (${fuzz_seconds}s each)"
+stage "fuzzers (${fuzz_seconds}s each)"
 CC=clang CXX=clang++ cmake -S . -B build-fuzz -G Ninja "${sanitizer_flags[@]}" \
   -DUMBRA_FUZZERS=ON -DUMBRA_TESTS=OFF -DUMBRA_SANITIZE=address,undefined >/dev/null
 cmake --build build-fuzz -j"$jobs" --target fuzzers
@@ -108,4 +117,5 @@ for f in build-fuzz/bin/fuzz_*; do
   tail -n 3 "$log"
   rm -rf "$work" "$log"
 done
-echo "umbra: all test stages passed"
+stage ""
+echo "umbra: all test stages passed in $SECONDS s"
