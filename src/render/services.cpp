@@ -145,10 +145,12 @@ bool Services::shadow(const shading::ShadingGrid& grid, const shading::ShadowQue
     if (params.bias == 0 && params.bias0 == 0 && params.bias1 == 0) applyDefaultBias(*map, params);
     ShadowStats stats;
     // The thread's CPU clock, not the wall's: a lookup preempted on a busy
-    // machine is not charged for the time it waited.
-    const double t0 = threadCpuSeconds();
+    // machine is not charged for the time it waited. Read for a sample of
+    // the lookups, as for the shading time.
+    thread_local uint64_t lookups = 0;
+    const SampledCallTime lookupTime(lookups);
     map->lookup(batch, params, result, stats);
-    m_lookupNanoseconds += uint64_t(std::max(0.0, threadCpuSeconds() - t0) * 1e9);
+    m_lookupNanoseconds += lookupTime.nanoseconds();
     std::lock_guard<std::mutex> lock(m_statsMutex);
     m_stats += stats;
     return true;
