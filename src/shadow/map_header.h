@@ -46,15 +46,18 @@ Mat4 fromImath(const Imath::M44f& m);
 struct PreparedMap {
     Imf::Header header;
     Imath::Box2i data;
-    int tilesX = 0, tilesY = 0;    // kMapTileSize tiles covering the data window
-    std::vector<float> crop, crop2;  // the data window's layers, row-major
+    int tilesX = 0, tilesY = 0;  // kMapTileSize tiles covering the data window
+    /// The image the tiles are read from (the data window, sanitised, as
+    /// they are written: no cropped copy is made), which must outlive the
+    /// write; and whether it holds no finite depth at all (the window is
+    /// then one texel of +infinity).
+    const DepthImage* image = nullptr;
+    bool none = false;
 };
 
 /// Prepares `image` for storing (see writeDepthMap for what the header
 /// holds). False with a reason in `why` when the image is malformed.
-/// Without `layers` only the header and tile counts are made (a map built
-/// from memory reads its tiles from the image; the crop is its file's).
-bool prepareMap(const DepthImage& image, PreparedMap& out, std::string& why, bool layers = true);
+bool prepareMap(const DepthImage& image, PreparedMap& out, std::string& why);
 
 /// The projection-related header fields of a map.
 struct MapMatrices {

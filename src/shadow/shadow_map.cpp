@@ -218,7 +218,7 @@ std::shared_ptr<ShadowMap> ShadowMap::fromImages(const DepthImage* images, int c
             std::shared_ptr<ShadowMap> face = part(map, count, p, path, diag, cache, file);
             PreparedMap prepared;
             std::string why;
-            if (!prepareMap(images[p], prepared, why, /*layers=*/false) ||
+            if (!prepareMap(images[p], prepared, why) ||
                 !face->initHeader(prepared.header, prepared.tilesX, prepared.tilesY, why))
                 return fail(count == 1 ? why : fmt::format("face {}: {}", kCubeFaceNames[p], why));
             face->setupVirtualSampling();
