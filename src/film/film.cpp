@@ -225,11 +225,15 @@ bool parseDisplayMode(const std::string& mode, DisplayMode* out, std::string* er
     return true;
 }
 
-bool displayReadsDepth(const scene::DisplayRecord& display) {
+bool writesDepthMap(const scene::DisplayRecord& display) {
     const std::string driver = lower(display.driver);
+    return driver == "zfile" || driver == "shadow";
+}
+
+bool displayReadsDepth(const scene::DisplayRecord& display) {
     DisplayMode mode;
     std::string why;
-    return driver == "zfile" || driver == "shadow" || !parseDisplayMode(display.mode, &mode, &why) ||
+    return writesDepthMap(display) || !parseDisplayMode(display.mode, &mode, &why) ||
            (!mode.isAov() && mode.standard.find('z') != std::string::npos);
 }
 
@@ -381,7 +385,7 @@ uint64_t Film::bytesFor(int xResolution, int yResolution, const float cropWindow
 }
 
 Film Film::fromOptions(const scene::Options& o, std::vector<AovChannel> aovs, FilmContent content,
-                       Diagnostics& diag, const std::vector<scene::DisplayRecord>& displays) {
+                       Diagnostics& diag, const std::vector<scene::DisplayRecord>& displays, DepthStart depthStart) {
     std::optional<PixelFilter> f = PixelFilter::create(o.pixelFilter, o.filterWidth[0], o.filterWidth[1]);
     if (!f) {
         diag.error(o.loc, "unknown pixel filter \"{}\" with widths {} {} (expected box, triangle, gaussian, "
@@ -410,7 +414,7 @@ Film Film::fromOptions(const scene::Options& o, std::vector<AovChannel> aovs, Fi
     const std::string what = fmt::format("the {}x{} film with {} samples per pixel", o.xResolution, o.yResolution,
                                          o.pixelSamples[0] * o.pixelSamples[1]);
     return allocating(o.loc, bytes, what, [&] {
-        Film film(o.xResolution, o.yResolution, o.cropWindow, *f, std::move(aovs), content);
+        Film film(o.xResolution, o.yResolution, o.cropWindow, *f, std::move(aovs), content, depthStart);
         for (const PixelFilter& l : layers) film.addFilterLayer(l);
         return film;
     });

@@ -1,6 +1,7 @@
 #include "umbra/shadow/depth_image.h"
 #include "umbra/util/file.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -78,9 +79,12 @@ bool writeZFileImpl(const std::string& named, const DepthImage& image, std::stri
             out.write(reinterpret_cast<const char*>(image.z.data()), std::streamsize(image.z.size() * sizeof(float)));
         } else {
             // Row by row, +infinity outside the texels the pass wrote.
-            std::vector<float> row(size_t(image.width));
+            std::vector<float> row(size_t(image.width), kInfinity);
+            const int x0 = image.columnBegin(), x1 = std::max(x0, image.columnEnd());
             for (int y = 0; y < image.height; ++y) {
-                for (int x = 0; x < image.width; ++x) row[size_t(x)] = image.at(x, y);
+                const bool written = y >= image.rowBegin() && y < image.rowEnd();
+                if (written) std::copy_n(&image.z[size_t(y) * size_t(image.width) + size_t(x0)], x1 - x0, &row[size_t(x0)]);
+                else std::fill(row.begin() + x0, row.begin() + x1, kInfinity);
                 out.write(reinterpret_cast<const char*>(row.data()), std::streamsize(row.size() * sizeof(float)));
             }
         }

@@ -51,6 +51,9 @@ bool parseDisplayMode(const std::string& mode, DisplayMode* out, std::string* er
 /// a mode with z. A mode that does not parse counts as reading it (the
 /// film keeps depth, and Film::write reports the mode).
 bool displayReadsDepth(const scene::DisplayRecord& display);
+/// Whether a display is a depth map (the zfile or shadow driver), which
+/// Film::write hands to its DepthWriter.
+bool writesDepthMap(const scene::DisplayRecord& display);
 
 /// The AOV channels a film needs so that every AOV display in `displays`
 /// can be written, in first-seen order, each name once. Modes that do not
@@ -129,7 +132,8 @@ public:
     /// (displayFilter) get a filter layer for each distinct filter other
     /// than the frame's; an unknown one is reported here.
     static Film fromOptions(const scene::Options& options, std::vector<AovChannel> aovs, FilmContent content,
-                            Diagnostics& diag, const std::vector<scene::DisplayRecord>& displays = {});
+                            Diagnostics& diag, const std::vector<scene::DisplayRecord>& displays = {},
+                            DepthStart depthStart = DepthStart::Infinity);
 
     /// The pixels a crop window selects: those whose centres lie in the
     /// window (PRMan's rule), x in [x0, x1), y in [y0, y1), with

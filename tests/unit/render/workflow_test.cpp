@@ -100,6 +100,52 @@ PixelSamples 2 2
     EXPECT_LT(groundAt(img, 0.3f, 0.1f), 0.05f);
 }
 
+// A light's frame written as a zfile hands its film's depths to the file
+// (the film starts unset, its empty buckets never touched): texels no
+// caster reaches must still read +infinity, with and without a crop
+// window (which keeps the copy), and the caster's texels its depth.
+TEST(Workflow, ASparseZfileHoldsInfinityWhereNoCasterIs) {
+    ScratchDir dir("sparse-zfile");
+    for (const char* crop : {"", "CropWindow 0.25 1 0 0.75"}) {
+        Diagnostics diag;
+        // Orthographic, 16 texels a unit; a unit sphere 10 units away.
+        test::renderRib(fmt::format(R"(
+Display "{0}" "zfile" "z"
+Format 256 256 1
+{1}
+PixelSamples 1 1
+Hider "hidden" "jitter" [0]
+ScreenWindow -8 8 -8 8
+Projection "orthographic"
+WorldBegin
+Translate 0 0 10
+Sphere 1 -1 1 360
+WorldEnd
+)", dir.file("light.z"), crop),
+                        diag);
+        ASSERT_EQ(diag.errorCount(), 0) << crop;
+        DepthImage z;
+        ASSERT_TRUE(readZFile(dir.file("light.z"), z, diag)) << crop;
+        ASSERT_EQ(z.width, 256);
+        int finite = 0;
+        for (int y = 0; y < z.height; ++y)
+            for (int x = 0; x < z.width; ++x) {
+                const float d = z.at(x, y);
+                if (d == kInfinity) continue;
+                ++finite;
+                // Every finite texel lies on the sphere's near half.
+                const float u = (x + 0.5f - 128) / 16, v = (y + 0.5f - 128) / 16;
+                EXPECT_NEAR(d, 10 - std::sqrt(std::max(0.0f, 1 - u * u - v * v)), 0.05f) << crop << " " << x << "," << y;
+            }
+        // The disc of radius 1 covers pi 16^2 = 804 texels (its edge, a
+        // texel wide, is 100 texels).
+        EXPECT_NEAR(finite, 804, 60) << crop;
+        EXPECT_EQ(z.at(0, 0), kInfinity) << crop;
+        EXPECT_EQ(z.at(255, 255), kInfinity) << crop;
+        EXPECT_NEAR(z.at(128, 128), 9.0f, 0.01f) << crop;
+    }
+}
+
 TEST(Workflow, AutomaticMapMatchesRayTracedShadow) {
     // The same scene with an automatic map and with exact ray-traced shadows:
     // the shadowed areas must agree except along the edge.
