@@ -869,10 +869,10 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
                       {"bucket_size", {camera.bucketSize[0], camera.bucketSize[1]}}});
 
     film::DepthWriter depthWriter = [&](const scene::DisplayRecord& d, const film::Film& f) {
+        const DepthFilter filter = depthFilterOf(options, d.loc);
         // The film is not read after its only display.
-        DepthImage image = filmBecomesMap
-                               ? depthImageOf(std::move(film), pass, depthFilterOf(options, d.loc), dualOffsetOf(options))
-                               : depthImageOf(f, pass, depthFilterOf(options, d.loc), dualOffsetOf(options));
+        DepthImage image = filmBecomesMap ? depthImageOf(std::move(film), pass, filter, dualOffsetOf(options))
+                                          : depthImageOf(f, pass, filter, dualOffsetOf(options));
         bool ok = d.driver == "zfile" ? writeZFile(d.name, image, diag, d.loc) : writeDepthMap(d.name, image, diag, d.loc);
         maps->invalidate(d.name);
         std::erase_if(reusableMaps, [&](const auto& entry) { return entry.second.path == d.name; });

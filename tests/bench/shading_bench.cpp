@@ -57,6 +57,57 @@ ShadingGrid makeGrid() {
 
 using umbra::testsupport::floatParam;
 
+/// plastic's ambient + diffuse + specular at every point of the grid, over
+/// three lights' L (from the light) and Cl; `lit[l]`, when given, says
+/// where light l reached (else everywhere). Both native versions end so.
+void nativePlastic(ShadingGrid& g, const std::vector<Vec3> (&L)[3], const std::vector<Vec3> (&Cl)[3],
+                   const std::vector<uint8_t>* lit = nullptr) {
+    const float Ks = 0.5f, Kd = 0.5f, Ka = 1, roughness = 0.1f;
+    const Vec3 specularcolor(1, 1, 1), ambient(0.f);
+    for (int i = 0; i < g.size(); ++i) {
+        Vec3 Nn = normalize(g.N[size_t(i)]);
+        Vec3 Nf = dot(g.I[size_t(i)], g.Ng[size_t(i)]) < 0 ? Nn : -Nn;
+        Vec3 V = -normalize(g.I[size_t(i)]);
+        Vec3 diff(0.f), spec(0.f);
+        for (int l = 0; l < 3; ++l) {
+            if (lit && !lit[l][size_t(i)]) continue;
+            Vec3 Ln = normalize(-L[l][size_t(i)]);
+            float c = dot(Ln, Nf);
+            if (c <= 0) continue;
+            diff += Cl[l][size_t(i)] * c;
+            Vec3 H = normalize(Ln + V);
+            spec += Cl[l][size_t(i)] * std::pow(std::max(0.f, dot(Nf, H)), 8 / roughness);
+        }
+        g.Oi[size_t(i)] = g.Os[size_t(i)];
+        g.Ci[size_t(i)] = g.Os[size_t(i)] * (g.Cs[size_t(i)] * (ambient * Ka + diff * Kd) + specularcolor * spec * Ks);
+    }
+}
+
+/// Times `shadeOnce` (which shades `g`) as one grid an iteration.
+template <class Shade>
+void timeGrids(benchmark::State& state, const ShadingGrid& g, Shade shadeOnce) {
+    for (auto _ : state) {
+        shadeOnce();
+        benchmark::DoNotOptimize(g.Ci.data());
+    }
+    state.SetItemsProcessed(int64_t(state.iterations()) * g.size());
+}
+
+/// Reports the largest difference of Ci between the VM's grid and the
+/// native one, and refuses the timing beyond kSameImage. A ratio between
+/// two different computations means nothing: when the native plastic fell
+/// behind the shaders (specular()'s exponent became 8/roughness), the
+/// numbers were still printed, 0.5 apart.
+void checkSameImage(benchmark::State& state, const ShadingGrid& vm, const ShadingGrid& native) {
+    float m = 0;
+    for (int i = 0; i < vm.size(); ++i) {
+        Vec3 d = vm.Ci[size_t(i)] - native.Ci[size_t(i)];
+        m = std::max(m, std::max(std::fabs(d.x), std::max(std::fabs(d.y), std::fabs(d.z))));
+    }
+    state.counters["max_diff_vs_native"] = m;
+    if (m > kSameImage) state.SkipWithError("the VM and the native version compute different images");
+}
+
 struct Scene {
     Diagnostics diag;
     ShadingSystem sys{diag, {std::string(UMBRA_SOURCE_DIR) + "/shaders_dsl"}};
@@ -95,8 +146,6 @@ struct NativePlastic {
     std::vector<Vec3> L[3], Cl[3];
 
     void shade(ShadingGrid& g) {
-        const float Ks = 0.5f, Kd = 0.5f, Ka = 1, roughness = 0.1f;
-        const Vec3 specularcolor(1, 1, 1);
         int n = g.size();
         for (int l = 0; l < 3; ++l) {
             L[l].resize(size_t(n));
@@ -112,34 +161,14 @@ struct NativePlastic {
                 }
             }
         }
-        for (int i = 0; i < n; ++i) {
-            Vec3 Nn = normalize(g.N[size_t(i)]);
-            Vec3 Nf = dot(g.I[size_t(i)], g.Ng[size_t(i)]) < 0 ? Nn : -Nn;
-            Vec3 V = -normalize(g.I[size_t(i)]);
-            Vec3 diff(0.f), spec(0.f);
-            for (int l = 0; l < 3; ++l) {
-                Vec3 Ln = normalize(-L[l][size_t(i)]);
-                float c = dot(Ln, Nf);
-                if (c <= 0) continue;
-                diff += Cl[l][size_t(i)] * c;
-                Vec3 H = normalize(Ln + V);
-                spec += Cl[l][size_t(i)] * std::pow(std::max(0.f, dot(Nf, H)), 8 / roughness);
-            }
-            Vec3 ambient(0.f);
-            g.Oi[size_t(i)] = g.Os[size_t(i)];
-            g.Ci[size_t(i)] = g.Os[size_t(i)] * (g.Cs[size_t(i)] * (ambient * Ka + diff * Kd) + specularcolor * spec * Ks);
-        }
+        nativePlastic(g, L, Cl);
     }
 };
 
 void BM_PlasticNative(benchmark::State& state) {
     ShadingGrid g = makeGrid();
     NativePlastic native;
-    for (auto _ : state) {
-        native.shade(g);
-        benchmark::DoNotOptimize(g.Ci.data());
-    }
-    state.SetItemsProcessed(int64_t(state.iterations()) * g.size());
+    timeGrids(state, g, [&] { native.shade(g); });
 }
 BENCHMARK(BM_PlasticNative);
 
@@ -149,24 +178,11 @@ void BM_PlasticVM(benchmark::State& state) {
     ShadeRequest req;
     req.surface = s.plastic.get();
     req.lights = {s.key.get(), s.fill.get(), s.bulb.get()};
-    for (auto _ : state) {
-        s.sys.shade(g, req, s.svc);
-        benchmark::DoNotOptimize(g.Ci.data());
-    }
-    state.SetItemsProcessed(int64_t(state.iterations()) * g.size());
+    timeGrids(state, g, [&] { s.sys.shade(g, req, s.svc); });
     // Both versions compute the same image.
     ShadingGrid ref = makeGrid();
     NativePlastic().shade(ref);
-    float maxDiff = 0;
-    for (int i = 0; i < g.size(); ++i) {
-        Vec3 d = g.Ci[size_t(i)] - ref.Ci[size_t(i)];
-        maxDiff = std::max(maxDiff, std::max(std::fabs(d.x), std::max(std::fabs(d.y), std::fabs(d.z))));
-    }
-    state.counters["max_diff_vs_native"] = maxDiff;
-    // A ratio between two different computations means nothing: when the
-    // native version fell behind the shaders (specular()'s exponent became
-    // 8/roughness), the numbers were still printed, 0.5 apart.
-    if (maxDiff > kSameImage) state.SkipWithError("the VM and the native version compute different images");
+    checkSameImage(state, g, ref);
 }
 
 BENCHMARK(BM_PlasticVM);
@@ -365,45 +381,15 @@ struct NativeShadowedPlastic {
                 lit[l][size_t(i)] = 1;
             }
         }
-        const float Ks = 0.5f, Kd = 0.5f, Ka = 1, roughness = 0.1f;
-        for (int i = 0; i < n; ++i) {
-            Vec3 Nn = normalize(g.N[size_t(i)]);
-            Vec3 Nf = dot(g.I[size_t(i)], g.Ng[size_t(i)]) < 0 ? Nn : -Nn;
-            Vec3 V = -normalize(g.I[size_t(i)]);
-            Vec3 diff(0.f), spec(0.f);
-            for (int l = 0; l < 3; ++l) {
-                if (!lit[l][size_t(i)]) continue;
-                Vec3 Ln = normalize(-L[l][size_t(i)]);
-                float c = dot(Ln, Nf);
-                if (c <= 0) continue;
-                diff += Cl[l][size_t(i)] * c;
-                Vec3 H = normalize(Ln + V);
-                spec += Cl[l][size_t(i)] * std::pow(std::max(0.f, dot(Nf, H)), 8 / roughness);
-            }
-            g.Oi[size_t(i)] = g.Os[size_t(i)];
-            g.Ci[size_t(i)] = g.Os[size_t(i)] * (g.Cs[size_t(i)] * (Vec3(0.f) * Ka + diff * Kd) + Vec3(1.f) * spec * Ks);
-        }
+        nativePlastic(g, L, Cl, lit);
     }
 };
-
-float maxDifference(const ShadingGrid& a, const ShadingGrid& b) {
-    float m = 0;
-    for (int i = 0; i < a.size(); ++i) {
-        Vec3 d = a.Ci[size_t(i)] - b.Ci[size_t(i)];
-        m = std::max(m, std::max(std::fabs(d.x), std::max(std::fabs(d.y), std::fabs(d.z))));
-    }
-    return m;
-}
 
 void BM_ShadowedPlasticNative(benchmark::State& state) {
     ShadowServices svc;
     ShadingGrid g = makeGrid();
     NativeShadowedPlastic native;
-    for (auto _ : state) {
-        native.shade(g, svc);
-        benchmark::DoNotOptimize(g.Ci.data());
-    }
-    state.SetItemsProcessed(int64_t(state.iterations()) * g.size());
+    timeGrids(state, g, [&] { native.shade(g, svc); });
 }
 BENCHMARK(BM_ShadowedPlasticNative);
 
@@ -413,11 +399,7 @@ void BM_ShadowedPlasticVM(benchmark::State& state) {
     ShadeRequest req;
     req.surface = s.plastic.get();
     req.lights = {s.spots[0].get(), s.spots[1].get(), s.spots[2].get()};
-    for (auto _ : state) {
-        s.sys.shade(g, req, s.svc);
-        benchmark::DoNotOptimize(g.Ci.data());
-    }
-    state.SetItemsProcessed(int64_t(state.iterations()) * g.size());
+    timeGrids(state, g, [&] { s.sys.shade(g, req, s.svc); });
     // Both versions compute the same image, shadows and all.
     ShadingGrid ref = makeGrid();
     NativeShadowedPlastic native;
@@ -425,8 +407,7 @@ void BM_ShadowedPlasticVM(benchmark::State& state) {
     state.counters["lookups"] = native.lookups;
     state.counters["partly_shadowed"] = native.partlyShadowed;
     state.counters["wholly_shadowed"] = native.whollyShadowed;
-    state.counters["max_diff_vs_native"] = maxDifference(g, ref);
-    if (maxDifference(g, ref) > kSameImage) state.SkipWithError("the VM and the native version compute different images");
+    checkSameImage(state, g, ref);
 }
 BENCHMARK(BM_ShadowedPlasticVM);
 
