@@ -1,0 +1,53 @@
+#include "umbra/util/zeroed_allocator.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <numeric>
+
+using namespace umbra;
+
+namespace {
+
+bool allZero(const FloatPlane& p) {
+    return std::all_of(p.begin(), p.end(), [](float v) { return v == 0.0f; });
+}
+
+}  // namespace
+
+// Both sides of the huge-page threshold, and sizes just off a 2 MiB
+// multiple: every element starts as zero and keeps what is written.
+TEST(ZeroedAllocator, PlanesOfEverySizeStartZeroAndHoldWhatIsWritten) {
+    const size_t floats[] = {0, 1, 1000, kLargeZeroedBytes / 4 - 1, kLargeZeroedBytes / 4,
+                             (size_t(2) << 20) / 4 + 3, 2048 * 2048, 1920 * 1080 * 4};
+    for (size_t n : floats) {
+        FloatPlane p(n);
+        ASSERT_EQ(p.size(), n);
+        EXPECT_TRUE(allZero(p)) << n;
+        std::iota(p.begin(), p.end(), 1.0f);
+        for (size_t i = 0; i < n; i += std::max<size_t>(1, n / 97)) EXPECT_EQ(p[i], float(i + 1)) << n;
+        if (n) EXPECT_EQ(p.back(), float(n));
+    }
+}
+
+TEST(ZeroedAllocator, LargePlanesAreAlignedToHugePages) {
+    FloatPlane p(size_t(3) << 20);  // 12 MiB
+    EXPECT_EQ(reinterpret_cast<uintptr_t>(p.data()) % (uintptr_t(2) << 20), 0u);
+}
+
+// A plane grown past the threshold and copied: the contents move with it,
+// the new part is zero.
+TEST(ZeroedAllocator, GrowingAndCopyingKeepContents) {
+    FloatPlane p(1000, 5.0f);
+    p.resize(kLargeZeroedBytes);  // floats: four times past the threshold
+    EXPECT_EQ(p[999], 5.0f);
+    EXPECT_EQ(p[1000], 0.0f);
+    EXPECT_EQ(p.back(), 0.0f);
+    FloatPlane q = p;
+    EXPECT_EQ(q[0], 5.0f);
+    EXPECT_EQ(q[1000], 0.0f);
+    p = FloatPlane(7, 2.0f);  // the large block is given back
+    EXPECT_EQ(p.size(), 7u);
+    EXPECT_EQ(q.size(), kLargeZeroedBytes);
+}
