@@ -39,8 +39,9 @@ def scenes():
     return found
 
 
-def run(cmd, cwd):
-    """(wall seconds, peak RSS MiB) of one command, which must succeed."""
+def run(cmd, cwd, peer=False):
+    """(wall seconds, peak RSS MiB) of one command, which must succeed; a
+    peer's failure (a broken peer install) is printed and gives None."""
     t0 = time.perf_counter()
     proc = subprocess.Popen(cmd, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     _, status, usage = os.wait4(proc.pid, 0)
@@ -48,6 +49,9 @@ def run(cmd, cwd):
     err = proc.stderr.read().decode(errors='replace')
     proc.stderr.close()
     if os.waitstatus_to_exitcode(status) != 0:
+        if peer:
+            print('(%s failed, so Pixie is left out: %s)' % (os.path.basename(cmd[0]), err.strip()[-300:]))
+            return None
         sys.exit('%s failed:\n%s' % (' '.join(cmd), err[-2000:]))
     return wall, usage.ru_maxrss / 1024.0
 
@@ -82,9 +86,8 @@ def main():
                 shutil.copy(rib, work)
             if use_pixie:
                 sls = [f for f in os.listdir(work) if f.endswith('.sl')]
-                if sls:
-                    subprocess.run([os.path.join(PEERS, 'bin', 'pixie-sdrc')] + sls, cwd=work, check=True,
-                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                if sls and run([os.path.join(PEERS, 'bin', 'pixie-sdrc')] + sls, work, peer=True) is None:
+                    use_pixie = False
             best, mps, rss = {}, {}, {}
             best_pixie = None
             for _ in range(args.runs):
@@ -97,12 +100,15 @@ def main():
                     if wall < best.get(threads, 1e30):
                         best[threads], mps[threads], rss[threads] = wall, mp / frames[-1]['wall_seconds'], peak
                 if use_pixie:
-                    wall, _ = run([pixie, '-t:%d' % threads_all, os.path.basename(rib)], work)
-                    best_pixie = wall if best_pixie is None else min(best_pixie, wall)
+                    ran = run([pixie, '-t:%d' % threads_all, os.path.basename(rib)], work, peer=True)
+                    if ran is None:
+                        use_pixie = False
+                    else:
+                        best_pixie = ran[0] if best_pixie is None else min(best_pixie, ran[0])
             for threads in sorted(best):
                 line = '%-16s %7d %9.3f %13.2f %8.2fx %9.0f' % (name, threads, best[threads], mps[threads] / 1e6,
                                                               best[1] / best[threads], rss[threads])
-                if use_pixie and threads == threads_all:
+                if use_pixie and best_pixie is not None and threads == threads_all:
                     line += ' %10.3f %8.2f' % (best_pixie, best[threads] / best_pixie)
                 print(line)
             sys.stdout.flush()

@@ -71,16 +71,21 @@ if [ ${#tsan_targets[@]} -gt 0 ]; then
     # CPU limit.
     tests=$("build-tsan/bin/$t" --gtest_list_tests --gtest_filter='-OpenFloor.*:Scenes/ShadowQuality.*:Limits.*' |
       awk '/^[^ ]/ {suite = $1} /^  / {print suite $1}')
-    for name in $tests; do
-      log=$(mktemp)
-      if ! TSAN_OPTIONS="halt_on_error=1 history_size=7 suppressions=$PWD/tests/tsan.supp" "build-tsan/bin/$t" \
-           --gtest_filter="$name" >"$log" 2>&1; then
-        cat "$log"
-        echo "umbra: $t $name failed under ThreadSanitizer (above)" >&2
-        exit 1
-      fi
-      rm -f "$log"
-    done
+    # $jobs processes at a time (most tests keep one core busy); the first
+    # failure prints its log and stops xargs starting more (exit 255).
+    export t
+    if ! xargs -P "$jobs" -n 1 bash -c '
+        log=$(mktemp)
+        if ! TSAN_OPTIONS="halt_on_error=1 history_size=7 suppressions=$PWD/tests/tsan.supp" "build-tsan/bin/$t" \
+             --gtest_filter="$1" >"$log" 2>&1; then
+          cat "$log"
+          echo "umbra: $t $1 failed under ThreadSanitizer (above)" >&2
+          rm -f "$log"
+          exit 255
+        fi
+        rm -f "$log"' _ <<<"$tests"; then
+      exit 1
+    fi
     echo "$t: $(wc -w <<<"$tests") tests passed under ThreadSanitizer"
   done
 fi
