@@ -363,8 +363,23 @@ SchedulerStats BucketScheduler::render(const std::vector<geometry::PrimitivePtr>
         work.emplace(estimateBucketWork(layout, bounds, emptyPixelWork));
     }
 
-    // Workers take buckets in scanline order, so the grids alive at any time
-    // are those of a band of buckets, not of the whole frame.
+    // Workers take buckets a row at a time, so the grids alive at any time
+    // are those of a band of buckets, not of the whole frame. Within a row
+    // the threads' turns are spread over as many stretches of the row as
+    // there are threads (two threads: columns 0, W/2, 1, W/2 + 1, ...), so
+    // that buckets sampled at the same time are far apart: side by side
+    // they share their large primitives, and a bucket that finds one being
+    // resolved by the other thread goes on behind it, which diced and
+    // shaded 7% more grids at two threads than at one on the production
+    // frame.
+    std::vector<int> rowOrder;
+    {
+        const int width = frame.bucketsX, stretches = std::max(1, std::min(threads, width));
+        const int stretch = (width + stretches - 1) / stretches;
+        for (int k = 0; k < stretch; ++k)
+            for (int s = 0; s < stretches; ++s)
+                if (s * stretch + k < std::min(width, (s + 1) * stretch)) rowOrder.push_back(s * stretch + k);
+    }
     std::atomic<int> next{0}, done{0};
     std::mutex statsMutex;
     parallelFor(0, threads, [&](int) {
@@ -374,7 +389,8 @@ SchedulerStats BucketScheduler::render(const std::vector<geometry::PrimitivePtr>
         Frame::Walk walk;
         for (int b; (b = next++) < bucketCount;) {
             if (interrupted()) break;  // the pass's film is then not written
-            int bx = b % frame.bucketsX, by = b / frame.bucketsX;
+            const int bx = rowOrder[size_t(b % frame.bucketsX)], by = b / frame.bucketsX;
+            const int bucket = by * frame.bucketsX + bx;
             int x0 = film.x0() + bx * bw, y0 = film.y0() + by * bh;
             int x1 = std::min(x0 + bw, film.x1()), y1 = std::min(y0 + bh, film.y1());
             SampleBufferConfig config = m_settings.sampling;
@@ -383,7 +399,7 @@ SchedulerStats BucketScheduler::render(const std::vector<geometry::PrimitivePtr>
             config.x1 = x1;
             config.y1 = y1;
             config.margin = m_settings.filterMargin;
-            auto& nodes = perBucket[size_t(b)];
+            auto& nodes = perBucket[size_t(bucket)];
             // A depth film starts at +infinity, which is what a bucket
             // no primitive reaches resolves to: such buckets (most of a
             // sparse shadow map) need no samples at all.
@@ -398,7 +414,7 @@ SchedulerStats BucketScheduler::render(const std::vector<geometry::PrimitivePtr>
             film.bucketDone(x0, y0, x1, y1);
             ++stats.buckets;
             int d = ++done;
-            if (work) m_settings.progress(d, bucketCount, work->finish(b));
+            if (work) m_settings.progress(d, bucketCount, work->finish(bucket));
         }
         stats.workerCpuSeconds = threadCpuSeconds() - cpu0;
         stats.blur = buffer.blurStats();
