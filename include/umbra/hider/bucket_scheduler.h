@@ -119,6 +119,13 @@ struct SchedulerSettings {
     std::function<void(int, int, double)> progress;
 };
 
+/// The order a row of `width` buckets is taken in by `threads` workers
+/// (each taking the next bucket as it finishes one): the columns of as many
+/// stretches of the row as there are threads, in turn (two threads: 0,
+/// W/2, 1, W/2 + 1, ...), so that buckets sampled at the same time lie far
+/// apart. One thread: left to right.
+std::vector<int> bucketRowOrder(int width, int threads);
+
 /// Renders a list of primitives into a film, bucket by bucket.
 class BucketScheduler {
 public:
