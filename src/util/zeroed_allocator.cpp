@@ -11,6 +11,23 @@ namespace {
 
 constexpr size_t kHugePage = size_t(2) << 20;
 
+// Under AddressSanitizer every plane comes from calloc, whose blocks it
+// guards: an index past a plane's end inside a mapping's last page would
+// go unseen.
+#if defined(__SANITIZE_ADDRESS__)
+constexpr bool kHeapOnly = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+constexpr bool kHeapOnly = true;
+#else
+constexpr bool kHeapOnly = false;
+#endif
+#else
+constexpr bool kHeapOnly = false;
+#endif
+
+bool fromHeap(size_t bytes) { return kHeapOnly || bytes < kLargeZeroedBytes; }
+
 size_t roundUp(size_t bytes, size_t to) { return (bytes + to - 1) / to * to; }
 
 size_t smallPage() {
@@ -32,7 +49,7 @@ size_t blockSize(size_t bytes) {
 }  // namespace
 
 void* allocateZeroed(size_t bytes) {
-    if (bytes < kLargeZeroedBytes) return std::calloc(bytes ? bytes : 1, 1);
+    if (fromHeap(bytes)) return std::calloc(bytes ? bytes : 1, 1);
     // Aligned to a huge page, so every whole 2 MiB of the block can be one:
     // map a huge page more than needed and trim both ends.
     const size_t size = blockSize(bytes);
@@ -51,7 +68,7 @@ void* allocateZeroed(size_t bytes) {
 
 void freeZeroed(void* p, size_t bytes) noexcept {
     if (!p) return;
-    if (bytes < kLargeZeroedBytes) {
+    if (fromHeap(bytes)) {
         std::free(p);
         return;
     }
