@@ -22,7 +22,8 @@ import shutil
 import subprocess
 import sys
 import tempfile
-import time
+
+from timed_run import run
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 UMBRA = os.path.join(ROOT, 'build', 'bin', 'umbra')
@@ -37,23 +38,6 @@ def scenes():
         if os.path.exists(rib):
             found.append(rib)
     return found
-
-
-def run(cmd, cwd, peer=False):
-    """(wall seconds, peak RSS MiB) of one command, which must succeed; a
-    peer's failure (a broken peer install) is printed and gives None."""
-    t0 = time.perf_counter()
-    proc = subprocess.Popen(cmd, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    _, status, usage = os.wait4(proc.pid, 0)
-    wall = time.perf_counter() - t0
-    err = proc.stderr.read().decode(errors='replace')
-    proc.stderr.close()
-    if os.waitstatus_to_exitcode(status) != 0:
-        if peer:
-            print('(%s failed, so Pixie is left out: %s)' % (os.path.basename(cmd[0]), err.strip()[-300:]))
-            return None
-        sys.exit('%s failed:\n%s' % (' '.join(cmd), err[-2000:]))
-    return wall, usage.ru_maxrss / 1024.0
 
 
 def main():

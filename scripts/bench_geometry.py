@@ -34,6 +34,8 @@ import subprocess
 import sys
 import tempfile
 
+from timed_run import run
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 UMBRA = os.path.join(ROOT, "build", "bin", "umbra")
 PEERS = os.environ.get("UMBRA_PEERS", os.path.join(ROOT, "..", "shared", "peers"))
@@ -147,25 +149,6 @@ def hair_scene(name):
             " ".join(["4"] * per_request), fmt(pts)))
     out.append("WorldEnd\n")
     return "".join(out)
-
-
-def run(cmd, cwd, env=None, peer=False):
-    """Runs cmd; returns (wall seconds, peak RSS in MiB) from the child's rusage.
-    A peer's failure (a broken peer install) is printed and gives None."""
-    import time
-    t0 = time.perf_counter()
-    proc = subprocess.Popen(cmd, cwd=cwd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    _, status, usage = os.wait4(proc.pid, 0)
-    wall = time.perf_counter() - t0
-    err = proc.stderr.read().decode(errors="replace")
-    proc.stderr.close()
-    proc.returncode = os.waitstatus_to_exitcode(status)
-    if proc.returncode != 0:
-        if peer:
-            print("(%s failed, so Pixie is left out: %s)" % (os.path.basename(cmd[0]), err.strip()[-300:]))
-            return None
-        sys.exit("%s failed (%d):\n%s" % (" ".join(cmd), proc.returncode, err[-2000:]))
-    return wall, usage.ru_maxrss / 1024.0
 
 
 def main():
