@@ -1,6 +1,9 @@
 #include "umbra/geometry/blobby.h"
 
+#include "umbra/geometry/deforming.h"
 #include "umbra/shadow/depth_image.h"
+
+#include <fmt/format.h>
 
 #include <sys/stat.h>
 
@@ -689,6 +692,24 @@ Vec3 BlobbyField::project(const Vec3& start, float maxStep, Vec3* outward) const
     return p;
 }
 
+namespace {
+
+/// How far the surface over each triangle stands off it, from its centre and
+/// edge midpoints; doubled (and a little more) for the bound.
+void padTriangles(BlobbyMeshData& mesh) {
+    const float h = mesh.maxStep;
+    mesh.pad.resize(mesh.triangles.size());
+    for (size_t t = 0; t < mesh.triangles.size(); ++t) {
+        const auto& [a, b, c] = mesh.triangles[t];
+        float d = 0;
+        for (const Vec3& x : {(a + b + c) / 3, (a + b) * 0.5f, (b + c) * 0.5f, (a + c) * 0.5f})
+            d = std::max(d, length(mesh.field->project(x, h, nullptr) - x));
+        mesh.pad[t] = 2 * d + 0.05f * h;
+    }
+}
+
+}  // namespace
+
 std::shared_ptr<BlobbyMeshData> polygonizeBlobby(const scene::PrimitiveRecord& rec,
                                                  std::shared_ptr<const BlobbyField> field, int maxCells,
                                                  Diagnostics& diag) {
@@ -784,16 +805,7 @@ std::shared_ptr<BlobbyMeshData> polygonizeBlobby(const scene::PrimitiveRecord& r
                     }
                 }
 
-    // How far the surface over each triangle stands off it, from its centre
-    // and edge midpoints; doubled (and a little more) for the bound.
-    mesh->pad.resize(mesh->triangles.size());
-    for (size_t t = 0; t < mesh->triangles.size(); ++t) {
-        const auto& [a, b, c] = mesh->triangles[t];
-        float d = 0;
-        for (const Vec3& x : {(a + b + c) / 3, (a + b) * 0.5f, (b + c) * 0.5f, (a + c) * 0.5f})
-            d = std::max(d, length(field->project(x, h, nullptr) - x));
-        mesh->pad[t] = 2 * d + 0.05f * h;
-    }
+    padTriangles(*mesh);
     return mesh;
 }
 
@@ -908,23 +920,119 @@ Grid BlobbyPiece::dice(int nu, int nv) const {
     return g;
 }
 
-void makeBlobby(std::shared_ptr<const scene::PrimitiveRecord> record, Diagnostics& diag,
-                std::vector<PrimitivePtr>& out) {
-    auto field = BlobbyField::fromRecord(*record, diag);
-    if (!field) return;
+namespace {
+
+/// A Blobby record's field, its primitive variables and its coarse
+/// triangles; null when it is malformed (reported through `diag`).
+std::shared_ptr<BlobbyMeshData> blobbyMesh(const scene::PrimitiveRecord& record, Diagnostics& diag) {
+    auto field = BlobbyField::fromRecord(record, diag);
+    if (!field) return nullptr;
     ClassCounts counts;
     counts.uniform = 1;
     counts.uniformWhat = "one for the Blobby";
     counts.varying = counts.vertex = counts.faceVarying = size_t(field->leafCount());
     counts.varyingWhat = counts.vertexWhat = counts.faceVaryingWhat = "one per leaf";
-    auto vars = readSurfaceData(*record, counts, false, diag);
-    if (!vars) return;
+    auto vars = readSurfaceData(record, counts, false, diag);
+    if (!vars) return nullptr;
     constexpr int kMaxCellsPerAxis = 96;
-    auto mesh = polygonizeBlobby(*record, field, kMaxCellsPerAxis, diag);
+    auto mesh = polygonizeBlobby(record, field, kMaxCellsPerAxis, diag);
     mesh->vars = std::move(vars);
-    if (mesh->triangles.empty()) return;
+    return mesh;
+}
+
+}  // namespace
+
+void makeBlobby(std::shared_ptr<const scene::PrimitiveRecord> record, Diagnostics& diag,
+                std::vector<PrimitivePtr>& out) {
+    auto mesh = blobbyMesh(*record, diag);
+    if (!mesh || mesh->triangles.empty()) return;
     const int n = int(mesh->triangles.size());
     out.push_back(std::make_unique<BlobbyMesh>(std::move(record), std::move(mesh), 0, n));
+}
+
+std::shared_ptr<BlobbyMeshData> carryBlobbyMesh(const BlobbyMeshData& from, std::shared_ptr<const BlobbyField> to,
+                                                std::string* why) {
+    using Op = BlobbyField::Op;
+    const BlobbyField& source = *from.field;
+    const int leaves = source.leafCount();
+    if (to->leafCount() != leaves) {
+        *why = fmt::format("it has {} leaves where the first shape has {}", to->leafCount(), leaves);
+        return nullptr;
+    }
+    // Each leaf's instruction in both shapes, and the first shape's leaf
+    // space mapped into the other's object space.
+    std::vector<const BlobbyField::Instruction*> before(static_cast<size_t>(leaves)), after(static_cast<size_t>(leaves));
+    for (const auto& ins : source.code())
+        if (ins.leaf >= 0) before[size_t(ins.leaf)] = &ins;
+    for (const auto& ins : to->code())
+        if (ins.leaf >= 0) after[size_t(ins.leaf)] = &ins;
+    std::vector<Mat4> objectFromLeaf(static_cast<size_t>(leaves));
+    for (int l = 0; l < leaves; ++l) {
+        if (before[size_t(l)]->op != after[size_t(l)]->op) {
+            *why = fmt::format("its leaf {} is of another kind than the first shape's", l);
+            return nullptr;
+        }
+        objectFromLeaf[size_t(l)] = after[size_t(l)]->leafFromObject.inverse();
+    }
+    auto mesh = std::make_shared<BlobbyMeshData>();
+    mesh->field = to;
+    mesh->vars = from.vars;
+    mesh->maxStep = from.maxStep;
+    std::vector<float> share(static_cast<size_t>(leaves));
+    // A corner's place on the other shape: where each leaf it belongs to
+    // takes it (the same point of the leaf's own space; along a segment,
+    // the same distance from the same point of it), blended by the leaves'
+    // fields, then projected onto the surface. A lone leaf's corners land
+    // on its surface exactly: the projection only settles rounding.
+    auto carry = [&](const Vec3& p) {
+        source.value(p, share.data());
+        Vec3 sum(0.0f);
+        float weights = 0;
+        for (int l = 0; l < leaves; ++l) {
+            const BlobbyField::Instruction& a = *before[size_t(l)];
+            const float w = share[size_t(l)];
+            if (!(w > 0) || (a.op != Op::Ellipsoid && a.op != Op::Segment)) continue;
+            Vec3 q = a.leafFromObject.point(p);
+            if (a.op == Op::Segment) {
+                const BlobbyField::Instruction& b = *after[size_t(l)];
+                const Vec3 axis = a.b - a.a;
+                const float len2 = dot(axis, axis);
+                const float t = len2 > 0 ? std::clamp(dot(q - a.a, axis) / len2, 0.0f, 1.0f) : 0.0f;
+                q = q - (a.a + axis * t) + (b.a + (b.b - b.a) * t);
+            }
+            sum = sum + objectFromLeaf[size_t(l)].point(q) * w;
+            weights += w;
+        }
+        const Vec3 guess = weights > 0 ? sum / weights : p;
+        return to->project(guess, from.maxStep, nullptr);
+    };
+    mesh->triangles.reserve(from.triangles.size());
+    for (const auto& [a, b, c] : from.triangles) mesh->triangles.push_back({carry(a), carry(b), carry(c)});
+    padTriangles(*mesh);
+    return mesh;
+}
+
+void makeDeformingBlobby(std::shared_ptr<const scene::PrimitiveRecord> record, Diagnostics& diag,
+                         std::vector<PrimitivePtr>& out) {
+    auto first = blobbyMesh(*record, diag);
+    if (!first || first->triangles.empty()) return;
+    const int n = int(first->triangles.size());
+    std::vector<PrimitivePtr> shapes;
+    shapes.push_back(std::make_unique<BlobbyMesh>(record, first, 0, n));
+    for (const scene::PrimitiveRecord& shape : record->shapes) {
+        auto field = BlobbyField::fromRecord(shape, diag);
+        std::string why = "it is malformed";
+        auto carried = field ? carryBlobbyMesh(*first, field, &why) : nullptr;
+        if (!carried) {
+            if (field) diag.error(shape.loc, "Blobby: this motion shape cannot blur with the first: {} (the Blobby "
+                                  "renders unblurred)", why);
+            out.push_back(std::move(shapes[0]));
+            return;
+        }
+        shapes.push_back(std::make_unique<BlobbyMesh>(std::make_shared<const scene::PrimitiveRecord>(shape),
+                                                      std::move(carried), 0, n));
+    }
+    out.push_back(std::make_unique<DeformingPrimitive>(std::move(shapes)));
 }
 
 }  // namespace umbra::geometry

@@ -402,15 +402,14 @@ std::vector<PrimitivePtr> makeDeforming(const RecordPtr& record, Diagnostics& di
         readers = &firstShapes;
     }
     std::vector<std::vector<PrimitivePtr>> shapes;
-    shapes.push_back(makeShape(record, diag, blockSide, readers));
     if (record->type == "Blobby") {
-        // Each shape's surface is polygonised on its own, so their pieces
-        // do not pair up: blurring them would move one triangle to another.
-        diag.warningOnce("blobby:deform", record->loc,
-                         "Blobby: deformation blur (MotionBegin around a Blobby) is not supported; the first shape "
-                         "renders unblurred");
-        return std::move(shapes[0]);
+        // Each shape polygonised on its own would not pair up: the first
+        // shape's triangles are carried to the others.
+        std::vector<PrimitivePtr> out;
+        makeDeformingBlobby(record, diag, out);
+        return out;
     }
+    shapes.push_back(makeShape(record, diag, blockSide, readers));
     for (const scene::PrimitiveRecord& s : record->shapes) {
         shapes.push_back(makeShape(std::make_shared<const scene::PrimitiveRecord>(s), diag, blockSide, readers));
         if (shapes.back().size() != shapes[0].size()) {

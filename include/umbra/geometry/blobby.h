@@ -37,6 +37,7 @@
 
 #include <array>
 #include <memory>
+#include <string>
 #include <vector>
 
 namespace umbra {
@@ -87,6 +88,8 @@ public:
     Vec3 project(const Vec3& p, float maxStep, Vec3* outward) const;
 
     int leafCount() const { return m_leaves; }
+    /// The instructions, in order; a leaf's has `leaf` >= 0.
+    const std::vector<Instruction>& code() const { return m_code; }
     /// Where the ellipsoid and segment leaves are non-zero (object space);
     /// repelling planes act only inside it.
     const Bound3& support() const { return m_support; }
@@ -171,5 +174,23 @@ private:
 /// reported through `diag`, or has no surface).
 void makeBlobby(std::shared_ptr<const scene::PrimitiveRecord> record, Diagnostics& diag,
                 std::vector<PrimitivePtr>& out);
+
+/// The coarse triangles of `from` carried to another shape of a deforming
+/// Blobby, whose field is `to` (same leaves, in the same order): each corner
+/// moves with the ellipsoid and segment leaves it belongs to, weighted by
+/// their fields there, and is projected onto `to`'s surface. The first
+/// shape's triangles (its topology) serve every shape, so the pieces pair
+/// up; blobs that merge or part within the shutter keep the first shape's
+/// topology. Null when the leaves differ (`why` says how).
+std::shared_ptr<BlobbyMeshData> carryBlobbyMesh(const BlobbyMeshData& from, std::shared_ptr<const BlobbyField> to,
+                                                std::string* why);
+
+/// Makes the primitive of a deforming Blobby (MotionBegin around it:
+/// `record` is the first shape, record->shapes the others): one
+/// DeformingPrimitive whose shapes are the first shape's triangles carried
+/// to each (carryBlobbyMesh). A shape whose leaves differ from the first's
+/// is reported and the first shape renders unblurred.
+void makeDeformingBlobby(std::shared_ptr<const scene::PrimitiveRecord> record, Diagnostics& diag,
+                         std::vector<PrimitivePtr>& out);
 
 }  // namespace umbra::geometry

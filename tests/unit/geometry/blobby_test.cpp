@@ -473,11 +473,98 @@ TEST(Blobby, PolygonisationIsCappedWithAWarning) {
     EXPECT_NEAR(prims[0]->bound().max.x, 1, 0.1);
 }
 
-TEST(Blobby, DeformationBlurIsWarnedAndTheFirstShapeRenders) {
-    auto rec = blobby(1, {1001, 0}, sphereLeaf(2, {}));
-    rec->shapeTimes = {0, 1};
-    scene::PrimitiveRecord moved = *blobby(1, {1001, 0}, sphereLeaf(2, {1, 0, 0}));
-    rec->shapes.push_back(moved);
+// A Blobby inside MotionBegin: `first` and the other shapes, at times 0, 1, ...
+std::shared_ptr<scene::PrimitiveRecord> deforming(std::shared_ptr<scene::PrimitiveRecord> first,
+                                                  const std::vector<std::shared_ptr<scene::PrimitiveRecord>>& others) {
+    first->shapeTimes = {0};
+    for (const auto& o : others) {
+        first->shapeTimes.push_back(float(first->shapeTimes.size()));
+        first->shapes.push_back(*o);
+    }
+    return first;
+}
+
+// Every shape of every piece diced at 5x5: shape k's points, piece after piece.
+std::vector<std::vector<Vec3>> dicedShapes(std::vector<PrimitivePtr> prims, int shapes) {
+    std::vector<std::vector<Vec3>> out(static_cast<size_t>(shapes));
+    for (const auto& piece : splitToDiceable(std::move(prims))) {
+        EXPECT_EQ(piece->shapeCount(), shapes);
+        for (int k = 0; k < shapes; ++k) {
+            std::vector<Vec3> P;
+            piece->diceShape(k, 5, 5, ViewContext{}, P);
+            out[size_t(k)].insert(out[size_t(k)].end(), P.begin(), P.end());
+        }
+    }
+    return out;
+}
+
+TEST(Blobby, DeformationBlurCarriesARigidlyMovedLeafPointForPoint) {
+    // One sphere leaf, moved and turned between the shapes: shape 1's
+    // surface is shape 0's under the same rigid motion, point for point
+    // (the corners are carried exactly; projection commutes with a rigid
+    // motion), and on the second field's threshold.
+    const float c = std::cos(0.5f), s = std::sin(0.5f);
+    // Leaf scale 2 turned by 0.5 rad about z and centred at (1, 0.5, -0.25), RIB order (row vectors).
+    const std::vector<float> turned = {2 * c, 2 * s, 0, 0, -2 * s, 2 * c, 0, 0, 0, 0, 2, 0, 1, 0.5f, -0.25f, 1};
+    auto rec = deforming(blobby(1, {1001, 0}, sphereLeaf(2, {})), {blobby(1, {1001, 0}, turned)});
+    Diagnostics diag;
+    auto prims = makePrimitives(rec, diag);
+    EXPECT_EQ(diag.errorCount() + diag.warningCount(), 0);
+    ASSERT_EQ(prims.size(), 1u);
+    EXPECT_NEAR(prims[0]->bound().max.x, 2, 0.1);  // both shapes: out to 1 + 1
+    EXPECT_NEAR(prims[0]->bound().min.x, -1, 0.1);
+    const auto shapes = dicedShapes(std::move(prims), 2);
+    ASSERT_GT(shapes[0].size(), 500u);
+    ASSERT_EQ(shapes[0].size(), shapes[1].size());
+    auto f1 = field(blobby(1, {1001, 0}, turned));
+    int moved = 0, offSurface = 0;
+    for (size_t i = 0; i < shapes[0].size(); ++i) {
+        const Vec3 p = shapes[0][i];
+        const Vec3 expected(c * p.x - s * p.y + 1, s * p.x + c * p.y + 0.5f, p.z - 0.25f);
+        moved += length(shapes[1][i] - expected) < 1e-4f;
+        offSurface += !(std::abs(f1->value(shapes[1][i]) - kT) < 1e-4f);
+    }
+    EXPECT_EQ(moved, int(shapes[0].size()));
+    EXPECT_EQ(offSurface, 0);
+}
+
+TEST(Blobby, DeformationBlurOfLeavesMovingApartStaysOnEachShapesSurface) {
+    // Two bridged leaves, the second moving away and growing, a segment
+    // blob sliding: every shape's diced points lie on that shape's surface,
+    // and the shapes differ where the leaves moved.
+    auto shape = [](float x, float scale, float slide) {
+        std::vector<float> segment = {slide, 0, 0, slide + 1, 0, 0, 0.5f};
+        const std::vector<float> identity = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, -1.2f, 0, 1};
+        segment.insert(segment.end(), identity.begin(), identity.end());
+        return blobby(3, {1001, 0, 1001, 16, 1002, 32, 0, 3, 0, 1, 2},
+                      concat(concat(sphereLeaf(1.6f, {}), sphereLeaf(scale, {x, 0, 0})), segment));
+    };
+    auto rec = deforming(shape(1.0f, 1.6f, 0), {shape(1.3f, 1.8f, 0.2f), shape(1.5f, 2.0f, 0.4f)});
+    Diagnostics diag;
+    auto prims = makePrimitives(rec, diag);
+    EXPECT_EQ(diag.errorCount(), 0);
+    const auto shapes = dicedShapes(std::move(prims), 3);
+    ASSERT_GT(shapes[0].size(), 500u);
+    const std::shared_ptr<const BlobbyField> fields[3] = {field(shape(1.0f, 1.6f, 0)), field(shape(1.3f, 1.8f, 0.2f)),
+                                                          field(shape(1.5f, 2.0f, 0.4f))};
+    for (int k = 0; k < 3; ++k) {
+        int offSurface = 0;
+        for (const Vec3& p : shapes[size_t(k)])
+            offSurface += !(std::abs(fields[k]->value(p) - kT) / std::max(1.0f, length(fields[k]->gradient(p))) < 1e-4f);
+        EXPECT_EQ(offSurface, 0) << "shape " << k;
+    }
+    float reach[3] = {-kInfinity, -kInfinity, -kInfinity};
+    for (int k = 0; k < 3; ++k)
+        for (const Vec3& p : shapes[size_t(k)]) reach[k] = std::max(reach[k], p.x);
+    // The moving leaf's far side: 1 + 0.8, 1.3 + 0.9, 1.5 + 1 (a lone leaf's surface at half its scale).
+    EXPECT_NEAR(reach[0], 1.8f, 0.05f);
+    EXPECT_NEAR(reach[1], 2.2f, 0.05f);
+    EXPECT_NEAR(reach[2], 2.5f, 0.05f);
+}
+
+TEST(Blobby, DeformationBlurOfShapesWithOtherLeavesIsAnErrorAndTheFirstShapeRenders) {
+    auto rec = deforming(blobby(1, {1001, 0}, sphereLeaf(2, {})),
+                         {blobby(2, {1001, 0, 1001, 16, 0, 2, 0, 1}, concat(sphereLeaf(2, {}), sphereLeaf(2, {1, 0, 0})))});
     Diagnostics diag;
     diag.setRecord(true);
     diag.setQuiet(true);
@@ -486,8 +573,8 @@ TEST(Blobby, DeformationBlurIsWarnedAndTheFirstShapeRenders) {
     EXPECT_EQ(prims[0]->shapeCount(), 1);
     EXPECT_NEAR(prims[0]->bound().max.x, 1, 0.1);  // the first shape, centred at the origin
     ASSERT_EQ(diag.recorded().size(), 1u);
-    EXPECT_EQ(diag.recorded()[0].str(), "test.rib:3:1: warning: Blobby: deformation blur (MotionBegin around a "
-                                        "Blobby) is not supported; the first shape renders unblurred");
+    EXPECT_EQ(diag.recorded()[0].str(), "test.rib:3:1: error: Blobby: this motion shape cannot blur with the first: it "
+                                        "has 2 leaves where the first shape has 1 (the Blobby renders unblurred)");
 }
 
 TEST(Blobby, ManyLeavesGiveTheFieldOfEveryLeafWhereverThePoint) {

@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
 
@@ -98,6 +99,58 @@ TEST(MotionBlur, MovingCurvesLeaveTheAveragedCoverageProfile) {
                                  "MotionEnd\nWorldEnd\n";
     for (const std::string* rib : {&transformed, &deformed}) {
         expectSlidingSquare(render(*rib, dir), rib == &deformed ? "deformed" : "transformed");
+    }
+}
+
+TEST(MotionBlur, MovingBlobbyLeavesTheSlidingDiscsAveragedCoverage) {
+    // A sphere blob of surface radius 4 (a leaf of scale 8: the threshold
+    // lies at half the leaf's radius) sliding from x = -10 to 10, moved by
+    // a transform and deformed between two Blobby shapes: each column's
+    // coverage averaged over the shutter and the rows is the disc's, in
+    // closed form (the chord 2 sqrt(16 - (x - c)^2) integrated over the
+    // column and over c). Before deformation blur was built, the deformed
+    // Blobby rendered its first shape only.
+    ScratchDir dir("mb-blobby");
+    auto leaf = [](double c) { return fmt::format("8 0 0 0  0 8 0 0  0 0 8 0  {} 0 5 1", c); };
+    const std::string transformed = orthoFrame(48, 16, 8, "Shutter 0 1\n") +
+                                    "WorldBegin\nSurface \"constant\"\n"
+                                    "MotionBegin [0 1]\nTranslate -10 0 0\nTranslate 10 0 0\nMotionEnd\n"
+                                    "Blobby 1 [1001 0] [" + leaf(0) + "] [\"\"]\nWorldEnd\n";
+    const std::string deformed = orthoFrame(48, 16, 8, "Shutter 0 1\n") +
+                                 "WorldBegin\nSurface \"constant\"\nMotionBegin [0 1]\n"
+                                 "Blobby 1 [1001 0] [" + leaf(-10) + "] [\"\"]\n"
+                                 "Blobby 1 [1001 0] [" + leaf(10) + "] [\"\"]\n"
+                                 "MotionEnd\nWorldEnd\n";
+    auto chordIntegral = [](double a, double b) {  // integral of 2 sqrt(16 - u^2) du over [a, b] within [-4, 4]
+        auto F = [](double u) {
+            u = std::clamp(u, -4.0, 4.0);
+            return u * std::sqrt(16 - u * u) + 16 * std::asin(u / 4);
+        };
+        return F(b) - F(a);
+    };
+    auto expected = [&](double x0) {
+        double s = 0;
+        const int n = 4000;
+        for (int i = 0; i < n; ++i) {
+            const double c = -10 + 20 * (i + 0.5) / n;
+            s += chordIntegral(x0 - c, x0 + 1 - c);
+        }
+        return s / n / 16;  // averaged over the shutter and the 16 rows
+    };
+    for (const std::string* rib : {&transformed, &deformed}) {
+        const char* what = rib == &deformed ? "deformed" : "transformed";
+        const Image img = render(*rib, dir);
+        ASSERT_EQ(img.width, 48) << what;
+        double worst = 0, total = 0;
+        for (int x = 0; x < 48; ++x) {
+            double column = 0;
+            for (int y = 0; y < 16; ++y) column += img.at(x, y, 3);
+            column /= 16;
+            total += column;
+            worst = std::max(worst, std::abs(column - expected(x - 24.0)));
+        }
+        EXPECT_NEAR(total, 16 * M_PI / 16, 0.01 * M_PI) << what;  // the disc's area over 16 rows
+        EXPECT_LT(worst, 0.01) << what << ": largest error of a column's averaged coverage";
     }
 }
 
