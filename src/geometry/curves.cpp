@@ -289,7 +289,18 @@ Grid PointGroup::diceInView(int, int, const ViewContext& view) const {
     for (const PrimVar& v : sd.vars) {
         const bool perPoint = v.storage == ri::StorageClass::Vertex || v.storage == ri::StorageClass::Varying ||
                               v.storage == ri::StorageClass::FaceVarying || v.storage == ri::StorageClass::FaceVertex;
-        if (v.isNormal) continue;  // discs face the eye; "N" would only shade them
+        if (v.isNormal) {
+            // The discs face the eye; a supplied "N" is the shading normal
+            // (RI Spec 3.2: "N" overrides it on every primitive), as Pixie
+            // and Aqsis shade it.
+            g.N.resize(n);
+            for (size_t vi = 0; vi < n; ++vi) {
+                const int column = int(vi % size_t(g.nu + 1));
+                const float* s = v.at(perPoint ? size_t(m_first + column / 2) : 0);
+                g.N[vi] = Vec3(s[0], s[1], s[2]);
+            }
+            continue;
+        }
         GridVar& gv = addGridVar(g, v, perPoint);
         if (!perPoint) {
             const float* s = v.at(0);
@@ -405,8 +416,7 @@ void makePointSpheres(const std::shared_ptr<const scene::PrimitiveRecord>& rec, 
     for (long i = 0; i < n; ++i) {
         const float r = 0.5f * set.width(int(i));
         if (!(r > 0)) continue;  // a point without width draws nothing
-        auto sphere = std::make_shared<scene::PrimitiveRecord>();
-        sphere->type = "Sphere";
+        auto sphere = std::make_shared<scene::PrimitiveRecord>(rec->derived("Sphere"));
         sphere->floatArgs = {r, -r, r, 360.0f};
         const Vec3 at(P->floats[size_t(i) * 3], P->floats[size_t(i) * 3 + 1], P->floats[size_t(i) * 3 + 2]);
         sphere->worldFromObject = rec->worldFromObject * Mat4::translate(at);
@@ -447,9 +457,6 @@ void makePointSpheres(const std::shared_ptr<const scene::PrimitiveRecord>& rec, 
             }
             sphere->params.add(std::move(q));
         }
-        sphere->attributes = rec->attributes;
-        sphere->loc = rec->loc;
-        sphere->solid = rec->solid;
         QuadricShape shape;
         if (!Quadric::shapeFromRecord(*sphere, &shape, diag)) continue;
         auto sd = readSurfaceData(*sphere, counts, false, diag);
@@ -498,7 +505,7 @@ void makePoints(const std::shared_ptr<const scene::PrimitiveRecord>& rec, Diagno
     }
     if (type == "disk" && rec->params.find("N"))
         diag.warningOnce("points-type:disk-N", rec->loc, "Points: discs oriented by \"N\" (type \"disk\") are not "
-                         "supported; drawn facing the camera");
+                         "supported; drawn facing the camera, shaded by \"N\"");
     else if (type != "particle" && type != "disk" && type != "sphere")
         diag.warningOnce("points-type:" + type, rec->loc, "Points: type \"{}\" is not supported (expected "
                          "\"particle\", \"disk\" or \"sphere\"); drawn as discs facing the camera", type);

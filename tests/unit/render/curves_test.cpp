@@ -133,6 +133,38 @@ WorldEnd
     EXPECT_NEAR(b / a, 1.0, 0.01);
 }
 
+TEST(Points, SuppliedNormalsShadeTheDiscs) {
+    // A supplied "N" is the shading normal (RI Spec 3.2), as Pixie and
+    // Aqsis shade it; the discs still face the eye. Three points under a
+    // distant light shining along +z (L = (0, 0, -1)) with matte: N facing
+    // the light gives 1, N at 45 degrees cos 45, N across the light 0 (the
+    // three closed forms); a constant N shades every point alike. Before,
+    // "N" was dropped and every disc shaded as facing the light.
+    ScratchDir dir("points-normal");
+    auto render = [&](const std::string& normals) {
+        const std::string world = "LightSource \"distantlight\" 1 \"from\" [0 0 -1] \"to\" [0 0 0]\n"
+                                  "Surface \"matte\"\n"
+                                  "Points \"P\" [-1 0 0  0 0 0  1 0 0] \"constantwidth\" [0.5] " + normals;
+        Diagnostics diag;
+        diag.setRecord(true);
+        test::renderRib(orthoFrame(dir.file("out.exr"), world), diag);
+        EXPECT_EQ(diag.errorCount(), 0);
+        Image img;
+        EXPECT_TRUE(test::readImage(dir.file("out.exr"), &img));
+        return img;
+    };
+    // Point centres: x = -1, 0, 1 at 64 pixels a unit from the view's left edge at -2.
+    auto centre = [](const Image& img, int k) { return img.at(64 + 64 * k, kRes / 2, 0); };
+    const Image varying = render("\"N\" [0 0 -1  1 0 -1  1 0 0]");
+    EXPECT_NEAR(centre(varying, 0), 1.0, 1e-3);
+    EXPECT_NEAR(centre(varying, 1), std::sqrt(0.5), 1e-3);
+    EXPECT_NEAR(centre(varying, 2), 0.0, 1e-3);
+    const Image constant = render("\"constant normal N\" [0 1 0]");
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(centre(constant, k), 0.0, 1e-3) << k;
+    const Image none = render("");
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(centre(none, k), 1.0, 1e-3) << k;  // facing the eye and the light
+}
+
 TEST(CurvesAndPoints, CastShadowsIntoAnAutomaticMap) {
     // A distant light straight down; a floor at z = 1 behind a field of
     // curves and discs at z = 0: the floor's darkened area is the casters'.
