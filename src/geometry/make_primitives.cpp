@@ -351,8 +351,8 @@ void makeTeapot(const RecordPtr& rec, Diagnostics& diag, std::vector<PrimitivePt
     auto attrs = std::make_shared<scene::Attributes>(rec->attributes ? *rec->attributes : scene::Attributes());
     attrs->uBasis = attrs->vBasis = scene::Basis::bezier();
     for (int patch = 0; patch < kTeapotPatchCount; ++patch) {
-        auto piece = std::make_shared<scene::PrimitiveRecord>();
-        piece->type = "Patch";
+        auto piece = std::make_shared<scene::PrimitiveRecord>(rec->derived("Patch"));
+        piece->attributes = attrs;
         piece->stringArgs = {"bicubic"};
         ri::Param P;
         P.decl.name = "P";
@@ -364,10 +364,6 @@ void makeTeapot(const RecordPtr& rec, Diagnostics& diag, std::vector<PrimitivePt
             P.floats.insert(P.floats.end(), {c.x, c.y, c.z});
         }
         piece->params.add(std::move(P));
-        piece->worldFromObject = rec->worldFromObject;
-        piece->worldFromObjectMotion = rec->worldFromObjectMotion;
-        piece->attributes = attrs;
-        piece->loc = rec->loc;
         makePatches(piece, diag, out);
     }
 }

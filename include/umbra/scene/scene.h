@@ -154,6 +154,21 @@ struct PrimitiveRecord {
     int solid = -1;
 
     bool moving() const { return (worldFromObjectMotion && worldFromObjectMotion->moving()) || !shapes.empty(); }
+
+    /// A record of another type that a family makes of this one (the
+    /// teapot's patches, a sphere point's sphere): where and how this one
+    /// is -- transform, motion, attributes, location and CSG solid -- with
+    /// no arguments or parameters of its own yet.
+    PrimitiveRecord derived(std::string derivedType) const {
+        PrimitiveRecord r;
+        r.type = std::move(derivedType);
+        r.worldFromObject = worldFromObject;
+        r.worldFromObjectMotion = worldFromObjectMotion;
+        r.attributes = attributes;
+        r.loc = loc;
+        r.solid = solid;
+        return r;
+    }
 };
 
 /// One node of a CSG tree (RI spec 3.2 §5.8): a SolidBegin block inside a

@@ -93,6 +93,23 @@ TEST(Csg, DifferenceByAnEnclosingSphereIsEmpty) {
     EXPECT_LT(coveredArea(img), 2 * (4.0 / 256) * (4.0 / 256));
 }
 
+TEST(Csg, GeometryTeapotTakesPartInTheSetOperation) {
+    // Geometry "teapot" is a primitive like any (RI Spec 3.2 §5.8): less an
+    // enclosing sphere it is empty, and within one it is the teapot drawn
+    // alone. Its patches were made without the CSG leaf, so the teapot
+    // was drawn uncut, without a word.
+    const std::string teapot = "SolidBegin \"primitive\" AttributeBegin Translate 0 -0.8 0 Rotate -90 1 0 0 "
+                               "Scale 0.5 0.5 0.5 Geometry \"teapot\" AttributeEnd SolidEnd\n";
+    const double alone = coveredArea(renderCsg(teapot, "csg-teapot-alone"));
+    EXPECT_GT(alone, 2.0);  // a teapot 3.2 wide and 1.6 high
+    const Image cut =
+        renderCsg("SolidBegin \"difference\"\n" + teapot + sphere("0 1 0", 0, 0, 0, 2.5f) + "SolidEnd", "csg-teapot-cut");
+    EXPECT_LT(coveredArea(cut), 2 * (4.0 / 256) * (4.0 / 256));
+    const Image kept = renderCsg("SolidBegin \"intersection\"\n" + teapot + sphere("0 1 0", 0, 0, 0, 2.5f) + "SolidEnd",
+                                 "csg-teapot-kept");
+    EXPECT_NEAR(coveredArea(kept), alone, 0.01 * alone);
+}
+
 TEST(Csg, IntersectionOfTwoSpheresCoversTheirLens) {
     // Unit spheres with centres 1 apart in the image plane: the solid's
     // projection is the lens of their discs.
