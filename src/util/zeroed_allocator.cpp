@@ -1,6 +1,8 @@
 #include "umbra/util/zeroed_allocator.h"
 
 #include <cstdint>
+#include <cstdlib>
+#include <mutex>
 
 #include <sys/mman.h>
 #include <unistd.h>
@@ -64,6 +66,60 @@ void* allocateZeroed(size_t bytes) {
     void* p = reinterpret_cast<void*>(aligned);
     ::madvise(p, size, MADV_HUGEPAGE);  // a hint: without huge pages, ordinary ones
     return p;
+}
+
+namespace {
+
+/// The pool behind allocatePooled: free blocks linked through their first
+/// bytes, refilled a slab at a time.
+struct BlockPool {
+    std::mutex mutex;
+    void* free = nullptr;
+
+    void* take() {
+        std::lock_guard<std::mutex> lock(mutex);
+        if (!free) {
+            auto* slab = static_cast<char*>(allocateZeroed(kHugePage));
+            if (!slab) return nullptr;
+            // Linked back to front, so blocks are handed out in address order.
+            for (size_t at = kHugePage; at >= kPooledBytes; at -= kPooledBytes) {
+                void* block = slab + at - kPooledBytes;
+                *static_cast<void**>(block) = free;
+                free = block;
+            }
+        }
+        void* block = free;
+        free = *static_cast<void**>(block);
+        return block;
+    }
+    void give(void* block) noexcept {
+        std::lock_guard<std::mutex> lock(mutex);
+        *static_cast<void**>(block) = free;
+        free = block;
+    }
+};
+
+BlockPool& blockPool() {
+    static BlockPool* pool = new BlockPool();  // never destroyed: blocks may be given back during exit
+    return *pool;
+}
+
+bool pooled(size_t bytes) { return !kHeapOnly && bytes == kPooledBytes; }
+
+}  // namespace
+
+void* allocatePooled(size_t bytes) {
+    if (!pooled(bytes)) return std::malloc(bytes ? bytes : 1);
+    return blockPool().take();
+}
+
+void freePooled(void* p, size_t bytes) noexcept {
+    if (!p) return;
+    if (!pooled(bytes)) {
+        std::free(p);
+        return;
+    }
+    blockPool().give(p);
 }
 
 void freeZeroed(void* p, size_t bytes) noexcept {

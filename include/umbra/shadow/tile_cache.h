@@ -4,6 +4,8 @@
 // could be cached to take better advantage of the algorithm's
 // two-dimensional locality").
 
+#include "umbra/util/zeroed_allocator.h"
+
 #include <array>
 #include <atomic>
 #include <cstddef>
@@ -26,7 +28,8 @@ namespace umbra {
 struct ShadowTile {
     static constexpr int kBlocks = 4;
     int width = 0, height = 0;
-    std::vector<float> z;
+    /// A 32x32 tile's depths come from the block pool (util/zeroed_allocator.h).
+    std::vector<float, PooledAllocator<float>> z;
     float blockMin[kBlocks * kBlocks], blockMax[kBlocks * kBlocks];
     /// Second-depth maps: the plane each block's depths lie on, in the
     /// map's linear depth coordinate q (1/z under a perspective light, z

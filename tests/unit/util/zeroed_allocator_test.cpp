@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cstdint>
 #include <numeric>
+#include <thread>
+#include <vector>
 
 using namespace umbra;
 
@@ -70,4 +72,36 @@ TEST(ZeroedAllocator, GrowingAndCopyingKeepContents) {
     p = FloatPlane(7, 2.0f);  // the large block is given back
     EXPECT_EQ(p.size(), 7u);
     EXPECT_EQ(q.size(), kLargeZeroedBytes);
+}
+
+// Pooled blocks: every live block is distinct and whole (two threads take
+// and give back thousands, each writing its own pattern over all of its
+// block and finding it intact), and other sizes work as malloc's.
+TEST(PooledAllocator, BlocksAreDistinctAndKeepWhatIsWrittenAcrossThreads) {
+    auto churn = [](uint32_t seed, int* damaged) {
+        std::vector<std::vector<float, PooledAllocator<float>>> held;
+        for (int round = 0; round < 3000; ++round) {
+            std::vector<float, PooledAllocator<float>> tile(kPooledBytes / sizeof(float));
+            std::fill(tile.begin(), tile.end(), float(seed + uint32_t(round)));
+            held.push_back(std::move(tile));
+            if (round % 3 == 2) {  // give back one in three, oldest first after a while
+                const size_t k = size_t(round) % held.size();
+                const float expected = held[k][0];
+                *damaged += !std::all_of(held[k].begin(), held[k].end(), [&](float v) { return v == expected; });
+                held.erase(held.begin() + long(k));
+            }
+        }
+        for (const auto& tile : held)
+            *damaged += !std::all_of(tile.begin(), tile.end(), [&](float v) { return v == tile[0]; });
+    };
+    int damagedA = 0, damagedB = 0;
+    std::thread a(churn, 1000000u, &damagedA), b(churn, 2000000u, &damagedB);
+    a.join();
+    b.join();
+    EXPECT_EQ(damagedA, 0);
+    EXPECT_EQ(damagedB, 0);
+    // Other sizes: malloc's, of the size asked.
+    std::vector<float, PooledAllocator<float>> odd(1000, 3.0f), none;
+    EXPECT_EQ(std::count(odd.begin(), odd.end(), 3.0f), 1000);
+    EXPECT_TRUE(none.empty());
 }
