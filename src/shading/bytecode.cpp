@@ -52,6 +52,25 @@ void operands(const CompiledShader& cs, const Instr& in, std::vector<int>* reads
     if (in.op == Op::Illuminate || in.op == Op::Solar) writes->push_back(cs.globalRegs[gL]);
 }
 
+/// A call that reads another shader's or the renderer's value into its
+/// output argument (RI Spec 3.2 §15.8 "message passing and information").
+bool messagePassing(const Instr& in) {
+    if (in.op != Op::Call) return false;
+    switch (Bi(in.sub)) {
+    case Bi::LightSource:
+    case Bi::SurfaceMsg:
+    case Bi::DisplacementMsg:
+    case Bi::AtmosphereMsg:
+    case Bi::Incident:
+    case Bi::Opposite:
+    case Bi::Attribute:
+    case Bi::Option:
+    case Bi::RendererInfo:
+    case Bi::TextureInfo: return true;
+    default: return false;
+    }
+}
+
 bool pure(const CompiledShader& cs, const Instr& in) {
     if (isControl(in.op) || in.op == Op::Nop) return false;
     if (in.op == Op::StoreElem || in.op == Op::SetComp) return false;
@@ -121,13 +140,22 @@ bool inferVaryingAndOptimize(CompiledShader& cs, CompileErrors& errs) {
         for (const Instr& in : cs.code) {
             if (in.op == Op::ParamInit) continue;
             operands(cs, in, &reads, &writes);
-            bool v = ctlVarying[size_t(in.ctl)] || in.varies;
-            for (int r : reads) v = v || cs.regs[size_t(r)].varying;
+            bool valueVaries = in.varies && !messagePassing(in);
+            for (int r : reads) valueVaries = valueVaries || cs.regs[size_t(r)].varying;
+            const bool v = valueVaries || ctlVarying[size_t(in.ctl)] || in.varies;
             if (!v) continue;
             for (int w : writes) {
                 RegInfo& r = cs.regs[size_t(w)];
                 if (r.varying || r.ty == Ty::String) continue;
-                if (r.fixed) {
+                // A variable declared uniform that is given a uniform value
+                // under a varying condition (in an illuminance loop, say), or
+                // another shader's value by message passing (lightsource(name,
+                // uniformVar), whose storage is the light's business), becomes
+                // varying: each point keeps what its own path stored. Pixie's
+                // and Aqsis's compilers take such shaders and run them so
+                // (docs/shading-language.md); a varying value stays an error,
+                // as in both.
+                if (r.fixed && valueVaries) {
                     if (reported.insert(w).second) {
                         errs.error(in.loc, fmt::format("cannot assign a varying value to uniform {} '{}'",
                                                        r.kind == RegKind::Param ? "parameter" : "variable", r.name));

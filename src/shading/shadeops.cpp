@@ -751,16 +751,23 @@ bool copyParam(Exec& x, const Exec* from, const std::string& name, int dst) {
         int sv = from->vary[size_t(sr)];
         float* dp = x.ptr[size_t(dst)];
         const float* sp = from->ptr[size_t(sr)];
+        // A uniform variable takes one value: the first active point's.
+        const bool dv = x.vary[size_t(dst)] != 0;
+        const int first = x.allOn || x.active.empty() ? 0 : x.active[0];
+        auto source = [&](int i) { return sv ? (dv ? i : first) : 0; };
         if (d.arrayLen > 0) {
             int c = tyFloats(d.ty);
             for (int e = 0; e < d.arrayLen; ++e)
-                forActive(x, x.vary[size_t(dst)], [&](int i) {
-                    std::memcpy(dp + size_t(e) * size_t(c) * size_t(x.vary[size_t(dst)] ? x.n : 1) + size_t(i * c),
-                                sp + size_t(e) * size_t(c) * size_t(sv ? x.n : 1) + size_t(i * sv * c), sizeof(float) * size_t(c));
+                forActive(x, dv, [&](int i) {
+                    std::memcpy(dp + size_t(e) * size_t(c) * size_t(dv ? x.n : 1) + size_t(i * c),
+                                sp + size_t(e) * size_t(c) * size_t(sv ? x.n : 1) + size_t(source(i) * c),
+                                sizeof(float) * size_t(c));
                 });
             return true;
         }
-        forActive(x, x.vary[size_t(dst)], [&](int i) { std::memcpy(dp + i * comps, sp + i * sv * comps, sizeof(float) * size_t(comps)); });
+        forActive(x, dv, [&](int i) {
+            std::memcpy(dp + i * comps, sp + source(i) * comps, sizeof(float) * size_t(comps));
+        });
         return true;
     }
     return false;

@@ -106,8 +106,21 @@ TEST(Compat, BuiltinOfUniformArgumentsIsUniform) {
         << h.messages();
     // So is random() outside a uniform store, even added to a uniform one.
     EXPECT_FALSE(h.sys.compileSource("surface t() { float v = random(); uniform float b = random() + v; }", "t.sl"));
-    // A uniform store under varying control stays an error, random() or not.
-    EXPECT_FALSE(h.sys.compileSource("surface t() { uniform float b = 0; if (u > 0.5) b = random(); }", "t.sl"));
+}
+
+TEST(Compat, UniformVariableStoredUnderAVaryingConditionHoldsEachPointsValue) {
+    // Pixie and Aqsis compile a uniform value stored into a variable
+    // declared uniform under varying control, and each point keeps what its
+    // own path stored (both render b = 1 exactly where u > 0.5); umbra's
+    // compiler refused it. A varying value stays an error, as in both.
+    Harness h;
+    ShadingGrid g = line(8);
+    h.surface("surface t() { uniform float b = 0; if (u > 0.5) b = 1; Ci = b; }", g);
+    EXPECT_EQ(h.diag.errorCount(), 0) << h.messages();
+    for (size_t i = 0; i < g.Ci.size(); ++i) expectNear(g.Ci[i], Vec3(g.u[i] > 0.5f ? 1.0f : 0.0f), 0);
+    EXPECT_FALSE(h.sys.compileSource("surface t() { uniform float b = 0; if (u > 0.5) b = u; }", "t.sl"));
+    EXPECT_NE(h.messages().find("cannot assign a varying value to uniform variable 'b'"), std::string::npos)
+        << h.messages();
 }
 
 TEST(Compat, PowOfAColorAndAFloat) {

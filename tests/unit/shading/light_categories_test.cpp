@@ -199,6 +199,32 @@ TEST(LightContributions, IlluminanceLoopsStillSeeEveryLight) {
     EXPECT_EQ(h.diag.errorCount(), 0) << h.messages();
 }
 
+TEST(LightContributions, LightsourceReadsIntoAUniformVariable) {
+    // Shaders written for PRMan and BMRT read a light's uniform output
+    // into a uniform variable (the RenderMan Repository's MKfancysurf);
+    // Pixie's and Aqsis's compilers take it. umbra's refused to compile
+    // it ("cannot assign a varying value to uniform variable").
+    Harness h;
+    std::vector<Light> lights = {{kShoulder, Vec3(1, 0.8f, 0.6f), 1, 1}, {kGrazing, Vec3(0.3f, 0.5f, 1.0f), 0, 0}};
+    auto a = makeLight(h, lights[0]);
+    auto b = makeLight(h, lights[1]);
+    ASSERT_TRUE(a && b);
+    ShadingGrid g = plane();
+    h.surface("surface loop() {\n"
+              "  normal Nf = faceforward(normalize(N), I);\n"
+              "  uniform float nd = 0;\n"
+              "  color kept = 0;\n"
+              "  illuminance(P, Nf, PI/2) {\n"
+              "    lightsource(\"__nondiffuse\", nd);\n"
+              "    kept += (1 - nd) * Cl * (normalize(L) . Nf);\n"
+              "  }\n"
+              "  Ci = kept; Oi = 1;\n"
+              "}\n",
+              g, {a.get(), b.get()});
+    EXPECT_EQ(h.diag.errorCount(), 0) << h.messages();
+    for (int i = 0; i < g.size(); ++i) expectNear(g.Ci[size_t(i)], closedForm(g.P[size_t(i)], lights).diffuse, 1e-4f);
+}
+
 TEST(LightContributions, PlasticHonoursThem) {
     // The standard plastic: Ka ambient() + Kd diffuse() + Ks specular().
     Harness h;
