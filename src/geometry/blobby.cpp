@@ -1006,8 +1006,24 @@ std::shared_ptr<BlobbyMeshData> carryBlobbyMesh(const BlobbyMeshData& from, std:
         const Vec3 guess = weights > 0 ? sum / weights : p;
         return to->project(guess, from.maxStep, nullptr);
     };
+    // Neighbouring triangles share their corners exactly (polygonizeBlobby):
+    // each is carried once, so they still meet.
+    struct CornerHash {
+        size_t operator()(const Vec3& p) const {
+            return std::hash<float>()(p.x) ^ (std::hash<float>()(p.y) * 31) ^ (std::hash<float>()(p.z) * 961);
+        }
+    };
+    struct SameCorner {
+        bool operator()(const Vec3& a, const Vec3& b) const { return a.x == b.x && a.y == b.y && a.z == b.z; }
+    };
+    std::unordered_map<Vec3, Vec3, CornerHash, SameCorner> carried;
+    auto carryOnce = [&](const Vec3& p) {
+        auto it = carried.find(p);
+        if (it == carried.end()) it = carried.emplace(p, carry(p)).first;
+        return it->second;
+    };
     mesh->triangles.reserve(from.triangles.size());
-    for (const auto& [a, b, c] : from.triangles) mesh->triangles.push_back({carry(a), carry(b), carry(c)});
+    for (const auto& [a, b, c] : from.triangles) mesh->triangles.push_back({carryOnce(a), carryOnce(b), carryOnce(c)});
     padTriangles(*mesh);
     return mesh;
 }
@@ -1021,7 +1037,7 @@ void makeDeformingBlobby(std::shared_ptr<const scene::PrimitiveRecord> record, D
     shapes.push_back(std::make_unique<BlobbyMesh>(record, first, 0, n));
     for (const scene::PrimitiveRecord& shape : record->shapes) {
         auto field = BlobbyField::fromRecord(shape, diag);
-        std::string why = "it is malformed";
+        std::string why;
         auto carried = field ? carryBlobbyMesh(*first, field, &why) : nullptr;
         if (!carried) {
             if (field) diag.error(shape.loc, "Blobby: this motion shape cannot blur with the first: {} (the Blobby "
