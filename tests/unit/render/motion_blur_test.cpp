@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <fmt/format.h>
 
 namespace umbra {
@@ -55,10 +56,12 @@ double slidingCoverage(double x0) {
     return overlapIntegral(x0);
 }
 
-/// The 48 x 16 frame of the square sliding from c = -10 to 10: each
-/// column's averaged coverage within 0.01 of the closed form, and the swept
-/// area the square's (8 pixels a row) within 1%.
-void expectSlidingSquare(const Image& img, const char* what) {
+/// A 48 x 16 frame of something sliding along x: each column's coverage
+/// averaged over the rows within 0.01 of `expected(x0)` (the column
+/// [x0, x0 + 1] in camera units), and the columns' sum, the covered area
+/// per row, within 1% of `area`.
+void expectColumnProfile(const Image& img, const char* what, const std::function<double(double)>& expected,
+                         double area) {
     ASSERT_EQ(img.width, 48) << what;
     double worst = 0, total = 0;
     for (int x = 0; x < 48; ++x) {
@@ -66,11 +69,14 @@ void expectSlidingSquare(const Image& img, const char* what) {
         for (int y = 0; y < 16; ++y) column += img.at(x, y, 3);
         column /= 16;
         total += column;
-        worst = std::max(worst, std::abs(column - slidingCoverage(x - 24.0)));
+        worst = std::max(worst, std::abs(column - expected(x - 24.0)));
     }
-    EXPECT_NEAR(total, 8.0, 0.01 * 8.0) << what;
+    EXPECT_NEAR(total, area, 0.01 * area) << what;
     EXPECT_LT(worst, 0.01) << what << ": largest error of a column's averaged coverage";
 }
+
+/// The square sliding from c = -10 to 10: 8 pixels a row.
+void expectSlidingSquare(const Image& img, const char* what) { expectColumnProfile(img, what, slidingCoverage, 8.0); }
 
 TEST(MotionBlur, TranslatingSquareLeavesTheAveragedCoverageProfile) {
     ScratchDir dir("mb-square");
@@ -137,21 +143,9 @@ TEST(MotionBlur, MovingBlobbyLeavesTheSlidingDiscsAveragedCoverage) {
         }
         return s / n / 16;  // averaged over the shutter and the 16 rows
     };
-    for (const std::string* rib : {&transformed, &deformed}) {
-        const char* what = rib == &deformed ? "deformed" : "transformed";
-        const Image img = render(*rib, dir);
-        ASSERT_EQ(img.width, 48) << what;
-        double worst = 0, total = 0;
-        for (int x = 0; x < 48; ++x) {
-            double column = 0;
-            for (int y = 0; y < 16; ++y) column += img.at(x, y, 3);
-            column /= 16;
-            total += column;
-            worst = std::max(worst, std::abs(column - expected(x - 24.0)));
-        }
-        EXPECT_NEAR(total, 16 * M_PI / 16, 0.01 * M_PI) << what;  // the disc's area over 16 rows
-        EXPECT_LT(worst, 0.01) << what << ": largest error of a column's averaged coverage";
-    }
+    for (const std::string* rib : {&transformed, &deformed})
+        expectColumnProfile(render(*rib, dir), rib == &deformed ? "deformed" : "transformed", expected,
+                            16 * M_PI / 16);  // the disc's area over the 16 rows
 }
 
 TEST(MotionBlur, RotatingBarMatchesItsClosedForm) {
