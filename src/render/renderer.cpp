@@ -932,6 +932,8 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
           {"outside", shadowStats.outside},
           {"culled_lit", shadowStats.culledLit},
           {"culled_shadowed", shadowStats.culledShadowed},
+          {"texel_range_lit", shadowStats.texelRangeLit},
+          {"texel_range_shadowed", shadowStats.texelRangeShadowed},
           {"filtered", shadowStats.filtered},
           {"samples", shadowStats.samples},
           {"tile_fetches", shadowStats.tileFetches},

@@ -97,6 +97,10 @@ inline float floatBelow(int n) {
 /// Relative tolerance of virtual-sample comparisons (float rounding of the
 /// plane's transform and evaluation, measured at a few 1e-6).
 constexpr float kVirtualSlack = 1e-4f;
+/// Regions of at most this many texels are tested against the min and max
+/// of their texels before sampling: reading them costs less than drawing a
+/// lookup's samples, and most regions the 8x8 blocks do not decide are.
+constexpr int kTexelRangeLimit = 64;
 /// How closely (relative) a receiver's tangent plane must match the planes
 /// of the blocks its region covers to be lit without samples. With the
 /// blocks' own fit and the rounding of the sample loop it stays well inside
@@ -825,6 +829,26 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                 single = memo.data[TileMemo::slot(m_mapId, tx0, ty0)];
                 singleX = m_fileX0 + (tx0 << shiftX);
                 singleY = m_fileY0 + (ty0 << shiftY);
+            }
+            // Exact culling by the covered texels themselves: a region of a
+            // few texels inside one tile (a sample's texel is one of them,
+            // so the ranges' argument above holds) is decided by their
+            // min and max before any sample is drawn. Where a block's range
+            // holds the point's depth, it is most often a receiver lit or
+            // shadowed by all its texels: a floor beside a caster, a
+            // surface whose block holds an edge it does not reach.
+            if (params.tileCulling && single && (ci1 - ci0 + 1) * (cj1 - cj0 + 1) <= kTexelRangeLimit) {
+                float lo = kInfinity, hi = -kInfinity;
+                for (int v = cj0; v <= cj1; ++v) {
+                    const float* row = single + ((v - singleY) << shiftX) - singleX;
+                    for (int u = ci0; u <= ci1; ++u) lo = std::min(lo, row[u]), hi = std::max(hi, row[u]);
+                }
+                const uint64_t lit = st.culledLit, shadowed = st.culledShadowed;
+                if (culled(lo, hi)) {
+                    st.texelRangeLit += st.culledLit - lit, st.texelRangeShadowed += st.culledShadowed - shadowed;
+                    st.culledLit = lit, st.culledShadowed = shadowed;
+                    continue;
+                }
             }
 
             // Reeves' sample counts: a region smaller than NumSamples texels

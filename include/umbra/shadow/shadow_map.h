@@ -84,6 +84,10 @@ struct ShadowStats {
     uint64_t outside = 0;         ///< behind the light, outside the map or its bounding box: lit at once
     uint64_t culledLit = 0;       ///< nearer than every covered tile's min z: lit without texel reads
     uint64_t culledShadowed = 0;  ///< beyond every covered tile's max z: shadowed without texel reads
+    /// Not culled by those ranges, but decided by the min and max of the few
+    /// texels the region covers, without drawing samples:
+    uint64_t texelRangeLit = 0;
+    uint64_t texelRangeShadowed = 0;
     uint64_t filtered = 0;        ///< points that compared texels
     uint64_t samples = 0;         ///< texel comparisons made
     uint64_t tileFetches = 0;     ///< tiles asked of the cache

@@ -225,6 +225,12 @@ TEST(ShadowLookup, TileCullingNeverChangesAResult) {
         EXPECT_GT(stOn.culledLit, 1000u);
         EXPECT_GT(stOn.culledShadowed, 100u);
         EXPECT_EQ(stOff.culledLit + stOff.culledShadowed, 0u);
+        // Regions of a few texels the blocks' ranges leave open are decided
+        // by their texels' own range (the memcmp above: without changing a
+        // result).
+        EXPECT_GT(stOn.texelRangeLit, 100u);
+        EXPECT_GT(stOn.texelRangeShadowed, 100u);
+        EXPECT_EQ(stOff.texelRangeLit + stOff.texelRangeShadowed, 0u);
         EXPECT_LT(stOn.samples, stOff.samples);
         // Same inputs, same bits.
         std::vector<float> again(pts.P.size());
