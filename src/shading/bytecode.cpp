@@ -124,6 +124,14 @@ bool inferVaryingAndOptimize(CompiledShader& cs, CompileErrors& errs) {
     std::vector<int> reads, writes;
     std::vector<bool> ctlVarying(cs.ctls.size(), false);
     std::set<int> reported;
+    // Whether a register's value varies in the language's sense: read from
+    // something varying. A variable declared uniform that is made varying
+    // below (a uniform value stored under varying control) holds, on every
+    // point that stored it, the same uniform value, so values computed from
+    // it stay uniform in this sense and may be stored into other uniform
+    // variables, as both peers' compilers allow.
+    std::vector<bool> valueVarying(cs.regs.size());
+    for (size_t r = 0; r < cs.regs.size(); ++r) valueVarying[r] = cs.regs[r].varying;
     bool ok = true;
     for (bool changed = true; changed;) {
         changed = false;
@@ -140,12 +148,19 @@ bool inferVaryingAndOptimize(CompiledShader& cs, CompileErrors& errs) {
         for (const Instr& in : cs.code) {
             if (in.op == Op::ParamInit) continue;
             operands(cs, in, &reads, &writes);
-            bool valueVaries = in.varies && !messagePassing(in);
-            for (int r : reads) valueVaries = valueVaries || cs.regs[size_t(r)].varying;
-            const bool v = valueVaries || ctlVarying[size_t(in.ctl)] || in.varies;
+            bool valueVaries = in.varies && !messagePassing(in), storageVaries = false;
+            for (int r : reads) {
+                valueVaries = valueVaries || valueVarying[size_t(r)];
+                storageVaries = storageVaries || cs.regs[size_t(r)].varying;
+            }
+            const bool v = valueVaries || storageVaries || ctlVarying[size_t(in.ctl)] || in.varies;
             if (!v) continue;
             for (int w : writes) {
                 RegInfo& r = cs.regs[size_t(w)];
+                if (valueVaries && !r.fixed && !valueVarying[size_t(w)] && r.ty != Ty::String) {
+                    valueVarying[size_t(w)] = true;
+                    changed = true;
+                }
                 if (r.varying || r.ty == Ty::String) continue;
                 // A variable declared uniform that is given a uniform value
                 // under a varying condition (in an illuminance loop, say), or
@@ -168,6 +183,11 @@ bool inferVaryingAndOptimize(CompiledShader& cs, CompileErrors& errs) {
             }
         }
     }
+    for (const Instr& in : cs.code)
+        if (in.op == Op::Select && cs.regs[size_t(in.dst)].ty == Ty::String && cs.regs[size_t(in.c)].varying) {
+            errs.error(in.loc, "'?:' between strings needs a uniform condition: a string has one value for all points");
+            ok = false;
+        }
     if (!ok) return false;
     removeDeadCode(cs);
     return true;

@@ -145,7 +145,10 @@ bool globalVisible(ShaderKind k, GlobalId g) {
         return g != gCi && g != gOi && g != gL && g != gCl && g != gOl && g != gPs && g != gCs && g != gOs &&
                g != gAlpha && g != gNs;
     case ShaderKind::Volume:
-        return g == gP || g == gI || g == gCi || g == gOi || g == gE || g == gNcomps || g == gTime;
+        // L, Cl and Ol inside illuminance (RI Spec 3.2 section 13.3): a lit
+        // atmosphere marches along I and gathers the lights at each step.
+        return g == gP || g == gI || g == gCi || g == gOi || g == gE || g == gNcomps || g == gTime || g == gL ||
+               g == gCl || g == gOl;
     case ShaderKind::Imager:
         // P is the pixel's raster position (x, y, 0). Aqsis's compiler
         // also accepts s and t in imagers (its filmgrain reads them);
@@ -1065,7 +1068,9 @@ private:
                 return {};
             }
         }
-        if (rt == Ty::String || m_cs.regs[a.reg].arrayLen > 0 || m_cs.regs[b.reg].arrayLen > 0) {
+        // Strings are uniform: a string '?:' needs a uniform condition
+        // (checked once varyingness is known, inferVaryingAndOptimize()).
+        if (m_cs.regs[a.reg].arrayLen > 0 || m_cs.regs[b.reg].arrayLen > 0) {
             error(e.loc, fmt::format("'?:' cannot select between values of type {}", describe(a)));
             return {};
         }

@@ -463,6 +463,11 @@ void Exec::run() {
         case Op::Or: map(x, in.dst, [](float a, float b) { return float(a != 0 || b != 0); }, rd<float>(x, in.a), rd<float>(x, in.b)); break;
         case Op::Not: map(x, in.dst, [](float a) { return float(a == 0); }, rd<float>(x, in.a)); break;
         case Op::Select: {
+            if (cs->regs[size_t(in.dst)].ty == Ty::String) {  // a uniform condition (the compiler's check)
+                const float c = ptr[size_t(in.c)][vary[size_t(in.c)] && !active.empty() ? active[0] : 0];
+                strs[size_t(in.dst)][0] = strs[size_t(c != 0 ? in.a : in.b)][0];
+                break;
+            }
             int comps = regFloats(cs->regs[size_t(in.dst)]);
             if (comps == 1) map(x, in.dst, [](float a, float b, float c) { return c != 0 ? a : b; }, rd<float>(x, in.a), rd<float>(x, in.b), rd<float>(x, in.c));
             else if (comps == 3) map(x, in.dst, [](const Vec3& a, const Vec3& b, float c) { return c != 0 ? a : b; }, rd<Vec3>(x, in.a), rd<Vec3>(x, in.b), rd<float>(x, in.c));

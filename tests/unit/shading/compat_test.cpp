@@ -123,6 +123,49 @@ TEST(Compat, UniformVariableStoredUnderAVaryingConditionHoldsEachPointsValue) {
         << h.messages();
 }
 
+TEST(Compat, UniformValuesDerivedFromAVariableStoredUnderAVaryingConditionStayUniform) {
+    // K-3D's lens flare and soft boxes shaders: uniform locals declared
+    // inside a varying `if` (or a function called inside solar()), each
+    // computed from the one before. Both peers compile them; umbra refused
+    // the second, because the first had been made varying to hold each
+    // point's path. A value computed from uniform ones is uniform.
+    Harness h;
+    ShadingGrid g = line(8);
+    h.surface("surface t(float a = 1, b = 2) { Ci = 0;\n"
+              "  if (u > 0.5) { uniform float x = a + b; uniform float y = x * 0.25; Ci = y; } }",
+              g);
+    EXPECT_EQ(h.diag.errorCount(), 0) << h.messages();
+    for (size_t i = 0; i < g.Ci.size(); ++i) expectNear(g.Ci[i], Vec3(g.u[i] > 0.5f ? 0.75f : 0.0f), 0);
+    EXPECT_TRUE(h.sys.compileSource("float half(uniform float w, e) { uniform float hw = w / 2;\n"
+                                    "  uniform float we = max(e, -hw); return hw + we; }\n"
+                                    "light l(float width = 1, edge = 0.1) { solar() { Cl = half(width, edge); } }",
+                                    "l.sl"))
+        << h.messages();
+    // A varying value still may not reach one, however many steps away.
+    EXPECT_FALSE(h.sys.compileSource("surface t() { if (u > 0.5) { uniform float x = 1; float v = x * u;\n"
+                                     "  uniform float y = v + x; } }",
+                                     "t.sl"));
+    EXPECT_NE(h.messages().find("cannot assign a varying value to uniform variable 'y'"), std::string::npos)
+        << h.messages();
+}
+
+TEST(Compat, StringConditionalOperatorWithAUniformCondition) {
+    // `string space = (which > 0.5) ? "world" : "object";` (adapted from
+    // Advanced RenderMan's texdust): both peers compile it. Strings are
+    // uniform, so the condition must be.
+    Harness h;
+    ShadingGrid g = line(4);
+    h.surface("surface t(float which = 1) { string a = which > 0.5 ? \"yes\" : \"no\";\n"
+              "  string b = which > 2 ? \"yes\" : \"no\";\n"
+              "  Ci = color(match(\"yes\", a), match(\"no\", b), match(\"no\", a)); }",
+              g);
+    EXPECT_EQ(h.diag.errorCount(), 0) << h.messages();
+    for (size_t i = 0; i < g.Ci.size(); ++i) expectNear(g.Ci[i], Vec3(1, 1, 0), 0);
+    EXPECT_FALSE(h.sys.compileSource("surface t() { string a = u > 0.5 ? \"yes\" : \"no\"; }", "t.sl"));
+    EXPECT_NE(h.messages().find("'?:' between strings needs a uniform condition"), std::string::npos)
+        << h.messages();
+}
+
 TEST(Compat, PowOfAColorAndAFloat) {
     Harness h;
     ShadingGrid g = line();
@@ -373,6 +416,30 @@ TEST(Compat, LightFunctionsSetClAndExternReachesGlobals) {
 }
 
 // A volume shader runs as the atmosphere after the surface, on its Ci/Oi.
+TEST(Compat, VolumeShaderGathersTheLightsInIlluminance) {
+    // A lit atmosphere (Advanced RenderMan's smoke, BMRT's noisysmoke)
+    // reads Cl and L inside illuminance (RI Spec 3.2 section 13.3); umbra's
+    // compiler did not let a volume shader see them.
+    Harness h;
+    auto surf = h.instance("surface t() { Ci = color(s, 0, 1); Oi = 1; }");
+    auto light = h.instance("light l() { illuminate(point(0, 0, 0)) { Cl = color(0, 1, 0) / (L . L); } }");
+    auto vol = h.instance("volume v() { color li = 0; vector dir = 0;\n"
+                          "  illuminance(P) { li += Cl; dir += L; }\n"
+                          "  Ci = mix(Ci, li, 0.5); Oi = color(dir); }\n");
+    ASSERT_TRUE(surf && light && vol) << h.messages();
+    ShadingGrid g = makeGrid(5, 1, [](float u, float) { return Vec3(u, 0, 1 + 3 * u); });
+    ShadeRequest req;
+    req.surface = surf.get();
+    req.atmosphere = vol.get();
+    req.lights = {light.get()};
+    h.sys.shade(g, req, h.svc);
+    for (size_t i = 0; i < 5; ++i) {
+        const Vec3 P = g.P[i], c(g.s[i], 0, 1);
+        expectNear(g.Ci[i], (c + Vec3(0, 1 / dot(P, P), 0)) * 0.5f, 1e-5f);
+        expectNear(g.Oi[i], -P, 1e-5f);  // L points from the shaded point to the light
+    }
+}
+
 TEST(Compat, VolumeShaderRunsAsAtmosphere) {
     Harness h;
     auto surf = h.instance("surface t() { Ci = color(s, 0, 1); Oi = 1; }");
