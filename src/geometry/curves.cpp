@@ -272,7 +272,10 @@ Grid PointGroup::diceInView(int, int, const ViewContext& view) const {
         const int k = m_first + q;
         const Vec3 c = sd.point(size_t(k));
         const float r = 0.5f * m_set->width(k);
-        Vec3 e = view.toward(c);
+        // Discs lie parallel to the image plane, their normal the camera's
+        // axis towards the eye, as Pixie and Aqsis shade them: a distant
+        // light lights every particle of a wide view alike.
+        Vec3 e = view.towardEye;
         const float le = length(e);
         e = le > 0 ? e / le : Vec3(0, 0, -1);
         // dPdu x dPdv = a x (e x a) = e: the outward side faces the eye.

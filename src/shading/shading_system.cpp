@@ -161,6 +161,9 @@ void ShadingGrid::bind(const geometry::Grid& grid, const Color& color, const Col
             int k = j * nu + i;
             auto diff = [&](int a, int b, float step) { return step > 0 ? (P[size_t(a)] - P[size_t(b)]) / step : Vec3(0.f); };
             int i0 = std::max(0, i - 1), i1 = std::min(nu - 1, i + 1);
+            // A point's disc is its own two columns (Grid::discs): its
+            // neighbour in the grid is another particle.
+            if (grid.discs) i0 = i & ~1, i1 = std::min(nu - 1, i0 + 1);
             int j0 = std::max(0, j - 1), j1 = std::min(nv - 1, j + 1);
             dPdu[size_t(k)] = nu > 1 ? diff(j * nu + i1, j * nu + i0, float(i1 - i0) * du) : Vec3(0.f);
             dPdv[size_t(k)] = nv > 1 ? diff(j1 * nu + i, j0 * nu + i, float(j1 - j0) * dv) : Vec3(0.f);

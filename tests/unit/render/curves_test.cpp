@@ -135,7 +135,7 @@ WorldEnd
 
 TEST(Points, SuppliedNormalsShadeTheDiscs) {
     // A supplied "N" is the shading normal (RI Spec 3.2), as Pixie and
-    // Aqsis shade it; the discs still face the eye. Three points under a
+    // Aqsis shade it; the discs still lie along the image plane. Three points under a
     // distant light shining along +z (L = (0, 0, -1)) with matte: N facing
     // the light gives 1, N at 45 degrees cos 45, N across the light 0 (the
     // three closed forms); a constant N shades every point alike. Before,
@@ -163,6 +163,41 @@ TEST(Points, SuppliedNormalsShadeTheDiscs) {
     for (int k = 0; k < 3; ++k) EXPECT_NEAR(centre(constant, k), 0.0, 1e-3) << k;
     const Image none = render("");
     for (int k = 0; k < 3; ++k) EXPECT_NEAR(centre(none, k), 1.0, 1e-3) << k;  // facing the eye and the light
+}
+
+TEST(Points, DiscsLieAlongTheImagePlaneAndShadeAlikeAcrossAWideView) {
+    // Without "N" a disc lies parallel to the image plane, its normal the
+    // camera's axis (Pixie and Aqsis shade it so): under a distant light at
+    // 45 degrees every particle of a 90-degree view shades cos 45 with
+    // matte, all over each disc. Before, each disc faced the eye (0.87 at
+    // the left edge of this view) and its corners' normals were differences
+    // with the neighbouring particle (0.64 to 0.76 across the middle one).
+    ScratchDir dir("points-axis");
+    const std::string rib = fmt::format(R"(
+Display "{}" "openexr" "rgba" "string type" "float"
+Format 300 200 1
+PixelSamples 4 4
+Projection "perspective" "fov" 90
+WorldBegin
+LightSource "distantlight" 1 "from" [1 0 -1] "to" [0 0 0]
+Surface "matte"
+Translate 0 0 1.5
+Points "P" [-1.4 0 0  -0.7 0 0  0 0 0  0.7 0 0  1.4 0 0] "constantwidth" [0.5]
+WorldEnd
+)", dir.file("out.exr"));
+    Diagnostics diag;
+    diag.setRecord(true);
+    test::renderRib(rib, diag);
+    EXPECT_EQ(diag.errorCount(), 0);
+    Image img;
+    ASSERT_TRUE(test::readImage(dir.file("out.exr"), &img));
+    // A disc at x lies around pixel (x / 1.5 + 1.5) / 3 * 300, radius 16.7 pixels.
+    for (float x : {-1.4f, -0.7f, 0.0f, 0.7f, 1.4f}) {
+        const int cx = int(std::lround((x / 1.5f + 1.5f) * 100.0f));
+        for (int dy = -8; dy <= 8; dy += 8)
+            for (int dx = -8; dx <= 8; dx += 4)
+                EXPECT_NEAR(img.at(cx + dx, 100 + dy, 0), std::sqrt(0.5), 2e-3) << "disc at " << x << ", " << dx << " " << dy;
+    }
 }
 
 TEST(CurvesAndPoints, CastShadowsIntoAnAutomaticMap) {
