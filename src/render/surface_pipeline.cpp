@@ -379,6 +379,8 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
         GridState state{&m_frame, &m_pass, &rec, c};
         sg.resize(nu + 1, nv + 1);
         sg.flipNormals = flip;  // before bind(), which makes Ng
+        sg.nearClip = cam.nearClip;  // depth() is 0 at the near clipping plane, 1 at the far
+        sg.farClip = cam.farClip;
         sg.bind(g, attrs.color, attrs.opacity, cam.perspective);
         sg.seed = hashKeys(m_frame.frameSeed, uint32_t(id), uint32_t(id >> 32));
         sg.renderState = &state;

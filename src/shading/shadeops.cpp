@@ -82,6 +82,8 @@ void fresnel(const Vec3& I, const Vec3& N, float eta, float* Kr, float* Kt) {
     *Kr = fixNan(0.5f * (rs * rs + rp * rp));
     *Kt = 1 - *Kr;
 }
+/// clamp() as RI Spec 3.2 words it (see Bi::ClampF).
+inline float clampSpec(float a, float lo, float hi) { return a < lo ? lo : (a > hi ? hi : a); }
 float smoothstep(float e0, float e1, float x) {
     if (x < e0) return 0;
     if (x >= e1) return 1;
@@ -877,8 +879,15 @@ void execCall(Exec& x, const Instr& in) {
     case Bi::MaxF: map(x, dst, [](float a, float b) { return std::max(a, b); }, A.f(0), A.f(1)); break;
     case Bi::MinT: map(x, dst, [](const Vec3& a, const Vec3& b) { return vmin(a, b); }, A.v(0), A.v(1)); break;
     case Bi::MaxT: map(x, dst, [](const Vec3& a, const Vec3& b) { return vmax(a, b); }, A.v(0), A.v(1)); break;
-    case Bi::ClampF: map(x, dst, [](float a, float lo, float hi) { return std::min(std::max(a, lo), hi); }, A.f(0), A.f(1), A.f(2)); break;
-    case Bi::ClampT: map(x, dst, [](const Vec3& a, const Vec3& lo, const Vec3& hi) { return vmin(vmax(a, lo), hi); }, A.v(0), A.v(1), A.v(2)); break;
+    // RI Spec 3.2: min if a is below min, else max if a is above max, else
+    // a -- in that order, which decides a min above max (ARMan's smoke
+    // clamps its last step so; Pixie and Aqsis read it the same way).
+    case Bi::ClampF: map(x, dst, [](float a, float lo, float hi) { return clampSpec(a, lo, hi); }, A.f(0), A.f(1), A.f(2)); break;
+    case Bi::ClampT:
+        map(x, dst, [](const Vec3& a, const Vec3& lo, const Vec3& hi) {
+            return Vec3(clampSpec(a.x, lo.x, hi.x), clampSpec(a.y, lo.y, hi.y), clampSpec(a.z, lo.z, hi.z));
+        }, A.v(0), A.v(1), A.v(2));
+        break;
     case Bi::MixF: map(x, dst, [](float a, float b, float t) { return a + (b - a) * t; }, A.f(0), A.f(1), A.f(2)); break;
     case Bi::MixTF: map(x, dst, [](const Vec3& a, const Vec3& b, float t) { return a + (b - a) * t; }, A.v(0), A.v(1), A.f(2)); break;
     case Bi::MixT: map(x, dst, [](const Vec3& a, const Vec3& b, const Vec3& t) { return a + (b - a) * t; }, A.v(0), A.v(1), A.v(2)); break;

@@ -706,7 +706,9 @@ void runLights(ShadeContext& ctx, const float* Ps, int stride, bool ambient) {
         LightRun& lr = ctx.lights[l];
         if (lr.ambient != ambient) continue;
         const CompiledShader& code = lr.instance->shader().code();
-        Exec* e = acquireExec();
+        // Run again at other positions (needLights()), a light reuses its
+        // Exec: its earlier results are not read any more.
+        Exec* e = lr.exec ? lr.exec : acquireExec();
         lr.exec = e;
         e->setup(code, lr.instance, ctx, kFirstLightStream + uint32_t(l), Ps, stride);
         e->run();
@@ -736,7 +738,17 @@ void needLights(Exec& x, const float* Ps, int stride, const float* axis, int axi
     const bool restricts = axis && angle < kPi;
     const float cosLimit = restricts ? std::cos(angle) - ReceiverCone::kReceiverSlack : -2.0f;
     In<Vec3> ax{axis, axisStride};
-    if (ctx.lightsRun) {
+    // The lights ran for the points' own positions; a loop gathering at
+    // others (a second illuminance at P - I/2, a volume's ray-march steps:
+    // RI Spec 3.2's illuminance(position)) runs them again there.
+    const In<Vec3> at{Ps, stride};
+    auto samePlace = [&] {  // at every point, active or not: results are kept for all
+        const int count = stride == 0 && ctx.litAtUniform ? 1 : x.n;
+        for (int i = 0; i < count; ++i)
+            if (!(at[i] == ctx.litAt[ctx.litAtUniform ? 0 : size_t(i)])) return false;
+        return true;
+    };
+    if (ctx.lightsRun && samePlace()) {
         if (!rc.restricts) return;
         // Covered when this cone is no wider and has the same axis wherever
         // this loop looks: every light it accepts was then admitted.
@@ -746,14 +758,19 @@ void needLights(Exec& x, const float* Ps, int stride, const float* axis, int axi
         else if (covered) covered = std::all_of(x.active.begin(), x.active.end(), same);
         if (covered) return;
         rc.restricts = false;  // run them again, at every point
-    } else if (restricts) {
-        rc.restricts = true;
-        rc.uniformAxis = axisStride == 0;
-        rc.cosLimit = cosLimit;
-        const int count = rc.uniformAxis ? 1 : x.n;
-        rc.axis.resize(size_t(count));
-        for (int i = 0; i < count; ++i) rc.axis[size_t(i)] = ax[i];
+    } else {
+        rc.restricts = restricts;
+        if (restricts) {
+            rc.uniformAxis = axisStride == 0;
+            rc.cosLimit = cosLimit;
+            const int count = rc.uniformAxis ? 1 : x.n;
+            rc.axis.resize(size_t(count));
+            for (int i = 0; i < count; ++i) rc.axis[size_t(i)] = ax[i];
+        }
     }
+    ctx.litAtUniform = stride == 0;
+    ctx.litAt.resize(size_t(ctx.litAtUniform ? 1 : x.n));
+    for (size_t i = 0; i < ctx.litAt.size(); ++i) ctx.litAt[i] = at[int(i)];
     runLights(ctx, Ps, stride, false);
     ctx.lightsRun = true;
 }

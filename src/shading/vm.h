@@ -69,6 +69,8 @@ struct ShadeContext {
     bool lightsRun = false;        // the non-ambient lights
     bool ambientLightsRun = false;
     ReceiverCone receiver;         // what the non-ambient lights ran under
+    std::vector<Vec3> litAt;       // where they ran (one value when uniform): Ps
+    bool litAtUniform = false;
     Exec* surface = nullptr;
     Exec* displacement = nullptr;
     Exec* atmosphere = nullptr;

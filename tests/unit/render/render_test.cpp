@@ -177,3 +177,26 @@ TEST(Imager, RunsOnEachFilteredPixelBeforeOutput) {
             EXPECT_NEAR(img.at(x, y, 3), 1.f, 1e-6f) << x << "," << y;
         }
 }
+
+TEST(Depth, IsZeroAtTheNearClippingPlaneAndOneAtTheFar) {
+    // RI Spec 3.2: depth() is normalised to 0 at the near and 1 at the far
+    // clipping plane. The shading grid never learnt the camera's Clipping,
+    // so a depth cue (K-3D's depthcue shader) gave 0 everywhere. A plane
+    // tilted in depth, x from -2 to 2 at z = 5 + x: depth (z - 1) / 19 under
+    // Clipping 1 20.
+    ScratchDir dir("depth-clipping");
+    std::ofstream(dir.file("showdepth.sl")) << "surface showdepth() { Ci = depth(P); Oi = 1; }\n";
+    const std::string world =
+        "Surface \"showdepth\" Polygon \"P\" [-2 -2 -2  2 -2 2  2 2 2  -2 2 -2]";
+    std::string rib = orthoFrame(dir.file("out.exr"), world, 2, 64);
+    rib = fmt::format("Option \"searchpath\" \"shader\" [\"{}:&\"]\nClipping 1 20\n", dir.file("")) + rib;
+    Diagnostics diag;
+    test::renderRib(rib, diag);
+    EXPECT_EQ(diag.errorCount(), 0);
+    Image img;
+    ASSERT_TRUE(test::readImage(dir.file("out.exr"), &img));
+    for (int x : {2, 20, 32, 45, 61}) {
+        const float wx = -2 + 4 * (x + 0.5f) / 64, z = 5 + wx;
+        EXPECT_NEAR(img.at(x, 32, 0), (z - 1) / 19, 2e-3f) << x;
+    }
+}

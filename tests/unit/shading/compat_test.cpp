@@ -166,6 +166,49 @@ TEST(Compat, StringConditionalOperatorWithAUniformCondition) {
         << h.messages();
 }
 
+TEST(Compat, ClampTestsTheMinimumFirst) {
+    // RI Spec 3.2: clamp(a, min, max) is min if a is below min, else max if
+    // a is above max, else a; a min above max (ARMan's smoke clamps its
+    // last ray-march step so) gives min below min and max elsewhere, as in
+    // Pixie and Aqsis. umbra gave max everywhere, and smoke's march stepped
+    // by 0 until the loop limit.
+    Harness h;
+    ShadingGrid g = line(11);
+    h.surface("surface t() { Ci = color(clamp(u, 0.5, 0.2), clamp(u, 0.2, 0.5), 0);\n"
+              "  Oi = clamp(color(u, u, u), color(0.5, 0.2, 0.3), color(0.2, 0.5, 0.3)); }",
+              g);
+    auto spec = [](float a, float lo, float hi) { return a < lo ? lo : (a > hi ? hi : a); };
+    for (size_t i = 0; i < g.Ci.size(); ++i) {
+        const float u = g.u[i];
+        expectNear(g.Ci[i], Vec3(spec(u, 0.5f, 0.2f), spec(u, 0.2f, 0.5f), 0), 0);
+        expectNear(g.Oi[i], Vec3(spec(u, 0.5f, 0.2f), spec(u, 0.2f, 0.5f), 0.3f), 0);
+    }
+}
+
+TEST(Compat, IlluminanceGathersAtThePositionItIsGiven) {
+    // illuminance(position) runs the lights for that position (RI Spec
+    // 3.2; Ps is the light's "position being illuminated"). umbra ran them
+    // once per grid, at the first loop's position, and gave every later
+    // loop those results: a second position, or a volume's ray-march steps
+    // (ARMan's smoke), saw the first one's light.
+    Harness h;
+    auto light = h.instance("light l() { illuminate(point(0, 0, 0)) { Cl = color(1 / (L . L)); } }");
+    ASSERT_TRUE(light);
+    ShadingGrid g = line(5);
+    h.surface("surface t() { color a = 0, b = 0, c = 0;\n"
+              "  illuminance(P) { a += Cl; }\n"
+              "  illuminance(P + vector(0, 0, 1)) { b += Cl; }\n"
+              "  float k; for (k = 0; k < 3; k += 1) { illuminance(P + vector(0, 0, k)) { c += Cl; } }\n"
+              "  Ci = color(comp(a, 0), comp(b, 0), comp(c, 0)); }",
+              g, {light.get()});
+    EXPECT_EQ(h.diag.errorCount(), 0) << h.messages();
+    for (size_t i = 0; i < g.Ci.size(); ++i) {
+        const Vec3 P = g.P[i];
+        auto at = [&](float k) { const Vec3 q = P + Vec3(0, 0, k); return 1 / dot(q, q); };
+        expectNear(g.Ci[i], Vec3(at(0), at(1), at(0) + at(1) + at(2)), 1e-5f);
+    }
+}
+
 TEST(Compat, PowOfAColorAndAFloat) {
     Harness h;
     ShadingGrid g = line();
