@@ -36,7 +36,7 @@ enum class Bi : int16_t {
     RandomF, RandomT,
     // shading
     Ambient, Diffuse, Specular, SpecularBrdf, Phong,
-    TextureF, TextureC, TextureF4, TextureC4, EnvironmentF, EnvironmentC, Shadow, Shadow4, TextureInfo,
+    TextureF, TextureC, TextureF4, TextureC4, EnvironmentF, EnvironmentC, EnvironmentF4, EnvironmentC4, Shadow, Shadow4, TextureInfo,
     // message passing
     LightSource, SurfaceMsg, DisplacementMsg, AtmosphereMsg, Incident, Opposite, Attribute, Option, RendererInfo,
     ShaderNameOf,

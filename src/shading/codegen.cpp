@@ -1455,8 +1455,9 @@ private:
                 return {};
             }
         } else {
-            if (coords.size() != 1 && !(e.name == "shadow" && coords.size() == 4)) {
-                error(e.loc, fmt::format("{}() expects {}", e.name, e.name == "shadow" ? "a point or four points" : "a direction"));
+            if (coords.size() != 1 && coords.size() != 4) {
+                error(e.loc, fmt::format("{}() expects {}", e.name,
+                                         e.name == "shadow" ? "a point or four points" : "a direction or four directions"));
                 return {};
             }
             for (Val c : coords) {
@@ -1468,7 +1469,9 @@ private:
                 id = coords.size() == 1 ? Bi::Shadow : Bi::Shadow4;
                 regs.push_back(lookupVar("N") >= 0 ? m_cs.globalRegs[gN] : constT(Ty::Normal, 0, 0, 0));
             } else {
-                id = color ? Bi::EnvironmentC : Bi::EnvironmentF;
+                // Four directions (RI Spec 3.2): the corners of the region.
+                if (coords.size() == 4) id = color ? Bi::EnvironmentC4 : Bi::EnvironmentF4;
+                else id = color ? Bi::EnvironmentC : Bi::EnvironmentF;
             }
         }
         regs.push_back(int(params.size()) / 2);  // count of pairs, stored as a plain number

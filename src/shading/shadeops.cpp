@@ -617,21 +617,53 @@ void texture(Exec& x, const Instr& in, Args& A, bool color, bool fourPoint) {
     if (!ok) reportUnreadable(x, in, "texture", name);
 }
 
-void environment(Exec& x, const Instr& in, Args& A, bool color) {
+void environment(Exec& x, const Instr& in, Args& A, bool color, bool fourDirections) {
     TextureBackend* ts = x.ctx->system->textures();
     int nc = color ? 3 : 1;
     float* d = x.ptr[size_t(in.dst)];
     const std::string& name = A.s(0);
     float sw = 1, tw = 1;
-    TextureOptions opt = textureOptions(x, A, 3, &sw, &tw);
+    TextureOptions opt = textureOptions(x, A, fourDirections ? 6 : 3, &sw, &tw);
     opt.firstChannel = std::max(0, std::min(toInt(A.f(1)[0]), 1 << 16));
     const std::string& file = name;
     In<Vec3> R = A.v(2);  // in the space the caller chose (shinymetal passes "world")
     bool ok = true;
     forActive(x, x.vary[size_t(in.dst)], [&](int i) {
-        Vec3 r = R[i], dx = deriv(x, R, i, 0, 1.f), dy = deriv(x, R, i, 1, 1.f);
+        Vec3 r = R[i], dx, dy;
+        TextureOptions o = opt;
+        if (fourDirections) {
+            // The region the four directions span: a box over its angular
+            // extent about their mean direction, along the longitude and
+            // the latitude, as "sblur" and "tblur" filter (a blur b is
+            // 2 pi b radians).
+            const Vec3 c[4] = {R[i], A.v(3)[i], A.v(4)[i], A.v(5)[i]};
+            r = c[0] + c[1] + c[2] + c[3];
+            auto lonLat = [](const Vec3& d, float* lon, float* lat) {
+                const float len = length(d);
+                *lon = std::atan2(d.y, d.x);
+                *lat = len > 0 ? std::asin(std::clamp(d.z / len, -1.0f, 1.0f)) : 0.0f;
+            };
+            float lon0, lat0;
+            lonLat(r, &lon0, &lat0);
+            float alongLon = 0, alongLat = 0;
+            for (const Vec3& d : c) {
+                float lon, lat;
+                lonLat(d, &lon, &lat);
+                const float turn = std::remainder(lon - lon0, 2 * kPi);
+                alongLon = std::max(alongLon, std::abs(turn) * std::cos(lat0));
+                alongLat = std::max(alongLat, std::abs(lat - lat0));
+            }
+            if (std::isfinite(alongLon) && std::isfinite(alongLat)) {
+                o.sblur += 2 * alongLon / (2 * kPi);
+                o.tblur += 2 * alongLat / (2 * kPi);
+            }
+            dx = dy = Vec3(0.f);
+        } else {
+            dx = deriv(x, R, i, 0, 1.f);
+            dy = deriv(x, R, i, 1, 1.f);
+        }
         float out[3] = {0, 0, 0};
-        if (!ts || !ts->environment(file, opt, r, dx, dy, nc, out))
+        if (!ts || !ts->environment(file, o, r, dx, dy, nc, out))
             ok = false;
         if (color) put(d, i, Vec3(out[0], out[1], out[2]));
         else d[i] = out[0];
@@ -1261,8 +1293,10 @@ void execCall(Exec& x, const Instr& in) {
     case Bi::TextureC: texture(x, in, A, true, false); break;
     case Bi::TextureF4: texture(x, in, A, false, true); break;
     case Bi::TextureC4: texture(x, in, A, true, true); break;
-    case Bi::EnvironmentF: environment(x, in, A, false); break;
-    case Bi::EnvironmentC: environment(x, in, A, true); break;
+    case Bi::EnvironmentF: environment(x, in, A, false, false); break;
+    case Bi::EnvironmentC: environment(x, in, A, true, false); break;
+    case Bi::EnvironmentF4: environment(x, in, A, false, true); break;
+    case Bi::EnvironmentC4: environment(x, in, A, true, true); break;
     case Bi::Shadow: shadow(x, in, A, false); break;
     case Bi::Shadow4: shadow(x, in, A, true); break;
     case Bi::TextureInfo: {
