@@ -447,10 +447,16 @@ void Renderer::Impl::runImager(const FrameState& frame, const Pass& pass, const 
             for (int i = 0; i < width; ++i) {
                 float* px = film.rgba(layer, film.x0() + i, y);
                 const Vec3& c = g.Ci[size_t(i)];
+                // RI Spec 3.2: an imager's outputs are Ci and Oi (Aqsis writes
+                // Oi as the pixel's alpha); umbra's imagers may also set
+                // alpha. The one the shader changed wins, alpha first.
+                const float before = px[3], alpha = g.alpha[size_t(i)];
+                const Vec3& o = g.Oi[size_t(i)];
+                const bool oiSet = o.x != before || o.y != before || o.z != before;
                 px[0] = c.x;
                 px[1] = c.y;
                 px[2] = c.z;
-                px[3] = g.alpha[size_t(i)];
+                px[3] = alpha != before ? alpha : oiSet ? (o.x + o.y + o.z) / 3.0f : before;
             }
         });
     }

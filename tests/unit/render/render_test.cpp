@@ -200,3 +200,30 @@ TEST(Depth, IsZeroAtTheNearClippingPlaneAndOneAtTheFar) {
         EXPECT_NEAR(img.at(x, 32, 0), (z - 1) / 19, 2e-3f) << x;
     }
 }
+
+TEST(Imager, ItsOpacityIsThePixelsAlpha) {
+    // RI Spec 3.2: an imager's outputs are Ci and Oi. K-3D's bluescreen
+    // imager fills the background and sets Oi = 1; umbra kept the pixels'
+    // coverage as alpha (0 where nothing was drawn), where Aqsis writes 1.
+    ScratchDir dir("imager-oi");
+    std::ofstream(dir.file("fill.sl")) << "imager fill() { Ci += (1 - alpha) * color(0, 0, 1); Oi = 1; }\n";
+    std::ofstream(dir.file("half.sl")) << "imager half() { Oi = color(0.25, 0.5, 0.75); alpha = 0.125; }\n";
+    const std::string world = "Surface \"constant\" Color [0 1 0] Polygon \"P\" [-2 -2 0  0 -2 0  0 2 0  -2 2 0]";
+    for (const char* imager : {"fill", "half"}) {
+        std::string rib = orthoFrame(dir.file("out.exr"), world, 2, 64);
+        rib = fmt::format("Option \"searchpath\" \"shader\" [\"{}:&\"]\nImager \"{}\"\n", dir.file(""), imager) + rib;
+        Diagnostics diag;
+        test::renderRib(rib, diag);
+        EXPECT_EQ(diag.errorCount(), 0);
+        Image img;
+        ASSERT_TRUE(test::readImage(dir.file("out.exr"), &img));
+        for (int x : {5, 50}) {
+            if (std::string(imager) == "fill") {
+                EXPECT_NEAR(img.at(x, 30, 3), 1.f, 1e-6f) << x;  // the Oi it set, covered or not
+                EXPECT_NEAR(img.at(x, 30, 2), x < 32 ? 0.f : 1.f, 1e-6f) << x;
+            } else {
+                EXPECT_NEAR(img.at(x, 30, 3), 0.125f, 1e-6f) << x;  // alpha, set too, wins
+            }
+        }
+    }
+}
