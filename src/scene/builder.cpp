@@ -313,6 +313,7 @@ void Builder::worldBegin(const FileLoc& loc) {
     m_world = std::make_unique<WorldRecord>();
     m_world->frameNumber = m_frame;
     m_world->options = m_options;
+    fitFrameAspectRatio(m_world->options);
     if (m_world->options.displays.empty()) {
         // A RIB with no Display (modellers' exports, a bare world block)
         // rendered to nothing at all. The spec leaves the default to the
@@ -900,6 +901,20 @@ void Builder::format(int xres, int yres, float pixelAspect, const FileLoc& loc) 
     m_options.xResolution = xres < 1 ? defaults.xResolution : xres;
     m_options.yResolution = yres < 1 ? defaults.yResolution : yres;
     m_options.pixelAspectRatio = pixelAspect > 0 && std::isfinite(pixelAspect) ? pixelAspect : 1.0f;
+}
+
+void Builder::fitFrameAspectRatio(Options& o) {
+    // RI Spec 3.2: the picture "is adjusted in size so that it fits into the
+    // display area" with the frame aspect ratio, its upper left corner at
+    // the display's: the largest such rectangle of whole pixels (Pixie
+    // writes an image of that size). The frame's copy only, so a later
+    // frame's FrameAspectRatio fits the Format as given.
+    if (!(o.frameAspectRatio > 0)) return;
+    const double display = double(o.xResolution) * o.pixelAspectRatio / double(o.yResolution);
+    if (o.frameAspectRatio < display)
+        o.xResolution = std::max(1, int(std::lround(o.yResolution * o.frameAspectRatio / o.pixelAspectRatio)));
+    else if (o.frameAspectRatio > display)
+        o.yResolution = std::max(1, int(std::lround(o.xResolution * o.pixelAspectRatio / o.frameAspectRatio)));
 }
 
 void Builder::frameAspectRatio(float aspect, const FileLoc& loc) {

@@ -118,6 +118,8 @@ public:
     void option(const std::string& name, ri::ParamList params, const FileLoc& loc) override;
     void format(int xres, int yres, float pixelAspect, const FileLoc& loc) override;
     void frameAspectRatio(float aspect, const FileLoc& loc) override;
+    /// Fits a frame's resolution to its FrameAspectRatio (RI Spec 3.2).
+    static void fitFrameAspectRatio(Options& o);
     void screenWindow(float left, float right, float bottom, float top, const FileLoc& loc) override;
     void cropWindow(float xmin, float xmax, float ymin, float ymax, const FileLoc& loc) override;
     void projection(const std::string& name, ri::ParamList params, const FileLoc& loc) override;

@@ -227,3 +227,39 @@ TEST(Imager, ItsOpacityIsThePixelsAlpha) {
         }
     }
 }
+
+TEST(FrameAspectRatio, FitsThePictureIntoTheFormat) {
+    // RI Spec 3.2: the picture takes the frame aspect ratio and is fitted
+    // into the display area (Pixie writes it at that size). umbra kept the
+    // Format's size and stretched the picture: a sphere came out a 2:1
+    // ellipse. Orthographic, default screen window [-1, 1] on the short
+    // side: a sphere of radius 0.5 covers pi / 16 of a square picture.
+    ScratchDir dir("frame-aspect");
+    for (float aspect : {1.0f, 4.0f}) {
+        const std::string rib = fmt::format(R"(Display "{}" "openexr" "rgba" "string type" "float"
+Format 200 100 1
+FrameAspectRatio {}
+PixelSamples 4 4
+PixelFilter "box" 1 1
+Projection "orthographic"
+Translate 0 0 5
+WorldBegin
+Surface "constant"
+Sphere 0.5 -0.5 0.5 360
+WorldEnd
+)",
+                                            dir.file("out.exr"), aspect);
+        Diagnostics diag;
+        test::renderRib(rib, diag);
+        EXPECT_EQ(diag.errorCount(), 0);
+        Image img;
+        ASSERT_TRUE(test::readImage(dir.file("out.exr"), &img));
+        EXPECT_EQ(img.width, aspect == 1.0f ? 100 : 200);
+        EXPECT_EQ(img.height, aspect == 1.0f ? 100 : 50);
+        // The screen is [-a, a] x [-1, 1] (a >= 1): pixels per unit are
+        // height / 2 both ways, so the disc is round.
+        const double pixelsPerUnit = img.height / 2.0;
+        EXPECT_NEAR(img.channelSum(3), M_PI * 0.25 * pixelsPerUnit * pixelsPerUnit, 0.01 * M_PI * 0.25 * pixelsPerUnit * pixelsPerUnit)
+            << aspect;
+    }
+}
