@@ -807,6 +807,21 @@ bool copyParam(Exec& x, const Exec* from, const std::string& name, int dst) {
     return false;
 }
 
+/// Stores one value (all of an array's elements) at the active points of
+/// register dst. A varying array is element-major: each element's n values
+/// together (as bindParam() and copyParam() lay it out).
+void storeAtActive(Exec& x, int dst, const float* value) {
+    const RegInfo& d = x.cs->regs[size_t(dst)];
+    const int comps = tyFloats(d.ty), elems = std::max(1, d.arrayLen);
+    const bool dv = x.vary[size_t(dst)] != 0;
+    float* dp = x.ptr[size_t(dst)];
+    forActive(x, dv, [&](int i) {
+        for (int e = 0; e < elems; ++e)
+            std::memcpy(dp + size_t(e) * size_t(comps) * size_t(dv ? x.n : 1) + size_t(i) * size_t(comps),
+                        value + size_t(e) * size_t(comps), sizeof(float) * size_t(comps));
+    });
+}
+
 bool fromShadeValue(Exec& x, const ShadeValue& v, int dst) {
     const RegInfo& d = x.cs->regs[size_t(dst)];
     if (d.ty == Ty::String) {
@@ -814,9 +829,8 @@ bool fromShadeValue(Exec& x, const ShadeValue& v, int dst) {
         for (size_t k = 0; k < x.strs[size_t(dst)].size() && k < v.strings.size(); ++k) x.strs[size_t(dst)][k] = v.strings[k];
         return true;
     }
-    int per = d.floatsPerValue();
-    if (int(v.floats.size()) < per) return false;
-    forActive(x, x.vary[size_t(dst)], [&](int i) { std::memcpy(x.ptr[size_t(dst)] + i * per, v.floats.data(), sizeof(float) * size_t(per)); });
+    if (int(v.floats.size()) < d.floatsPerValue()) return false;
+    storeAtActive(x, dst, v.floats.data());
     return true;
 }
 
@@ -1313,7 +1327,7 @@ void execCall(Exec& x, const Instr& in) {
                 int per = ri.floatsPerValue();
                 std::vector<float> f(static_cast<size_t>(per), 0.f);
                 ok = ts->textureInfoFloats(A.s(0), A.s(1), per, f.data());
-                if (ok) forActive(x, x.vary[size_t(out)], [&](int i) { std::memcpy(x.ptr[size_t(out)] + i * per, f.data(), sizeof(float) * size_t(per)); });
+                if (ok) storeAtActive(x, out, f.data());
             }
         }
         setResult(x, in, ok ? 1.f : 0.f);

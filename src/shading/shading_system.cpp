@@ -464,13 +464,20 @@ void ShadingSystem::shade(ShadingGrid& grid, const ShadeRequest& request, Render
             for (size_t p = 0; p < cs.params.size(); ++p) {
                 if (cs.params[p].name != name || cs.params[p].type == ValueType::String) continue;
                 int r = cs.paramRegs[p];
-                int per = cs.regs[size_t(r)].floatsPerValue();
-                int vary = e->vary[size_t(r)];
+                const RegInfo& ri = cs.regs[size_t(r)];
+                const int per = ri.floatsPerValue(), comps = tyFloats(ri.ty), elems = std::max(1, ri.arrayLen);
+                const int vary = e->vary[size_t(r)];
                 auto& out = grid.m_outputs[name];
                 out.first = per;
                 out.second.resize(size_t(grid.size()) * size_t(per));
+                // Point-major out of the register's layout (a varying
+                // array's elements each hold n values).
                 for (int i = 0; i < grid.size(); ++i)
-                    std::memcpy(out.second.data() + size_t(i) * size_t(per), e->ptr[size_t(r)] + size_t(i * vary * per), sizeof(float) * size_t(per));
+                    for (int el = 0; el < elems; ++el)
+                        std::memcpy(out.second.data() + size_t(i) * size_t(per) + size_t(el) * size_t(comps),
+                                    e->ptr[size_t(r)] + size_t(el) * size_t(comps) * size_t(vary ? grid.size() : 1) +
+                                        size_t(i * vary * comps),
+                                    sizeof(float) * size_t(comps));
                 done = true;
                 break;
             }

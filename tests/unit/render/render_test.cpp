@@ -263,3 +263,30 @@ WorldEnd
             << aspect;
     }
 }
+
+TEST(Shading, ArrayResultsOfOptionAreStoredPerPointUnderAVaryingCondition) {
+    // option(), attribute() and textureinfo() store an array into a
+    // variable; under a varying condition the variable is varying, its
+    // elements each holding every point's value. umbra copied each point's
+    // values side by side instead: option("Format", res) gave scrambled
+    // numbers at every point (Aqsis gives the Format).
+    ScratchDir dir("option-array");
+    std::ofstream(dir.file("fmt.sl")) << "surface fmt() { float res[3] = {0, 0, 0};\n"
+                                         "  if (s < 0.5) option(\"Format\", res);\n"
+                                         "  Ci = color(res[0] / 1000, res[1] / 1000, res[2]); Oi = 1; }\n";
+    const std::string world = "Surface \"fmt\" Patch \"bilinear\" \"P\" [-2 -2 0  2 -2 0  -2 2 0  2 2 0]";
+    std::string rib = orthoFrame(dir.file("out.exr"), world, 2, 64);
+    rib = fmt::format("Option \"searchpath\" \"shader\" [\"{}:&\"]\n", dir.file("")) + rib;
+    Diagnostics diag;
+    test::renderRib(rib, diag);
+    EXPECT_EQ(diag.errorCount(), 0);
+    Image img;
+    ASSERT_TRUE(test::readImage(dir.file("out.exr"), &img));
+    for (int y : {5, 40})
+        for (int x : {3, 20, 45, 60}) {
+            const bool left = x < 30;  // s < 0.5, away from the boundary
+            EXPECT_NEAR(img.at(x, y, 0), left ? 0.064f : 0.f, 1e-6f) << x << "," << y;
+            EXPECT_NEAR(img.at(x, y, 1), left ? 0.064f : 0.f, 1e-6f) << x << "," << y;
+            EXPECT_NEAR(img.at(x, y, 2), left ? 1.f : 0.f, 1e-6f) << x << "," << y;
+        }
+}
