@@ -42,6 +42,43 @@ bool checkCount(const scene::PrimitiveRecord& rec, const ri::Param& p, ri::Stora
     return true;
 }
 
+/// A constant or uniform string variable (an exporter's per-object texture
+/// name, say) becomes indices into a table of its values, which ride on
+/// grids as floats and bind to the shader's string parameter of that name.
+void addStringVar(const scene::PrimitiveRecord& rec, const ri::Param& p, const ClassCounts& counts,
+                  Diagnostics& diag, SurfaceData& sd) {
+    const std::string& name = p.decl.name;
+    rec.params.find(name);  // mark used
+    if (p.decl.elementSize() != 1) {
+        diag.warningOnce("string-primvar-array:" + name, rec.loc,
+                         "{}: string array \"{}\" cannot be a primitive variable; ignored", rec.type, name);
+        return;
+    }
+    if (p.decl.storage != ri::StorageClass::Constant && p.decl.storage != ri::StorageClass::Uniform) {
+        diag.warningOnce("string-primvar-class:" + name, rec.loc,
+                         "{}: string \"{}\" is {}: a string primitive variable is constant or uniform; ignored",
+                         rec.type, name, p.decl.str());
+        return;
+    }
+    const char* what = "";
+    const size_t want = expectedCount(counts, p.decl.storage, &what);
+    if (p.strings.size() != want) {
+        diag.error(rec.loc, "{}: \"{}\" has {} values, expected {} ({})", rec.type, name, p.strings.size(), want, what);
+        return;
+    }
+    const std::vector<std::string>& table = sd.stringTables.emplace_back(p.strings);
+    std::vector<float>& indices = sd.stringIndices.emplace_back(table.size());
+    for (size_t k = 0; k < indices.size(); ++k) indices[k] = float(k);
+    PrimVar v;
+    v.name = name;
+    v.type = ri::ParamType::String;
+    v.storage = p.decl.storage;
+    v.data = indices.data();
+    v.count = indices.size();
+    v.strings = &table;
+    sd.vars.push_back(std::move(v));
+}
+
 }  // namespace
 
 std::shared_ptr<const SurfaceData> readSurfaceData(const scene::PrimitiveRecord& rec, const ClassCounts& counts,
@@ -100,7 +137,11 @@ std::shared_ptr<const SurfaceData> readSurfaceData(const scene::PrimitiveRecord&
     for (const ri::Param& p : rec.params.params()) {
         const std::string& name = p.decl.name;
         if (name == "P" || name == "Pw" || name == "Pz") continue;
-        if (!ri::isFloatType(p.decl.type)) continue;  // strings and integers cannot ride on a grid
+        if (p.decl.type == ri::ParamType::String) {
+            addStringVar(rec, p, counts, diag, *sd);
+            continue;
+        }
+        if (!ri::isFloatType(p.decl.type)) continue;  // integers cannot ride on a grid
         if (name == "Np" && hasN) continue;
         rec.params.find(name);  // mark used
         if (!checkCount(rec, p, p.decl.storage, counts, diag)) continue;
@@ -189,6 +230,7 @@ GridVar& addGridVar(Grid& g, const PrimVar& v, bool perVertex) {
     gv.type = v.type;
     gv.components = v.components;
     gv.perVertex = perVertex;
+    gv.strings = v.strings;
     gv.data.resize(perVertex ? size_t(g.vertexCount()) * size_t(v.components) : size_t(v.components));
     return gv;
 }

@@ -219,9 +219,19 @@ bool bindParam(Exec& x, int r) {
     int per = ri.floatsPerValue();
     float* dst = x.ptr[size_t(r)];
     bool varying = x.vary[size_t(r)];
+    if (g.primvars && ri.ty == Ty::String && ri.arrayLen == 0) {
+        // A constant or uniform string variable: one value per grid.
+        for (const geometry::GridVar& gv : *g.primvars) {
+            if (gv.name != ri.name || !gv.strings || gv.data.empty()) continue;
+            const float k = gv.data[0];
+            if (!(k >= 0 && k < float(gv.strings->size()))) continue;
+            x.strs[size_t(r)][0] = (*gv.strings)[size_t(k)];
+            return true;
+        }
+    }
     if (g.primvars && ri.ty != Ty::String) {
         for (const geometry::GridVar& gv : *g.primvars) {
-            if (gv.name != ri.name || gv.components != per) continue;
+            if (gv.name != ri.name || gv.components != per || gv.strings) continue;
             if (varying && gv.perVertex) {
                 // arrays: element-major blocks of n values each
                 int comps = tyFloats(ri.ty);

@@ -28,6 +28,8 @@ struct GridVar {
     int components = 1;          // floats per value (array size included)
     bool perVertex = true;       // false: `data` holds a single value
     std::vector<float> data;
+    /// A string variable: `data` holds indices into this table.
+    const std::vector<std::string>* strings = nullptr;
 
     const float* at(int vertex) const { return data.data() + (perVertex ? vertex * components : 0); }
 };

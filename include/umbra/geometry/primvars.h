@@ -22,6 +22,7 @@
 #include <cmath>
 #include <memory>
 #include <string>
+#include <deque>
 #include <vector>
 
 namespace umbra::geometry {
@@ -52,6 +53,9 @@ struct PrimVar {
     const float* data = nullptr;
     size_t count = 0;
     bool isNormal = false;  // "N" (or "Np"): goes to Grid::N, not Grid::vars
+    /// A string variable (constant or uniform): its values are indices into
+    /// this table, so they ride on grids as every other variable does.
+    const std::vector<std::string>* strings = nullptr;
 
     const float* at(size_t k) const { return data + k * size_t(stride) + size_t(offset); }
 };
@@ -67,6 +71,10 @@ struct SurfaceData {
     size_t posCount = 0;
     std::vector<float> ownedPos;
     std::vector<PrimVar> vars;
+    /// String variables' tables and index arrays (deques: PrimVar points
+    /// into them).
+    std::deque<std::vector<std::string>> stringTables;
+    std::deque<std::vector<float>> stringIndices;
     bool hasS = false, hasT = false;
     /// TextureCoordinates (s, t at the (u, v) corners (0,0) (1,0) (0,1)
     /// (1,1)): the default s and t of parametric primitives (quadrics,

@@ -290,3 +290,48 @@ TEST(Shading, ArrayResultsOfOptionAreStoredPerPointUnderAVaryingCondition) {
             EXPECT_NEAR(img.at(x, y, 2), left ? 1.f : 0.f, 1e-6f) << x << "," << y;
         }
 }
+
+TEST(Shading, StringPrimitiveVariablesBindToStringParameters) {
+    // Exporters write per-object texture names as string primitive
+    // variables ("constant string texname"). umbra dropped every string
+    // primitive variable; Aqsis delivers them (RI Spec 3.2: any shader
+    // parameter may be given as a primitive variable). A constant string on
+    // a patch, a uniform one per face of a mesh.
+    ScratchDir dir("string-primvars");
+    std::ofstream(dir.file("tag.sl")) << "surface tag(string tag = \"none\") {\n"
+                                         "  Ci = color(match(\"^a$\", tag), match(\"^b$\", tag), match(\"^none$\", tag)); Oi = 1; }\n";
+    const std::string world = R"(Surface "tag"
+Patch "bilinear" "P" [-2 0 0  0 0 0  -2 2 0  0 2 0] "constant string tag" ["b"]
+PointsPolygons [4 4] [0 1 3 2  1 4 5 3] "P" [0 0 0  1 0 0  0 2 0  1 2 0  2 0 0  2 2 0] "uniform string tag" ["a" "b"]
+Patch "bilinear" "P" [-2 -2 0  2 -2 0  -2 0 0  2 0 0]
+)";
+    std::string rib = orthoFrame(dir.file("out.exr"), world, 2, 64);
+    rib = fmt::format("Option \"searchpath\" \"shader\" [\"{}:&\"]\n", dir.file("")) + rib;
+    Diagnostics diag;
+    test::renderRib(rib, diag);
+    EXPECT_EQ(diag.errorCount(), 0);
+    Image img;
+    ASSERT_TRUE(test::readImage(dir.file("out.exr"), &img));
+    // Image y grows downwards: rows 0-31 are y > 0.
+    auto rgb = [&](int x, int y) { return Vec3(img.at(x, y, 0), img.at(x, y, 1), img.at(x, y, 2)); };
+    auto expectColour = [&](int x, int y, Vec3 want) {
+        const Vec3 c = rgb(x, y);
+        EXPECT_TRUE(c.x == want.x && c.y == want.y && c.z == want.z) << x << "," << y << ": " << c.x << " " << c.y << " " << c.z;
+    };
+    expectColour(10, 10, Vec3(0, 1, 0));  // the patch's constant "b"
+    expectColour(40, 10, Vec3(1, 0, 0));  // first face: "a"
+    expectColour(56, 10, Vec3(0, 1, 0));  // second face: "b"
+    expectColour(30, 50, Vec3(0, 0, 1));  // no variable: the default
+    // A varying string has no meaning: warned and ignored.
+    Diagnostics d2;
+    d2.setRecord(true);
+    test::renderRib(fmt::format("Option \"searchpath\" \"shader\" [\"{}:&\"]\n", dir.file("")) +
+                        orthoFrame(dir.file("out.exr"),
+                                   "Surface \"tag\" Patch \"bilinear\" \"P\" [-2 -2 0  2 -2 0  -2 2 0  2 2 0] "
+                                   "\"varying string tag\" [\"a\" \"a\" \"b\" \"b\"]",
+                                   2, 16),
+                    d2);
+    bool warned = false;
+    for (const Diagnostic& m : d2.recorded()) warned = warned || m.message.find("constant or uniform") != std::string::npos;
+    EXPECT_TRUE(warned);
+}
