@@ -175,6 +175,11 @@ public:
     bool texture(const std::string& file, const TextureOptions& o, float s, float t, float dsdx, float dtdx,
                  float dsdy, float dtdy, int nchannels, float* result) override {
         if (!fits(file)) return false;
+        bool filled = false;
+        if (pastLastChannel(file, o, nchannels, result, &filled, [&](int present) {
+                return texture(file, o, s, t, dsdx, dtdx, dsdy, dtdy, present, result);
+            }))
+            return filled;
         OIIO::TextureOpt opt = toOiio(o);
         const OIIO::ustring name(file);
         if (!(o.sblur > 0) && !(o.tblur > 0))
@@ -209,6 +214,10 @@ public:
     bool environment(const std::string& file, const TextureOptions& o, const Vec3& Rin, const Vec3& dRdxIn,
                      const Vec3& dRdyIn, int nchannels, float* result) override {
         if (!fits(file)) return false;
+        bool filled = false;
+        if (pastLastChannel(file, o, nchannels, result, &filled,
+                            [&](int present) { return environment(file, o, Rin, dRdxIn, dRdyIn, present, result); }))
+            return filled;
         // Everything below is in OpenImageIO's frame (+y the poles' axis).
         const Vec3 R = toOiioFrame(Rin), dRdx = toOiioFrame(dRdxIn), dRdy = toOiioFrame(dRdyIn);
         OIIO::TextureOpt opt = toOiio(o);
@@ -360,30 +369,52 @@ private:
     /// values: OpenImageIO reads those whole, at up to 32 bytes a value (a
     /// 1.5 KB file of 393,232 x 16 RGBA pixels asked 805 MB, found by
     /// fuzz_maps); MakeTexture makes tiled textures. Checked once per name.
-    bool fits(const std::string& file) {
+    struct FileFacts {
+        bool fits = true;
+        int channels = -1;  // unknown (not found)
+    };
+    FileFacts facts(const std::string& file) {
         std::lock_guard<std::mutex> lock(m_mutex);
-        auto [it, fresh] = m_fits.try_emplace(file, true);
+        auto [it, fresh] = m_fits.try_emplace(file, FileFacts{});
         if (fresh) {
             std::vector<std::string> dirs;
             OIIO::Filesystem::searchpath_split(m_searchPath, dirs, true);
             const std::string found = OIIO::Filesystem::searchpath_find(file, dirs, true);
             std::string why;
             if (!found.empty() && !exrHeadersFit(found, &why)) {
-                it->second = false;
+                it->second.fits = false;
             } else if (auto in = found.empty() ? nullptr : OIIO::ImageInput::open(found)) {
                 const OIIO::ImageSpec& spec = in->spec();
                 const uint64_t values = uint64_t(std::max(spec.width, 0)) * uint64_t(std::max(spec.height, 0)) *
                                         uint64_t(std::max(spec.depth, 1)) * uint64_t(std::max(spec.nchannels, 0));
-                it->second = spec.tile_width > 0 || values <= (uint64_t(1) << 24);
+                it->second.fits = spec.tile_width > 0 || values <= (uint64_t(1) << 24);
+                it->second.channels = spec.nchannels;
             }
         }
         return it->second;
+    }
+    bool fits(const std::string& file) { return facts(file).fits; }
+
+    /// Channels past the file's last read as "fill" (RI Spec 3.2), which
+    /// OpenImageIO does not do for a first channel past the end (it trips
+    /// an assertion at coarse MIP levels): the result is filled and only
+    /// the channels the file has are looked up, by `lookup(count)`. False:
+    /// nothing to adjust.
+    template <class Lookup>
+    bool pastLastChannel(const std::string& file, const TextureOptions& o, int nchannels, float* result,
+                         bool* ok, Lookup&& lookup) {
+        const int channels = facts(file).channels;
+        if (channels < 0 || o.firstChannel + nchannels <= channels) return false;
+        std::fill(result, result + nchannels, o.fill);
+        const int present = std::max(0, channels - o.firstChannel);
+        *ok = present == 0 || lookup(present);
+        return true;
     }
 
     std::mutex m_mutex;  // guards the search path and m_fits
     OIIO::TextureSystem* m_ts;
     std::string m_searchPath;
-    std::unordered_map<std::string, bool> m_fits;
+    std::unordered_map<std::string, FileFacts> m_fits;
 };
 
 }  // namespace

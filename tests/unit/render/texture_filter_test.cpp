@@ -363,5 +363,60 @@ Patch "bilinear" "P" [{4} -1 0  {5} -1 0  {4} 1 0  {5} 1 0]
             EXPECT_NEAR(img.at(i * 10 + 5, 5, c), cases[i].rgb[c], 0.05f) << cases[i].name << " channel " << c;
 }
 
+TEST(TextureChannels, ChannelsPastTheLastReadAsFill) {
+    // RI Spec 3.2: "fill" is the value of channels the texture lacks.
+    // texture(map[3], ...) on an RGB map, minified, aborted the render on an
+    // OpenImageIO assertion (exit 134); Aqsis renders 0. Now [3] reads fill
+    // and [2] as a colour reads blue, then fill, fill.
+    test::ScratchDir dir{"texture-channels"};
+    std::string root = dir.file("");
+    root.pop_back();
+    {
+        const std::string path = dir.file("rgb.tif");
+        auto out = OIIO::ImageOutput::create(path);
+        ASSERT_TRUE(out);
+        OIIO::ImageSpec spec(64, 64, 3, OIIO::TypeDesc::FLOAT);
+        ASSERT_TRUE(out->open(path, spec));
+        std::vector<float> px(size_t(64) * 64 * 3);
+        for (size_t k = 0; k < px.size(); k += 3) px[k] = 0.25f, px[k + 1] = 0.5f, px[k + 2] = 0.75f;
+        ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, px.data()));
+        ASSERT_TRUE(out->close());
+    }
+    std::ofstream(dir.file("ch.sl")) << R"(surface ch(string map = "")
+{
+    float past = texture(map[3], s * 20, t);
+    color tail = color texture(map[2], s * 20, t, "fill", 0.5);
+    Ci = color(past, comp(tail, 0), comp(tail, 1)) + color(0, 0, comp(tail, 2) - 0.5);
+    Oi = 1;
+}
+)";
+    const std::string image = dir.file("out.tif");
+    const std::string rib = fmt::format(R"(Option "searchpath" "shader" ["{0}:&"]
+MakeTexture "{0}/rgb.tif" "{0}/rgb.tex" "periodic" "periodic" "box" 1 1
+Format 64 16 1
+PixelSamples 2 2
+Quantize "rgba" 0 0 0 0
+Display "{1}" "file" "rgba"
+Projection "orthographic"
+ScreenWindow -2 2 -0.5 0.5
+WorldBegin
+Translate 0 0 5
+Surface "ch" "string map" "{0}/rgb.tex"
+Patch "bilinear" "P" [-2 0.5 0  2 0.5 0  -2 -0.5 0  2 -0.5 0]
+WorldEnd
+)",
+                                        root, image);
+    Diagnostics diag;
+    diag.setQuiet(true);
+    const test::Image img = test::renderImage(rib, image, diag, 2);
+    EXPECT_EQ(diag.errorCount(), 0);
+    ASSERT_EQ(img.width, 64);
+    for (int x : {2, 30, 61}) {
+        EXPECT_NEAR(img.at(x, 8, 0), 0.0f, 1e-5f) << x;   // channel 3: fill 0
+        EXPECT_NEAR(img.at(x, 8, 1), 0.75f, 1e-3f) << x;  // channel 2: blue
+        EXPECT_NEAR(img.at(x, 8, 2), 0.5f, 1e-5f) << x;   // channel 3: fill 0.5 (and channel 4's 0.5 - 0.5)
+    }
+}
+
 }  // namespace
 }  // namespace umbra
