@@ -1,5 +1,7 @@
-/* shadowpoint: pointlight with six shadow maps, one per cube face in
-   "shader" space (sfpx: the map looking down +x, sfnx down -x, ...).
+/* shadowpoint: pointlight with six shadow maps, one per cube face along
+   the "world" axes (sfpx: the map looking down world +x, sfnx down -x,
+   ...), as Pixar's shadowpoint picks them and as the six maps are made:
+   cameras along the world axes, whatever the light's own transform.
    umbra extension: "shadowname" names one cube map holding all six faces
    (what "shadowname" "auto" renders); it takes precedence when set. */
 #define SHADOW_ARGS "samples", samples, "width", width, "blur", blur, \
@@ -12,7 +14,7 @@ light shadowpoint(float intensity = 1; color lightcolor = 1;
                   float samples = 16, width = 1, blur = 0, bias = 0, bias0 = 0, bias1 = 0;)
 {
     illuminate(from) {
-        vector Ls = vtransform("shader", L);
+        vector Ls = vtransform("world", L);
         float ax = abs(xcomp(Ls)), ay = abs(ycomp(Ls)), az = abs(zcomp(Ls));
         float shad = 0;
         if (shadowname != "") {

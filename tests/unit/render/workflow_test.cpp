@@ -100,6 +100,48 @@ PixelSamples 2 2
     EXPECT_LT(groundAt(img, 0.3f, 0.1f), 0.05f);
 }
 
+TEST(Workflow, ShadowpointPicksItsFaceMapsAlongTheWorldAxes) {
+    // The six maps of a shadowpoint are made by cameras along the world
+    // axes; Pixar's shadowpoint (and Pixie's, Aqsis's copy) picks the face
+    // by the world direction to the point. umbra's picked it by the light's
+    // shader-space axes, so a light placed with a rotation looked the floor
+    // up in the wrong face's (empty) map: no shadow. Light at y = 4 placed
+    // with a turn about z, only its -y map given.
+    ScratchDir dir("shadowpoint-faces");
+    Diagnostics diag;
+    test::renderRib(fmt::format(R"(
+Display "{0}" "zfile" "z"
+Format 128 128 1
+PixelSamples 1 1
+Hider "hidden" "jitter" [0]
+Projection "perspective" "fov" 90
+Rotate -90 1 0 0
+Translate 0 -4 0
+{1}
+MakeShadow "{0}" "{2}"
+)", dir.file("ny.z"), world(""), dir.file("ny.shd")),
+                    diag);
+    ASSERT_EQ(diag.errorCount(), 0);
+    test::renderRib(fmt::format(R"(Display "{}" "openexr" "rgba" "string type" "float"
+PixelSamples 2 2
+{}
+{})", dir.file("beauty.exr"), kDownCamera,
+                                world(fmt::format(R"(TransformBegin Translate 0 4 0 Rotate 90 0 0 1
+  LightSource "shadowpoint" 1 "intensity" [16] "sfny" ["{}"] "bias" [0.05]
+TransformEnd)",
+                                                  dir.file("ny.shd")))),
+                    diag);
+    ASSERT_EQ(diag.errorCount(), 0);
+    Image img;
+    ASSERT_TRUE(test::readImage(dir.file("beauty.exr"), &img));
+    // The sphere (radius 0.5 at height 1.5) seen from the light at height
+    // 4 shadows a disc of radius 4 tan(asin(0.5 / 2.5)) = 0.82 on the floor.
+    EXPECT_LT(groundAt(img, 0.0f, 0.0f), 0.02f);
+    EXPECT_LT(groundAt(img, 0.5f, 0.3f), 0.02f);
+    EXPECT_GT(groundAt(img, 1.2f, 0.0f), 0.3f);
+    EXPECT_GT(groundAt(img, 0.0f, -1.5f), 0.3f);
+}
+
 // A light's frame written as a zfile hands its film's depths to the file
 // (the film starts unset, its empty buckets never touched): texels no
 // caster reaches must still read +infinity, with and without a crop
