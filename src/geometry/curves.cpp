@@ -203,7 +203,17 @@ Grid CurveSegment::diceInView(int nu, int nv, const ViewContext& view) const {
         const float w = width(a[size_t(i)]);
         const Vec3 toward = view.toward(c);
         const Vec3 side = ribbonSide(T, toward, oriented ? &g.N[size_t(i)] : nullptr, insideOut);
-        for (int j = 0; j <= nv; ++j) g.P[size_t(g.index(i, j))] = c + side * (w * (b[size_t(j)] - 0.5f));
+        // Across the ribbon against `side`: once transposed below, dPdu
+        // (across) x dPdv (along) is the outward side ribbonSide() chose.
+        for (int j = 0; j <= nv; ++j) g.P[size_t(g.index(i, j))] = c - side * (w * (b[size_t(j)] - 0.5f));
+    }
+    // RI Spec 3.2: on a curve u runs across the width and v along the
+    // length (hair shaders colour root to tip by v), as Pixie and Aqsis
+    // have it; the grid was built along the curve, so it is transposed.
+    g.transpose();
+    for (GridVar& var : g.vars) {
+        if (var.name == "s" && !sd.hasS) var.data = g.u;
+        if (var.name == "t" && !sd.hasT) var.data = g.v;
     }
     return g;
 }

@@ -33,4 +33,27 @@ void Grid::transform(const Mat4& M, const Mat4& inverseM) {
     }
 }
 
+void Grid::transpose() {
+    const int cols = nu + 1, rows = nv + 1;
+    // New vertex (i', j') = (j, i) sits at i' + j' * (rows) = j + i * rows.
+    auto moved = [&](auto& values, int per) {
+        if (values.size() != size_t(cols) * size_t(rows) * size_t(per)) return;
+        auto old = values;
+        for (int j = 0; j < rows; ++j)
+            for (int i = 0; i < cols; ++i)
+                for (int c = 0; c < per; ++c)
+                    values[(size_t(i) * size_t(rows) + size_t(j)) * size_t(per) + size_t(c)] =
+                        old[(size_t(j) * size_t(cols) + size_t(i)) * size_t(per) + size_t(c)];
+    };
+    moved(P, 1);
+    moved(N, 1);
+    moved(u, 1);
+    moved(v, 1);
+    for (GridVar& var : vars)
+        if (var.perVertex) moved(var.data, var.components);
+    std::swap(u, v);
+    std::swap(du, dv);
+    std::swap(nu, nv);
+}
+
 }  // namespace umbra::geometry

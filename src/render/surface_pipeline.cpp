@@ -330,6 +330,12 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
     view.eye = objectFromCamera.point({0, 0, 0});
     view.towardEye = normalize(objectFromCamera.vector({0, 0, -1}));
     geometry::Grid g = prim.diceInView(nu, nv, view);
+    // A family may lay its grid out the other way round (Curves: the
+    // decision's nu runs along the curve, the grid's v does); the grid's
+    // own counts describe it from here on, its shapes are asked as it was.
+    const int askedNu = nu, askedNv = nv;
+    nu = g.nu;
+    nv = g.nv;
 
     // Motion blur: the piece's object-space positions at each placement
     // time (its shapes interpolated linearly between their times), and the
@@ -344,7 +350,7 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
         const int shapeCount = prim.shapeCount();
         shapes.resize(size_t(shapeCount));
         shapes[0] = g.P;
-        for (int k = 1; k < shapeCount; ++k) prim.diceShape(k, nu, nv, view, shapes[size_t(k)]);
+        for (int k = 1; k < shapeCount; ++k) prim.diceShape(k, askedNu, askedNv, view, shapes[size_t(k)]);
         objectAt.resize(keys * size_t(n));
         for (size_t k = 0; k < keys; ++k) {
             Vec3* dst = &objectAt[k * size_t(n)];

@@ -60,6 +60,10 @@ struct Grid {
     /// another space: points and vectors by `M`, normals by its inverse
     /// transpose (`inverseM` is M's inverse).
     void transform(const Mat4& M, const Mat4& inverseM);
+    /// Swaps the roles of u and v: vertex (i, j) becomes (j, i), the counts,
+    /// parameters and spacings trade places. Per-vertex data moves with its
+    /// vertex; the surface's orientation (dPdu x dPdv) flips.
+    void transpose();
 };
 
 }  // namespace umbra::geometry

@@ -40,15 +40,21 @@ TEST(CurveSegment, CubicBezierCentrelineMatchesTheFormula) {
     const int nu = 16;
     Grid g = prims[0]->diceInView(nu, 1, view);
     ASSERT_EQ(g.vertexCount(), 2 * (nu + 1));
-    for (int i = 0; i <= nu; ++i) {
-        const Vec3 a = g.P[size_t(g.index(i, 0))], b = g.P[size_t(g.index(i, 1))];
-        const Vec3 want = bezier(c, float(i) / float(nu));
-        EXPECT_LT(length((a + b) * 0.5f - want), 1e-5f) << i;
-        EXPECT_NEAR(length(b - a), 0.1f, 1e-5f) << i;
+    // RI Spec 3.2: u runs across the width, v along the curve.
+    ASSERT_EQ(g.nu, 1);
+    ASSERT_EQ(g.nv, nu);
+    for (int j = 0; j <= nu; ++j) {
+        const Vec3 a = g.P[size_t(g.index(0, j))], b = g.P[size_t(g.index(1, j))];
+        const Vec3 want = bezier(c, float(j) / float(nu));
+        EXPECT_LT(length((a + b) * 0.5f - want), 1e-5f) << j;
+        EXPECT_NEAR(length(b - a), 0.1f, 1e-5f) << j;
+        EXPECT_NEAR(g.v[size_t(g.index(0, j))], float(j) / float(nu), 1e-6f) << j;
+        EXPECT_EQ(g.u[size_t(g.index(0, j))], 0.0f);
+        EXPECT_EQ(g.u[size_t(g.index(1, j))], 1.0f);
         // The outward side (dPdu x dPdv) faces the eye.
-        if (i < nu) {
-            const Vec3 n = cross(g.P[size_t(g.index(i + 1, 0))] - a, b - a);
-            EXPECT_GT(dot(n, view.eye - a), 0) << i;
+        if (j < nu) {
+            const Vec3 n = cross(b - a, g.P[size_t(g.index(0, j + 1))] - a);
+            EXPECT_GT(dot(n, view.eye - a), 0) << j;
         }
     }
     // The bound holds the ribbon.
