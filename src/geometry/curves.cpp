@@ -159,6 +159,19 @@ void CurveSegment::dicePositions(int nu, int nv, std::vector<Vec3>& P) const {
     }
 }
 
+void CurveSegment::dicePositionsInView(int nu, int nv, const ViewContext& view, std::vector<Vec3>& P) const {
+    P.resize(size_t(nu + 1) * size_t(nv + 1));
+    const bool insideOut = attributes().insideOut;
+    for (int i = 0; i <= nu; ++i) {
+        const float t = i == nu ? m_t1 : m_t0 + (m_t1 - m_t0) * float(i) / float(nu);
+        Vec3 T;
+        const Vec3 c = centre(t, &T);
+        const Vec3 side = ribbonSide(T, view.toward(c), nullptr, insideOut);
+        const float w = width(t);
+        for (int j = 0; j <= nv; ++j) P[size_t(j * (nu + 1) + i)] = c - side * (w * (float(j) / float(nv) - 0.5f));
+    }
+}
+
 Grid CurveSegment::diceInView(int nu, int nv, const ViewContext& view) const {
     const CurveSet& cs = *m_set;
     const SurfaceData& sd = *cs.data;

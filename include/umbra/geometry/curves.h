@@ -1,20 +1,22 @@
 #pragma once
 // Curves and Points (RI spec 3.2 §5.6) as grids.
 //
-// A curve segment dices into an (nu+1) x (nv+1) grid: u runs along the
-// segment, v across its width. Each column is the centreline point C(t)
-// offset by side * width * (v - 1/2), where side is the unit
+// A curve segment dices into a grid whose v runs along the segment and u
+// across its width (RI Spec 3.2): built along the curve (the decision's
+// nu), then transposed. Each row is the centreline point C(t) offset by
+// -side * width * (u - 1/2), where side is the unit
 //  - cross(toward the eye, tangent) for camera-facing ribbons (negated for
 //    an inside-out primitive), so dPdu x dPdv, the outward side, faces
 //    the pass's eye whatever the transforms (docs/rib.md "Orientation");
 //  - cross(N, tangent) when "N" is given (N-oriented ribbons): the outward
 //    side is then N, as for any surface with user normals.
 // The eye comes from Primitive::diceInView, so a depth pass turns ribbons
-// towards its light. dicePositions() gives the centreline on every row:
-// the dicing decision then dices along u by screen length and puts one
-// micropolygon across the width (nv = 1), however thin; the hider samples
-// it, so a ribbon 0.2 pixel wide covers about a fifth of the samples it
-// crosses.
+// towards its light. dicePositionsInView() gives the ribbon as seen: the
+// dicing decision dices along the curve by its screen length and across
+// by its screen width (at least one micropolygon, however thin: the hider
+// samples it, so a ribbon 0.2 pixel wide covers about a fifth of the
+// samples it crosses; a wide one gets several, so a shader that bends the
+// normal across it, as a tube, has points to bend).
 //
 // A point is a square of side "width" facing the eye, drawn by the hider
 // as its inscribed disc (Grid::discs).
@@ -66,6 +68,9 @@ public:
     Grid dice(int nu, int nv) const override { return diceInView(nu, nv, ViewContext{}); }
     Grid diceInView(int nu, int nv, const ViewContext& view) const override;
     void dicePositions(int nu, int nv, std::vector<Vec3>& P) const override;
+    /// The ribbon as diceInView() builds it (rows along the curve): the
+    /// decision sees its width on screen and dices across it too.
+    void dicePositionsInView(int nu, int nv, const ViewContext& view, std::vector<Vec3>& P) const override;
 
     /// Centreline point and tangent at segment parameter t.
     Vec3 centre(float t, Vec3* tangent = nullptr) const;

@@ -28,6 +28,9 @@ public:
     }
     bool fixedCounts(int* nu, int* nv) const override { return m_shapes[0]->fixedCounts(nu, nv); }
     void dicePositions(int nu, int nv, std::vector<Vec3>& P) const override { m_shapes[0]->dicePositions(nu, nv, P); }
+    void dicePositionsInView(int nu, int nv, const ViewContext& view, std::vector<Vec3>& P) const override {
+        m_shapes[0]->dicePositionsInView(nu, nv, view, P);
+    }
     bool flatQuad() const override;
     std::shared_ptr<const TrimRegion> trimRegion() const override { return m_shapes[0]->trimRegion(); }
     bool trimmedAway() const override { return m_shapes[0]->trimmedAway(); }

@@ -75,6 +75,13 @@ public:
     /// dicing decision needs to measure a primitive's size on screen.
     /// Families override it to skip primitive variables.
     virtual void dicePositions(int nu, int nv, std::vector<Vec3>& P) const { P = dice(nu, nv).P; }
+    /// The same seen from `view`, for a family whose shape depends on where
+    /// the eye is (a curve's ribbon turns to face it): the dicing decision
+    /// measures this one.
+    virtual void dicePositionsInView(int nu, int nv, const ViewContext& view, std::vector<Vec3>& P) const {
+        (void)view;
+        dicePositions(nu, nv, P);
+    }
     /// True when the surface is one flat, convex quadrilateral (or
     /// triangle) with straight edges: a single micropolygon of it then has
     /// the same outline and, under perspective too, the same depths as any

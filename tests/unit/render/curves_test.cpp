@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <fstream>
 
 using namespace umbra;
 using umbra::test::Image;
@@ -197,6 +198,33 @@ WorldEnd
         for (int dy = -8; dy <= 8; dy += 8)
             for (int dx = -8; dx <= 8; dx += 4)
                 EXPECT_NEAR(img.at(cx + dx, 100 + dy, 0), std::sqrt(0.5), 2e-3) << "disc at " << x << ", " << dx << " " << dy;
+    }
+}
+
+TEST(Curves, VRunsAlongTheCurveAndAWideRibbonIsDicedAcross) {
+    // RI Spec 3.2: on a curve u runs across the width and v along the
+    // length (a hair shader's mix(root, tip, v), as Pixie and Aqsis shade
+    // it). umbra had them the other way round, and one micropolygon across
+    // however wide: a tube profile sqrt(1 - (2u - 1)^2), 0 at both edges,
+    // came out 0 all over. A horizontal ribbon 0.5 wide (32 pixels).
+    ScratchDir dir("curves-uv");
+    std::ofstream(dir.file("uv.sl")) << "surface uv() { Ci = color(v, sqrt(max(0, 1 - (2 * u - 1) * (2 * u - 1))), 0); Oi = 1; }\n";
+    const std::string world = "Surface \"uv\" Curves \"linear\" [2] \"nonperiodic\" \"P\" [-1.5 0 0  1.5 0 0] \"constantwidth\" [0.5]";
+    Diagnostics diag;
+    diag.setRecord(true);
+    test::renderRib(fmt::format("Option \"searchpath\" \"shader\" [\"{}:&\"]\n", dir.file("")) +
+                        orthoFrame(dir.file("out.exr"), world),
+                    diag);
+    EXPECT_EQ(diag.errorCount(), 0);
+    Image img;
+    ASSERT_TRUE(test::readImage(dir.file("out.exr"), &img));
+    // x = -1.5 .. 1.5 is pixels 32 .. 224: v = (px + 0.5 - 32) / 192.
+    for (int px : {40, 128, 200}) {
+        EXPECT_NEAR(img.at(px, kRes / 2, 0), (px + 0.5f - 32) / 192.0f, 0.01f) << px;
+        // The ribbon's middle row: the profile's top (a few micropolygons
+        // across: within the chord error); 8 pixels from it, u = 0.25.
+        EXPECT_GT(img.at(px, kRes / 2, 1), 0.9f) << px;
+        EXPECT_NEAR(img.at(px, kRes / 2 + 8, 1), std::sqrt(0.75f), 0.12f) << px;
     }
 }
 
