@@ -418,14 +418,7 @@ DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, co
     // this camera: a curve's ribbon turns to face it.)
     thread_local std::vector<Vec3> P;
     const int n = std::max(p.testGrid, 1);
-    geometry::ViewContext view;
-    {
-        const Mat4 objectFromCamera = p.cameraFromObject.inverse();
-        view.orthographic = p.orthographic;
-        view.eye = objectFromCamera.point({0, 0, 0});
-        view.towardEye = normalize(objectFromCamera.vector({0, 0, -1}));
-    }
-    prim.dicePositionsInView(n, n, view, P);
+    prim.dicePositionsInView(n, n, geometry::ViewContext::ofCamera(p.cameraFromObject.inverse(), p.orthographic), P);
     const Mat4 rasterFromObject = p.rasterFromCamera * p.cameraFromObject;
     const float zEye = eyePlaneZ(p);
     // Flatness is measured in pixel space: raster x and y, and camera depth

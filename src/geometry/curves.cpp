@@ -153,7 +153,7 @@ void CurveSegment::split(bool, std::vector<PrimitivePtr>& out) const {
 void CurveSegment::dicePositions(int nu, int nv, std::vector<Vec3>& P) const {
     P.resize(size_t(nu + 1) * size_t(nv + 1));
     for (int i = 0; i <= nu; ++i) {
-        const float t = i == nu ? m_t1 : m_t0 + (m_t1 - m_t0) * float(i) / float(nu);
+        const float t = paramAt(i, nu);
         const Vec3 c = centre(t);
         for (int j = 0; j <= nv; ++j) P[size_t(j * (nu + 1) + i)] = c;
     }
@@ -163,7 +163,7 @@ void CurveSegment::dicePositionsInView(int nu, int nv, const ViewContext& view, 
     P.resize(size_t(nu + 1) * size_t(nv + 1));
     const bool insideOut = attributes().insideOut;
     for (int i = 0; i <= nu; ++i) {
-        const float t = i == nu ? m_t1 : m_t0 + (m_t1 - m_t0) * float(i) / float(nu);
+        const float t = paramAt(i, nu);
         Vec3 T;
         const Vec3 c = centre(t, &T);
         const Vec3 side = ribbonSide(T, view.toward(c), nullptr, insideOut);

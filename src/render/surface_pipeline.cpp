@@ -325,10 +325,7 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
 
     Mat4 c = cameraFromObject(prim);
     const Mat4 objectFromCamera = c.inverse();
-    geometry::ViewContext view;
-    view.orthographic = !cam.perspective;
-    view.eye = objectFromCamera.point({0, 0, 0});
-    view.towardEye = normalize(objectFromCamera.vector({0, 0, -1}));
+    const geometry::ViewContext view = geometry::ViewContext::ofCamera(objectFromCamera, !cam.perspective);
     geometry::Grid g = prim.diceInView(nu, nv, view);
     // A family may lay its grid out the other way round (Curves: the
     // decision's nu runs along the curve, the grid's v does); the grid's

@@ -797,13 +797,14 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                        planesDeeper(envelope(pl), iLo, iHi, jLo, jHi,
                                     double(zMax) + biasHi + double(kVirtualSlack) * std::abs(double(zMax)));
             };
-            auto culled = [&](float zMin, float zMax) {
+            // Counted in `lit` or `shadowed`: which test decided it.
+            auto culled = [&](float zMin, float zMax, uint64_t& lit, uint64_t& shadowed) {
                 if (z <= zMin + biasLo) {
-                    ++st.culledLit;
+                    ++lit;
                     return true;
                 }
                 if (regionInside && z > zMax + biasHi && (!virtualCompare || secondDepthShadowed(zMax))) {
-                    ++st.culledShadowed;
+                    ++shadowed;
                     out[i] = 1.0f;
                     return true;
                 }
@@ -819,7 +820,9 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
             float zMin, zMax;
             bool blocksPlanar = false;  // every covered block stores a plane (second-depth maps)
             const bool blockTests = params.tileCulling && blockRange(c, &zMin, &zMax, &blocksPlanar);
-            if ((blockTests || (params.tileCulling && tileRange(c, &zMin, &zMax))) && culled(zMin, zMax)) continue;
+            if ((blockTests || (params.tileCulling && tileRange(c, &zMin, &zMax))) &&
+                culled(zMin, zMax, st.culledLit, st.culledShadowed))
+                continue;
             // When the region lies in one tile (the common case: regions are
             // a few texels, tiles 32) its pointer is fetched once.
             const float* single = nullptr;
@@ -843,12 +846,7 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                     const float* row = single + ((v - singleY) << shiftX) - singleX;
                     for (int u = ci0; u <= ci1; ++u) lo = std::min(lo, row[u]), hi = std::max(hi, row[u]);
                 }
-                const uint64_t lit = st.culledLit, shadowed = st.culledShadowed;
-                if (culled(lo, hi)) {
-                    st.texelRangeLit += st.culledLit - lit, st.texelRangeShadowed += st.culledShadowed - shadowed;
-                    st.culledLit = lit, st.culledShadowed = shadowed;
-                    continue;
-                }
+                if (culled(lo, hi, st.texelRangeLit, st.texelRangeShadowed)) continue;
             }
 
             // Reeves' sample counts: a region smaller than NumSamples texels

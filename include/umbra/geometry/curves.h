@@ -77,6 +77,9 @@ public:
     float width(float t) const;
 
 private:
+    /// The segment parameter of lattice column i of n (exactly m_t1 at n).
+    float paramAt(int i, int n) const { return i == n ? m_t1 : m_t0 + (m_t1 - m_t0) * float(i) / float(n); }
+
     std::shared_ptr<const CurveSet> m_set;
     int m_curve, m_segment;
     float m_t0, m_t1;

@@ -27,6 +27,14 @@ struct ViewContext {
     Vec3 towardEye{0, 0, -1};  // orthographic: unit direction towards the eye
     /// From a point of the surface towards the eye (not normalized).
     Vec3 toward(const Vec3& p) const { return orthographic ? towardEye : eye - p; }
+    /// The camera's eye seen from a primitive's object space.
+    static ViewContext ofCamera(const Mat4& objectFromCamera, bool orthographic) {
+        ViewContext v;
+        v.orthographic = orthographic;
+        v.eye = objectFromCamera.point({0, 0, 0});
+        v.towardEye = normalize(objectFromCamera.vector({0, 0, -1}));
+        return v;
+    }
 };
 
 /// A surface that can be bounded, split into smaller surfaces of the same

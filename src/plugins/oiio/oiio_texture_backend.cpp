@@ -174,9 +174,10 @@ public:
     }
     bool texture(const std::string& file, const TextureOptions& o, float s, float t, float dsdx, float dtdx,
                  float dsdy, float dtdy, int nchannels, float* result) override {
-        if (!fits(file)) return false;
+        const FileFacts known = facts(file);
+        if (!known.fits) return false;
         bool filled = false;
-        if (pastLastChannel(file, o, nchannels, result, &filled, [&](int present) {
+        if (pastLastChannel(known.channels, o, nchannels, result, &filled, [&](int present) {
                 return texture(file, o, s, t, dsdx, dtdx, dsdy, dtdy, present, result);
             }))
             return filled;
@@ -213,9 +214,10 @@ public:
     }
     bool environment(const std::string& file, const TextureOptions& o, const Vec3& Rin, const Vec3& dRdxIn,
                      const Vec3& dRdyIn, int nchannels, float* result) override {
-        if (!fits(file)) return false;
+        const FileFacts known = facts(file);
+        if (!known.fits) return false;
         bool filled = false;
-        if (pastLastChannel(file, o, nchannels, result, &filled,
+        if (pastLastChannel(known.channels, o, nchannels, result, &filled,
                             [&](int present) { return environment(file, o, Rin, dRdxIn, dRdyIn, present, result); }))
             return filled;
         // Everything below is in OpenImageIO's frame (+y the poles' axis).
@@ -395,15 +397,14 @@ private:
     }
     bool fits(const std::string& file) { return facts(file).fits; }
 
-    /// Channels past the file's last read as "fill" (RI Spec 3.2), which
-    /// OpenImageIO does not do for a first channel past the end (it trips
-    /// an assertion at coarse MIP levels): the result is filled and only
-    /// the channels the file has are looked up, by `lookup(count)`. False:
-    /// nothing to adjust.
+    /// Channels past the file's last (it has `channels`, -1: unknown) read
+    /// as "fill" (RI Spec 3.2), which OpenImageIO does not do for a first
+    /// channel past the end (it trips an assertion at coarse MIP levels):
+    /// the result is filled and only the channels the file has are looked
+    /// up, by `lookup(count)`. False: nothing to adjust.
     template <class Lookup>
-    bool pastLastChannel(const std::string& file, const TextureOptions& o, int nchannels, float* result,
-                         bool* ok, Lookup&& lookup) {
-        const int channels = facts(file).channels;
+    static bool pastLastChannel(int channels, const TextureOptions& o, int nchannels, float* result, bool* ok,
+                                Lookup&& lookup) {
         if (channels < 0 || o.firstChannel + nchannels <= channels) return false;
         std::fill(result, result + nchannels, o.fill);
         const int present = std::max(0, channels - o.firstChannel);

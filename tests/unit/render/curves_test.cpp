@@ -187,11 +187,9 @@ Points "P" [-1.4 0 0  -0.7 0 0  0 0 0  0.7 0 0  1.4 0 0] "constantwidth" [0.5]
 WorldEnd
 )", dir.file("out.exr"));
     Diagnostics diag;
-    diag.setRecord(true);
-    test::renderRib(rib, diag);
+    const Image img = test::renderImage(rib, dir.file("out.exr"), diag);
     EXPECT_EQ(diag.errorCount(), 0);
-    Image img;
-    ASSERT_TRUE(test::readImage(dir.file("out.exr"), &img));
+    ASSERT_EQ(img.width, 300);
     // A disc at x lies around pixel (x / 1.5 + 1.5) / 3 * 300, radius 16.7 pixels.
     for (float x : {-1.4f, -0.7f, 0.0f, 0.7f, 1.4f}) {
         const int cx = int(std::lround((x / 1.5f + 1.5f) * 100.0f));
@@ -211,13 +209,11 @@ TEST(Curves, VRunsAlongTheCurveAndAWideRibbonIsDicedAcross) {
     std::ofstream(dir.file("uv.sl")) << "surface uv() { Ci = color(v, sqrt(max(0, 1 - (2 * u - 1) * (2 * u - 1))), 0); Oi = 1; }\n";
     const std::string world = "Surface \"uv\" Curves \"linear\" [2] \"nonperiodic\" \"P\" [-1.5 0 0  1.5 0 0] \"constantwidth\" [0.5]";
     Diagnostics diag;
-    diag.setRecord(true);
-    test::renderRib(fmt::format("Option \"searchpath\" \"shader\" [\"{}:&\"]\n", dir.file("")) +
-                        orthoFrame(dir.file("out.exr"), world),
-                    diag);
+    const Image img = test::renderImage(fmt::format("Option \"searchpath\" \"shader\" [\"{}:&\"]\n", dir.file("")) +
+                                            orthoFrame(dir.file("out.exr"), world),
+                                        dir.file("out.exr"), diag);
     EXPECT_EQ(diag.errorCount(), 0);
-    Image img;
-    ASSERT_TRUE(test::readImage(dir.file("out.exr"), &img));
+    ASSERT_EQ(img.width, kRes);
     // x = -1.5 .. 1.5 is pixels 32 .. 224: v = (px + 0.5 - 32) / 192.
     for (int px : {40, 128, 200}) {
         EXPECT_NEAR(img.at(px, kRes / 2, 0), (px + 0.5f - 32) / 192.0f, 0.01f) << px;

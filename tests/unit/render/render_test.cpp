@@ -50,6 +50,16 @@ double renderCoverage(const std::string& world, const std::string& name) {
     return coveredArea(img);
 }
 
+/// `world` rendered in orthoFrame (2x2 samples, res x res) with the scratch
+/// directory on the shader search path (its .sl files compiled on use) and
+/// `options` before the frame.
+Image renderWithShaders(const ScratchDir& dir, const std::string& options, const std::string& world,
+                        Diagnostics& diag, int res = 64) {
+    return test::renderImage(fmt::format("Option \"searchpath\" \"shader\" [\"{}:&\"]\n{}", dir.file(""), options) +
+                                 orthoFrame(dir.file("out.exr"), world, 2, res),
+                             dir.file("out.exr"), diag);
+}
+
 }  // namespace
 
 TEST(Coverage, SphereMatchesProjectedDisk) {
@@ -160,13 +170,9 @@ TEST(Imager, RunsOnEachFilteredPixelBeforeOutput) {
                                              "}\n";
     }
     const std::string world = "Surface \"constant\" Color [0 1 0] Polygon \"P\" [-2 -2 0  0 -2 0  0 2 0  -2 2 0]";
-    std::string rib = orthoFrame(dir.file("out.exr"), world, 2, 64);
-    rib = fmt::format("Option \"searchpath\" \"shader\" [\"{}:&\"]\nImager \"tag\"\n", dir.file("")) + rib;
     Diagnostics diag;
-    test::renderRib(rib, diag);
+    const Image img = renderWithShaders(dir, "Imager \"tag\"\n", world, diag);
     EXPECT_EQ(diag.errorCount(), 0);
-    Image img;
-    ASSERT_TRUE(test::readImage(dir.file("out.exr"), &img));
     ASSERT_EQ(img.width, 64);
     for (int y : {0, 17, 63})
         for (int x : {0, 20, 40, 63}) {
@@ -188,13 +194,10 @@ TEST(Depth, IsZeroAtTheNearClippingPlaneAndOneAtTheFar) {
     std::ofstream(dir.file("showdepth.sl")) << "surface showdepth() { Ci = depth(P); Oi = 1; }\n";
     const std::string world =
         "Surface \"showdepth\" Polygon \"P\" [-2 -2 -2  2 -2 2  2 2 2  -2 2 -2]";
-    std::string rib = orthoFrame(dir.file("out.exr"), world, 2, 64);
-    rib = fmt::format("Option \"searchpath\" \"shader\" [\"{}:&\"]\nClipping 1 20\n", dir.file("")) + rib;
     Diagnostics diag;
-    test::renderRib(rib, diag);
+    const Image img = renderWithShaders(dir, "Clipping 1 20\n", world, diag);
     EXPECT_EQ(diag.errorCount(), 0);
-    Image img;
-    ASSERT_TRUE(test::readImage(dir.file("out.exr"), &img));
+    ASSERT_EQ(img.width, 64);
     for (int x : {2, 20, 32, 45, 61}) {
         const float wx = -2 + 4 * (x + 0.5f) / 64, z = 5 + wx;
         EXPECT_NEAR(img.at(x, 32, 0), (z - 1) / 19, 2e-3f) << x;
@@ -210,13 +213,10 @@ TEST(Imager, ItsOpacityIsThePixelsAlpha) {
     std::ofstream(dir.file("half.sl")) << "imager half() { Oi = color(0.25, 0.5, 0.75); alpha = 0.125; }\n";
     const std::string world = "Surface \"constant\" Color [0 1 0] Polygon \"P\" [-2 -2 0  0 -2 0  0 2 0  -2 2 0]";
     for (const char* imager : {"fill", "half"}) {
-        std::string rib = orthoFrame(dir.file("out.exr"), world, 2, 64);
-        rib = fmt::format("Option \"searchpath\" \"shader\" [\"{}:&\"]\nImager \"{}\"\n", dir.file(""), imager) + rib;
         Diagnostics diag;
-        test::renderRib(rib, diag);
+        const Image img = renderWithShaders(dir, fmt::format("Imager \"{}\"\n", imager), world, diag);
         EXPECT_EQ(diag.errorCount(), 0);
-        Image img;
-        ASSERT_TRUE(test::readImage(dir.file("out.exr"), &img));
+        ASSERT_EQ(img.width, 64);
         for (int x : {5, 50}) {
             if (std::string(imager) == "fill") {
                 EXPECT_NEAR(img.at(x, 30, 3), 1.f, 1e-6f) << x;  // the Oi it set, covered or not
@@ -275,13 +275,10 @@ TEST(Shading, ArrayResultsOfOptionAreStoredPerPointUnderAVaryingCondition) {
                                          "  if (s < 0.5) option(\"Format\", res);\n"
                                          "  Ci = color(res[0] / 1000, res[1] / 1000, res[2]); Oi = 1; }\n";
     const std::string world = "Surface \"fmt\" Patch \"bilinear\" \"P\" [-2 -2 0  2 -2 0  -2 2 0  2 2 0]";
-    std::string rib = orthoFrame(dir.file("out.exr"), world, 2, 64);
-    rib = fmt::format("Option \"searchpath\" \"shader\" [\"{}:&\"]\n", dir.file("")) + rib;
     Diagnostics diag;
-    test::renderRib(rib, diag);
+    const Image img = renderWithShaders(dir, "", world, diag);
     EXPECT_EQ(diag.errorCount(), 0);
-    Image img;
-    ASSERT_TRUE(test::readImage(dir.file("out.exr"), &img));
+    ASSERT_EQ(img.width, 64);
     for (int y : {5, 40})
         for (int x : {3, 20, 45, 60}) {
             const bool left = x < 30;  // s < 0.5, away from the boundary
@@ -305,13 +302,10 @@ Patch "bilinear" "P" [-2 0 0  0 0 0  -2 2 0  0 2 0] "constant string tag" ["b"]
 PointsPolygons [4 4] [0 1 3 2  1 4 5 3] "P" [0 0 0  1 0 0  0 2 0  1 2 0  2 0 0  2 2 0] "uniform string tag" ["a" "b"]
 Patch "bilinear" "P" [-2 -2 0  2 -2 0  -2 0 0  2 0 0]
 )";
-    std::string rib = orthoFrame(dir.file("out.exr"), world, 2, 64);
-    rib = fmt::format("Option \"searchpath\" \"shader\" [\"{}:&\"]\n", dir.file("")) + rib;
     Diagnostics diag;
-    test::renderRib(rib, diag);
+    const Image img = renderWithShaders(dir, "", world, diag);
     EXPECT_EQ(diag.errorCount(), 0);
-    Image img;
-    ASSERT_TRUE(test::readImage(dir.file("out.exr"), &img));
+    ASSERT_EQ(img.width, 64);
     // Image y grows downwards: rows 0-31 are y > 0.
     auto rgb = [&](int x, int y) { return Vec3(img.at(x, y, 0), img.at(x, y, 1), img.at(x, y, 2)); };
     auto expectColour = [&](int x, int y, Vec3 want) {
@@ -325,12 +319,10 @@ Patch "bilinear" "P" [-2 -2 0  2 -2 0  -2 0 0  2 0 0]
     // A varying string has no meaning: warned and ignored.
     Diagnostics d2;
     d2.setRecord(true);
-    test::renderRib(fmt::format("Option \"searchpath\" \"shader\" [\"{}:&\"]\n", dir.file("")) +
-                        orthoFrame(dir.file("out.exr"),
-                                   "Surface \"tag\" Patch \"bilinear\" \"P\" [-2 -2 0  2 -2 0  -2 2 0  2 2 0] "
-                                   "\"varying string tag\" [\"a\" \"a\" \"b\" \"b\"]",
-                                   2, 16),
-                    d2);
+    renderWithShaders(dir, "",
+                      "Surface \"tag\" Patch \"bilinear\" \"P\" [-2 -2 0  2 -2 0  -2 2 0  2 2 0] "
+                      "\"varying string tag\" [\"a\" \"a\" \"b\" \"b\"]",
+                      d2, 16);
     bool warned = false;
     for (const Diagnostic& m : d2.recorded()) warned = warned || m.message.find("constant or uniform") != std::string::npos;
     EXPECT_TRUE(warned);

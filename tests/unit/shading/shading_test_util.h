@@ -98,6 +98,11 @@ struct Harness {
         r.name = name;
         return sys.instantiate(sh, r);
     }
+    /// Expects the compiler to refuse `src` with a message containing `error`.
+    void expectRefused(const std::string& src, const std::string& error) {
+        EXPECT_FALSE(sys.compileSource(src, "t.sl")) << src;
+        EXPECT_NE(messages().find(error), std::string::npos) << messages();
+    }
     /// Runs a surface shader given as source over `g`.
     void surface(const std::string& src, ShadingGrid& g, std::vector<const ShaderInstance*> lights = {}) {
         auto inst = instance(src);
