@@ -602,6 +602,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     };
     shading->setSearchPath(pathOf("shader", settings.shaderPath));
     shading->setTextureSearchPath(pathOf("texture", settings.texturePath));
+    maps->setSearchPath(pathOf("texture", settings.texturePath));
 
     // Option "umbra" "tilecachemb": the shadow tile cache's memory bound.
     if (auto it = options.user.find("umbra:tilecachemb"); it != options.user.end()) {

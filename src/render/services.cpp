@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <filesystem>
 #include <vector>
 
 namespace umbra::render {
@@ -19,7 +20,9 @@ std::shared_ptr<ShadowMap> MapCatalog::get(const std::string& name, const MapCal
     Diagnostics opening;
     opening.setRecord(true);
     opening.setSink([](const Diagnostic&) {});
-    auto map = ShadowMap::open(name, opening, FileLoc::inFile(name), m_cache);
+    const std::string path = resolve(name);
+    auto map = ShadowMap::open(path, opening, FileLoc::inFile(path), m_cache);
+    m_opened.push_back(name);
     const FileLoc where = caller.primitive ? *caller.primitive : FileLoc();
     const FileLoc calledAt =
         caller.shaderFile ? FileLoc::inFile(*caller.shaderFile, caller.line, caller.column) : FileLoc();
@@ -37,6 +40,25 @@ std::shared_ptr<ShadowMap> MapCatalog::get(const std::string& name, const MapCal
     return map;
 }
 
+std::string MapCatalog::resolve(const std::string& name) const {
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    if (name.empty() || fs::path(name).is_absolute()) return name;
+    for (const std::string& dir : m_searchPath) {
+        const fs::path candidate = dir.empty() || dir == "." ? fs::path(name) : fs::path(dir) / name;
+        if (fs::is_regular_file(candidate, ec)) return candidate.string();
+    }
+    return name;
+}
+
+void MapCatalog::setSearchPath(std::vector<std::string> dirs) {
+    std::lock_guard<std::mutex> lock(m_mutex);
+    if (dirs == m_searchPath) return;
+    m_searchPath = std::move(dirs);
+    for (const std::string& name : m_opened) m_maps.erase(name);
+    m_opened.clear();
+}
+
 void MapCatalog::invalidate(const std::string& name) {
     std::lock_guard<std::mutex> lock(m_mutex);
     m_maps.erase(name);
@@ -51,6 +73,7 @@ void MapCatalog::setCache(std::shared_ptr<TileCache> cache) {
 void MapCatalog::put(const std::string& name, std::shared_ptr<ShadowMap> map) {
     std::lock_guard<std::mutex> lock(m_mutex);
     m_maps[name] = std::move(map);
+    std::erase(m_opened, name);
 }
 
 namespace {

@@ -39,12 +39,22 @@ public:
     TileCache& cache() { return *m_cache; }
     /// Replaces the tile cache (a new memory bound); open maps are forgotten.
     void setCache(std::shared_ptr<TileCache> cache);
+    /// Where a map named by a relative path is looked for: Option
+    /// "searchpath" "texture", as PRMan, Pixie and Aqsis look for shadow
+    /// maps (MakeShadow's output is a texture file). Maps found on an older
+    /// path are forgotten when it changes.
+    void setSearchPath(std::vector<std::string> dirs);
 
 private:
+    /// `name` on the search path, or `name` itself when no directory holds it.
+    std::string resolve(const std::string& name) const;
+
     Diagnostics& m_diag;
     std::shared_ptr<TileCache> m_cache;
     std::mutex m_mutex;
     std::map<std::string, std::shared_ptr<ShadowMap>> m_maps;  // null: failed
+    std::vector<std::string> m_searchPath;
+    std::vector<std::string> m_opened;  // names get() opened from files
 };
 
 class Services : public shading::RendererServices {

@@ -81,7 +81,10 @@ void Lexer::beginCapture(size_t offset) {
 }
 
 std::string Lexer::endCapture(size_t offset) {
-    if (offset > m_captureFrom) m_capture.append(m_s + (m_captureFrom - m_base), offset - m_captureFrom);
+    if (offset > m_captureFrom)
+        m_capture.append(m_s + (m_captureFrom - m_base), offset - m_captureFrom);
+    else  // a refill copied past the end (the ArchiveEnd ended the file)
+        m_capture.resize(m_capture.size() - (m_captureFrom - offset));
     m_capturing = false;
     return std::move(m_capture);
 }
@@ -132,10 +135,12 @@ Token Lexer::lexToken(bool* definition) {
             break;
         }
         if (s[pos] != '#') break;
+        // A comment ends at the end of its line: LF, CR-LF, or a lone CR
+        // (classic Mac OS files, as Aqsis reads them; read to the next LF,
+        // one comment swallowed the whole file).
         for (;;) {
-            const void* eol = std::memchr(m_s + m_pos, '\n', m_n - m_pos);
-            m_pos = eol ? size_t(static_cast<const char*>(eol) - m_s) : m_n;
-            if (eol || !refill(m_pos)) break;
+            while (m_pos < m_n && m_s[m_pos] != '\n' && m_s[m_pos] != '\r') ++m_pos;
+            if (m_pos < m_n || !refill(m_pos)) break;
         }
     }
     Token t;

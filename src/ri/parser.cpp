@@ -694,8 +694,12 @@ private:
             }
             case TokenKind::ArrayBegin: ok = collectArray(request) && ok; break;
             case TokenKind::ArrayEnd:
-                error(m_tok.line, m_tok.column, request, "unexpected ']' without a matching '['");
-                ok = false;
+                // A ']' closing nothing is skipped and the request kept, as
+                // Pixie and Aqsis do: an exporter that writes one after every
+                // coloured polygon (Jan Walter's for Blender) lost them all.
+                if (!m_quiet)
+                    m_parser.m_diag.warningOnce("stray]", loc(m_tok.line, m_tok.column),
+                                                "{}: skipped a ']' that closes no '['", request);
                 advance();
                 break;
             case TokenKind::Error:
@@ -1314,8 +1318,11 @@ bool Parser::readArchive(const std::string& name, const FileLoc& loc, const std:
         return p.run();
     }
     // Candidates: an absolute name as is; otherwise beside the including
-    // file, then on the archive search path. The display name keeps the
-    // including file's spelling so messages stay short and stable.
+    // file, then on the archive search path, then in the current directory
+    // (as Pixie, Aqsis and DelayedReadArchive look: exporters name archives
+    // from the project directory the render runs in, even inside archives
+    // read from elsewhere). The display name keeps the including file's
+    // spelling so messages stay short and stable.
     std::string found, display;
     if (!name.empty() && name[0] == '/') {
         if (isRegularFile(name)) found = display = name;
@@ -1332,11 +1339,12 @@ bool Parser::readArchive(const std::string& name, const FileLoc& loc, const std:
                     break;
                 }
             }
+            if (found.empty() && isRegularFile(name)) found = display = name;
         }
     }
     if (found.empty()) {
-        m_diag.error(loc, "ReadArchive: cannot find archive \"{}\" (looked beside the including file and on "
-                     "Option \"searchpath\" \"archive\")", name);
+        m_diag.error(loc, "ReadArchive: cannot find archive \"{}\" (looked beside the including file, on "
+                     "Option \"searchpath\" \"archive\" and in the current directory)", name);
         return false;
     }
     if (!m_target.readArchive(found, loc)) return false;

@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <map>
@@ -461,4 +462,58 @@ WorldEnd
     ASSERT_EQ(r.image.width, 640);
     ASSERT_EQ(r.image.height, 480);
     EXPECT_NEAR(r.image.channelSum(0), 240.0 * 240.0, 240.0 * 4);  // a pixel's width of edge either way
+}
+
+TEST(Lenient, ShadowMapsAreFoundOnTheTextureSearchPath) {
+    // BlenderMan's frames set Option "searchpath" "texture" to the folder
+    // MakeShadow wrote into and name the map alone; PRMan, Pixie and Aqsis
+    // search that path for shadow() as for texture(). The picture must be
+    // the one with the map named by its full path.
+    ScratchDir dir("shadow-searchpath");
+    const std::string maps = dir.file("maps");
+    ASSERT_EQ(std::system(fmt::format("mkdir -p '{}'", maps).c_str()), 0);
+    const std::string image = dir.file("lit.tif");
+    auto scene = [&](const std::string& searchPath, const std::string& mapName) {
+        return fmt::format(R"(
+FrameBegin 0
+Format 64 64 1
+Projection "perspective" "fov" 50
+Translate 0 0 6
+Display "{0}/l.z" "zfile" "z"
+WorldBegin
+Translate 0 0 -3
+Sphere 0.5 -0.5 0.5 360
+Translate 0 0 3
+Patch "bilinear" "P" [-3 -3 1  3 -3 1  -3 3 1  3 3 1]
+WorldEnd
+MakeShadow "{0}/l.z" "{0}/l.tx"
+FrameEnd
+FrameBegin 1
+{1}
+Display "{2}" "file" "rgb"
+Format 48 48 1
+Projection "perspective" "fov" 50
+Translate 0 0 6
+WorldBegin
+LightSource "shadowspot" 1 "from" [0 0 -6] "to" [0 0 0] "coneangle" 0.6 "intensity" 40 "shadowname" "{3}"
+Surface "matte"
+Translate 0 0 -3
+Sphere 0.5 -0.5 0.5 360
+Translate 0 0 3
+Patch "bilinear" "P" [-3 -3 1  3 -3 1  -3 3 1  3 3 1]
+WorldEnd
+FrameEnd
+)",
+                           maps, searchPath, image, mapName);
+    };
+    Rendered byPath = renderScene(scene("", maps + "/l.tx"), image);
+    ASSERT_EQ(byPath.errors, 0);
+    Rendered bySearch = renderScene(scene(fmt::format("Option \"searchpath\" \"texture\" [\"{}:&\"]", maps), "l.tx"), image);
+    EXPECT_EQ(bySearch.errors, 0);
+    EXPECT_EQ(bySearch.failedFrames, 0);
+    EXPECT_EQ(maxAbsDiff(bySearch.image, byPath.image, 3), 0.0);
+    // The map shadows something: the sphere's shadow on the floor is dark
+    // where the picture without a map is lit.
+    Rendered noMap = renderScene(scene("", ""), image);
+    EXPECT_GT(maxAbsDiff(byPath.image, noMap.image, 3), 0.2);
 }

@@ -280,6 +280,22 @@ TEST(Lexer, CaptureKeepsTheRawTextAcrossReads) {
     EXPECT_EQ(lex.next().text, "rest");
 }
 
+// MayaMan's geometry files end "ArchiveEnd\n#\n": the parser ends the
+// capture at the ArchiveEnd after it has read on to the end of the input,
+// whose last read had already copied the ArchiveEnd into the capture.
+TEST(Lexer, CaptureEndsAtItsOffsetAfterTheInputRanOut) {
+    const std::string text = "ArchiveBegin \"a\"\n  Sphere 1 -1 1 360\nArchiveEnd\n#\n";
+    const size_t from = text.find("Sphere"), to = text.find("ArchiveEnd");
+    TrickleSource source(text);
+    Lexer lex(source);
+    Token t;
+    do t = lex.next(); while (t.offset != from);
+    lex.beginCapture(t.offset);
+    do t = lex.next(); while (t.offset != to);
+    EXPECT_EQ(lex.next().kind, TokenKind::End);
+    EXPECT_EQ(lex.endCapture(to), text.substr(from, to - from));
+}
+
 TEST(Lexer, ReadFailureIsAnErrorWhereTheInputStopped) {
     TrickleSource source("Translate 1 2\n  3", "cannot decompress: gzip data is truncated");
     Lexer lex(source);

@@ -199,8 +199,28 @@ TEST(Parser, MissingBracketResynchronises) {
     auto p = parse("Sphere [1 -1 1 360\nTranslate 1 2 3\n] Translate 4 5 6");
     EXPECT_EQ(messages(p->diag), (std::vector<std::string>{
         "t.rib:1:8: error: Sphere: missing ']' to close this array",
-        "t.rib:3:1: error: Translate: unexpected ']' without a matching '['"}));
-    EXPECT_EQ(p->rec.log, (std::vector<std::string>{"Translate 4 5 6"}));
+        "t.rib:3:1: warning: Translate: skipped a ']' that closes no '['"}));
+    EXPECT_EQ(p->rec.log, (std::vector<std::string>{"Translate 1 2 3", "Translate 4 5 6"}));
+}
+
+// Classic Mac OS files end their lines with a lone CR. A comment ends there
+// (as Aqsis reads it): read to the next LF, the first comment swallowed
+// every request after it and the render wrote nothing, silently.
+TEST(Parser, CommentEndsAtALoneCarriageReturn) {
+    auto p = parse("version 3.03\r# exported on a classic Mac\rTranslate 1 2 3\r#\rTranslate 4 5 6\r\n");
+    EXPECT_EQ(p->rec.log, (std::vector<std::string>{"version", "Translate 1 2 3", "Translate 4 5 6"}));
+    EXPECT_TRUE(messages(p->diag).empty()) << fmt::format("{}", fmt::join(messages(p->diag), "\n"));
+}
+
+// Jan Walter's Blender exporter writes a second ']' after every coloured
+// polygon. Pixie and Aqsis skip it and keep the polygon; so does umbra, with
+// one warning for the file.
+TEST(Parser, StrayClosingBracketIsSkippedAndTheRequestKept) {
+    auto p = parse("Polygon \"P\" [0 0 0 1 0 0 1 1 0] \"Cs\" [1 0 0 0 1 0 0 0 1]\n]\n"
+                   "Color [1 0 0]\n]\nSphere 1 -1 1 360\n]\n");
+    EXPECT_EQ(p->rec.log, (std::vector<std::string>{"Polygon@t.rib:1:1", "Color", "Sphere@t.rib:5:1"}));
+    EXPECT_EQ(messages(p->diag), (std::vector<std::string>{
+        "t.rib:2:1: warning: Polygon: skipped a ']' that closes no '['"}));
 }
 
 std::string gzipBytes(const std::string& text) {
@@ -338,6 +358,42 @@ TEST(Parser, MissingFileIsDetectable) {
     d.setSink([](const Diagnostic&) {});
     EXPECT_FALSE(parseFile("/nonexistent/dir/x.rib", r, d));
     EXPECT_EQ(d.errorCount(), 1);
+}
+
+// MayaMan writes every shape as an inline archive in one geometry file,
+// which it ends "ArchiveEnd\n#\n"; the last archive was recorded with its
+// ArchiveEnd and replaying it reported an unmatched ArchiveEnd.
+TEST(Parser, InlineArchiveLastInAReadFile) {
+    auto dir = std::filesystem::path(UMBRA_BINARY_DIR) / "test_ri_tmp";
+    std::filesystem::create_directories(dir);
+    std::ofstream(dir / "defs.rib") << "ArchiveBegin \"a\"\nTranslate 1 2 3\nArchiveEnd\n#\n";
+    std::ofstream(dir / "uses.rib") << "ReadArchive \"defs.rib\"\nReadArchive \"a\"\n";
+    Recorder r;
+    Diagnostics d;
+    d.setRecord(true);
+    d.setSink([](const Diagnostic&) {});
+    EXPECT_TRUE(parseFile((dir / "uses.rib").string(), r, d)) << fmt::format("{}", fmt::join(messages(d), "\n"));
+    EXPECT_EQ(r.log, (std::vector<std::string>{"ReadArchive", "ReadArchive", "Translate 1 2 3"}));
+    EXPECT_TRUE(messages(d).empty());
+}
+
+// Exporters (BlenderMan) name every archive from the project directory the
+// render runs in, also inside archives read from a subdirectory; Pixie and
+// Aqsis find them there, after the including file's directory and the path.
+TEST(Parser, ReadArchiveFallsBackOnTheCurrentDirectory) {
+    namespace fs = std::filesystem;
+    auto dir = fs::path(UMBRA_BINARY_DIR) / "test_ri_tmp" / "project";
+    fs::create_directories(dir / "sub");
+    std::ofstream(dir / "sub" / "geom.rib") << "Translate 1 2 3\n";
+    const std::string fromHere = fs::relative(dir / "sub" / "geom.rib", fs::current_path()).string();
+    std::ofstream(dir / "sub" / "obj.rib") << "ReadArchive \"" << fromHere << "\"\n";
+    std::ofstream(dir / "main.rib") << "ReadArchive \"sub/obj.rib\"\n";
+    Recorder r;
+    Diagnostics d;
+    d.setRecord(true);
+    d.setSink([](const Diagnostic&) {});
+    EXPECT_TRUE(parseFile((dir / "main.rib").string(), r, d)) << fmt::format("{}", fmt::join(messages(d), "\n"));
+    EXPECT_EQ(r.log, (std::vector<std::string>{"ReadArchive", "ReadArchive", "Translate 1 2 3"}));
 }
 
 TEST(Parser, ReadArchiveBesideTheIncludingFile) {
