@@ -1263,6 +1263,14 @@ private:
             error(loc, "output argument must be a writable variable");
     }
 
+    /// Whether a built-in has a version returning the type its context
+    /// asks for (return code 'h'), beside its float version.
+    static bool hasContextTypedVersion(const std::string& name) {
+        for (const BuiltinSig& sig : builtinTable())
+            if (sig.ret[0] == 'h' && name == sig.name) return true;
+        return false;
+    }
+
     Val builtinCall(const Expr& e, const std::string& name, std::vector<Val> args, Ty hint) {
         const BuiltinSig* best = nullptr;
         int bestCost = 1 << 30;
@@ -1305,6 +1313,11 @@ private:
             bool retTriple = sig.ret[0] == 'h' || sig.ret[0] == 't' || sig.ret[0] == 'c' || sig.ret[0] == 'p' || sig.ret[0] == 'n';
             if (isTriple(hint) != retTriple && hint != Ty::Void && sig.ret[0] != 'v' && (sig.ret[0] == 'h' || hint == Ty::Float)) cost += 5;
             if (sig.ret[0] == 'h' && !isTriple(hint)) cost += 5;
+            // noise(), pnoise(), cellnoise() and random() return the type
+            // their context asks for: `color noise(P)`, `color c = noise(P)`
+            // or `P + noise(P)` take the three-channel version (RI Spec 3.2;
+            // Pixie and Aqsis). Its float version promoted gave grey.
+            if (sig.ret[0] == 'f' && isTriple(hint) && hint != Ty::Tuple && hasContextTypedVersion(name)) cost += 5;
             if (cost < bestCost) {
                 bestCost = cost;
                 best = &sig;

@@ -340,6 +340,48 @@ TEST(Language, NoiseRangesPeriodicityAndDeterminism) {
     for (auto& c : g3.Ci) expectNear(c, Vec3(0.5f, 0.5f, 0.5f));
 }
 
+// noise(), pnoise(), cellnoise() and random() return the type their context
+// asks for (RI Spec 3.2): a colour or point context takes three channels, as
+// Pixie and Aqsis give. umbra promoted the float version: grey "colour"
+// noise, and `P + noise(P)` moved points only along (1, 1, 1). Where the
+// peers disagree (a float operand first, `noise(P) * Cs`) umbra keeps
+// Aqsis's float.
+TEST(Language, NoiseTakesTheTypeItsContextAsksFor) {
+    Harness h;
+    auto grid = [] { return makeGrid(16, 16, [](float u, float v) { return Vec3(u * 7.3f, v * 5.1f, 0.37f); }); };
+    // The largest difference between two channels over the grid, and the
+    // range of the first.
+    auto spread = [](const std::vector<Vec3>& c, float* range) {
+        float most = 0, lo = 1e9f, hi = -1e9f;
+        for (const Vec3& v : c) {
+            most = std::max({most, std::abs(v.x - v.y), std::abs(v.y - v.z)});
+            lo = std::min(lo, v.x), hi = std::max(hi, v.x);
+        }
+        if (range) *range = hi - lo;
+        return most;
+    };
+    for (const char* body : {"Ci = color noise(P);", "color c = noise(P); Ci = c;", "Ci = noise(P);",
+                             "Ci = color(1, 1, 1) * noise(P);", "Ci = color pnoise(P, point(4, 4, 4));",
+                             "Ci = color cellnoise(P);", "Ci = color random();",
+                             "point q = P + noise(P); Ci = color(q - P);", "Ci = color noise(s * 3, t * 3);"}) {
+        ShadingGrid g = grid();
+        h.surface(fmt::format("surface t() {{ {} }}", body), g);
+        float range = 0;
+        EXPECT_GT(spread(g.Ci, &range), 0.1f) << body;
+        EXPECT_GT(range, 0.2f) << body;
+        for (const Vec3& c : g.Ci) {
+            EXPECT_GE(std::min({c.x, c.y, c.z}), 0.0f) << body;
+            EXPECT_LE(std::max({c.x, c.y, c.z}), 1.0f) << body;
+        }
+    }
+    for (const char* body : {"float f = noise(P); Ci = f;", "Ci = noise(P) * color(1, 1, 1);",
+                             "Ci = 0.5 + noise(P);", "Ci = mix(color(0), color(1), noise(P));"}) {
+        ShadingGrid g = grid();
+        h.surface(fmt::format("surface t() {{ {} }}", body), g);
+        EXPECT_EQ(spread(g.Ci, nullptr), 0.0f) << body;
+    }
+}
+
 TEST(Language, UniformInferenceAndListing) {
     Harness h;
     auto sh = h.sys.compileSource("surface t(float k = 2) { float a = k * 3; float b = a + u; Ci = b; }", "t.sl");
