@@ -447,15 +447,19 @@ void ShadingSystem::shade(ShadingGrid& grid, const ShadeRequest& request, Render
             lr.ambient = l->shader().code().isAmbientLight;
             ctx.lights.push_back(std::move(lr));
         }
-    auto runOne = [&](const CompiledShader& code, const ShaderInstance* inst, uint32_t stream) {
+    // Each shader is in its slot of the context while it runs: the lights
+    // its illuminance loops run may ask it for its parameters (surface()
+    // in a light shader, as RIBMosaic's lights ask for ShadowAlpha).
+    auto runOne = [&](const CompiledShader& code, const ShaderInstance* inst, uint32_t stream, Exec** slot) {
         Exec* e = acquireExec();
         e->setup(code, inst, ctx, stream);
+        *slot = e;
         e->run();
-        return e;
     };
-    if (request.displacement) ctx.displacement = runOne(request.displacement->shader().code(), request.displacement, kDisplacementStream);
-    if (request.surface) ctx.surface = runOne(request.surface->shader().code(), request.surface, kSurfaceStream);
-    else if (!request.displacementOnly) ctx.surface = runOne(m_default->code(), nullptr, kSurfaceStream);
+    if (request.displacement)
+        runOne(request.displacement->shader().code(), request.displacement, kDisplacementStream, &ctx.displacement);
+    if (request.surface) runOne(request.surface->shader().code(), request.surface, kSurfaceStream, &ctx.surface);
+    else if (!request.displacementOnly) runOne(m_default->code(), nullptr, kSurfaceStream, &ctx.surface);
     for (const std::string& name : request.outputs) {
         for (Exec* e : {ctx.surface, ctx.displacement}) {
             if (!e) continue;
@@ -484,7 +488,7 @@ void ShadingSystem::shade(ShadingGrid& grid, const ShadeRequest& request, Render
             if (done) break;
         }
     }
-    if (request.atmosphere) ctx.atmosphere = runOne(request.atmosphere->shader().code(), request.atmosphere, kAtmosphereStream);
+    if (request.atmosphere) runOne(request.atmosphere->shader().code(), request.atmosphere, kAtmosphereStream, &ctx.atmosphere);
     releaseExecs(mark);
 }
 

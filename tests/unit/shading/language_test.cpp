@@ -484,6 +484,40 @@ TEST(Language, IlluminanceWithTestLightCategoriesAndMessagePassing) {
     }
 }
 
+// A varying output of another shader reaches each point with its own
+// value. The variable receiving it was inferred uniform and took the
+// grid's first point's value: grid-sized blocks wherever a surface read a
+// displacement's output (layered exporter shaders) or a volume a surface's.
+TEST(Language, MessagePassingGivesEachPointItsOwnValue) {
+    Harness h;
+    auto disp = h.instance("displacement d(output varying color dcol = 0) { dcol = color(s, t, 0.5); }");
+    auto surf = h.instance("surface t() { color c = color(1, 0, 1); float ok = displacement(\"dcol\", c); "
+                           "Ci = c; Oi = ok; }");
+    ASSERT_TRUE(disp && surf);
+    ShadingGrid g = makeGrid(4, 3, [](float u, float v) { return Vec3(u, v, 1); });
+    ShadeRequest req;
+    req.displacement = disp.get();
+    req.surface = surf.get();
+    h.sys.shade(g, req, h.svc);
+    for (int i = 0; i < g.size(); ++i) {
+        expectNear(g.Ci[size_t(i)], Vec3(g.s[size_t(i)], g.t[size_t(i)], 0.5f));
+        EXPECT_EQ(g.Oi[size_t(i)].x, 1.0f);
+    }
+}
+
+// A light asks the surface it lights for a parameter (RI Spec 3.2 message
+// passing; RIBMosaic's lights scale their shadow by the surface's
+// ShadowAlpha). The surface was not yet known while its own illuminance
+// loop ran the light: surface() found nothing, and no object cast a shadow.
+TEST(Language, LightsReadTheSurfacesParameters) {
+    Harness h;
+    auto light = h.instance("light l() { float k = -1; float f = surface(\"Kd\", k); "
+                            "illuminate(point(0, 0, 0)) Cl = color(f, k, 0); }");
+    ShadingGrid g = makeGrid(3, 1, [](float u, float) { return Vec3(u, 0, 1); });
+    h.surface("surface t(float Kd = 0.6) { color c = 0; illuminance(P) c += Cl; Ci = c; }", g, {light.get()});
+    for (const Vec3& c : g.Ci) expectNear(c, Vec3(1, 0.6f, 0));
+}
+
 namespace {
 /// Six points at z = 1 around the origin, where the test lights stand;
 /// even points face the origin (N = (0,0,-1)), odd points face away.
