@@ -7,7 +7,10 @@
 #include "vm.h"
 
 
+#include <algorithm>
+#include <cctype>
 #include <filesystem>
+#include <regex>
 #include <fstream>
 #include <sstream>
 
@@ -319,6 +322,26 @@ std::optional<std::string> ShadingSystem::findFile(const std::string& name) cons
     for (const std::string& d : m_searchPath) {
         fs::path p = fs::path(d) / (hasExt ? name : name + ".sl");
         if (fs::is_regular_file(p, ec)) return p.string();
+    }
+    const bool identifier = !name.empty() && !std::isdigit(static_cast<unsigned char>(name[0])) &&
+                            std::all_of(name.begin(), name.end(), [](char c) {
+                                return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
+                            });
+    if (hasExt || !identifier) return std::nullopt;
+    // Compilers name their output after the shader, not the file
+    // (stripes-v2.sl declaring `surface stripes` gives stripes.slo,
+    // stripes.slx, stripes.sdr), so scenes name shaders whose source file
+    // is called otherwise: a source on the path that declares it will do.
+    const std::regex declares("(^|[^A-Za-z0-9_])(surface|displacement|light|volume|imager)[ \t\r\n]+" + name +
+                              "[ \t\r\n]*\\(");
+    constexpr uintmax_t kLargestSource = 1 << 20;
+    for (const std::string& d : m_searchPath) {
+        for (fs::directory_iterator it(d, ec), end; !ec && it != end; it.increment(ec)) {
+            const fs::path& p = it->path();
+            if (p.extension() != ".sl" || !it->is_regular_file(ec) || it->file_size(ec) > kLargestSource) continue;
+            std::string text;
+            if (readFile(p.string(), &text) && std::regex_search(text, declares)) return p.string();
+        }
     }
     return std::nullopt;
 }

@@ -283,14 +283,32 @@ public:
         m_fits.erase(file);
     }
     bool textureInfoString(const std::string& file, const std::string& what, std::string* out) override {
-        if (!fits(file)) return false;
+        const FileFacts known = facts(file);
+        if (!known.fits) return false;
+        if (what == "type") {
+            if (known.channels < 0) return false;
+            *out = known.type;
+            return true;
+        }
         OIIO::ustring s;
         if (!m_ts->get_texture_info(OIIO::ustring(file), 0, OIIO::ustring(what), OIIO::TypeDesc::STRING, &s)) return false;
         *out = s.string();
         return true;
     }
     bool textureInfoFloats(const std::string& file, const std::string& what, int count, float* out) override {
-        if (!fits(file)) return false;
+        const FileFacts known = facts(file);
+        if (!known.fits) return false;
+        if (what == "resolution" && count == 2 && known.width > 0) {
+            out[0] = float(known.width);
+            out[1] = float(known.height);
+            return true;
+        }
+        if (what == "viewingmatrix" || what == "projectionmatrix") {
+            const std::vector<float>& m = what == "viewingmatrix" ? known.viewing : known.projection;
+            if (count != 16 || m.empty()) return false;
+            std::copy(m.begin(), m.end(), out);
+            return true;
+        }
         OIIO::TypeDesc tf(OIIO::TypeDesc::FLOAT, count > 1 ? count : 0);
         if (m_ts->get_texture_info(OIIO::ustring(file), 0, OIIO::ustring(what), tf, out)) return true;
         std::vector<int> iv(size_t(std::max(count, 1)));
@@ -374,6 +392,14 @@ private:
     struct FileFacts {
         bool fits = true;
         int channels = -1;  // unknown (not found)
+        // What textureinfo() answers from the file's header, as RenderMan
+        // names it: the full resolution (a depth map stores only the box of
+        // its finite depths), "texture", "shadow" or "environment", and
+        // the camera a map was rendered from (16 values in the shading
+        // language's row-vector order; empty when the file has none).
+        int width = 0, height = 0;
+        std::string type = "texture";
+        std::vector<float> viewing, projection;
     };
     FileFacts facts(const std::string& file) {
         std::lock_guard<std::mutex> lock(m_mutex);
@@ -391,11 +417,46 @@ private:
                                         uint64_t(std::max(spec.depth, 1)) * uint64_t(std::max(spec.nchannels, 0));
                 it->second.fits = spec.tile_width > 0 || values <= (uint64_t(1) << 24);
                 it->second.channels = spec.nchannels;
+                describe(spec, it->second);
             }
         }
         return it->second;
     }
     bool fits(const std::string& file) { return facts(file).fits; }
+
+    static void describe(const OIIO::ImageSpec& spec, FileFacts& f) {
+        f.width = spec.full_width > 0 ? spec.full_width : spec.width;
+        f.height = spec.full_height > 0 ? spec.full_height : spec.height;
+        const std::string format = spec.get_string_attribute("textureformat");
+        if (spec.extra_attribs.contains("umbra:projection") || format == "Shadow") f.type = "shadow";
+        else if (format.find("Environment") != std::string::npos) f.type = "environment";
+        auto matrix = [&](const char* name, std::vector<float>* out) {
+            const OIIO::ParamValue* p = spec.find_attribute(name, OIIO::TypeMatrix);
+            if (!p) return false;
+            const float* m = static_cast<const float*>(p->data());
+            out->assign(m, m + 16);
+            return true;
+        };
+        matrix("worldtocamera", &f.viewing);
+        if (matrix("worldtoscreen", &f.projection)) return;
+        // umbra's depth maps store world to NDC: screen space is NDC
+        // scaled to the screen window, [-a, a] x [-b, b] with the longer
+        // side's half-width the aspect ratio (y up), applied on the right
+        // in row-vector order.
+        std::vector<float> ndc;
+        if (!matrix("worldtoNDC", &ndc) || f.width <= 0 || f.height <= 0) return;
+        const float a = f.width >= f.height ? float(f.width) / float(f.height) : 1.0f;
+        const float b = f.width >= f.height ? 1.0f : float(f.height) / float(f.width);
+        f.projection.resize(16);
+        for (int r = 0; r < 4; ++r) {
+            const float* row = &ndc[size_t(4 * r)];
+            float* out = &f.projection[size_t(4 * r)];
+            out[0] = 2 * a * row[0] - a * row[3];
+            out[1] = -2 * b * row[1] + b * row[3];
+            out[2] = row[2];
+            out[3] = row[3];
+        }
+    }
 
     /// Channels past the file's last (it has `channels`, -1: unknown) read
     /// as "fill" (RI Spec 3.2), which OpenImageIO does not do for a first

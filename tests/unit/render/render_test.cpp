@@ -288,6 +288,48 @@ TEST(Shading, ArrayResultsOfOptionAreStoredPerPointUnderAVaryingCondition) {
         }
 }
 
+TEST(Shading, TextureinfoDescribesAShadowMapAsRenderManDoes) {
+    // RI Spec 3.2's textureinfo table: "type" is "shadow" for a shadow map,
+    // "resolution" the map's (umbra's files store only the box of finite
+    // depths: it answered that box), and "viewingmatrix" and
+    // "projectionmatrix" the camera the map was made from. Both peers
+    // answer all four; umbra answered only resolution, wrongly. The map
+    // here: fov 90 from the world origin looking down +z, 64x64, a patch
+    // covering its lower half only.
+    ScratchDir dir("textureinfo-shadow");
+    Diagnostics diag;
+    test::renderRib(fmt::format(R"(Format 64 64 1
+Projection "perspective" "fov" 90
+Display "{0}" "zfile" "z"
+WorldBegin
+Patch "bilinear" "P" [-4 -4 2  4 -4 2  -4 -0.5 2  4 -0.5 2]
+WorldEnd
+MakeShadow "{0}" "{1}"
+)",
+                                dir.file("map.z"), dir.file("map.shd")),
+                    diag);
+    ASSERT_EQ(diag.errorCount(), 0);
+    std::ofstream(dir.file("ti.sl")) << "surface ti(string map = \"\"; float mode = 0) {\n"
+                                        "  uniform float res[2] = {0, 0}; uniform string ty = \"\"; uniform matrix vm = 0, pm = 0;\n"
+                                        "  float a = textureinfo(map, \"resolution\", res), b = textureinfo(map, \"type\", ty);\n"
+                                        "  float c = textureinfo(map, \"viewingmatrix\", vm), d = textureinfo(map, \"projectionmatrix\", pm);\n"
+                                        "  point q = transform(pm, point(0.5, 0.25, 2)), w = transform(vm, point(1, 2, 3));\n"
+                                        "  if (mode == 0) Ci = color(a + b + c + d, res[0] + res[1], ty == \"shadow\");\n"
+                                        "  else if (mode == 1) Ci = color(xcomp(q), ycomp(q), zcomp(q)); else Ci = color(xcomp(w), ycomp(w), zcomp(w));\n"
+                                        "  Oi = 1; }\n";
+    for (int mode : {0, 1, 2}) {
+        const Image img = renderWithShaders(
+            dir, "", fmt::format("Surface \"ti\" \"map\" \"{}\" \"mode\" {} Patch \"bilinear\" \"P\" [-2 -2 0  2 -2 0  -2 2 0  2 2 0]",
+                                 dir.file("map.shd"), mode),
+            diag);
+        EXPECT_EQ(diag.errorCount(), 0);
+        const Vec3 expected = mode == 0 ? Vec3(4, 128, 1) : mode == 1 ? Vec3(0.25f, 0.125f, 0) : Vec3(1, 2, 3);
+        EXPECT_NEAR(img.at(32, 32, 0), expected.x, 1e-5f) << mode;
+        EXPECT_NEAR(img.at(32, 32, 1), expected.y, 1e-5f) << mode;
+        if (mode != 1) EXPECT_NEAR(img.at(32, 32, 2), expected.z, 1e-5f) << mode;
+    }
+}
+
 TEST(Shading, StringPrimitiveVariablesBindToStringParameters) {
     // Exporters write per-object texture names as string primitive
     // variables ("constant string texname"). umbra dropped every string

@@ -413,6 +413,26 @@ TEST(Compat, IncludeSearchesBesideTheFileThenThePath) {
     fs::remove_all(root);
 }
 
+// Compilers name their output after the shader (stripes-v2.sl declaring
+// `surface stripes` gives stripes.slo, .slx, .sdr), and scenes name it so:
+// the source on the path that declares it is found whatever its file name.
+TEST(Compat, AShaderIsFoundByItsDeclaredName) {
+    namespace fs = std::filesystem;
+    const fs::path root = fs::temp_directory_path() / "umbra_compat_declared_name_test";
+    fs::remove_all(root);
+    fs::create_directories(root);
+    std::ofstream(root / "stripes-v2.sl") << "/* surface wrong() */\nsurface\n  stripes(float k = 3) { Ci = k; }\n";
+    std::ofstream(root / "other.sl") << "light stripesx() { }\n";
+    Harness h;
+    h.sys.setSearchPath({root.string()});
+    auto sh = h.sys.find("stripes", FileLoc());
+    ASSERT_TRUE(sh) << h.messages();
+    EXPECT_EQ(sh->name(), "stripes");
+    EXPECT_FALSE(h.sys.find("nosuch", FileLoc()));
+    EXPECT_FALSE(h.sys.find("stripes(", FileLoc()));  // not a name: no search, no regex error
+    fs::remove_all(root);
+}
+
 TEST(Compat, MixedTypeFormsOfArithmeticCastsAndComparisons) {
     Harness h;
     ShadingGrid g = line(5);
