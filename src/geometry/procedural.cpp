@@ -101,6 +101,24 @@ struct ProceduralContext::Program {
     int in = -1, out = -1;
     std::mutex mutex;  // one request at a time, answered in order
     bool dead = false;
+    std::string deadWhy;  // why later requests get nothing, when it did not fail
+
+    /// How the program ended, once its output closed: "" while it runs on
+    /// (after a second's wait), else "exited with status 3", "was killed by
+    /// signal 11" or "exited" (status 0).
+    std::string ending() {
+        for (int i = 0; i < 100 && pid > 0; ++i) {
+            int status = 0;
+            if (waitpid(pid, &status, WNOHANG) == pid) {
+                pid = -1;
+                if (WIFSIGNALED(status)) return fmt::format("was killed by signal {}", WTERMSIG(status));
+                const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 0;
+                return code == 0 ? "exited" : fmt::format("exited with status {}", code);
+            }
+            std::this_thread::sleep_for(std::chrono::milliseconds(10));
+        }
+        return "";
+    }
 
     void stop(bool force) {
         if (in >= 0) close(in);
@@ -215,7 +233,12 @@ bool ProceduralContext::runProgram(const std::string& command, const std::string
     }
 
     std::lock_guard<std::mutex> lock(program->mutex);
-    if (program->dead) return false;
+    if (program->dead) {
+        if (!program->deadWhy.empty())
+            m_diag.error(loc, "Procedural \"RunProgram\": \"{}\" {}; this request's geometry is skipped", command,
+                         program->deadWhy);
+        return false;
+    }
     auto fail = [&](const std::string& why) {
         m_diag.error(loc, "Procedural \"RunProgram\": \"{}\" {}; its geometry is skipped", command, why);
         program->stop(true);
@@ -234,15 +257,36 @@ bool ProceduralContext::runProgram(const std::string& command, const std::string
     char buffer[65536];
     for (;;) {
         const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
-        if (left.count() <= 0)
+        if (left.count() <= 0 && rib->empty())
             return fail(fmt::format("did not answer within {} s (Option \"limits\" \"proceduraltime\")", m_programSeconds));
+        if (left.count() <= 0)
+            return fail(fmt::format("wrote {} bytes of RIB but not, within {} s, the byte 0xFF that ends an answer (RI "
+                                    "Spec 3.2: a generator writes it after each answer; Option \"limits\" "
+                                    "\"proceduraltime\")", rib->size(), m_programSeconds));
         pollfd pfd{program->out, POLLIN, 0};
         const int ready = poll(&pfd, 1, int(std::min<int64_t>(left.count(), 1000)));
         if (ready < 0 && errno == EINTR) continue;
         if (ready <= 0) continue;
         const ssize_t n = read(program->out, buffer, sizeof buffer);
         if (n < 0 && errno == EINTR) continue;
-        if (n <= 0) return fail("ended without finishing its answer (no byte 0xFF)");
+        if (n <= 0) {
+            const std::string ending = program->ending();
+            // A program that writes its RIB and exits, without the 0xFF:
+            // its answer is plain (Pixie takes it; Aqsis draws nothing).
+            if (ending == "exited" && !rib->empty()) {
+                m_diag.warningOnce("runprogram-exit:" + command, loc,
+                                   "Procedural \"RunProgram\": \"{}\" ended its answer by exiting, without the byte "
+                                   "0xFF (RI Spec 3.2); its RIB is taken as the answer",
+                                   command);
+                program->stop(false);
+                program->dead = true;
+                program->deadWhy = "exited after answering an earlier request";
+                return true;
+            }
+            return fail(ending.empty() || ending == "exited"
+                            ? std::string("ended without finishing its answer (no byte 0xFF)")
+                            : fmt::format("{} before finishing its answer", ending));
+        }
         const char* end = static_cast<const char*>(memchr(buffer, '\xff', size_t(n)));
         rib->append(buffer, end ? size_t(end - buffer) : size_t(n));
         if (end) {

@@ -293,6 +293,7 @@ const RequestSpec kRequests[] = {
     {"Curves", "sIs", "type nvertices wrap", true, geometry},
     {"Blobby", "iIFS", "nleaf code floats strings", true, geometry},
     {"Procedural", "sSF", "name args bound", true, geometry},
+    {"Procedural2", "ss", "name boundfunction", true, geometry},
     {"Geometry", "s", "type", true, geometry},
 
     {"MakeTexture", "sssssff", "picturename texturename swrap twrap filter swidth twidth", true,
@@ -660,7 +661,12 @@ private:
         if (spec->params) {
             std::string_view rn = spec->name;
             const bool classed = rn == "Option" || rn == "Attribute" || rn == "Hider";
-            buildParams(name, classed && !args.empty() ? args[0].str : std::string(), used, params);
+            // LightSource "pointlight" "intensity" [20]: the handle was left
+            // out and the first parameter's name taken for it.
+            const bool light = rn == "LightSource" || rn == "AreaLightSource";
+            const std::string handle = light && args.size() == 2 && used >= 2 && m_values[used - 1].kind == Value::String
+                                           ? args[1].str : std::string();
+            buildParams(name, classed && !args.empty() ? args[0].str : std::string(), used, params, handle);
         }
         FileLoc where = loc(line, column);
         if (!spec->handler) {
@@ -984,7 +990,8 @@ private:
 
     // params: ( "name" value )*
     // `cls` is the Option/Attribute class or the Hider type (else empty).
-    void buildParams(std::string_view request, const std::string& cls, size_t first, ParamList& params) {
+    void buildParams(std::string_view request, const std::string& cls, size_t first, ParamList& params,
+                     const std::string& stringHandle = {}) {
         const Declarations& decls = m_parser.m_decls;
         const bool lenient = isLenientRequest(request);
         // "Attribute \"dice\"" in lenient messages; the request alone otherwise.
@@ -992,8 +999,14 @@ private:
         for (size_t i = first; i < m_values.size();) {
             Value& nameValue = m_values[i];
             if (nameValue.kind != Value::String) {
-                error(nameValue.line, nameValue.column, request, "expected a parameter name string, got {}",
-                      describe(nameValue));
+                if (i == first && !stringHandle.empty())
+                    error(nameValue.line, nameValue.column, request,
+                          "expected a parameter name string, got {}: \"{}\" was read as the light's handle (a "
+                          "number or string handle must follow the shader name)",
+                          describe(nameValue), stringHandle);
+                else
+                    error(nameValue.line, nameValue.column, request, "expected a parameter name string, got {}",
+                          describe(nameValue));
                 ++i;
                 continue;
             }

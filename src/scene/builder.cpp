@@ -306,6 +306,15 @@ void Builder::worldBegin(const FileLoc& loc) {
         m_diag.error(loc, "WorldBegin: not allowed inside ObjectBegin/ObjectEnd (ignored)");
         return;
     }
+    // Blocks must nest (RI Spec 3.2): a world inside an attribute or
+    // transform block is refused by Pixie and Aqsis. The intent is plain,
+    // so the world is rendered, and the user told.
+    for (const OpenBlock& b : m_blocks)
+        if (b.kind != Block::Frame && b.kind != Block::Resource) {
+            m_diag.warning(loc, "WorldBegin: inside the {} block opened at {} (blocks must nest; Pixie and Aqsis "
+                                "refuse this world, umbra renders it)", beginName(int(b.kind)), b.loc.str());
+            break;
+        }
     push(Block::World, loc);
     m_options.cameraFromWorld = m_state.transform;
     m_options.cameraMotion = m_state.motion;
@@ -1554,6 +1563,30 @@ void Builder::trimCurve(const ri::RequestArgs& args, const FileLoc& loc) {
 
 void Builder::primitive(const std::string& type, ri::RequestArgs args, ri::ParamList params, const FileLoc& loc) {
     if (!requireWorld(type, loc)) return;
+    if (type == "Procedural2") {
+        // RenderMan 19+: Procedural2 "DelayedReadArchive2" "SimpleBound"
+        // "string filename" [...] "float[6] bound" [...], as RenderMan for
+        // Maya writes its geometry: the DelayedReadArchive it stands for.
+        const std::string name = args.strings.empty() ? std::string() : args.strings[0];
+        if (name != "DelayedReadArchive2") {
+            unsupported("Procedural2:" + name, loc,
+                        fmt::format("Procedural2 \"{}\": a RenderMan 19+ procedural umbra does not have (skipped; "
+                                    "\"DelayedReadArchive2\" is read)", name));
+            return;
+        }
+        const ri::Param* file = params.find("filename");
+        const ri::Param* bound = params.find("bound");
+        if (!file || file->strings.empty() || !bound || bound->floats.size() != 6) {
+            m_diag.error(loc, "Procedural2 \"DelayedReadArchive2\": expected \"string filename\" and \"float[6] "
+                              "bound\" (skipped)");
+            return;
+        }
+        ri::RequestArgs archive;
+        archive.strings = {"DelayedReadArchive", file->strings[0]};
+        archive.floats = bound->floats;
+        primitive("Procedural", std::move(archive), ri::ParamList(), loc);
+        return;
+    }
     if (type == "Procedural" && !proceduralValid(args, loc)) return;
     if (type == "Geometry" && (args.strings.empty() || args.strings[0] != "teapot")) {
         const std::string name = args.strings.empty() ? std::string() : args.strings[0];

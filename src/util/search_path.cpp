@@ -2,6 +2,8 @@
 
 #include <unistd.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cstdlib>
 #include <filesystem>
 
@@ -29,7 +31,36 @@ std::string joinSearchPath(const std::vector<std::string>& dirs) {
     return out;
 }
 
-std::string expandSearchPath(const std::string& spec, const std::string& previous, const std::string& builtin) {
+namespace {
+
+/// $NAME and ${NAME} replaced by the environment's values, as PRMan and
+/// Pixie read search paths ("${RMANTREE}/lib/shaders", RenderMan for Maya's
+/// "${RMSPROJ}"); an unset variable is left as written (a directory that
+/// does not exist, harmless and visible in messages).
+std::string withEnvironment(const std::string& spec) {
+    std::string out;
+    for (size_t i = 0; i < spec.size();) {
+        if (spec[i] != '$') {
+            out += spec[i++];
+            continue;
+        }
+        const bool braced = i + 1 < spec.size() && spec[i + 1] == '{';
+        size_t start = i + (braced ? 2 : 1), end = start;
+        while (end < spec.size() && (std::isalnum(static_cast<unsigned char>(spec[end])) || spec[end] == '_')) ++end;
+        const bool closed = !braced || (end < spec.size() && spec[end] == '}');
+        const char* value = end > start && closed ? std::getenv(spec.substr(start, end - start).c_str()) : nullptr;
+        const size_t next = braced && closed ? end + 1 : end;
+        if (value) out += value;
+        else out.append(spec, i, std::max(next, i + 1) - i);
+        i = std::max(next, i + 1);
+    }
+    return out;
+}
+
+}  // namespace
+
+std::string expandSearchPath(const std::string& given, const std::string& previous, const std::string& builtin) {
+    const std::string spec = withEnvironment(given);
     // A marker inside an entry ("../&", "shaders@") is still a marker: the
     // text on either side becomes an entry of its own and the marker's list
     // goes between, as Pixie and Aqsis read it (exported scenes write

@@ -133,6 +133,32 @@ TEST(DelayedReadArchive, SamePixelsAsInlineInCameraAndDepthPasses) {
     EXPECT_EQ(frameStats(stats)["procedurals"]["primitives_made"], 2);
 }
 
+TEST(DelayedReadArchive, RenderMan19sProcedural2FormDrawsTheSame) {
+    // RenderMan for Maya writes its geometry as Procedural2
+    // "DelayedReadArchive2" "SimpleBound" "string filename" [...] "float[6]
+    // bound" [...]; umbra called it an unknown request. It is the same
+    // archive; other Procedural2 kinds are skipped with one warning.
+    ScratchDir dir("dra2");
+    writeFile(dir.file("body.rib"), kArchiveBody);
+    const std::string v2 = fmt::format(
+        "Procedural2 \"DelayedReadArchive2\" \"SimpleBound\" \"string filename\" [\"{}\"] "
+        "\"float[6] bound\" [-1 1.5 -1 1 -1 1]\nProcedural2 \"DynamicLoad\" \"SimpleBound\" \"string dsoname\" "
+        "[\"x.so\"] \"float[6] bound\" [-1 1 -1 1 -1 1]",
+        dir.file("body.rib"));
+    Diagnostics diag;
+    diag.setQuiet(true);
+    auto stats = test::renderRib(shadowedFrame(dir.file("v2.exr"), v2, "", false), diag);
+    EXPECT_EQ(diag.errorCount(), 0);
+    EXPECT_EQ(diag.warningCount(), 1);
+    EXPECT_EQ(frameStats(stats)["procedurals"]["archives_read"], 1);
+    Diagnostics d2;
+    test::renderRib(shadowedFrame(dir.file("inline.exr"), kArchiveBody, "", false), d2);
+    Image a, b;
+    ASSERT_TRUE(test::readImage(dir.file("v2.exr"), &a));
+    ASSERT_TRUE(test::readImage(dir.file("inline.exr"), &b));
+    expectSamePixels(a, b);
+}
+
 TEST(DelayedReadArchive, BoundOffScreenIsNeverRead) {
     // Not RIB at all: reading it would report errors. Its bound lies
     // beside the view and behind the camera (and out of the light's view),
@@ -310,16 +336,50 @@ TEST(RunProgram, FailingProgramsAreErrorsAndTheRestRenders) {
     test::renderRib(shadowedFrame(dir.file("b.exr"), sphere, budget, false), d2);
     EXPECT_EQ(failed, 0);
     int located = 0, errors = 0;
+    bool statusSaid = false;
     for (const Diagnostic& d : d1.recorded()) {
         if (d.message.find("RunProgram") == std::string::npos) continue;
         if (d.severity == Severity::Error) ++errors;
         if (d.loc.line >= 17) ++located;
+        statusSaid = statusSaid || d.message.find("exited with status 3 before finishing its answer") != std::string::npos;
     }
+    EXPECT_TRUE(statusSaid);  // the exit status, not just "no byte 0xFF"
     EXPECT_EQ(errors, 3);
     EXPECT_EQ(d1.errorCount(), 3);
     EXPECT_GE(d1.warningCount(), 1);  // the garbage
     EXPECT_GE(located, 3);
     EXPECT_GE(frameStats(stats)["procedurals"]["failed"], 3);
+    Image a, b;
+    ASSERT_TRUE(test::readImage(dir.file("a.exr"), &a));
+    ASSERT_TRUE(test::readImage(dir.file("b.exr"), &b));
+    expectSamePixels(a, b);
+}
+
+TEST(RunProgram, AnAnswerEndedByExitingIsTakenAndOneWithoutTheEndByteIsNamed) {
+    // A generator that writes its RIB and exits without the byte 0xFF
+    // (Pixie draws its answer, Aqsis nothing): its RIB is the answer, with a
+    // warning. One that writes RIB and waits without the 0xFF is an error
+    // that says it answered, not that it "did not answer".
+    ScratchDir dir("runprogram_noend");
+    const std::string sphere = "Sphere 0.6 -0.6 0.6 360";
+    writeFile(dir.file("exits.sh"), "#!/bin/sh\nread l\nprintf '" + sphere + "\\n'\n", true);
+    writeFile(dir.file("waits.sh"), "#!/bin/sh\nread l\nprintf 'Sphere 0.3 -0.3 0.3 360\\n'\nwhile read l; do :; done\n", true);
+    const std::string budget = "Option \"limits\" \"float proceduraltime\" [2]";
+    Diagnostics d1, d2;
+    d1.setRecord(true);
+    d1.setSink([](const Diagnostic&) {});
+    const std::string world = fmt::format(R"(
+        Procedural "RunProgram" ["{0}" ""] [-1 1 -1 1 -1 1]
+        Procedural "RunProgram" ["{1}" ""] [-1 1 -1 1 -1 1]
+    )", dir.file("exits.sh"), dir.file("waits.sh"));
+    test::renderRib(shadowedFrame(dir.file("a.exr"), world, budget, false), d1);
+    test::renderRib(shadowedFrame(dir.file("b.exr"), sphere, budget, false), d2);
+    EXPECT_EQ(d1.errorCount(), 1);
+    EXPECT_EQ(d1.warningCount(), 1);
+    bool said = false;
+    for (const Diagnostic& d : d1.recorded())
+        said = said || (d.severity == Severity::Error && d.message.find("bytes of RIB but not") != std::string::npos);
+    EXPECT_TRUE(said);
     Image a, b;
     ASSERT_TRUE(test::readImage(dir.file("a.exr"), &a));
     ASSERT_TRUE(test::readImage(dir.file("b.exr"), &b));

@@ -195,6 +195,14 @@ TEST(Parser, HandlesMayBeIntegersOrStrings) {
                                     "string, got number 1.5 (usage: LightSource name handle)");
 }
 
+TEST(Parser, ALightWithoutAHandleSaysWhatWasTakenForIt) {
+    auto p = parse("LightSource \"pointlight\" \"intensity\" [20] \"from\" [0 0 -3]");
+    ASSERT_FALSE(messages(p->diag).empty());
+    EXPECT_EQ(messages(p->diag)[0], "t.rib:1:38: error: LightSource: expected a parameter name string, got an array "
+                                    "of 1 numbers: \"intensity\" was read as the light's handle (a number or string "
+                                    "handle must follow the shader name)");
+}
+
 TEST(Parser, MissingBracketResynchronises) {
     auto p = parse("Sphere [1 -1 1 360\nTranslate 1 2 3\n] Translate 4 5 6");
     EXPECT_EQ(messages(p->diag), (std::vector<std::string>{

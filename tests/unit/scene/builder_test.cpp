@@ -670,5 +670,17 @@ TEST(Limits, ArchivesThatFanOutStopAtTheFramesReadBudget) {
     std::filesystem::remove_all(dir);
 }
 
+TEST(Builder, AWorldInsideAnAttributeOrTransformBlockIsRenderedWithAWarning) {
+    // Blocks must nest (RI Spec 3.2); Pixie and Aqsis refuse such a world.
+    // The intent is plain: umbra renders it and says where the block opened.
+    auto r = run("TransformBegin\nWorldBegin\nSphere 1 -1 1 360\nWorldEnd\nTransformEnd\n"
+                 "FrameBegin 2\nWorldBegin\nWorldEnd\nFrameEnd\n");
+    ASSERT_EQ(r->sink.worlds.size(), 2u);
+    EXPECT_EQ(r->sink.worlds[0].primitives.size(), 1u);
+    EXPECT_EQ(r->messages(), (std::vector<std::string>{
+        "s.rib:2:1: warning: WorldBegin: inside the TransformBegin block opened at s.rib:1:1 (blocks must nest; "
+        "Pixie and Aqsis refuse this world, umbra renders it)"}));
+}
+
 }  // namespace
 }  // namespace umbra::scene

@@ -39,6 +39,15 @@ TEST(SearchPath, AmpersandIsThePreviousValueAndAtTheDefault) {
     EXPECT_EQ(expandSearchPath("/only", "/p", "/d"), "/only");
 }
 
+// PRMan and Pixie expand environment variables in search paths
+// ("${RMANTREE}/lib/shaders"; RenderMan for Maya writes "${RMSPROJ}").
+TEST(SearchPath, EnvironmentVariablesAreExpanded) {
+    ScopedEnv proj("UMBRA_TEST_PROJ", "/proj"), unset("UMBRA_TEST_UNSET", nullptr);
+    EXPECT_EQ(expandSearchPath("${UMBRA_TEST_PROJ}/shaders:$UMBRA_TEST_PROJ/lib:&", "/p", "/d"),
+              "/proj/shaders:/proj/lib:/p");
+    EXPECT_EQ(expandSearchPath("${UMBRA_TEST_UNSET}/x:$:${:a$b", "", ""), "${UMBRA_TEST_UNSET}/x:$:${:a$b");
+}
+
 TEST(SearchPath, EmptyEntriesAndEmptyExpansionsVanish) {
     EXPECT_EQ(expandSearchPath("/a::/b:", "", ""), "/a:/b");
     EXPECT_EQ(expandSearchPath("&:/a:@", "", ""), "/a");
