@@ -390,7 +390,12 @@ std::shared_ptr<const ShaderInstance> ShadingSystem::instantiate(std::shared_ptr
     inst->m_worldFromShader = record.worldFromShader;
     const auto& params = shader->params();
     for (const ri::Param& rp : record.params.params()) {
-        const std::string& name = rp.decl.name;
+        // RenderMan for Maya gives the background imager its colour as
+        // "color color", a name no shading-language parameter can have
+        // (it is a type keyword): it is the colour the imager calls bgcolor.
+        const bool backgroundColour =
+            shader->kind() == ShaderKind::Imager && shader->name() == "background" && rp.decl.name == "color";
+        const std::string& name = backgroundColour ? std::string("bgcolor") : rp.decl.name;
         int index = -1;
         for (size_t k = 0; k < params.size(); ++k)
             if (params[k].name == name) index = int(k);

@@ -97,6 +97,10 @@ TEST(BackgroundImager, AcceptsTheRenderManParameterName) {
     const Image a = renderFrame(dir, "Imager \"background\" \"bgcolor\" [0.25 0.5 0.75]");
     const Image b = renderFrame(dir, "Imager \"background\" \"color background\" [0.25 0.5 0.75]");
     EXPECT_EQ(test::maxAbsDiff(a, b, 4), 0.0);
+    // RenderMan for Maya's name for it (a type keyword, so no shader
+    // parameter can be called so).
+    const Image c = renderFrame(dir, "Imager \"background\" \"color color\" [0.25 0.5 0.75]");
+    EXPECT_EQ(test::maxAbsDiff(a, c, 4), 0.0);
     // With no colour given the background is white (both peers' default).
     const Image white = renderFrame(dir, "Imager \"background\"");
     EXPECT_EQ(white.at(kSize - 1, 0, 0), 1.0f);
