@@ -267,17 +267,36 @@ TEST(Lexer, StreamingMatchesInMemoryOnRandomText) {
     }
 }
 
-TEST(Lexer, CaptureKeepsTheRawTextAcrossReads) {
-    const std::string text = "ArchiveBegin \"a\"\n  Sphere 1 -1 1 360 # c\n \"s\\\"t\" ArchiveEnd rest";
-    const size_t from = text.find("Sphere"), to = text.find("ArchiveEnd");
+/// Captures `text` from the token at `from` to the one at `to`, read a few
+/// bytes at a time; `readOn` first reads the token after `to`, as the parser
+/// does before it ends an archive's capture. Returns the capture and the
+/// token read after it (its kind and text).
+struct Captured {
+    std::string text;
+    TokenKind nextKind;
+    std::string nextText;
+};
+Captured captureBetween(const std::string& text, size_t from, size_t to, bool readOn) {
     TrickleSource source(text);
     Lexer lex(source);
     Token t;
     do t = lex.next(); while (t.offset != from);
     lex.beginCapture(t.offset);
     do t = lex.next(); while (t.offset != to);
-    EXPECT_EQ(lex.endCapture(t.offset), text.substr(from, to - from));
-    EXPECT_EQ(lex.next().text, "rest");
+    Captured c;
+    Token after;
+    if (readOn) after = lex.next(), c.nextKind = after.kind, c.nextText = std::string(after.text);
+    c.text = lex.endCapture(to);
+    if (!readOn) after = lex.next(), c.nextKind = after.kind, c.nextText = std::string(after.text);
+    return c;
+}
+
+TEST(Lexer, CaptureKeepsTheRawTextAcrossReads) {
+    const std::string text = "ArchiveBegin \"a\"\n  Sphere 1 -1 1 360 # c\n \"s\\\"t\" ArchiveEnd rest";
+    const size_t from = text.find("Sphere"), to = text.find("ArchiveEnd");
+    const Captured c = captureBetween(text, from, to, false);
+    EXPECT_EQ(c.text, text.substr(from, to - from));
+    EXPECT_EQ(c.nextText, "rest");
 }
 
 // MayaMan's geometry files end "ArchiveEnd\n#\n": the parser ends the
@@ -286,14 +305,9 @@ TEST(Lexer, CaptureKeepsTheRawTextAcrossReads) {
 TEST(Lexer, CaptureEndsAtItsOffsetAfterTheInputRanOut) {
     const std::string text = "ArchiveBegin \"a\"\n  Sphere 1 -1 1 360\nArchiveEnd\n#\n";
     const size_t from = text.find("Sphere"), to = text.find("ArchiveEnd");
-    TrickleSource source(text);
-    Lexer lex(source);
-    Token t;
-    do t = lex.next(); while (t.offset != from);
-    lex.beginCapture(t.offset);
-    do t = lex.next(); while (t.offset != to);
-    EXPECT_EQ(lex.next().kind, TokenKind::End);
-    EXPECT_EQ(lex.endCapture(to), text.substr(from, to - from));
+    const Captured c = captureBetween(text, from, to, true);
+    EXPECT_EQ(c.nextKind, TokenKind::End);
+    EXPECT_EQ(c.text, text.substr(from, to - from));
 }
 
 TEST(Lexer, ReadFailureIsAnErrorWhereTheInputStopped) {
