@@ -13,12 +13,13 @@ namespace umbra::shading {
 void execCall(Exec& x, const Instr& in);  // shadeops.cpp
 
 namespace {
-// The loop budget of one shader run on one grid: iterations of all its
-// loops, scaled to the grid (2^21 point-iterations, at least 2^12
-// iterations), so a loop that never ends costs a few milliseconds a grid.
-// It depends on nothing but the grid: images stay deterministic.
-constexpr int64_t kLoopPointIterations = int64_t(1) << 21;
-constexpr int64_t kMinLoopIterations = int64_t(1) << 12;
+// The loop budget of one shader run on one grid: 2^16 iterations of all
+// its loops together, whatever the grid's size. Ray-marching shaders take
+// tens of thousands of steps a point (Advanced RenderMan's cellclouds:
+// 20,000; Pixie and Aqsis run them to the end), and a loop that never ends
+// is stopped instead of hanging the render. It depends on nothing but the
+// shader: images stay deterministic.
+constexpr int64_t kLoopIterations = int64_t(1) << 16;
 }  // namespace
 
 namespace {
@@ -369,7 +370,7 @@ void Exec::run() {
     int pc = 0, end = int(cs->code.size());
     // A shader whose loop never ends would hang the render: after this many
     // iterations of all its loops, loops are ended with a warning.
-    const int64_t loopBudgetAtStart = std::max(kMinLoopIterations, kLoopPointIterations / std::max<int64_t>(1, n));
+    const int64_t loopBudgetAtStart = kLoopIterations;
     int64_t loopBudget = loopBudgetAtStart;
     while (pc < end) {
         const Instr& in = code[pc];
