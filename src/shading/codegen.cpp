@@ -107,11 +107,27 @@ struct Val {
     explicit operator bool() const { return reg >= 0; }
 };
 
+/// The user functions of one name in one scope: one, or overloads that
+/// differ in their parameters' types (Gritz's noises.h defines fBm for a
+/// float and for a point, as PRMan's, Pixie's and Aqsis's compilers take).
+using Overloads = std::vector<std::shared_ptr<FuncDef>>;
+
 struct Scope {
     std::map<std::string, int> vars;
-    std::map<std::string, std::shared_ptr<FuncDef>> funcs;
+    std::map<std::string, Overloads> funcs;
     std::shared_ptr<Scope> parent;
 };
+
+/// Whether two functions take the same parameter types (then one defines
+/// the other twice).
+bool sameParameters(const FuncDef& a, const FuncDef& b) {
+    if (a.formals.size() != b.formals.size()) return false;
+    for (size_t k = 0; k < a.formals.size(); ++k) {
+        const TypeSpec &x = a.formals[k].type, &y = b.formals[k].type;
+        if (x.ty != y.ty || (x.arrayLen != 0) != (y.arrayLen != 0)) return false;
+    }
+    return true;
+}
 
 struct GlobalDef {
     const char* name;
@@ -168,10 +184,7 @@ public:
         m_cs.kind = sh.kind;
         m_cs.ctls.push_back(CtlCtx{});  // context 0: the shader body, uniform control
         auto globals = std::make_shared<Scope>();
-        for (auto& f : prog.functions) {
-            if (globals->funcs.count(f->name)) m_errs.error(f->loc, fmt::format("function '{}' is defined twice", f->name));
-            globals->funcs[f->name] = f;
-        }
+        for (auto& f : prog.functions) defineFunction(*globals, f);
         for (int g = 0; g < gGlobalCount; ++g) m_cs.globalRegs[g] = -1;
         for (const GlobalDef& g : kGlobals) {
             int r = newReg(g.ty, 0, RegKind::Global, g.name, true, g.varying);
@@ -276,15 +289,95 @@ private:
         }
         return -1;
     }
-    std::shared_ptr<FuncDef> lookupFunc(const std::string& name, std::shared_ptr<Scope>* where) const {
+    /// The innermost scope's functions called `name` (null if none).
+    const Overloads* lookupOverloads(const std::string& name, std::shared_ptr<Scope>* where) const {
         for (auto s = m_scope; s; s = s->parent) {
             auto it = s->funcs.find(name);
             if (it != s->funcs.end()) {
                 *where = s;
-                return it->second;
+                return &it->second;
             }
         }
         return nullptr;
+    }
+    std::shared_ptr<FuncDef> lookupFunc(const std::string& name, std::shared_ptr<Scope>* where) const {
+        const Overloads* all = lookupOverloads(name, where);
+        return all ? all->front() : nullptr;
+    }
+    void defineFunction(Scope& scope, const std::shared_ptr<FuncDef>& f) {
+        Overloads& all = scope.funcs[f->name];
+        for (const auto& g : all)
+            if (sameParameters(*g, *f)) {
+                m_errs.error(f->loc, fmt::format("function '{}' is defined twice", f->name));
+                return;
+            }
+        all.push_back(f);
+    }
+    /// The type an expression will have, where it can be told without
+    /// generating it (Void: not known). Enough to choose between overloads.
+    Ty peekType(const Expr& e) const {
+        switch (e.kind) {
+        case Expr::Num: return Ty::Float;
+        case Expr::Str: return Ty::String;
+        case Expr::Var: {
+            const int r = lookupVar(e.name);
+            return r < 0 ? Ty::Void : m_cs.regs[size_t(r)].ty;
+        }
+        case Expr::Index: return e.kids.empty() ? Ty::Void : peekType(*e.kids[0]);
+        case Expr::Cast: return e.castTy;
+        case Expr::Tuple: return e.kids.size() == 3 ? Ty::Tuple : e.kids.size() == 16 ? Ty::Matrix : Ty::Void;
+        case Expr::Unary: return e.kids.empty() ? Ty::Void : peekType(*e.kids[0]);
+        case Expr::Assign: return e.kids.empty() ? Ty::Void : peekType(*e.kids[0]);
+        case Expr::Ternary: return e.kids.size() < 2 ? Ty::Void : peekType(*e.kids[1]);
+        case Expr::Binary: {
+            if (e.kids.size() != 2) return Ty::Void;
+            if (e.name == "." || e.name == "==" || e.name == "!=" || e.name == "<" || e.name == ">" || e.name == "<=" ||
+                e.name == ">=" || e.name == "&&" || e.name == "||")
+                return Ty::Float;
+            const Ty a = peekType(*e.kids[0]), b = peekType(*e.kids[1]);
+            if (a == Ty::Void || b == Ty::Void) return Ty::Void;
+            return isTriple(a) ? a : b;
+        }
+        case Expr::Call: {
+            std::shared_ptr<Scope> where;
+            if (const Overloads* user = lookupOverloads(e.name, &where))
+                return user->size() == 1 ? user->front()->ret.ty : Ty::Void;
+            // A built-in whose every form returns one type.
+            Ty known = Ty::Void;
+            bool any = false;
+            for (const BuiltinSig& sig : builtinTable()) {
+                if (e.name != sig.name) continue;
+                const Ty t = sig.ret[0] == 'f' ? Ty::Float : sig.ret[0] == 'c' ? Ty::Color : sig.ret[0] == 'p' ? Ty::Point
+                             : sig.ret[0] == 'v' ? Ty::Void : sig.ret[0] == 's' ? Ty::String : sig.ret[0] == 'm' ? Ty::Matrix
+                                                                                                : Ty::Tuple;
+                if (any && t != known) return Ty::Void;
+                known = t, any = true;
+            }
+            return known;
+        }
+        }
+        return Ty::Void;
+    }
+    /// Of `all` (same name, different parameters), the one the arguments
+    /// of `e` fit best: same types first, then a float widened to a triple
+    /// or one triple taken as another; null when none fits.
+    std::shared_ptr<FuncDef> chooseOverload(const Expr& e, const Overloads& all) const {
+        if (all.size() == 1) return all.front();
+        std::shared_ptr<FuncDef> best;
+        int bestCost = 1 << 30;
+        for (const auto& f : all) {
+            if (f->formals.size() != e.kids.size()) continue;
+            int cost = 0;
+            for (size_t k = 0; k < e.kids.size() && cost >= 0; ++k) {
+                const Ty want = f->formals[k].type.ty, have = peekType(*e.kids[k]);
+                if (have == Ty::Void || have == want) continue;
+                if (isTriple(want) && (isTriple(have) || have == Ty::Tuple)) cost += 1;
+                else if (isTriple(want) && have == Ty::Float && !f->formals[k].type.output) cost += 2;
+                else cost = -1;
+            }
+            if (cost >= 0 && cost < bestCost) bestCost = cost, best = f;
+        }
+        return best;
     }
 
     // --- declarations --------------------------------------------------
@@ -443,7 +536,7 @@ private:
                 if (lookupVar(d.name) < 0) error(d.loc, fmt::format("extern variable '{}' is not defined in an enclosing scope", d.name));
             break;
         case Stmt::Func:
-            if (s.func) m_scope->funcs[s.func->name] = s.func;
+            if (s.func) defineFunction(*m_scope, s.func);
             break;
         case Stmt::If: genIf(s); break;
         case Stmt::While:
@@ -1203,7 +1296,11 @@ private:
 
     Val genCall(const Expr& e, Ty hint) {
         std::shared_ptr<Scope> where;
-        if (auto f = lookupFunc(e.name, &where)) return inlineCall(e, f, where);
+        if (const Overloads* all = lookupOverloads(e.name, &where)) {
+            if (auto f = chooseOverload(e, *all)) return inlineCall(e, f, where);
+            error(e.loc, fmt::format("no version of function '{}' takes these arguments", e.name));
+            return {};
+        }
         if (e.name == "texture" || e.name == "environment" || e.name == "shadow") return genTexture(e, hint);
         if (e.name == "spline") return genSpline(e, hint);
         if (e.name == "comp" && e.kids.size() == 2) {

@@ -433,6 +433,34 @@ TEST(Compat, AShaderIsFoundByItsDeclaredName) {
     fs::remove_all(root);
 }
 
+// Functions of one name that differ in their parameters' types: Gritz's
+// noises.h (BMRT, Advanced RenderMan) defines fBm and turbulence for a float
+// and for a point. Pixie's and Aqsis's compilers pick one by the
+// arguments; umbra refused the shader ("defined twice").
+TEST(Compat, UserFunctionsOverloadedByParameterTypes) {
+    Harness h;
+    ShadingGrid g = line(2);
+    h.surface("float twice(float x) { return 2 * x; }\n"
+              "float twice(point p) { return 2 * xcomp(p) + 10; }\n"
+              "float twice(color c, float k) { return k * comp(c, 1); }\n"
+              "surface t() {\n"
+              "  point q = point(0.1, 0, 0); float f = 0.25;\n"
+              "  Ci = color(twice(f), twice(q), twice(color(0, 3, 0), 2));\n"
+              "  Oi = color(twice(0.5), twice(P + point(1, 0, 0)) - 2 * xcomp(P), twice(s * 0 + 1));\n"
+              "}",
+              g);
+    for (int i = 0; i < 2; ++i) {
+        expectNear(g.Ci[size_t(i)], Vec3(0.5f, 10.2f, 6));
+        expectNear(g.Oi[size_t(i)], Vec3(1, 12, 2));
+    }
+    h.expectRefused("float twice(float x) { return 2 * x; }\nfloat twice(float y) { return y; }\n"
+                    "surface t() { Ci = twice(1); }",
+                    "function 'twice' is defined twice");
+    h.expectRefused("float twice(float x) { return 2 * x; }\nfloat twice(point p) { return 1; }\n"
+                    "surface t() { Ci = twice(\"a\"); }",
+                    "no version of function 'twice' takes these arguments");
+}
+
 TEST(Compat, MixedTypeFormsOfArithmeticCastsAndComparisons) {
     Harness h;
     ShadingGrid g = line(5);
