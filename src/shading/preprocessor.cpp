@@ -5,6 +5,7 @@
 
 #include "slc.h"
 
+#include <algorithm>
 #include <cctype>
 #include <filesystem>
 #include <fstream>
@@ -478,24 +479,10 @@ private:
                     k = j;
                     continue;
                 }
-                for (const Token& b : m.body) {
-                    size_t pi = 0;
-                    for (; pi < m.params.size(); ++pi)
-                        if (b.kind == Tok::Ident && b.text == m.params[pi]) break;
-                    if (pi < m.params.size()) {
-                        std::vector<Token> argEx;
-                        expand(argsv[pi], depth + 1, argEx);
-                        for (Token a : argEx) {
-                            a.lineStart = false;
-                            body.push_back(std::move(a));
-                        }
-                    } else {
-                        body.push_back(b);
-                    }
-                }
+                substitute(m, &argsv, depth, body);
                 k = j;
             } else {
-                body = m.body;
+                substitute(m, nullptr, depth, body);
             }
             for (Token& b : body) {
                 b.loc = t.loc;  // errors inside an expansion point at the use
@@ -505,6 +492,84 @@ private:
             m_active.insert(t.text);
             expand(body, depth + 1, out);
             m_active.erase(t.text);
+        }
+    }
+
+    /// The body of macro `m` with its parameters replaced by the
+    /// arguments `args` (null: an object-like macro), as cpp does: `# p`
+    /// becomes the argument's spelling as a string, `a ## b` one token
+    /// glued from both sides (arguments next to `##` unexpanded), any other
+    /// parameter its fully expanded argument. 3Delight's XSI library names
+    /// each colour's alpha `n##_a`.
+    void substitute(const Macro& m, const std::vector<std::vector<Token>>* args, int depth, std::vector<Token>& out) {
+        const std::vector<Token>& mb = m.body;
+        auto param = [&](const Token& b) -> int {
+            if (!args || b.kind != Tok::Ident) return -1;
+            for (size_t pi = 0; pi < m.params.size(); ++pi)
+                if (b.text == m.params[pi]) return int(pi);
+            return -1;
+        };
+        auto pasteAt = [&](size_t bi) { return bi + 1 < mb.size() && mb[bi].kind == Tok::Hash && mb[bi + 1].kind == Tok::Hash && !mb[bi + 1].spaceBefore; };
+        for (size_t bi = 0; bi < mb.size(); ++bi) {
+            const Token& b = mb[bi];
+            if (pasteAt(bi)) {
+                bi += 2;
+                if (bi >= mb.size() || out.empty()) {
+                    m_errs.error(b.loc, "'##' needs a token on each side");
+                    return;
+                }
+                const int pi = param(mb[bi]);
+                std::vector<Token> right = pi >= 0 ? (*args)[size_t(pi)] : std::vector<Token>{mb[bi]};
+                if (right.empty()) continue;
+                Token& left = out.back();
+                left.text = spelling(left) + spelling(right[0]);
+                classify(left);
+                for (size_t r = 1; r < right.size(); ++r) out.push_back(right[r]);
+                continue;
+            }
+            if (args && b.kind == Tok::Hash && bi + 1 < mb.size() && param(mb[bi + 1]) >= 0) {
+                Token str = b;
+                str.kind = Tok::String;
+                str.text.clear();
+                for (const Token& a : (*args)[size_t(param(mb[bi + 1]))])
+                    str.text += (str.text.empty() || !a.spaceBefore ? "" : " ") + spelling(a);
+                out.push_back(std::move(str));
+                ++bi;
+                continue;
+            }
+            const int pi = param(b);
+            if (pi < 0) {
+                out.push_back(b);
+                continue;
+            }
+            if (pasteAt(bi + 1)) {  // an argument glued on its right is not expanded
+                for (Token a : (*args)[size_t(pi)]) out.push_back(std::move(a));
+                continue;
+            }
+            std::vector<Token> argEx;
+            expand((*args)[size_t(pi)], depth + 1, argEx);
+            for (Token a : argEx) {
+                a.lineStart = false;
+                out.push_back(std::move(a));
+            }
+        }
+    }
+    /// A token as written (strings in quotes).
+    static std::string spelling(const Token& t) {
+        return t.kind == Tok::String ? "\"" + t.text + "\"" : t.text;
+    }
+    /// The kind of a token glued by `##`: a name, a number or punctuation.
+    static void classify(Token& t) {
+        const std::string& x = t.text;
+        const bool name = !x.empty() && (std::isalpha(static_cast<unsigned char>(x[0])) || x[0] == '_') &&
+                          std::all_of(x.begin(), x.end(), [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; });
+        if (name) {
+            t.kind = Tok::Ident;
+        } else if (!x.empty() && (std::isdigit(static_cast<unsigned char>(x[0])) || x[0] == '.')) {
+            t.kind = Tok::Number;
+            t.number = std::strtod(x.c_str(), nullptr);
+        } else if (t.kind != Tok::String) {
+            t.kind = Tok::Punct;
         }
     }
 

@@ -97,6 +97,26 @@ TEST(Compiler, CompileFileAndIncludes) {
     fs::remove_all(dir);
 }
 
+// cpp's token pasting and stringizing, as 3Delight's XSI shader library
+// writes each colour's alpha (`n##_a`); umbra refused `#` in a body.
+TEST(Compiler, MacrosPasteAndStringizeTheirArguments) {
+    Harness h;
+    ShadingGrid g = makeGrid(2, 1, [](float u, float) { return Vec3(u, 0, 1); });
+    h.surface("#define RGBA(n, r) color n = color(r, 0, 0); float n##_a = 0.5\n"
+              "#define STR(x) #x\n"
+              "#define GLUE(a, b) a ## b\n"
+              "#define TWICE(x) (2 * x)\n"
+              "surface t() {\n"
+              "  RGBA(c1, 0.5);\n"
+              "  string s = STR(hello);\n"
+              "  float GLUE(k, 2) = GLUE(1, 5);\n"           /* k2 = 15 */
+              "  float xy = 3; float e = TWICE(GLUE(x, y));\n"  /* TWICE(xy) = 6 */
+              "  Ci = color(comp(c1, 0) * c1_a, s == \"hello\", k2 + e);\n"
+              "}",
+              g);
+    expectNear(g.Ci[0], Vec3(0.25f, 1, 21));  // k2 + e = 15 + 6
+}
+
 // A shader in the style found in the wild: macros with arguments, nested
 // functions with output parameters, illuminance with categories, output
 // parameters, arrays, and the RI spec 3.2 idioms.
