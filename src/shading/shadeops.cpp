@@ -1327,6 +1327,15 @@ void execCall(Exec& x, const Instr& in) {
                 int per = ri.floatsPerValue();
                 std::vector<float> f(static_cast<size_t>(per), 0.f);
                 ok = ts->textureInfoFloats(A.s(0), A.s(1), per, f.data());
+                if (ok && per == 16 && (A.s(1) == "viewingmatrix" || A.s(1) == "projectionmatrix")) {
+                    // The file holds the map's camera from world space; a
+                    // shader applies it to P, in current space (Aqsis, and
+                    // the PRMan shaders that name it CurrentToShadowCamSpace).
+                    M16 fromWorld;
+                    std::copy(f.begin(), f.end(), fromWorld.m);
+                    const M16 fromCurrent = mulM(toRsl(spaceMatrix(x, "world", in).inverse()), fromWorld);
+                    std::copy(fromCurrent.m, fromCurrent.m + 16, f.begin());
+                }
                 if (ok) storeAtActive(x, out, f.data());
             }
         }

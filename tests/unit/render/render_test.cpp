@@ -292,10 +292,12 @@ TEST(Shading, TextureinfoDescribesAShadowMapAsRenderManDoes) {
     // RI Spec 3.2's textureinfo table: "type" is "shadow" for a shadow map,
     // "resolution" the map's (umbra's files store only the box of finite
     // depths: it answered that box), and "viewingmatrix" and
-    // "projectionmatrix" the camera the map was made from. Both peers
-    // answer all four; umbra answered only resolution, wrongly. The map
-    // here: fov 90 from the world origin looking down +z, 64x64, a patch
-    // covering its lower half only.
+    // "projectionmatrix" the camera the map was made from, from current
+    // space (Aqsis; shaders apply them to P). Both peers answer all four;
+    // umbra answered only resolution, wrongly. The map here: fov 90 from
+    // the world origin looking down +z, 64x64, a patch covering its lower
+    // half only; the shading camera is elsewhere, so current space is not
+    // world space.
     ScratchDir dir("textureinfo-shadow");
     Diagnostics diag;
     test::renderRib(fmt::format(R"(Format 64 64 1
@@ -313,7 +315,8 @@ MakeShadow "{0}" "{1}"
                                         "  uniform float res[2] = {0, 0}; uniform string ty = \"\"; uniform matrix vm = 0, pm = 0;\n"
                                         "  float a = textureinfo(map, \"resolution\", res), b = textureinfo(map, \"type\", ty);\n"
                                         "  float c = textureinfo(map, \"viewingmatrix\", vm), d = textureinfo(map, \"projectionmatrix\", pm);\n"
-                                        "  point q = transform(pm, point(0.5, 0.25, 2)), w = transform(vm, point(1, 2, 3));\n"
+                                        "  point q = transform(pm, transform(\"world\", \"current\", point(0.5, 0.25, 2)));\n"
+                                        "  point w = transform(vm, transform(\"world\", \"current\", point(1, 2, 3)));\n"
                                         "  if (mode == 0) Ci = color(a + b + c + d, res[0] + res[1], ty == \"shadow\");\n"
                                         "  else if (mode == 1) Ci = color(xcomp(q), ycomp(q), zcomp(q)); else Ci = color(xcomp(w), ycomp(w), zcomp(w));\n"
                                         "  Oi = 1; }\n";
