@@ -15,6 +15,7 @@
 #include <cmath>
 #include <cstdio>
 #include <ctime>
+#include <limits>
 #include <mutex>
 #include <cctype>
 #include <sstream>
@@ -181,6 +182,10 @@ public:
                 return texture(file, o, s, t, dsdx, dtdx, dsdy, dtdy, present, result);
             }))
             return filled;
+        if (known.depthMap && !(s >= known.boxS0 && s <= known.boxS1 && t >= known.boxT0 && t <= known.boxT1)) {
+            std::fill(result, result + nchannels, std::numeric_limits<float>::infinity());
+            return true;
+        }
         OIIO::TextureOpt opt = toOiio(o);
         const OIIO::ustring name(file);
         if (!(o.sblur > 0) && !(o.tblur > 0))
@@ -400,6 +405,12 @@ private:
         int width = 0, height = 0;
         std::string type = "texture";
         std::vector<float> viewing, projection;
+        // umbra's depth maps store only the box of their finite depths:
+        // outside it (in s, t of the whole map) nothing was rendered, and a
+        // texture() lookup reads +infinity, as Aqsis gives (OpenImageIO
+        // would read 0, a surface at the light).
+        bool depthMap = false;
+        float boxS0 = 0, boxS1 = 1, boxT0 = 0, boxT1 = 1;
     };
     FileFacts facts(const std::string& file) {
         std::lock_guard<std::mutex> lock(m_mutex);
@@ -428,6 +439,13 @@ private:
         f.width = spec.full_width > 0 ? spec.full_width : spec.width;
         f.height = spec.full_height > 0 ? spec.full_height : spec.height;
         const std::string format = spec.get_string_attribute("textureformat");
+        if (spec.extra_attribs.contains("umbra:projection") && f.width > 0 && f.height > 0) {
+            f.depthMap = true;
+            f.boxS0 = float(spec.x - spec.full_x) / float(f.width);
+            f.boxS1 = float(spec.x - spec.full_x + spec.width) / float(f.width);
+            f.boxT0 = float(spec.y - spec.full_y) / float(f.height);
+            f.boxT1 = float(spec.y - spec.full_y + spec.height) / float(f.height);
+        }
         if (spec.extra_attribs.contains("umbra:projection") || format == "Shadow") f.type = "shadow";
         else if (format.find("Environment") != std::string::npos) f.type = "environment";
         auto matrix = [&](const char* name, std::vector<float>* out) {

@@ -318,15 +318,24 @@ MakeShadow "{0}" "{1}"
                                         "  point q = transform(pm, transform(\"world\", \"current\", point(0.5, 0.25, 2)));\n"
                                         "  point w = transform(vm, transform(\"world\", \"current\", point(1, 2, 3)));\n"
                                         "  if (mode == 0) Ci = color(a + b + c + d, res[0] + res[1], ty == \"shadow\");\n"
-                                        "  else if (mode == 1) Ci = color(xcomp(q), ycomp(q), zcomp(q)); else Ci = color(xcomp(w), ycomp(w), zcomp(w));\n"
+                                        "  else if (mode == 1) Ci = color(xcomp(q), ycomp(q), zcomp(q));\n"
+                                        "  else if (mode == 2) Ci = color(xcomp(w), ycomp(w), zcomp(w));\n"
+                                        "  else Ci = color(float texture(map, 0.5, 0.9), float texture(map, 0.5, 0.1) > 1e30, 0);\n"
                                         "  Oi = 1; }\n";
-    for (int mode : {0, 1, 2}) {
+    // Mode 3: texture() reads the depth where the map holds one, and
+    // +infinity where nothing was rendered (Aqsis; 0 was read there, the
+    // box of finite depths being all the file stores), so contact-shadow
+    // shaders that read depth maps see no surface there.
+    for (int mode : {0, 1, 2, 3}) {
         const Image img = renderWithShaders(
             dir, "", fmt::format("Surface \"ti\" \"map\" \"{}\" \"mode\" {} Patch \"bilinear\" \"P\" [-2 -2 0  2 -2 0  -2 2 0  2 2 0]",
                                  dir.file("map.shd"), mode),
             diag);
         EXPECT_EQ(diag.errorCount(), 0);
-        const Vec3 expected = mode == 0 ? Vec3(4, 128, 1) : mode == 1 ? Vec3(0.25f, 0.125f, 0) : Vec3(1, 2, 3);
+        const Vec3 expected = mode == 0   ? Vec3(4, 128, 1)
+                              : mode == 1 ? Vec3(0.25f, 0.125f, 0)
+                              : mode == 2 ? Vec3(1, 2, 3)
+                                          : Vec3(2, 1, 0);
         EXPECT_NEAR(img.at(32, 32, 0), expected.x, 1e-5f) << mode;
         EXPECT_NEAR(img.at(32, 32, 1), expected.y, 1e-5f) << mode;
         if (mode != 1) EXPECT_NEAR(img.at(32, 32, 2), expected.z, 1e-5f) << mode;
