@@ -282,6 +282,19 @@ bool Services::option(const std::string& name, shading::ShadeValue* out) {
         out->floats = {o.nearClip, o.farClip};
         return true;
     }
+    // The rest of RI Spec 3.2's table of option() names.
+    if (name == "CropWindow") {
+        out->floats.assign(o.cropWindow, o.cropWindow + 4);
+        return true;
+    }
+    if (name == "DepthOfField") {
+        out->floats = {o.fstop, o.focalLength, o.focalDistance};
+        return true;
+    }
+    if (name == "Shutter") {
+        out->floats.assign(o.shutter, o.shutter + 2);
+        return true;
+    }
     if (name == "PixelSamples") {
         out->floats = {float(o.pixelSamples[0]), float(o.pixelSamples[1])};
         return true;

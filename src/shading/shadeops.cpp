@@ -370,7 +370,18 @@ std::string formatString(Exec& x, Args& A, int first, int i) {
             return std::string(buf);
         };
         if (t == Ty::String) {
-            out += x.strs[size_t(r)][0];
+            // With C's width and precision ("%-8s", "%.2s"); the string
+            // itself may be longer than the buffer, so it is padded here.
+            const std::string& str = x.strs[size_t(r)][0];
+            const size_t dot = flags.find('.');
+            const bool left = flags.find('-') != std::string::npos;
+            std::string digits = flags.substr(1, dot == std::string::npos ? std::string::npos : dot - 1);
+            digits.erase(0, digits.find_first_of("123456789"));
+            const size_t width = digits.empty() ? 0 : std::strtoul(digits.c_str(), nullptr, 10);
+            const size_t precision = dot == std::string::npos ? str.size() : std::strtoul(flags.c_str() + dot + 1, nullptr, 10);
+            const std::string shown = str.substr(0, precision);
+            const std::string pad(width > shown.size() ? width - shown.size() : 0, ' ');
+            out += left ? shown + pad : pad + shown;
         } else if (t == Ty::Float) {
             float v = In<float>{x.ptr[size_t(r)], x.vary[size_t(r)]}[i];
             if (c == 'd' || c == 'i') {
@@ -841,35 +852,25 @@ void setResult(Exec& x, const Instr& in, float v) {
 
 void noise(Exec& x, const Instr& in, Args& A, int dims, bool triple, bool periodic, bool cell) {
     float* d = x.ptr[size_t(in.dst)];
-    // Argument layout: 1: f; 2: f f; 3: p; 4: p f. Periodic forms add a
-    // period after each position argument.
-    bool pFirst = dims >= 3;
+    // Argument layout: 1: f; 2: f f; 3: p; 4: p f. Periodic forms then
+    // give the periods in the same layout (RI Spec 3.2: pnoise(u, v,
+    // uperiod, vperiod), pnoise(P, t, Pperiod, tperiod)).
+    const bool pFirst = dims >= 3;
+    const int positions = dims == 2 || dims == 4 ? 2 : 1;
     forActive(x, x.vary[size_t(in.dst)], [&](int i) {
         float p[4] = {0, 0, 0, 0}, per[4] = {0, 0, 0, 0};
-        int k = 0;
-        if (pFirst) {
-            Vec3 v = A.v(k++)[i];
-            p[0] = v.x;
-            p[1] = v.y;
-            p[2] = v.z;
-            if (periodic) {
-                Vec3 pp = A.v(k++)[i];
-                per[0] = pp.x;
-                per[1] = pp.y;
-                per[2] = pp.z;
+        auto read = [&](int k, float* into) {
+            if (pFirst) {
+                const Vec3 v = A.v(k)[i];
+                into[0] = v.x, into[1] = v.y, into[2] = v.z;
+                if (dims == 4) into[3] = A.f(k + 1)[i];
+            } else {
+                into[0] = A.f(k)[i];
+                if (dims == 2) into[1] = A.f(k + 1)[i];
             }
-            if (dims == 4) {
-                p[3] = A.f(k++)[i];
-                if (periodic) per[3] = A.f(k++)[i];
-            }
-        } else {
-            p[0] = A.f(k++)[i];
-            if (periodic) per[0] = A.f(k++)[i];
-            if (dims == 2) {
-                p[1] = A.f(k++)[i];
-                if (periodic) per[1] = A.f(k++)[i];
-            }
-        }
+        };
+        read(0, p);
+        if (periodic) read(positions, per);
         if (!triple) {
             d[i] = cell ? cellNoise(p, dims, 0) : gradientNoise(p, dims, periodic ? per : nullptr, 0);
         } else {

@@ -13,13 +13,13 @@ namespace umbra::shading {
 void execCall(Exec& x, const Instr& in);  // shadeops.cpp
 
 namespace {
-// The loop budget of one shader run on one grid: 2^16 iterations of all
+// The loop budget of one shader run on one grid: 2^18 iterations of all
 // its loops together, whatever the grid's size. Ray-marching shaders take
 // tens of thousands of steps a point (Advanced RenderMan's cellclouds:
-// 20,000; Pixie and Aqsis run them to the end), and a loop that never ends
-// is stopped instead of hanging the render. It depends on nothing but the
-// shader: images stay deterministic.
-constexpr int64_t kLoopIterations = int64_t(1) << 16;
+// 20,000), a shader several such loops; Pixie and Aqsis run them to the
+// end. A loop that never ends is stopped instead of hanging the render. It
+// depends on nothing but the shader: images stay deterministic.
+constexpr int64_t kLoopIterations = int64_t(1) << 18;
 }  // namespace
 
 namespace {

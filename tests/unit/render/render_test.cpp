@@ -288,6 +288,32 @@ TEST(Shading, ArrayResultsOfOptionAreStoredPerPointUnderAVaryingCondition) {
         }
 }
 
+TEST(Shading, OptionAnswersEveryNameOfTheSpecsTable) {
+    // RI Spec 3.2's option() names include CropWindow, DepthOfField and
+    // Shutter; umbra answered none of them (0, the variable untouched),
+    // where Aqsis gives the values set.
+    ScratchDir dir("option-names");
+    std::ofstream(dir.file("opts.sl")) << "surface opts(float mode = 0) {\n"
+                                          "  uniform float crop[4] = {0, 0, 0, 0}, dof[3] = {0, 0, 0}, sh[2] = {0, 0};\n"
+                                          "  float a = option(\"CropWindow\", crop), b = option(\"DepthOfField\", dof);\n"
+                                          "  float c = option(\"Shutter\", sh);\n"
+                                          "  if (mode == 0) Ci = color(a + b + c, crop[0] + crop[1], crop[2] + crop[3]);\n"
+                                          "  else if (mode == 1) Ci = color(dof[0], dof[1], dof[2]);\n"
+                                          "  else Ci = color(sh[0], sh[1], 0);\n"
+                                          "  Oi = 1; }\n";
+    for (int mode : {0, 1, 2}) {
+        Diagnostics diag;
+        const Image img = renderWithShaders(
+            dir, "CropWindow 0 1 0 1\nDepthOfField 22 0.05 7\nShutter 0.25 0.75\n",
+            fmt::format("Surface \"opts\" \"mode\" {} Patch \"bilinear\" \"P\" [-2 -2 0  2 -2 0  -2 2 0  2 2 0]", mode), diag);
+        EXPECT_EQ(diag.errorCount(), 0);
+        const Vec3 expected = mode == 0 ? Vec3(3, 1, 1) : mode == 1 ? Vec3(22, 0.05f, 7) : Vec3(0.25f, 0.75f, 0);
+        EXPECT_NEAR(img.at(32, 32, 0), expected.x, 1e-5f) << mode;
+        EXPECT_NEAR(img.at(32, 32, 1), expected.y, 1e-5f) << mode;
+        EXPECT_NEAR(img.at(32, 32, 2), expected.z, 1e-5f) << mode;
+    }
+}
+
 TEST(Shading, TextureinfoDescribesAShadowMapAsRenderManDoes) {
     // RI Spec 3.2's textureinfo table: "type" is "shadow" for a shadow map,
     // "resolution" the map's (umbra's files store only the box of finite
