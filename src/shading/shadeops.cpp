@@ -1100,6 +1100,12 @@ void execCall(Exec& x, const Instr& in) {
     case Bi::CTransformFT: {
         bool ft = Bi(in.sub) == Bi::CTransformFT;
         std::string from = ft ? A.s(0) : "rgb", to = A.s(ft ? 1 : 0);
+        for (const std::string& space : {from, to}) {
+            Vec3 probe;
+            if (!colorToRgb(space, Vec3(0.f), &probe))
+                x.ctx->system->diagnostics().warningOnce("shading:color:" + space, FileLoc::inFile(x.cs->fileName, in.loc.line, in.loc.col),
+                                                         "unknown color space '{}' (taken as \"rgb\")", space);
+        }
         map(x, dst, [&](const Vec3& c) {
             Vec3 rgb = c, r = c;
             colorToRgb(from, c, &rgb);

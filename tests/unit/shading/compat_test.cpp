@@ -461,6 +461,17 @@ TEST(Compat, UserFunctionsOverloadedByParameterTypes) {
                     "no version of function 'twice' takes these arguments");
 }
 
+// An unknown colour space in ctransform() was taken as rgb without a word
+// (Pixie warns); a colour cast already warned.
+TEST(Compat, CtransformWarnsOfAnUnknownColourSpace) {
+    Harness h;
+    ShadingGrid g = line(2);
+    h.surface("surface t() { Ci = ctransform(\"foo\", color(0.2, 0.4, 0.6)) + ctransform(\"hsv\", \"rgb\", color(0, 0, 0)); }", g);
+    expectNear(g.Ci[0], Vec3(0.2f, 0.4f, 0.6f));
+    EXPECT_NE(h.messages().find("unknown color space 'foo'"), std::string::npos) << h.messages();
+    EXPECT_EQ(h.messages().find("unknown color space 'hsv'"), std::string::npos) << h.messages();
+}
+
 TEST(Compat, MixedTypeFormsOfArithmeticCastsAndComparisons) {
     Harness h;
     ShadingGrid g = line(5);
