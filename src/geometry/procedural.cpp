@@ -248,7 +248,11 @@ bool ProceduralContext::runProgram(const std::string& command, const std::string
     for (size_t sent = 0; sent < request.size();) {
         const ssize_t n = send(program->in, request.data() + sent, request.size() - sent, MSG_NOSIGNAL);
         if (n < 0 && errno == EINTR) continue;
-        if (n <= 0) return fail("stopped reading its input");
+        if (n <= 0) {
+            const std::string ending = program->ending();
+            return fail(ending.empty() ? std::string("stopped reading its input")
+                                       : fmt::format("{} before reading its request", ending));
+        }
         sent += size_t(n);
     }
     // Read up to the 0xFF that ends an answer, within the time budget.
