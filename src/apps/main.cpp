@@ -27,6 +27,7 @@
 #include <CLI/CLI.hpp>
 
 #include <cstring>
+#include <exception>
 #include <new>
 #include <string>
 #include <vector>
@@ -181,6 +182,11 @@ int main(int argc, char** argv) {
     } catch (const std::bad_alloc&) {
         fmt::print(stderr, "umbra: out of memory: the frame needs more memory than this machine has "
                            "(check Format, PixelSamples and shadowmapsize)\n");
+    } catch (const std::exception& e) {
+        // A fault of umbra's own: reported, not an abort (and never a
+        // hang: the bucket scheduler publishes a node however its work ends).
+        fmt::print(stderr, "umbra: internal error: {}; the render stopped (please report it with the input)\n",
+                   e.what());
     }
     return 1;
 }

@@ -228,9 +228,23 @@ struct Frame {
         int r = node.resolution.load(std::memory_order_acquire);
         if (r == Node::kUnresolved &&
             node.resolution.compare_exchange_strong(r, Node::kResolving, std::memory_order_acq_rel)) {
-            resolve(node, stats);
-            node.resolution.store(Node::kResolved, std::memory_order_release);
-            node.resolution.notify_all();
+            // Published however resolve() ends: a thread waiting for this
+            // node would otherwise wait for ever when it throws (an error
+            // escaping a bucket hung a two-thread render instead of
+            // reporting it).
+            struct Publish {
+                Node& node;
+                ~Publish() {
+                    node.resolution.store(Node::kResolved, std::memory_order_release);
+                    node.resolution.notify_all();
+                }
+            } publish{node};
+            try {
+                resolve(node, stats);
+            } catch (...) {
+                node.state = Node::State::Culled;
+                throw;
+            }
             return true;
         }
         return node.resolution.load(std::memory_order_acquire) == Node::kResolved;

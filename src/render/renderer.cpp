@@ -303,15 +303,20 @@ struct Renderer::Impl {
             pa.surface = instance(a->surface, shading::ShaderKind::Surface);
             pa.displacement = instance(a->displacement, shading::ShaderKind::Displacement);
             pa.atmosphere = instance(a->atmosphere, shading::ShaderKind::Volume);
-            if (a->hasDetail) {
-                // Every pass draws what the camera's view chooses, so a
-                // shadow is cast by the representation that is seen.
-                const scene::Options& o = frame.world->options;
-                const float detail = rasterDetail(a->detailCorners, hider::Camera::fromOptions(o), o.relativeDetail);
-                std::tie(pa.dissolveFrom, pa.dissolveBelow) = dissolveWindow(detail, a->detailRange);
-            }
+            chooseDetail(frame, pa);
             frame.attributes.emplace(a, std::move(pa));
         }
+    }
+
+    /// The level-of-detail window of an attribute set with a Detail. Every
+    /// pass draws what the camera's view chooses, so a shadow is cast by the
+    /// representation that is seen.
+    static void chooseDetail(const FrameState& frame, PreparedAttributes& pa) {
+        const scene::Attributes& a = *pa.attributes;
+        if (!a.hasDetail) return;
+        const scene::Options& o = frame.world->options;
+        const float detail = rasterDetail(a.detailCorners, hider::Camera::fromOptions(o), o.relativeDetail);
+        std::tie(pa.dissolveFrom, pa.dissolveBelow) = dissolveWindow(detail, a.detailRange);
     }
 
     /// Gives every attribute set the lights that illuminate it.
@@ -639,11 +644,12 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     if (options.cameraMotion) detailCamera.cameraFromWorld = options.cameraMotion->at(frame.shutterOpen);
     auto procedurals = std::make_shared<geometry::ProceduralContext>(
         world, detailCamera.cameraFromWorld, detailCamera.rasterFromCamera(), detailCamera.perspective, diag);
-    frame.prepareLate = [this](PreparedAttributes& pa) {
+    frame.prepareLate = [this, &frame](PreparedAttributes& pa) {
         const scene::Attributes& a = *pa.attributes;
         if (a.surface) pa.surface = shading->instantiate(*a.surface, shading::ShaderKind::Surface);
         if (a.displacement) pa.displacement = shading->instantiate(*a.displacement, shading::ShaderKind::Displacement);
         if (a.atmosphere) pa.atmosphere = shading->instantiate(*a.atmosphere, shading::ShaderKind::Volume);
+        chooseDetail(frame, pa);
     };
 
     // Subdivision meshes dice their regular regions in blocks only where no

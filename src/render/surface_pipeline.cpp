@@ -248,7 +248,8 @@ dice::DiceParams SurfacePipeline::diceParams(const geometry::Primitive& prim) co
 bool SurfacePipeline::takesPart(const scene::Attributes& attrs) const {
     if (!(m_pass.depthOnly ? attrs.castsShadows : attrs.visibleToCamera)) return false;
     if (!attrs.hasDetail) return true;
-    const PreparedAttributes& pa = m_frame.attributes.at(&attrs);
+    // Attribute sets a procedural made while a pass ran are prepared late.
+    const PreparedAttributes& pa = m_frame.prepared(attrs);
     return pa.dissolveBelow > pa.dissolveFrom;  // some level of detail draws it
 }
 

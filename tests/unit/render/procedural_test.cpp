@@ -159,6 +159,29 @@ TEST(DelayedReadArchive, RenderMan19sProcedural2FormDrawsTheSame) {
     expectSamePixels(a, b);
 }
 
+TEST(DelayedReadArchive, UnderADetailItsOwnAttributesAreChosenLikeTheWorlds) {
+    // Pixar's level-of-detail set-up: Detail, then a DelayedReadArchive
+    // whose archive sets its own Color before its sphere. The archive's
+    // attribute set, made while a pass ran, had no level of detail chosen:
+    // one thread aborted (map::at), two hung for ever. RI Spec 3.2's
+    // default detail range draws it at every detail.
+    ScratchDir dir("dra_detail");
+    writeFile(dir.file("cs.rib"), "Color [1 0 0]\nSphere 0.8 -0.8 0.8 360\n");
+    const std::string viaDetail = fmt::format(
+        "Detail [-1 1 -1 1 -1 1]\nProcedural \"DelayedReadArchive\" [\"{}\"] [-1 1 -1 1 -1 1]", dir.file("cs.rib"));
+    const std::string inlined = "AttributeBegin Color [1 0 0] Sphere 0.8 -0.8 0.8 360 AttributeEnd";
+    for (int threads : {1, 2}) {
+        Diagnostics d1, d2;
+        test::renderRib(shadowedFrame(dir.file("a.exr"), viaDetail, "", false), d1, threads);
+        test::renderRib(shadowedFrame(dir.file("b.exr"), inlined, "", false), d2, threads);
+        EXPECT_EQ(d1.errorCount(), 0);
+        Image a, b;
+        ASSERT_TRUE(test::readImage(dir.file("a.exr"), &a));
+        ASSERT_TRUE(test::readImage(dir.file("b.exr"), &b));
+        expectSamePixels(a, b);
+    }
+}
+
 TEST(DelayedReadArchive, BoundOffScreenIsNeverRead) {
     // Not RIB at all: reading it would report errors. Its bound lies
     // beside the view and behind the camera (and out of the light's view),
