@@ -1235,6 +1235,19 @@ void Builder::relativeDetail(float v, const FileLoc& loc) {
 void Builder::attribute(const std::string& name, ri::ParamList params, const FileLoc& loc) {
     for (const ri::Param& p : params.params()) {
         const std::string& pn = p.decl.name;
+        // A primitive's data after an Attribute (an exporter that lost the
+        // primitive request: the LEGO brick exporter writes "P", "N" and
+        // "facevarying float[2] uv0" after Attribute "identifier"): no
+        // attribute takes a value per vertex. Pixie and Aqsis say so too.
+        static const char* const kVertexData[] = {"P", "Pw", "Pz", "N", "Np", "Cs", "Os", "st", "s", "t"};
+        const bool perVertex = p.decl.storage != ri::StorageClass::Constant && p.decl.storage != ri::StorageClass::Uniform;
+        if (perVertex || std::find(std::begin(kVertexData), std::end(kVertexData), pn) != std::end(kVertexData)) {
+            m_diag.warningOnce("attribute-vertexdata:" + name + ":" + pn, p.loc,
+                               "Attribute \"{}\": \"{}\" is a primitive's data, not an attribute (ignored; is a "
+                               "primitive request missing before it?)",
+                               name, pn);
+            continue;
+        }
         if (name == "displacementbound" && pn == "sphere") {
             float r = params.getFloat(pn, 0);
             if (!(r >= 0)) {

@@ -682,5 +682,23 @@ TEST(Builder, AWorldInsideAnAttributeOrTransformBlockIsRenderedWithAWarning) {
         "Pixie and Aqsis refuse this world, umbra renders it)"}));
 }
 
+TEST(Builder, APrimitivesDataAfterAnAttributeIsWarnedNotKept) {
+    // The LEGO brick exporter writes "P", "N" and a facevarying "uv0" after
+    // Attribute "identifier", its primitive request lost: umbra kept them as
+    // user attributes without a word (Pixie and Aqsis warn).
+    auto r = run("WorldBegin\nAttribute \"identifier\" \"name\" [\"brick\"]\n  \"P\" [0 0 0 1 0 0 1 1 0]\n"
+                 "  \"facevarying float[2] uv0\" [0 0 1 0 1 1]\nAttribute \"user\" \"float k\" [2]\nSphere 1 -1 1 360\nWorldEnd\n");
+    ASSERT_EQ(r->sink.worlds.size(), 1u);
+    const Attributes& a = *r->sink.worlds[0].primitives.at(0).attributes;
+    EXPECT_EQ(a.name, "brick");
+    EXPECT_EQ(a.user.count("identifier:P"), 0u);
+    EXPECT_EQ(a.user.count("user:k"), 1u);
+    EXPECT_EQ(r->messages(), (std::vector<std::string>{
+        "s.rib:3:3: warning: Attribute \"identifier\": \"P\" is a primitive's data, not an attribute (ignored; is a "
+        "primitive request missing before it?)",
+        "s.rib:4:3: warning: Attribute \"identifier\": \"uv0\" is a primitive's data, not an attribute (ignored; is a "
+        "primitive request missing before it?)"}));
+}
+
 }  // namespace
 }  // namespace umbra::scene
