@@ -231,14 +231,23 @@ bool Quadric::shapeFromRecord(const scene::PrimitiveRecord& rec, QuadricShape* s
         s->thetaMax = radians(angle("thetamax", a[2]));
     } else if (t == "Paraboloid") {
         if (!expect(4, "rmax zmin zmax thetamax")) return false;
-        if (a[2] == 0 || a[1] / a[2] < 0) {
-            diag.error(rec.loc, "Paraboloid: zmin and zmax must lie on the same side of 0 and zmax must not be 0, got zmin {} zmax {}",
+        if (a[2] == 0) {
+            diag.error(rec.loc, "Paraboloid: zmax must not be 0 (the radius is rmax at zmax), got zmin {} zmax {}",
                        a[1], a[2]);
             return false;
         }
+        float z0 = a[1];
+        if (z0 / a[2] < 0) {
+            // Past 0 the radius rmax sqrt(z / zmax) is not real: the surface
+            // is the part from 0 to zmax, as Pixie and Aqsis draw it.
+            diag.warningOnce(fmt::format("paraboloid:{}", rec.loc.str()), rec.loc,
+                             "Paraboloid: zmin {} lies past 0 from zmax {}; drawn from 0 (the radius is not real "
+                             "beyond)", a[1], a[2]);
+            z0 = 0;
+        }
         s->kind = QuadricKind::Paraboloid;
         s->radius = a[0];
-        s->z0 = a[1];
+        s->z0 = z0;
         s->z1 = a[2];
         s->paraZMax = a[2];
         s->thetaMax = radians(angle("thetamax", a[3]));

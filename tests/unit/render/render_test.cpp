@@ -68,6 +68,17 @@ TEST(Coverage, SphereMatchesProjectedDisk) {
     EXPECT_NEAR(area, M_PI * r * r, 0.005 * M_PI * r * r);
 }
 
+TEST(Coverage, ParaboloidFromBelowZeroIsDrawnFromZero) {
+    // Paraboloid 1 -0.5 1 360: past z = 0 the radius sqrt(z / zmax) is not
+    // real; Pixie and Aqsis draw the bowl from 0 to zmax, umbra refused the
+    // whole primitive. Seen down its axis it covers the disc of rmax. The
+    // side view (rotated onto the picture plane) covers the closed form
+    // integral of 2 sqrt(z) over [0, 1], 4/3.
+    EXPECT_NEAR(renderCoverage("Paraboloid 1 -0.5 1 360", "paraboloid-down"), M_PI, 0.005 * M_PI);
+    EXPECT_NEAR(renderCoverage("Rotate -90 1 0 0 Translate 0 0 -0.5 Paraboloid 1 -0.5 1 360", "paraboloid-side"),
+                4.0 / 3.0, 0.01 * 4.0 / 3.0);
+}
+
 TEST(Coverage, DiskMatchesClosedForm) {
     const double r = 1.2;
     double area = renderCoverage("Disk 0 1.2 360", "disk");
