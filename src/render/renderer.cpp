@@ -437,6 +437,8 @@ void Renderer::Impl::runImager(const FrameState& frame, const Pass& pass, const 
             g.alpha.resize(size_t(width));
             g.renderState = &state;
             g.seed = uint32_t(y);
+            g.time = frame.shutterOpen;
+            g.dtime = frame.shutterClose - frame.shutterOpen;
             for (int i = 0; i < width; ++i) {
                 const float* px = film.rgba(layer, film.x0() + i, y);
                 const Vec3 p(float(film.x0() + i) + 0.5f, float(y) + 0.5f, 0.0f);

@@ -385,6 +385,8 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
         sg.flipNormals = flip;  // before bind(), which makes Ng
         sg.nearClip = cam.nearClip;  // depth() is 0 at the near clipping plane, 1 at the far
         sg.farClip = cam.farClip;
+        sg.time = m_frame.shutterOpen;  // grids are shaded at the shutter's opening
+        sg.dtime = m_frame.shutterClose - m_frame.shutterOpen;
         sg.bind(g, attrs.color, attrs.opacity, cam.perspective);
         sg.seed = hashKeys(m_frame.frameSeed, uint32_t(id), uint32_t(id >> 32));
         sg.renderState = &state;

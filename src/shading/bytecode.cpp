@@ -48,6 +48,7 @@ void operands(const CompiledShader& cs, const Instr& in, std::vector<int>* reads
     if (in.op == Op::IllumNext) {
         writes->push_back(cs.globalRegs[gL]);
         writes->push_back(cs.globalRegs[gCl]);
+        if (cs.globalRegs[gOl] >= 0) writes->push_back(cs.globalRegs[gOl]);
     }
     if (in.op == Op::Illuminate || in.op == Op::Solar) writes->push_back(cs.globalRegs[gL]);
 }

@@ -146,12 +146,17 @@ const GlobalDef kGlobals[] = {
     {"Cl", gCl, Ty::Color, true},   {"Ol", gOl, Ty::Color, true},   {"Ps", gPs, Ty::Point, true},
     {"ncomps", gNcomps, Ty::Float, false}, {"time", gTime, Ty::Float, false}, {"alpha", gAlpha, Ty::Float, true},
     {"Ns", gNs, Ty::Normal, true},
+    // The shutter's length and P's motion over it (RI Spec 3.2, tables
+    // 12.1-12.5). umbra shades a grid once, at the shutter's opening:
+    // dPdtime is 0 (PRMan's value for a still grid).
+    {"dtime", gDtime, Ty::Float, false},  {"dPdtime", gDPdtime, Ty::Vector, false},
 };
 
 bool globalVisible(ShaderKind k, GlobalId g) {
     switch (k) {
     case ShaderKind::Surface:
-        return g != gPs && g != gOl && g != gAlpha && g != gNs;
+        // Ol: the light's opacity inside illuminance (RI Spec 3.2, table 12.1).
+        return g != gPs && g != gAlpha && g != gNs;
     case ShaderKind::Light:
         // Ns: the surface point's normal (PRMan, Pixie and Aqsis give it).
         // I is the surface's incident vector (the surface point's Ps - E),
@@ -164,13 +169,13 @@ bool globalVisible(ShaderKind k, GlobalId g) {
         // L, Cl and Ol inside illuminance (RI Spec 3.2 section 13.3): a lit
         // atmosphere marches along I and gathers the lights at each step.
         return g == gP || g == gI || g == gCi || g == gOi || g == gE || g == gNcomps || g == gTime || g == gL ||
-               g == gCl || g == gOl;
+               g == gCl || g == gOl || g == gDtime || g == gDPdtime;
     case ShaderKind::Imager:
         // P is the pixel's raster position (x, y, 0). Aqsis's compiler
         // also accepts s and t in imagers (its filmgrain reads them);
         // umbra gives them P's x and y.
         return g == gP || g == gCi || g == gOi || g == gAlpha || g == gS || g == gT || g == gE || g == gNcomps ||
-               g == gTime;
+               g == gTime || g == gDtime;
     }
     return true;
 }

@@ -291,7 +291,7 @@ struct CtlCtx {
 /// Shader globals.
 enum GlobalId : int {
     gP, gN, gNg, gI, gE, gS, gT, gU, gV, gDu, gDv, gDPdu, gDPdv, gCs, gOs, gCi, gOi, gL, gCl, gOl, gPs,
-    gNcomps, gTime, gAlpha, gNs, gGlobalCount
+    gNcomps, gTime, gAlpha, gNs, gDtime, gDPdtime, gGlobalCount
 };
 
 /// The output of the compiler for one shader.

@@ -192,6 +192,7 @@ void Exec::setup(const CompiledShader& code, const ShaderInstance* instance, Sha
     setU(gDu, g.du);
     setU(gDv, g.dv);
     setU(gTime, g.time);
+    setU(gDtime, g.dtime);
     setU(gNcomps, 3);
     if (int r = code.globalRegs[gE]; r >= 0) put(ptr[size_t(r)], 0, g.E);
     if (int r = code.globalRegs[gOl]; r >= 0) {
@@ -626,7 +627,7 @@ void illumNext(Exec& x, const Instr& in, int* pc) {
     Exec::Illum& il = x.illum.back();
     auto& lights = x.ctx->lights;
     const std::vector<uint8_t>& loop = x.frames[size_t(x.depth)];
-    int Lreg = x.cs->globalRegs[gL], Clreg = x.cs->globalRegs[gCl];
+    int Lreg = x.cs->globalRegs[gL], Clreg = x.cs->globalRegs[gCl], Olreg = x.cs->globalRegs[gOl];
     for (; il.next < int(lights.size()); ++il.next) {
         const LightRun& lr = lights[size_t(il.next)];
         if (lr.ambient) continue;
@@ -642,6 +643,12 @@ void illumNext(Exec& x, const Instr& in, int* pc) {
         bool any = false;
         float* Ld = x.ptr[size_t(Lreg)];
         float* Cd = x.ptr[size_t(Clreg)];
+        // Ol, the light's opacity (RI Spec 3.2, table 12.1), where the shader
+        // reads it.
+        float* Od = Olreg >= 0 ? x.ptr[size_t(Olreg)] : nullptr;
+        const int lightOl = Od && lr.exec ? lr.exec->cs->globalRegs[gOl] : -1;
+        const In<Vec3> Ol = lightOl >= 0 ? In<Vec3>{lr.exec->ptr[size_t(lightOl)], lr.exec->vary[size_t(lightOl)]}
+                                         : In<Vec3>{nullptr, 0};
         const ConeOf coneOf(cone, axis, angle);
         for (int i = 0; i < x.n; ++i) {
             if (!loop[size_t(i)] || !lr.lit(i)) continue;
@@ -651,6 +658,7 @@ void illumNext(Exec& x, const Instr& in, int* pc) {
             any = true;
             put(Ld, i, L);
             put(Cd, i, lr.Cl(i));
+            if (Od) put(Od, i, lightOl >= 0 ? Ol[i] : Vec3(0.f));
         }
         if (!any) {
             --x.depth;

@@ -124,7 +124,8 @@ public:
     // Uniform globals.
     float du = 0, dv = 0;
     Vec3 E{0, 0, 0};
-    float time = 0;
+    /// The shutter's opening (where a grid is shaded) and its length.
+    float time = 0, dtime = 0;
     /// Camera-space z of the near and far clipping planes, for depth().
     float nearClip = 1e-10f, farClip = 1e30f;
     /// True when the primitive's orientation is left-handed, so that

@@ -325,6 +325,32 @@ TEST(Shading, OptionAnswersEveryNameOfTheSpecsTable) {
     }
 }
 
+TEST(Shading, TimeIsTheShutterOpeningAndLightsGiveTheirOpacity) {
+    // RI Spec 3.2, tables 12.1-12.5: time is the shutter's opening (umbra
+    // shades there; it gave 0 under Shutter 0.25 0.75, Pixie and Aqsis
+    // 0.25), dtime its length, dPdtime P's motion (0 for a still grid; the
+    // compiler refused both names); Ol inside illuminance is the light's
+    // opacity (refused; Pixie gives the light's).
+    ScratchDir dir("time-globals");
+    std::ofstream(dir.file("tm.sl")) << "surface tm(float mode = 0) {\n"
+                                        "  color o = 0; illuminance(P) o += Ol;\n"
+                                        "  if (mode == 0) Ci = color(time, dtime, length(dPdtime)); else Ci = o;\n"
+                                        "  Oi = 1; }\n";
+    std::ofstream(dir.file("ol.sl")) << "light ol() { solar(vector(0, 0, 1), 0) { Cl = 1; Ol = color(0.25, 0.5, 0.75); } }\n";
+    for (int mode : {0, 1}) {
+        Diagnostics diag;
+        const Image img = renderWithShaders(
+            dir, "Shutter 0.25 0.75\n",
+            fmt::format("LightSource \"ol\" 1 Surface \"tm\" \"mode\" {} Patch \"bilinear\" \"P\" [-2 -2 0  2 -2 0  -2 2 0  2 2 0]", mode),
+            diag);
+        EXPECT_EQ(diag.errorCount(), 0);
+        const Vec3 expected = mode == 0 ? Vec3(0.25f, 0.5f, 0) : Vec3(0.25f, 0.5f, 0.75f);
+        EXPECT_NEAR(img.at(32, 32, 0), expected.x, 1e-6f) << mode;
+        EXPECT_NEAR(img.at(32, 32, 1), expected.y, 1e-6f) << mode;
+        EXPECT_NEAR(img.at(32, 32, 2), expected.z, 1e-6f) << mode;
+    }
+}
+
 TEST(Shading, TextureinfoDescribesAShadowMapAsRenderManDoes) {
     // RI Spec 3.2's textureinfo table: "type" is "shadow" for a shadow map,
     // "resolution" the map's (umbra's files store only the box of finite
