@@ -829,6 +829,14 @@ void makeSubdivisionMesh(const RecordPtr& rec, Diagnostics& diag, std::vector<Pr
     // that influence it, which are among the vertices of the faces around
     // its corners (its one-ring).
     const osd::Far::TopologyLevel& level = mesh->refiner->GetLevel(0);
+    // Faces at a non-manifold edge or vertex have no limit surface and draw
+    // nothing (Pixie and Aqsis drop such meshes too; Aqsis says where).
+    int nonManifold = 0;
+    for (int e = 0; e < level.GetNumEdges(); ++e) nonManifold += level.IsEdgeNonManifold(e) ? 1 : 0;
+    if (nonManifold > 0)
+        diag.warning(rec->loc, "{}: {} edge{} shared by more than two faces (non-manifold); the faces there have no "
+                               "limit surface and are not drawn",
+                     what, nonManifold, nonManifold == 1 ? " is" : "s are");
     mesh->faceRingBound.resize(nverts.size());
     for (int f = 0; f < int(nverts.size()); ++f) {
         Bound3& b = mesh->faceRingBound[size_t(f)];

@@ -89,13 +89,14 @@ WorldEnd
         return img;
     }
 
-    /// The errors a world holding `geometry` reports.
-    int renderErrors(const std::string& geometry) {
+    /// The errors a world holding `geometry` reports (and its warnings).
+    int renderErrors(const std::string& geometry, int* warnings = nullptr) {
         const std::string rib = fmt::format("Display \"{}\" \"file\" \"rgba\" Format 16 16 1 WorldBegin {} WorldEnd",
                                             dir.file("errors.tif"), geometry);
         Diagnostics diag;
         diag.setQuiet(true);
         test::renderRib(rib, diag);
+        if (warnings) *warnings = diag.warningCount();
         return diag.errorCount();
     }
 };
@@ -194,6 +195,24 @@ TEST(Subdivision, HierarchicalMeshIsTheMeshItsTagsDescribe) {
     // Counts that do not come in threes are a located error.
     EXPECT_EQ(scene.renderErrors(fmt::format("HierarchicalSubdivisionMesh \"catmull-clark\" {} [\"hole\"] [1 0] [2] "
                                              "[] [] {}", cubeArrays(), cubeP())), 1);
+}
+
+TEST(Subdivision, ANonManifoldMeshIsWarnedOf) {
+    // Three faces on one edge: its faces have no limit surface. All three
+    // renderers draw nothing there; umbra said nothing (Aqsis names the
+    // vertices). A manifold mesh of the same points is not warned of.
+    Scene scene;
+    int warnings = 0;
+    EXPECT_EQ(scene.renderErrors("SubdivisionMesh \"catmull-clark\" [3 3 3] [0 1 2 0 1 3 0 1 4] [] [] [] [] "
+                                 "\"P\" [0 0 0 1 0 0 0 1 0 0 -1 0 0 0 1]",
+                                 &warnings),
+              0);
+    EXPECT_EQ(warnings, 1);
+    EXPECT_EQ(scene.renderErrors("SubdivisionMesh \"catmull-clark\" [3 3] [0 1 2 1 0 3] [] [] [] [] "
+                                 "\"P\" [0 0 0 1 0 0 0 1 0 0 -1 0]",
+                                 &warnings),
+              0);
+    EXPECT_EQ(warnings, 0);
 }
 
 TEST(Subdivision, OutwardSideIsThatOfThePolygonsOfTheControlMesh) {
