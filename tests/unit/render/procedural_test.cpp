@@ -79,6 +79,22 @@ void expectSamePixels(const Image& a, const Image& b) {
     for (size_t i = 0; i < a.pixels.size(); ++i) ASSERT_EQ(a.pixels[i], b.pixels[i]) << "at float " << i;
 }
 
+/// Renders worlds `a` and `b` in unshadowed frames (with `options`; the
+/// diagnostics of `a` in `diagA`) and expects the same pixels; returns the
+/// statistics of `a`.
+nlohmann::json expectSameFrames(const ScratchDir& dir, const std::string& a, const std::string& b, Diagnostics& diagA,
+                                int threads = 0, const std::string& options = "") {
+    Diagnostics diagB;
+    diagB.setQuiet(true);
+    auto stats = test::renderRib(shadowedFrame(dir.file("a.exr"), a, options, false), diagA, threads);
+    test::renderRib(shadowedFrame(dir.file("b.exr"), b, options, false), diagB, threads);
+    Image ia, ib;
+    EXPECT_TRUE(test::readImage(dir.file("a.exr"), &ia));
+    EXPECT_TRUE(test::readImage(dir.file("b.exr"), &ib));
+    expectSamePixels(ia, ib);
+    return stats;
+}
+
 /// Shadowed frames: the same but for shadow-sampling noise (measured: mean
 /// 7e-5 and 1.5e-5, largest 0.05). Without the casters' shadows these
 /// frames differ by a mean of 0.004, eight times the bound.
@@ -147,16 +163,10 @@ TEST(DelayedReadArchive, RenderMan19sProcedural2FormDrawsTheSame) {
         dir.file("body.rib"));
     Diagnostics diag;
     diag.setQuiet(true);
-    auto stats = test::renderRib(shadowedFrame(dir.file("v2.exr"), v2, "", false), diag);
+    auto stats = expectSameFrames(dir, v2, kArchiveBody, diag);
     EXPECT_EQ(diag.errorCount(), 0);
     EXPECT_EQ(diag.warningCount(), 1);
     EXPECT_EQ(frameStats(stats)["procedurals"]["archives_read"], 1);
-    Diagnostics d2;
-    test::renderRib(shadowedFrame(dir.file("inline.exr"), kArchiveBody, "", false), d2);
-    Image a, b;
-    ASSERT_TRUE(test::readImage(dir.file("v2.exr"), &a));
-    ASSERT_TRUE(test::readImage(dir.file("inline.exr"), &b));
-    expectSamePixels(a, b);
 }
 
 TEST(DelayedReadArchive, UnderADetailItsOwnAttributesAreChosenLikeTheWorlds) {
@@ -171,14 +181,9 @@ TEST(DelayedReadArchive, UnderADetailItsOwnAttributesAreChosenLikeTheWorlds) {
         "Detail [-1 1 -1 1 -1 1]\nProcedural \"DelayedReadArchive\" [\"{}\"] [-1 1 -1 1 -1 1]", dir.file("cs.rib"));
     const std::string inlined = "AttributeBegin Color [1 0 0] Sphere 0.8 -0.8 0.8 360 AttributeEnd";
     for (int threads : {1, 2}) {
-        Diagnostics d1, d2;
-        test::renderRib(shadowedFrame(dir.file("a.exr"), viaDetail, "", false), d1, threads);
-        test::renderRib(shadowedFrame(dir.file("b.exr"), inlined, "", false), d2, threads);
-        EXPECT_EQ(d1.errorCount(), 0);
-        Image a, b;
-        ASSERT_TRUE(test::readImage(dir.file("a.exr"), &a));
-        ASSERT_TRUE(test::readImage(dir.file("b.exr"), &b));
-        expectSamePixels(a, b);
+        Diagnostics diag;
+        expectSameFrames(dir, viaDetail, inlined, diag, threads);
+        EXPECT_EQ(diag.errorCount(), 0);
     }
 }
 
@@ -389,25 +394,20 @@ TEST(RunProgram, AnAnswerEndedByExitingIsTakenAndOneWithoutTheEndByteIsNamed) {
     writeFile(dir.file("exits.sh"), "#!/bin/sh\nread l\nprintf '" + sphere + "\\n'\n", true);
     writeFile(dir.file("waits.sh"), "#!/bin/sh\nread l\nprintf 'Sphere 0.3 -0.3 0.3 360\\n'\nwhile read l; do :; done\n", true);
     const std::string budget = "Option \"limits\" \"float proceduraltime\" [2]";
-    Diagnostics d1, d2;
+    Diagnostics d1;
     d1.setRecord(true);
     d1.setSink([](const Diagnostic&) {});
     const std::string world = fmt::format(R"(
         Procedural "RunProgram" ["{0}" ""] [-1 1 -1 1 -1 1]
         Procedural "RunProgram" ["{1}" ""] [-1 1 -1 1 -1 1]
     )", dir.file("exits.sh"), dir.file("waits.sh"));
-    test::renderRib(shadowedFrame(dir.file("a.exr"), world, budget, false), d1);
-    test::renderRib(shadowedFrame(dir.file("b.exr"), sphere, budget, false), d2);
+    expectSameFrames(dir, world, sphere, d1, 0, budget);
     EXPECT_EQ(d1.errorCount(), 1);
     EXPECT_EQ(d1.warningCount(), 1);
     bool said = false;
     for (const Diagnostic& d : d1.recorded())
         said = said || (d.severity == Severity::Error && d.message.find("bytes of RIB but not") != std::string::npos);
     EXPECT_TRUE(said);
-    Image a, b;
-    ASSERT_TRUE(test::readImage(dir.file("a.exr"), &a));
-    ASSERT_TRUE(test::readImage(dir.file("b.exr"), &b));
-    expectSamePixels(a, b);
 }
 
 TEST(DynamicLoad, SamePixelsAsInline) {
