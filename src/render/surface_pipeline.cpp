@@ -388,6 +388,15 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
         sg.time = m_frame.shutterOpen;  // grids are shaded at the shutter's opening
         sg.dtime = m_frame.shutterClose - m_frame.shutterOpen;
         sg.bind(g, attrs.color, attrs.opacity, cam.perspective);
+        sg.dPdtime.clear();
+        if (keys > 1 && sg.dtime > 0) {
+            // dPdtime: from the opening to the close, the undisplaced surface.
+            const Mat4 atClose = cameraFromObjectAt(rec, times.back());
+            const Vec3* closed = &objectAt[(keys - 1) * size_t(n)];
+            sg.dPdtime.resize(size_t(n));
+            for (int i = 0; i < n; ++i)
+                sg.dPdtime[size_t(i)] = (atClose.point(closed[i]) - g.P[size_t(i)]) / sg.dtime;
+        }
         sg.seed = hashKeys(m_frame.frameSeed, uint32_t(id), uint32_t(id >> 32));
         sg.renderState = &state;
 

@@ -147,9 +147,10 @@ const GlobalDef kGlobals[] = {
     {"ncomps", gNcomps, Ty::Float, false}, {"time", gTime, Ty::Float, false}, {"alpha", gAlpha, Ty::Float, true},
     {"Ns", gNs, Ty::Normal, true},
     // The shutter's length and P's motion over it (RI Spec 3.2, tables
-    // 12.1-12.5). umbra shades a grid once, at the shutter's opening:
-    // dPdtime is 0 (PRMan's value for a still grid).
-    {"dtime", gDtime, Ty::Float, false},  {"dPdtime", gDPdtime, Ty::Vector, false},
+    // 12.1-12.5): dPdtime is each point's velocity in "current" space,
+    // (P at the shutter's close - P at its opening) / dtime, 0 on a still
+    // grid (Pixie's rule; the renderer fills ShadingGrid::dPdtime).
+    {"dtime", gDtime, Ty::Float, false},  {"dPdtime", gDPdtime, Ty::Vector, true},
 };
 
 bool globalVisible(ShaderKind k, GlobalId g) {

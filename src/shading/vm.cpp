@@ -155,6 +155,7 @@ void Exec::setup(const CompiledShader& code, const ShaderInstance* instance, Sha
         case gU: return g.u.data();
         case gV: return g.v.data();
         case gAlpha: return g.alpha.size() == size_t(n) ? g.alpha.data() : nullptr;
+        case gDPdtime: return g.dPdtime.size() == size_t(n) ? v3(g.dPdtime) : nullptr;  // else 0: still
         default: return nullptr;
         }
     };

@@ -121,6 +121,10 @@ public:
     /// Imager grids only: the pixels' coverage (RenderMan's `alpha`), one
     /// per vertex; resize() leaves it alone and other grids leave it empty.
     std::vector<float> alpha;
+    /// A moving grid's velocity in current space, one per vertex (RenderMan's
+    /// `dPdtime`); empty for a still grid (then 0). resize() and bind()
+    /// leave it alone: the renderer fills or clears it for every grid.
+    std::vector<Vec3> dPdtime;
     // Uniform globals.
     float du = 0, dv = 0;
     Vec3 E{0, 0, 0};

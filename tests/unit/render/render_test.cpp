@@ -329,7 +329,7 @@ TEST(Shading, TimeIsTheShutterOpeningAndLightsGiveTheirOpacity) {
     // RI Spec 3.2, tables 12.1-12.5: time is the shutter's opening (umbra
     // shades there; it gave 0 under Shutter 0.25 0.75, Pixie and Aqsis
     // 0.25), dtime its length, dPdtime P's motion (0 for a still grid; the
-    // compiler refused both names); Ol inside illuminance is the light's
+    // compiler refused both names; moving grids below); Ol inside illuminance is the light's
     // opacity (refused; Pixie gives the light's).
     ScratchDir dir("time-globals");
     std::ofstream(dir.file("tm.sl")) << "surface tm(float mode = 0) {\n"
@@ -348,6 +348,35 @@ TEST(Shading, TimeIsTheShutterOpeningAndLightsGiveTheirOpacity) {
         EXPECT_NEAR(img.at(32, 32, 0), expected.x, 1e-6f) << mode;
         EXPECT_NEAR(img.at(32, 32, 1), expected.y, 1e-6f) << mode;
         EXPECT_NEAR(img.at(32, 32, 2), expected.z, 1e-6f) << mode;
+    }
+}
+
+TEST(Shading, DPdtimeIsEachPointsVelocityOverTheShutter) {
+    // RI Spec 3.2 tables 12.1-12.5: dPdtime is P's derivative in time. It
+    // was 0 on every grid; Pixie gives (P at the close - P at the opening)
+    // / the shutter's length in current space, umbra now too. A patch moved
+    // by a transform 2 along x over a shutter of 0.5, and one deformed 1
+    // along y between two shapes; the camera only translates, so current
+    // space velocities are the world's: (4, 0, 0) and (0, 2, 0).
+    ScratchDir dir("dpdtime");
+    std::ofstream(dir.file("vel.sl")) << "surface vel() { Ci = color(xcomp(dPdtime), ycomp(dPdtime), zcomp(dPdtime)); Oi = 1; }\n";
+    const std::string patch = "Patch \"bilinear\" \"P\" [-2 -2 0  2 -2 0  -2 2 0  2 2 0]";
+    const std::string moved = "Patch \"bilinear\" \"P\" [-2 -1 0  2 -1 0  -2 3 0  2 3 0]";
+    const struct {
+        std::string world;
+        Vec3 expected;
+    } cases[] = {
+        {"MotionBegin [0.25 0.75] Translate 0 0 0 Translate 2 0 0 MotionEnd " + patch, Vec3(4, 0, 0)},
+        {"MotionBegin [0.25 0.75] " + patch + " " + moved + " MotionEnd", Vec3(0, 2, 0)},
+        {patch, Vec3(0, 0, 0)},
+    };
+    for (const auto& c : cases) {
+        Diagnostics diag;
+        const Image img = renderWithShaders(dir, "Shutter 0.25 0.75\n", "Surface \"vel\" " + c.world, diag);
+        EXPECT_EQ(diag.errorCount(), 0);
+        EXPECT_NEAR(img.at(32, 32, 0), c.expected.x, 1e-4f) << c.world;
+        EXPECT_NEAR(img.at(32, 32, 1), c.expected.y, 1e-4f) << c.world;
+        EXPECT_NEAR(img.at(32, 32, 2), c.expected.z, 1e-4f) << c.world;
     }
 }
 
@@ -401,7 +430,9 @@ MakeShadow "{0}" "{1}"
                                           : Vec3(2, 1, 0);
         EXPECT_NEAR(img.at(32, 32, 0), expected.x, 1e-5f) << mode;
         EXPECT_NEAR(img.at(32, 32, 1), expected.y, 1e-5f) << mode;
-        if (mode != 1) EXPECT_NEAR(img.at(32, 32, 2), expected.z, 1e-5f) << mode;
+        if (mode != 1) {
+            EXPECT_NEAR(img.at(32, 32, 2), expected.z, 1e-5f) << mode;
+        }
     }
 }
 
