@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -428,8 +429,14 @@ private:
     /// Expands macros in `in`, appending to `out`. `depth` bounds nesting;
     /// a macro is not re-expanded inside its own expansion.
     void expand(const std::vector<Token>& in, int depth, std::vector<Token>& out) {
-        for (size_t k = 0; k < in.size(); ++k) {
-            const Token& t = in[k];
+        // `carried`: the last token of an expansion that names a
+        // function-like macro, looked at again with the tokens after the
+        // expansion (cpp's rescan: GLUE(TW, ICE)(x) calls TWICE(x)).
+        std::optional<Token> carried;
+        for (size_t k = 0; k < in.size() || carried; ++k) {
+            const Token t = carried ? *carried : in[k];
+            if (carried) --k;  // `in[k]` is the token after the carried one
+            carried.reset();
             if (m_expanded > kMaxExpandedTokens) {
                 if (!m_reportedBlowup) m_errs.error(t.loc, "macro expansion too large");
                 m_reportedBlowup = true;
@@ -490,8 +497,18 @@ private:
             }
             m_expanded += body.size();
             m_active.insert(t.text);
+            const size_t first = out.size();
             expand(body, depth + 1, out);
             m_active.erase(t.text);
+            if (out.size() > first && k + 1 < in.size() && in[k + 1].kind == Tok::Punct && in[k + 1].text == "(") {
+                const Token& last = out.back();
+                const auto call = last.kind == Tok::Ident ? m_macros.find(last.text) : m_macros.end();
+                // A macro's own name in its expansion stays unexpanded, as in cpp.
+                if (call != m_macros.end() && call->second.function && last.text != t.text && !m_active.count(last.text)) {
+                    carried = last;
+                    out.pop_back();
+                }
+            }
         }
     }
 

@@ -117,6 +117,30 @@ TEST(Compiler, MacrosPasteAndStringizeTheirArguments) {
     expectNear(g.Ci[0], Vec3(0.25f, 1, 21));  // k2 + e = 15 + 6
 }
 
+// cpp rescans an expansion together with what follows it: a pasted or
+// forwarded name of a function-like macro takes the arguments written after
+// the expansion. umbra left the name unexpanded (then "undefined function").
+// A macro's own name in its expansion is not expanded again (F below).
+TEST(Compiler, ExpansionIsRescannedWithTheTokensAfterIt) {
+    Harness h;
+    ShadingGrid g = makeGrid(2, 1, [](float u, float) { return Vec3(u, 0, 1); });
+    h.surface("float F(float y) { return y * 10; }\n"
+              "#define GLUE(a, b) a ## b\n"
+              "#define TWICE(x) (2 * (x))\n"
+              "#define PICK TWICE\n"
+              "#define ID(m) m\n"
+              "#define F(x) x + F\n"
+              "surface t() {\n"
+              "  float a = GLUE(TW, ICE)(3);\n"    /* 6 */
+              "  float b = PICK(4);\n"             /* 8 */
+              "  float c = ID(TWICE)(5);\n"        /* 10 */
+              "  float d = F(1)(2);\n"             /* 1 + F(2): the function, 21 */
+              "  Ci = color(a, b + c, d);\n"
+              "}",
+              g);
+    expectNear(g.Ci[0], Vec3(6, 18, 21));
+}
+
 // A shader in the style found in the wild: macros with arguments, nested
 // functions with output parameters, illuminance with categories, output
 // parameters, arrays, and the RI spec 3.2 idioms.
