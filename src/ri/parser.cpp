@@ -786,6 +786,10 @@ private:
         size_t vi = 0;        // next value
         size_t inArray = 0;   // position inside a [ ] grouping scalar numbers, when > 0
         size_t nameIndex = 0;
+        // Where the scalar numbers came from: RIB gives them all loose or
+        // all in one [ ]; other mixes are read in order with a warning
+        // (Pixie and Aqsis refuse them). A one-number [x] counts as loose.
+        int looseNumbers = 0, numberArrays = 0;
         for (const char* c = spec.sig; *c; ++c) {
             if (*c == '|') {
                 if (inArray == 0 && (vi >= m_values.size() || m_values[vi].kind == Value::String)) break;
@@ -810,11 +814,13 @@ private:
                             ++vi;
                         }
                     } else if (vi < m_values.size() && m_values[vi].kind == Value::Number) {
+                        ++looseNumbers;
                         num = m_values[vi].num;
                         vl = m_values[vi].line;
                         vc = m_values[vi].column;
                         ++vi;
                     } else if (vi < m_values.size() && m_values[vi].kind == Value::NumArray && !m_values[vi].nums.empty()) {
+                        ++(m_values[vi].nums.size() > 1 ? numberArrays : looseNumbers);  // [x] is one number
                         const Value& v = m_values[vi];
                         num = v.nums[0];
                         vl = v.line;
@@ -940,6 +946,11 @@ private:
             error(v.line, v.column, spec.name, "too many numbers in [ ]: {} given (usage: {})", v.nums.size(), usage());
             return false;
         }
+        if (numberArrays > 1 || (numberArrays > 0 && looseNumbers > 0))
+            m_parser.m_diag.warningOnce(fmt::format("mixed-args:{}", spec.name), loc(line, column),
+                                        "{}: numbers given partly in [ ] and partly loose, or in several [ ]; read in "
+                                        "order (RIB gives them all loose or all in one [ ]; usage: {})",
+                                        spec.name, usage());
         *used = vi;
         return true;
     }

@@ -62,6 +62,12 @@ TEST(Parser, PositionalNumbersBareOrBracketed) {
     EXPECT_EQ(p->rec.args[1].floats, (std::vector<float>{2, -2, 2, 180}));
     EXPECT_EQ(p->rec.args[2].floats, (std::vector<float>{3, -3, 3, 90}));
     EXPECT_EQ(p->rec.log[1], "Sphere@t.rib:2:1");
+    // The third form is not RIB's (Pixie and Aqsis refuse it): read in
+    // order, with a warning; the first two are not warned of.
+    EXPECT_EQ(messages(p->diag),
+              (std::vector<std::string>{"t.rib:3:1: warning: Sphere: numbers given partly in [ ] and partly loose, or in "
+                                        "several [ ]; read in order (RIB gives them all loose or all in one [ ]; usage: "
+                                        "Sphere radius zmin zmax thetamax)"}));
 }
 
 TEST(Parser, IntegerArraysGoToIntArrays) {
