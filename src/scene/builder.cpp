@@ -1464,36 +1464,40 @@ bool Builder::lightAllowed(const char* request, const std::string& name, const s
 
 void Builder::lightSource(const std::string& name, const std::string& handle, ri::ParamList params,
                           const FileLoc& loc) {
+    addLight("LightSource", name, handle, std::move(params), loc, false);
+}
+
+void Builder::areaLightSource(const std::string& name, const std::string& handle, ri::ParamList params,
+                              const FileLoc& loc) {
+    // Pixie and Aqsis (and PRMan before ray tracing) light from the shader
+    // alone: P is the shader space's origin, the block's primitives are
+    // drawn but do not emit. umbra does the same, so the scene is lit as
+    // there; it turned the light off.
+    unsupported("AreaLightSource", loc,
+                "AreaLightSource: lit as an ordinary light from its shader space (its primitives are drawn, not "
+                "sampled as an emitter), as Pixie and Aqsis do");
+    addLight("AreaLightSource", name, handle, std::move(params), loc, true);
+}
+
+void Builder::addLight(const char* request, const std::string& name, const std::string& handle,
+                       ri::ParamList params, const FileLoc& loc, bool area) {
     if (m_procedural) {
-        m_diag.error(loc, "LightSource: not allowed in a procedural primitive's RIB, whose lights are the world's "
-                     "(ignored)");
+        m_diag.error(loc, "{}: not allowed in a procedural primitive's RIB, whose lights are the world's (ignored)",
+                     request);
         return;
     }
-    if (!lightAllowed("LightSource", name, handle, params, loc)) return;
+    if (!lightAllowed(request, name, handle, params, loc)) return;
     if (skipMotionSample()) return;
     LightRecord l;
     l.shader = *makeShader(name, std::move(params), loc);
     l.handle = handle;
+    l.area = area;
     int index = int(m_world->lights.size());
     Attributes& a = mutableAttributes();
     a.lights.push_back(index);
     l.attributes = m_state.attrs;
     m_world->lights.push_back(std::move(l));
     m_lightHandles[handle] = index;
-}
-
-void Builder::areaLightSource(const std::string& name, const std::string& handle, ri::ParamList params,
-                              const FileLoc& loc) {
-    if (!lightAllowed("AreaLightSource", name, handle, params, loc)) return;
-    unsupported("AreaLightSource", loc, "AreaLightSource: area lights are not supported (recorded, turned off)");
-    LightRecord l;
-    l.shader = *makeShader(name, std::move(params), loc);
-    l.handle = handle;
-    l.area = true;
-    l.onByDefault = false;
-    l.attributes = m_state.attrs;
-    m_lightHandles[handle] = int(m_world->lights.size());
-    m_world->lights.push_back(std::move(l));
 }
 
 void Builder::illuminate(const std::string& handle, bool on, const FileLoc& loc) {
@@ -1507,7 +1511,6 @@ void Builder::illuminate(const std::string& handle, bool on, const FileLoc& loc)
         return;
     }
     int index = it->second;
-    if (m_world->lights[size_t(index)].area) return;
     const std::vector<int>& cur = m_state.attrs->lights;
     bool present = std::find(cur.begin(), cur.end(), index) != cur.end();
     if (on == present) return;

@@ -517,3 +517,41 @@ FrameEnd
     Rendered noMap = renderScene(scene("", ""), image);
     EXPECT_GT(maxAbsDiff(byPath.image, noMap.image, 3), 0.2);
 }
+
+TEST(Lenient, AnAreaLightLightsFromItsShaderSpaceAsThePeersDo) {
+    // RI Spec 3.2's AreaLightSource, as the Companion and exporters write
+    // it: the light, then its primitive, in an attribute block, then
+    // Illuminate to keep it on. Pixie and Aqsis light from the shader
+    // alone (P = the shader space's origin) and draw the primitive; umbra
+    // turned the light off, leaving the floor black. The plain scene: the
+    // same light given by LightSource at the same place.
+    ScratchDir dir("area-light");
+    const std::string image = dir.file("area.tif");
+    constexpr const char* scene = R"(
+Format 96 96 1
+Display "{}" "file" "rgb"
+Projection "perspective" "fov" 50
+Translate 0 0 6
+WorldBegin
+AttributeBegin
+  Translate 0 1.5 -1
+  {} "pointlight" "key" "intensity" 4
+  Surface "constant"
+  Sphere 0.2 -0.2 0.2 360
+AttributeEnd
+Illuminate "key" 1
+Surface "matte"
+Polygon "P" [-2 -2 0  2 -2 0  2 2 0  -2 2 0]
+WorldEnd
+)";
+    Rendered area = renderScene(fmt::format(scene, image, "AreaLightSource"), image);
+    EXPECT_EQ(area.errors, 0);
+    EXPECT_EQ(area.warnings, 1);  // lit as an ordinary light, said once
+    EXPECT_EQ(area.failedFrames, 0);
+    Rendered plain = renderScene(fmt::format(scene, image, "LightSource"), image);
+    EXPECT_EQ(plain.warnings, 0);
+    // The floor below the sphere: 4 / d^2 with d^2 = 1.5^2 + 1, times the
+    // cosine 1 / d: about 0.53 straight under the light.
+    ASSERT_GT(plain.image.channelSum(0), 0.1 * 96 * 96);
+    EXPECT_EQ(maxAbsDiff(area.image, plain.image, 3), 0.0);
+}

@@ -232,6 +232,10 @@ private:
     /// is kept for the world.
     bool lightAllowed(const char* request, const std::string& name, const std::string& handle,
                       const ri::ParamList& params, const FileLoc& loc);
+    /// LightSource and AreaLightSource: the light joins the current light
+    /// list (on until the attribute block ends, or Illuminate).
+    void addLight(const char* request, const std::string& name, const std::string& handle, ri::ParamList params,
+                  const FileLoc& loc, bool area);
     /// Inside a motion block, true for every request after the block's
     /// first (for requests that are not blurred: only the first counts).
     bool skipMotionSample();

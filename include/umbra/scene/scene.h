@@ -185,8 +185,7 @@ struct SolidRecord {
 struct LightRecord {
     ShaderRecord shader;
     std::string handle;      // the RIB handle (integer or string) as text
-    bool onByDefault = true;
-    bool area = false;       // AreaLightSource (not turned on: area lights are unsupported)
+    bool area = false;       // given by AreaLightSource (lit from its shader space, as an ordinary light)
     std::shared_ptr<const Attributes> attributes;
 };
 
