@@ -328,9 +328,12 @@ std::optional<PixelFilter> displayFilter(const scene::DisplayRecord& display, co
 }
 
 void Film::cropPixels(int xres, int yres, const float crop[4], int* x0, int* x1, int* y0, int* y1) {
-    // The tolerance keeps decimal windows like 0.1 (stored as 0.100000001)
-    // from losing a pixel whose centre lies exactly on the edge.
-    auto edge = [](int res, float ndc) { return int(std::ceil(double(res) * double(ndc) - 0.5 - 1e-4)); };
+    // RI Spec 3.2: columns ceil(xres * xmin) to ceil(xres * xmax - 1)
+    // inclusive (rows likewise), as Pixie and Aqsis crop; umbra kept the
+    // pixels whose centres lay inside, a column more or less where an edge
+    // fell mid-pixel. The tolerance keeps decimal windows like 0.1 (stored
+    // as 0.100000001) from gaining a pixel where the edge is on a border.
+    auto edge = [](int res, float ndc) { return int(std::ceil(double(res) * double(ndc) - 1e-4)); };
     *x0 = clamp(edge(xres, crop[0]), 0, xres);
     *x1 = clamp(edge(xres, crop[1]), *x0, xres);
     *y0 = clamp(edge(yres, crop[2]), 0, yres);

@@ -84,14 +84,24 @@ const float kFull[4] = {0, 1, 0, 1};
 
 }  // namespace
 
-TEST(Film, CropWindowSelectsPixelsByCentre) {
+TEST(Film, CropWindowSelectsPixelsAsTheSpecRounds) {
+    // RI Spec 3.2, CropWindow: columns ceil(xres * xmin) to
+    // ceil(xres * xmax - 1) inclusive, rows likewise (x1, y1 here are one
+    // past the last). umbra selected pixels by centre: 0.24-0.76 of 10
+    // columns gave 2..7 where the spec, Pixie and Aqsis give 3..7.
     int x0, x1, y0, y1;
     const float crop[4] = {0.25f, 0.75f, 0.1f, 0.5f};
     Film::cropPixels(640, 15, crop, &x0, &x1, &y0, &y1);
-    EXPECT_EQ(x0, 160);  // centre 160.5 / 640 is the first >= 0.25
-    EXPECT_EQ(x1, 480);  // centre 479.5 / 640 is the last < 0.75
-    EXPECT_EQ(y0, 1);    // centre 1.5 / 15 = 0.1
-    EXPECT_EQ(y1, 7);    // centre 6.5/15 = 0.433 is in, 7.5/15 = 0.5 is not
+    EXPECT_EQ(x0, 160);  // ceil(160)
+    EXPECT_EQ(x1, 480);  // ceil(480 - 1) = 479 is the last
+    EXPECT_EQ(y0, 2);    // ceil(1.5)
+    EXPECT_EQ(y1, 8);    // ceil(7.5 - 1) = 7 is the last
+    const float midPixel[4] = {0.24f, 0.76f, 0.05f, 0.95f};
+    Film::cropPixels(10, 10, midPixel, &x0, &x1, &y0, &y1);
+    EXPECT_EQ(std::vector<int>({x0, x1, y0, y1}), std::vector<int>({3, 8, 1, 10}));
+    const float odd[4] = {0.13f, 0.71f, 0.27f, 0.93f};
+    Film::cropPixels(37, 23, odd, &x0, &x1, &y0, &y1);
+    EXPECT_EQ(std::vector<int>({x0, x1, y0, y1}), std::vector<int>({5, 27, 7, 22}));  // 22 x 15 at (5, 7)
     Film::cropPixels(640, 480, kFull, &x0, &x1, &y0, &y1);
     EXPECT_EQ(x0, 0);
     EXPECT_EQ(x1, 640);
@@ -99,8 +109,9 @@ TEST(Film, CropWindowSelectsPixelsByCentre) {
     Film f(640, 15, crop, PixelFilter(film::FilterKind::Box, 1, 1));
     EXPECT_EQ(f.width(), 320);
     EXPECT_EQ(f.height(), 6);
-    EXPECT_TRUE(f.contains(160, 1));
-    EXPECT_FALSE(f.contains(159, 1));
+    EXPECT_TRUE(f.contains(160, 2));
+    EXPECT_FALSE(f.contains(159, 2));
+    EXPECT_FALSE(f.contains(160, 1));
     EXPECT_EQ(f.z(200, 3), kInfinity);
 }
 

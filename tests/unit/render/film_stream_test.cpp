@@ -192,7 +192,7 @@ TEST(FilmStream, EveryTiffFormIsTheWholeFilmsBytesAtAnyThreadsAndBucketSize) {
 }
 
 TEST(FilmStream, ACropWindowStreamsItsOwnRows) {
-    // Rows 39..109 of 130 and columns 14..118: the strips are the crop
+    // Rows 39..110 of 130 and columns 14..118: the strips are the crop
     // region's, its first row strip row 0, and buckets start at its corner.
     ScratchDir dir("film-stream-crop");
     std::ofstream(dir.file("aovs.sl")) << kAovShader;
@@ -203,7 +203,7 @@ Display "+{}" "file" "varying float mask" "quantize" [0 65535 0 65535]
 )",
                                              dir.file("crop.tif"), dir.file("cropz.tif"), dir.file("cropmask.tif"));
     const std::string rib = frameRib(dir, displays, "CropWindow 0.1 0.85 0.3 0.85");
-    expectStreamedEqualsWhole(dir, rib, {"crop.tif", "cropz.tif", "cropmask.tif"}, 110 - 39);
+    expectStreamedEqualsWhole(dir, rib, {"crop.tif", "cropz.tif", "cropmask.tif"}, 111 - 39);
 }
 
 TEST(FilmStream, ADepthFramesZTiffStreamsWithEmptyBucketsAtInfinity) {
