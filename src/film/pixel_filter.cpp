@@ -112,9 +112,11 @@ float PixelFilter::evaluate(float x, float y) const {
     const float ex = x / m_xRadius, ey = y / m_yRadius;
     if (m_kind == FilterKind::Disk) return ex * ex + ey * ey <= 1.0f ? 1.0f : 0.0f;
     if (m_kind == FilterKind::Bessel) return ex * ex + ey * ey <= 1.0f ? jinc(std::sqrt(x * x + y * y)) : 0.0f;
-    // Catmull-Rom, radial: r in [0, 2) over the support.
-    float sx = 2.0f * x / m_xRadius, sy = 2.0f * y / m_yRadius;
-    float r2 = sx * sx + sy * sy;
+    // Catmull-Rom, radial, as RI Spec 3.2 writes RiCatmullRomFilter: r is
+    // the distance in pixels (zero from 2 on) and the widths only cut the
+    // support, as in Pixie and Aqsis. umbra stretched r to reach 2 at the
+    // support's edge, which is the same only at width 4.
+    float r2 = x * x + y * y;
     float r = std::sqrt(r2);
     if (r >= 2.0f) return 0.0f;  // also the support's corners, outside the circle
     if (r < 1.0f) return 3.0f * r * r2 - 5.0f * r2 + 2.0f;

@@ -26,8 +26,9 @@ enum class FilterKind { Box, Triangle, Gaussian, CatmullRom, Sinc, Mitchell, Sep
 ///  - triangle:   (1 - |x'|) (1 - |y'|)  (the spec's appendix code misplaces
 ///                a parenthesis; this is the tent it means)
 ///  - gaussian:   exp(-2 (x'^2 + y'^2)), exactly the spec's RiGaussianFilter
-///  - catmull-rom: the spec's radial Catmull-Rom of r = |(2x', 2y')|, so the
-///                default width 4 gives the spec's function unscaled
+///  - catmull-rom: the spec's radial Catmull-Rom of r = |(x, y)| in pixels
+///                (0 from r = 2 on), the widths only cutting the support, as
+///                RiCatmullRomFilter, Pixie and Aqsis
 ///  - sinc:       sinc(x) sinc(x/rx) * (same in y), rx = xwidth/2: the spec's
 ///                separable sinc windowed by a Lanczos window so it falls to 0
 ///                at the support's edge instead of being truncated

@@ -26,9 +26,7 @@ float reference(FilterKind k, float x, float y, float xw, float yw) {
         y *= 2.0f / yw;
         return std::exp(-2.0f * (x * x + y * y));
     }
-    case FilterKind::CatmullRom: {
-        x *= 4.0f / xw;
-        y *= 4.0f / yw;
+    case FilterKind::CatmullRom: {  // in pixels whatever the width: 1 at 0, 0 at 1 and from 2
         float r2 = x * x + y * y, r = std::sqrt(r2);
         return r >= 2 ? 0.0f : r < 1 ? 3 * r * r2 - 5 * r2 + 2 : -r * r2 + 5 * r2 - 8 * r + 4;
     }
