@@ -255,6 +255,9 @@ private:
         return r;
     }
     Instr& emit(Op op, SrcLoc loc, int dst = -1, int a = -1, int b = -1, int c = -1) {
+        // A string is copied by MovS whichever path copies it (Mov copies
+        // floats: a function returning a string crashed the render).
+        if (op == Op::Mov && dst >= 0 && m_cs.regs[size_t(dst)].ty == Ty::String) op = Op::MovS;
         Instr in;
         in.op = op;
         in.dst = dst;

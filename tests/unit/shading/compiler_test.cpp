@@ -141,6 +141,23 @@ TEST(Compiler, ExpansionIsRescannedWithTheTokensAfterIt) {
     expectNear(g.Ci[0], Vec3(6, 18, 21));
 }
 
+// A user function returning a string (RI Spec 3.2 ch. 14: functions of any
+// type) compiled, but its return copied the string as floats and crashed
+// the render. Plain, with arguments, with two returns and nested.
+TEST(Compiler, FunctionsReturnStrings) {
+    Harness h;
+    ShadingGrid g = makeGrid(2, 1, [](float u, float) { return Vec3(u, 0, 1); });
+    h.surface("string f() { return \"a\"; }\n"
+              "string pick(float k; string x, y) { if (k > 0) return x; return y; }\n"
+              "surface t() {\n"
+              "  string inner(string p) { return concat(p, \"!\"); }\n"
+              "  string q = f(), r = pick(1, \"yes\", \"no\"), w = pick(0, \"yes\", \"no\");\n"
+              "  Ci = color(q == \"a\", r == \"yes\" && w == \"no\", inner(q) == \"a!\");\n"
+              "}",
+              g);
+    expectNear(g.Ci[0], Vec3(1, 1, 1));
+}
+
 // A shader in the style found in the wild: macros with arguments, nested
 // functions with output parameters, illuminance with categories, output
 // parameters, arrays, and the RI spec 3.2 idioms.
