@@ -184,11 +184,58 @@ bool inferVaryingAndOptimize(CompiledShader& cs, CompileErrors& errs) {
             }
         }
     }
+    // Strings have one value per grid (as in PRMan before RSL 2, and
+    // Pixie). A condition computed under a varying if is stored varying but
+    // may still be uniform in value: the VM reads it at the first active
+    // point, so only a value that differs between points is refused.
     for (const Instr& in : cs.code)
-        if (in.op == Op::Select && cs.regs[size_t(in.dst)].ty == Ty::String && cs.regs[size_t(in.c)].varying) {
+        if (in.op == Op::Select && cs.regs[size_t(in.dst)].ty == Ty::String && valueVarying[size_t(in.c)]) {
             errs.error(in.loc, "'?:' between strings needs a uniform condition: a string has one value for all points");
             ok = false;
         }
+    // A string given a value that differs between points, or stored under
+    // a condition that differs (an if, a loop; not an illuminance loop, whose
+    // points see the same light), ends up with the last value stored on
+    // every point. Pixie does the same silently; umbra says so.
+    std::vector<bool> ctlDiverges(cs.ctls.size(), false);
+    for (size_t c = 0; c < cs.ctls.size(); ++c) {  // parents come first
+        const CtlCtx& ctx = cs.ctls[c];
+        ctlDiverges[c] = (ctx.cond >= 0 && valueVarying[size_t(ctx.cond)]) ||
+                         (ctx.parent >= 0 && ctlDiverges[size_t(ctx.parent)]);
+    }
+    // A string written in one place only (a local of the branch) is the
+    // same on every point that reads it; one written in two places, one of
+    // them under a condition that differs, is not.
+    std::map<int, std::set<int>> stringWriteCtls;
+    for (const Instr& in : cs.code) {
+        if (in.op == Op::ParamInit) continue;
+        operands(cs, in, &reads, &writes);
+        for (int w : writes)
+            if (cs.regs[size_t(w)].ty == Ty::String) stringWriteCtls[w].insert(in.ctl);
+    }
+    std::set<int> warnedStrings;
+    std::vector<bool> stringVaries(cs.regs.size(), false);  // through temporaries: q = format("%f", s)
+    for (const Instr& in : cs.code) {
+        if (in.op == Op::ParamInit || in.op == Op::Select) continue;
+        operands(cs, in, &reads, &writes);
+        bool valueVaries = false;
+        for (int r : reads)
+            valueVaries = valueVaries || stringVaries[size_t(r)] ||
+                          (valueVarying[size_t(r)] && cs.regs[size_t(r)].ty != Ty::String);
+        for (int w : writes) {
+            const RegInfo& r = cs.regs[size_t(w)];
+            if (r.ty != Ty::String) continue;
+            if (valueVaries) stringVaries[size_t(w)] = true;
+            const bool divergentStore = ctlDiverges[size_t(in.ctl)] && stringWriteCtls[w].size() > 1;
+            if (r.kind == RegKind::Temp || !(valueVaries || divergentStore)) continue;
+            if (warnedStrings.insert(w).second)
+                errs.warning(in.loc, fmt::format("string '{}' is given {} here, but a string holds one value for all "
+                                                 "points of a grid: every point gets the last value stored",
+                                                 r.name, valueVaries ? "a value that differs between points"
+                                                                     : "a value under a condition that differs "
+                                                                       "between points"));
+        }
+    }
     if (!ok) return false;
     removeDeadCode(cs);
     return true;

@@ -161,6 +161,31 @@ TEST(Compat, StringConditionalOperatorWithAUniformCondition) {
                     "'?:' between strings needs a uniform condition");
 }
 
+TEST(Compat, StringsChosenInsideAVaryingIf) {
+    // Inside an if on a varying condition, a string ?: whose condition is
+    // uniform (its register stored varying there) was refused; both peers
+    // compile it. A string given a value that differs between points, or
+    // stored in two places one of them under such an if, holds the last
+    // value stored on every point (strings are uniform, as in Pixie): said
+    // by a warning now, as is not a string local to the branch.
+    Harness h;
+    ShadingGrid g = line(4);  // u = 0, 1/3, 2/3, 1
+    h.surface("surface t() { uniform float a = 1; Ci = 0.2;\n"
+              "  if (u > 0.5) { string q = (a > 2) ? \"x\" : \"y\"; string l = \"k\"; Ci = (q == \"y\" && l == \"k\") ? 0.8 : 0.5; } }",
+              g);
+    EXPECT_EQ(h.diag.errorCount(), 0) << h.messages();
+    EXPECT_EQ(h.diag.warningCount(), 0) << h.messages();
+    for (size_t i = 0; i < g.Ci.size(); ++i) expectNear(g.Ci[i], Vec3(g.u[i] > 0.5f ? 0.8f : 0.2f), 1e-6f);
+    for (const char* differs : {"surface t() { string q = \"a\"; if (u > 0.5) q = \"b\"; Ci = (q == \"b\") ? 1 : 0; }",
+                                "surface t() { string q = format(\"%.0f\", u); Ci = (q == \"1\") ? 1 : 0; }"}) {
+        Harness w;
+        ShadingGrid wg = line(4);
+        w.surface(differs, wg);
+        EXPECT_EQ(w.diag.warningCount(), 1) << differs;
+        EXPECT_NE(w.messages().find("string 'q' is given"), std::string::npos) << w.messages();
+    }
+}
+
 TEST(Compat, ClampTestsTheMinimumFirst) {
     // RI Spec 3.2: clamp(a, min, max) is min if a is below min, else max if
     // a is above max, else a; a min above max (ARMan's smoke clamps its
