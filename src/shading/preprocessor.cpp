@@ -145,7 +145,7 @@ std::vector<Token> lexFile(const SourceSet& src, int file, CompileErrors& errs) 
             t.number = std::strtod(t.text.c_str(), nullptr);
             if (i < n && (s[i] == 'f' || s[i] == 'F')) ++i;
         } else if (c == '"') {
-            ++i;
+            const size_t open = i++;
             t.kind = Tok::String;
             bool closed = false;
             while (i < n && s[i] != '\n') {
@@ -162,7 +162,10 @@ std::vector<Token> lexFile(const SourceSet& src, int file, CompileErrors& errs) 
                 }
                 t.text += s[i++];
             }
-            if (!closed) errs.error(t.loc, "unterminated string");
+            if (!closed) {
+                t.kind = Tok::Other;
+                t.text = s.substr(open, i - open);
+            }
         } else if (c == '#') {
             ++i;
             t.kind = Tok::Hash;
@@ -180,11 +183,7 @@ std::vector<Token> lexFile(const SourceSet& src, int file, CompileErrors& errs) 
                         break;
                     }
             if (!two) {
-                if (std::string_view("+-*/^.,;:?(){}[]=<>!").find(c) == std::string_view::npos) {
-                    errs.error(t.loc, fmt::format("unexpected character '{}'", std::isprint(static_cast<unsigned char>(c)) ? std::string(1, c) : fmt::format("\\x{:02x}", static_cast<unsigned char>(c))));
-                    ++i;
-                    continue;
-                }
+                if (std::string_view("+-*/^.,;:?(){}[]=<>!").find(c) == std::string_view::npos) t.kind = Tok::Other;
                 t.text = std::string(1, c);
                 ++i;
             }
@@ -221,8 +220,10 @@ public:
         size_t i = 0;
         std::vector<Token> pending;  // tokens of the active text to expand
         auto flush = [&] {
+            const size_t first = out.size();
             expand(pending, 0, out);
             pending.clear();
+            dropStrayText(out, first);
         };
         while (i < toks.size()) {
             if (toks[i].kind == Tok::Hash && toks[i].lineStart) {
@@ -290,6 +291,28 @@ public:
     }
 
 private:
+    /// Reports and removes the `Tok::Other` tokens from out[first...]: text
+    /// of an active group, or of a macro used there, that the shading
+    /// language cannot read. Only here, as in cpp: skipped groups and
+    /// unused macros may hold anything.
+    void dropStrayText(std::vector<Token>& out, size_t first) {
+        size_t kept = first;
+        for (size_t k = first; k < out.size(); ++k) {
+            if (out[k].kind == Tok::Other) {
+                m_errs.error(out[k].loc, strayTextMessage(out[k]));
+                continue;
+            }
+            if (kept != k) out[kept] = std::move(out[k]);
+            ++kept;
+        }
+        out.resize(kept);
+    }
+    static std::string strayTextMessage(const Token& t) {
+        const auto c = static_cast<unsigned char>(t.text[0]);
+        if (c == '"') return "unterminated string";
+        return fmt::format("unexpected character '{}'", std::isprint(c) ? t.text : fmt::format("\\x{:02x}", c));
+    }
+
     void define(const std::vector<Token>& dir) {
         if (dir.size() < 2 || dir[1].kind != Tok::Ident) {
             m_errs.error(dir.size() > 1 ? dir[1].loc : dir[0].loc, "expected a macro name after #define");

@@ -47,7 +47,12 @@ private:
     int m_count = 0;
 };
 
-enum class Tok : uint8_t { End, Ident, Number, String, Punct, Hash };
+/// Token kinds. `Other` is what the shading language has no use for: a
+/// character such as `@` or `%`, or a string without its closing quote
+/// (`text` then starts with the quote). cpp lexes such text too, and
+/// complains only where it reaches the compiler: skipped #if groups, #if
+/// expressions (`% & | ~`) and unused macro bodies may hold it.
+enum class Tok : uint8_t { End, Ident, Number, String, Punct, Hash, Other };
 
 /// A lexical token; `text` is the identifier, string contents or punctuator.
 struct Token {
@@ -59,7 +64,9 @@ struct Token {
     bool spaceBefore = false;
 };
 
-/// Splits one file into tokens; malformed input is reported and skipped.
+/// Splits one file into tokens. An unterminated comment is reported; stray
+/// characters and unterminated strings become `Tok::Other` tokens, which
+/// preprocess() reports where they reach the shading-language text.
 std::vector<Token> lexFile(const SourceSet& src, int file, CompileErrors& errs);
 
 /// Runs the preprocessor (#include, #define, #undef, #ifdef, #ifndef, #if,

@@ -158,6 +158,36 @@ TEST(Compiler, FunctionsReturnStrings) {
     expectNear(g.Ci[0], Vec3(1, 1, 1));
 }
 
+// cpp looks only for directives in a skipped #if group, so notes holding
+// `@`, `$`, a backtick, an apostrophe or a lone quote may sit there, and an
+// unused macro may hold them too. umbra lexed the skipped text as shading
+// language and refused it ("unexpected character '@'"); cpp, Pixie and
+// Aqsis compile it (with the apostrophe gcc only warns and Aqsis accepts).
+TEST(Compiler, SkippedGroupsAreOnlyScannedForDirectives) {
+    Harness h;
+    ShadingGrid g = makeGrid(2, 1, [](float u, float) { return Vec3(u, 0, 1); });
+    h.surface("#if 0\n"
+              "  old version by joe@studio, cost $5, see `notes`\n"
+              "  this doesn't work, nor does \"this\n"
+              "#if 1\n"
+              "  @\n"
+              "#endif\n"
+              "#elif 0\n"
+              "  $\n"
+              "#else\n"
+              "#define RES 0.5\n"
+              "#endif\n"
+              "#define UNUSED @ $\n"
+              "surface t() { Ci = RES; }\n",
+              g);
+    expectNear(g.Ci[0], Vec3(0.5f));
+    // In the shader's text they are errors where they stand.
+    h.expectRefused("#define AT @\nsurface t() {\n  Ci = 1; $\n  string s = \"open;\n  Ci = AT;\n}\n",
+                    "t.sl:3:11: error: unexpected character '$'");
+    EXPECT_NE(h.messages().find("t.sl:4:14: error: unterminated string"), std::string::npos) << h.messages();
+    EXPECT_NE(h.messages().find("t.sl:5:8: error: unexpected character '@'"), std::string::npos) << h.messages();
+}
+
 // A shader in the style found in the wild: macros with arguments, nested
 // functions with output parameters, illuminance with categories, output
 // parameters, arrays, and the RI spec 3.2 idioms.
