@@ -7,12 +7,14 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <optional>
 #include <set>
 #include <sstream>
+#include <string_view>
 
 namespace umbra::shading {
 
@@ -195,6 +197,272 @@ std::vector<Token> lexFile(const SourceSet& src, int file, CompileErrors& errs) 
 
 namespace {
 
+/// An integer of an #if expression: C's intmax_t, or uintmax_t for a `u`
+/// suffix or a constant too large to be signed. Kept as its bits, so that
+/// signed arithmetic wraps instead of being undefined behaviour.
+struct IfValue {
+    uint64_t bits = 0;
+    bool isUnsigned = false;
+    int64_t asSigned() const { return static_cast<int64_t>(bits); }
+    bool isTrue() const { return bits != 0; }
+    static IfValue ofBool(bool b) { return {b ? 1u : 0u, false}; }
+};
+
+/// The expression of an #if or #elif, its `defined` and macros already
+/// replaced, evaluated with the grammar and arithmetic of the C
+/// preprocessor (C99 6.10.1): the unary `+ - ~ !`, the binary
+/// `* / % + - << >> < > <= >= == != & ^ | && ||`, `?:` and parentheses;
+/// names left over are 0. Operands cpp does not evaluate (right of a false
+/// `&&` or a true `||`, the branch `?:` does not take) may divide by zero.
+class IfExpression {
+public:
+    IfExpression(const std::vector<Token>& toks, const SrcLoc& directive, CompileErrors& errs)
+        : m_toks(joinSplitTokens(toks)), m_errs(errs), m_end(toks.empty() ? directive : toks.back().loc) {}
+
+    /// The truth of the expression, or nothing after an error was reported.
+    std::optional<bool> evaluate() {
+        if (m_toks.empty()) {
+            fail(m_end, "#if with no expression");
+            return std::nullopt;
+        }
+        const IfValue v = conditional();
+        if (!m_failed && m_pos < m_toks.size()) fail(m_toks[m_pos].loc, "malformed #if expression");
+        if (m_failed) return std::nullopt;
+        return v.isTrue();
+    }
+
+private:
+    /// The shading language has no `<<`, `>>`, hexadecimal constants or
+    /// integer suffixes, so its lexer splits them (`<` `<`, `0` `x1F`,
+    /// `10` `u`); written without space between they are joined back here.
+    static std::vector<Token> joinSplitTokens(const std::vector<Token>& in) {
+        std::vector<Token> out;
+        for (const Token& t : in) {
+            if (!out.empty() && !t.spaceBefore) {
+                Token& prev = out.back();
+                const bool shift = prev.kind == Tok::Punct && (prev.text == "<" || prev.text == ">") &&
+                                   t.kind == Tok::Punct && t.text == prev.text;
+                const bool numberTail = prev.kind == Tok::Number && t.kind == Tok::Ident;
+                if (shift || numberTail) {
+                    prev.text += t.text;
+                    continue;
+                }
+            }
+            out.push_back(t);
+        }
+        return out;
+    }
+
+    bool isOperator(const std::string& op) const {
+        if (m_pos >= m_toks.size()) return false;
+        const Token& t = m_toks[m_pos];
+        return (t.kind == Tok::Punct || t.kind == Tok::Other) && t.text == op;
+    }
+    SrcLoc here() const { return m_pos < m_toks.size() ? m_toks[m_pos].loc : m_end; }
+
+    /// Reports the first error only; afterwards every rule returns at once.
+    IfValue fail(const SrcLoc& loc, const std::string& msg) {
+        if (!m_failed) m_errs.error(loc, msg);
+        m_failed = true;
+        return {};
+    }
+
+    /// Counts the nesting of conditional() and unary(), which every cycle
+    /// of the recursion passes, so that garbage cannot overflow the stack.
+    class Nesting {
+    public:
+        explicit Nesting(IfExpression& e) : m_e(e) { ++m_e.m_depth; }
+        ~Nesting() { --m_e.m_depth; }
+        bool tooDeep() const { return m_e.m_depth > kMaxMacroDepth; }
+
+    private:
+        IfExpression& m_e;
+    };
+
+    /// Marks an operand that cpp does not evaluate: dividing by zero there
+    /// is no error.
+    class Unevaluated {
+    public:
+        Unevaluated(IfExpression& e, bool skip) : m_e(e), m_skip(skip) { m_e.m_unevaluated += m_skip; }
+        ~Unevaluated() { m_e.m_unevaluated -= m_skip; }
+
+    private:
+        IfExpression& m_e;
+        int m_skip;
+    };
+
+    /// conditional: binary(1) [ '?' conditional ':' conditional ]
+    IfValue conditional() {
+        Nesting nesting(*this);
+        if (nesting.tooDeep()) return fail(here(), "#if expression nested too deeply");
+        const IfValue cond = binary(1);
+        if (m_failed || !isOperator("?")) return cond;
+        ++m_pos;
+        IfValue first, second;
+        {
+            Unevaluated skip(*this, !cond.isTrue());
+            first = conditional();
+        }
+        if (m_failed) return {};
+        if (!isOperator(":")) return fail(here(), "expected ':' in #if expression");
+        ++m_pos;
+        {
+            Unevaluated skip(*this, cond.isTrue());
+            second = conditional();
+        }
+        // The result has the type both branches convert to.
+        IfValue result = cond.isTrue() ? first : second;
+        result.isUnsigned = first.isUnsigned || second.isUnsigned;
+        return result;
+    }
+
+    /// The binding strength of a binary operator, from `||` (1) to `*` (10);
+    /// 0 for any other token.
+    static int precedence(const Token& t) {
+        if (t.kind != Tok::Punct && t.kind != Tok::Other) return 0;
+        static const std::pair<std::string_view, int> kLevels[] = {
+            {"||", 1}, {"&&", 2}, {"|", 3},  {"^", 4},  {"&", 5},  {"==", 6}, {"!=", 6}, {"<", 7},  {">", 7},
+            {"<=", 7}, {">=", 7}, {"<<", 8}, {">>", 8}, {"+", 9},  {"-", 9},  {"*", 10}, {"/", 10}, {"%", 10}};
+        for (const auto& [op, level] : kLevels)
+            if (t.text == op) return level;
+        return 0;
+    }
+
+    /// binary(n): unary { operator of level >= n  binary(level + 1) },
+    /// by precedence climbing; all binary operators associate to the left.
+    IfValue binary(int minLevel) {
+        IfValue lhs = unary();
+        while (!m_failed && m_pos < m_toks.size()) {
+            const int level = precedence(m_toks[m_pos]);
+            if (level == 0 || level < minLevel) break;
+            const Token& op = m_toks[m_pos++];
+            const bool decided = (op.text == "&&" && !lhs.isTrue()) || (op.text == "||" && lhs.isTrue());
+            Unevaluated skip(*this, decided);
+            const IfValue rhs = binary(level + 1);
+            if (m_failed) break;
+            lhs = apply(op, lhs, rhs);
+        }
+        return lhs;
+    }
+
+    /// unary: ( '+' | '-' | '~' | '!' ) unary | '(' conditional ')' | integer | name
+    IfValue unary() {
+        Nesting nesting(*this);
+        if (nesting.tooDeep()) return fail(here(), "#if expression nested too deeply");
+        if (m_pos >= m_toks.size()) return fail(m_end, "missing operand at the end of the #if expression");
+        const Token& t = m_toks[m_pos++];
+        const bool op = t.kind == Tok::Punct || t.kind == Tok::Other;
+        if (op && t.text == "+") return unary();
+        if (op && t.text == "-") {
+            IfValue v = unary();
+            v.bits = 0 - v.bits;
+            return v;
+        }
+        if (op && t.text == "~") {
+            IfValue v = unary();
+            v.bits = ~v.bits;
+            return v;
+        }
+        if (op && t.text == "!") return IfValue::ofBool(!unary().isTrue());
+        if (op && t.text == "(") {
+            const IfValue v = conditional();
+            if (m_failed) return {};
+            if (!isOperator(")")) return fail(here(), "expected ')' in #if expression");
+            ++m_pos;
+            return v;
+        }
+        if (t.kind == Tok::Number) return integer(t);
+        if (t.kind == Tok::Ident) return {};  // a name that is no macro is 0, as in C
+        return fail(t.loc, "malformed #if expression");
+    }
+
+    /// A C integer constant: decimal, octal (a leading 0) or hexadecimal
+    /// (0x), with an optional `u`, `l` or `ll` suffix.
+    IfValue integer(const Token& t) {
+        const std::string& x = t.text;
+        const bool hex = x.size() > 1 && x[0] == '0' && (x[1] == 'x' || x[1] == 'X');
+        if (!hex && x.find_first_of(".eE") != std::string::npos)
+            return fail(t.loc, fmt::format("floating constant '{}' in #if expression", x));
+        const uint64_t base = hex ? 16 : x[0] == '0' ? 8 : 10;
+        size_t k = hex ? 2 : 0;
+        uint64_t value = 0;
+        bool tooLarge = false;
+        for (; k < x.size(); ++k) {
+            const char c = char(std::tolower(static_cast<unsigned char>(x[k])));
+            const uint64_t digit = std::isdigit(static_cast<unsigned char>(c)) ? uint64_t(c - '0')
+                                   : c >= 'a' && c <= 'f'                      ? uint64_t(c - 'a' + 10)
+                                                                               : 99;
+            if (digit >= base) break;
+            tooLarge |= value > (UINT64_MAX - digit) / base;
+            value = value * base + digit;
+        }
+        std::string suffix = x.substr(k);
+        for (char& c : suffix) c = char(std::tolower(static_cast<unsigned char>(c)));
+        static const std::set<std::string> kSuffixes = {"", "u", "l", "ul", "lu", "ll", "ull", "llu"};
+        if ((hex && k == 2) || !kSuffixes.count(suffix))
+            return fail(t.loc, fmt::format("invalid integer constant '{}' in #if expression", x));
+        if (tooLarge) return fail(t.loc, fmt::format("integer constant '{}' too large in #if expression", x));
+        // As in cpp, a decimal constant too large for intmax_t is unsigned.
+        return {value, suffix.find('u') != std::string::npos || value > uint64_t(INT64_MAX)};
+    }
+
+    IfValue apply(const Token& op, const IfValue& a, const IfValue& b) {
+        const std::string& o = op.text;
+        if (o == "&&") return IfValue::ofBool(a.isTrue() && b.isTrue());
+        if (o == "||") return IfValue::ofBool(a.isTrue() || b.isTrue());
+        if (o == "<<" || o == ">>") return shift(a, b, o == "<<");
+        // The usual arithmetic conversions: unsigned if either side is.
+        const bool u = a.isUnsigned || b.isUnsigned;
+        if (o == "==") return IfValue::ofBool(a.bits == b.bits);
+        if (o == "!=") return IfValue::ofBool(a.bits != b.bits);
+        if (o == "<") return IfValue::ofBool(u ? a.bits < b.bits : a.asSigned() < b.asSigned());
+        if (o == ">") return IfValue::ofBool(u ? a.bits > b.bits : a.asSigned() > b.asSigned());
+        if (o == "<=") return IfValue::ofBool(u ? a.bits <= b.bits : a.asSigned() <= b.asSigned());
+        if (o == ">=") return IfValue::ofBool(u ? a.bits >= b.bits : a.asSigned() >= b.asSigned());
+        IfValue r{0, u};
+        if (o == "+") r.bits = a.bits + b.bits;
+        else if (o == "-") r.bits = a.bits - b.bits;
+        else if (o == "*") r.bits = a.bits * b.bits;
+        else if (o == "&") r.bits = a.bits & b.bits;
+        else if (o == "|") r.bits = a.bits | b.bits;
+        else if (o == "^") r.bits = a.bits ^ b.bits;
+        else if (b.bits == 0) {
+            if (m_unevaluated == 0) fail(op.loc, "division by zero in #if expression");
+        } else if (u) {
+            r.bits = o == "/" ? a.bits / b.bits : a.bits % b.bits;
+        } else if (a.asSigned() == INT64_MIN && b.asSigned() == -1) {
+            r.bits = o == "/" ? a.bits : 0;  // overflows; wraps as the other operators do
+        } else {
+            r.bits = uint64_t(o == "/" ? a.asSigned() / b.asSigned() : a.asSigned() % b.asSigned());
+        }
+        return r;
+    }
+
+    /// `a << n` or `a >> n` as cpp computes it: a negative count shifts the
+    /// other way; counts past the width leave 0, or -1 when a negative
+    /// signed value is shifted right. The result has the type of `a`.
+    static IfValue shift(const IfValue& a, const IfValue& n, bool left) {
+        uint64_t count = n.bits;
+        if (!n.isUnsigned && n.asSigned() < 0) {
+            left = !left;
+            count = 0 - n.bits;
+        }
+        IfValue r{0, a.isUnsigned};
+        if (left) r.bits = count >= 64 ? 0 : a.bits << count;
+        else if (!a.isUnsigned && a.asSigned() < 0) r.bits = count >= 64 ? ~uint64_t(0) : ~(~a.bits >> count);
+        else r.bits = count >= 64 ? 0 : a.bits >> count;
+        return r;
+    }
+
+    std::vector<Token> m_toks;
+    CompileErrors& m_errs;
+    SrcLoc m_end;  // where an expression that stops too early is reported
+    size_t m_pos = 0;
+    int m_depth = 0;
+    int m_unevaluated = 0;
+    bool m_failed = false;
+};
+
 struct Macro {
     bool function = false;
     std::vector<std::string> params;
@@ -374,79 +642,35 @@ private:
         m_errs.error(dir[1].loc, fmt::format("cannot find include file '{}'", name));
     }
 
-    /// #if expression: integers, defined(X), !, &&, ||, ==, !=, <, >, parentheses.
+    /// The truth of the #if or #elif `dir`, whose expression starts at
+    /// dir[from]. As in cpp, `defined X` and `defined(X)` are replaced
+    /// before macros are expanded. An erroneous expression is false.
     bool evalCondition(const std::vector<Token>& dir, size_t from) {
-        std::vector<Token> raw(dir.begin() + std::ptrdiff_t(from), dir.end()), toks;
-        for (size_t k = 0; k < raw.size(); ++k) {
-            if (raw[k].text == "defined") {
-                size_t j = k + 1;
-                bool paren = j < raw.size() && raw[j].text == "(";
-                if (paren) ++j;
-                Token t;
-                t.kind = Tok::Number;
-                t.number = (j < raw.size() && m_macros.count(raw[j].text)) ? 1 : 0;
-                toks.push_back(t);
-                k = j + (paren ? 1 : 0);
+        std::vector<Token> toks;
+        for (size_t k = from; k < dir.size(); ++k) {
+            if (dir[k].kind != Tok::Ident || dir[k].text != "defined") {
+                toks.push_back(dir[k]);
                 continue;
             }
-            toks.push_back(raw[k]);
+            const bool paren = k + 1 < dir.size() && dir[k + 1].kind == Tok::Punct && dir[k + 1].text == "(";
+            const size_t name = k + 1 + (paren ? 1 : 0);
+            if (name >= dir.size() || dir[name].kind != Tok::Ident) {
+                m_errs.error(dir[k].loc, "expected a macro name after 'defined'");
+                return false;
+            }
+            if (paren && (name + 1 >= dir.size() || dir[name + 1].text != ")")) {
+                m_errs.error(dir[name].loc, fmt::format("expected ')' after 'defined({}'", dir[name].text));
+                return false;
+            }
+            Token value = dir[k];
+            value.kind = Tok::Number;
+            value.text.assign(1, m_macros.count(dir[name].text) ? '1' : '0');
+            toks.push_back(std::move(value));
+            k = name + (paren ? 1 : 0);
         }
-        std::vector<Token> ex;
-        expand(toks, 0, ex);
-        size_t pos = 0;
-        int depth = 0;
-        double v = condOr(ex, pos, depth);
-        if (pos != ex.size()) m_errs.error(ex.empty() ? dir[0].loc : ex[std::min(pos, ex.size() - 1)].loc, "malformed #if expression");
-        return v != 0;
-    }
-    double condOr(const std::vector<Token>& t, size_t& p, int& depth) {
-        double v = condAnd(t, p, depth);
-        while (p < t.size() && t[p].text == "||") {
-            ++p;
-            double r = condAnd(t, p, depth);
-            v = (v != 0 || r != 0);
-        }
-        return v;
-    }
-    double condAnd(const std::vector<Token>& t, size_t& p, int& depth) {
-        double v = condCmp(t, p, depth);
-        while (p < t.size() && t[p].text == "&&") {
-            ++p;
-            double r = condCmp(t, p, depth);
-            v = (v != 0 && r != 0);
-        }
-        return v;
-    }
-    double condCmp(const std::vector<Token>& t, size_t& p, int& depth) {
-        double v = condUnary(t, p, depth);
-        while (p < t.size() && t[p].kind == Tok::Punct &&
-               (t[p].text == "==" || t[p].text == "!=" || t[p].text == "<" || t[p].text == ">" || t[p].text == "<=" || t[p].text == ">=")) {
-            std::string op = t[p++].text;
-            double r = condUnary(t, p, depth);
-            v = op == "==" ? v == r : op == "!=" ? v != r : op == "<" ? v < r : op == ">" ? v > r : op == "<=" ? v <= r : v >= r;
-        }
-        return v;
-    }
-    double condUnary(const std::vector<Token>& t, size_t& p, int& depth) {
-        if (p >= t.size()) return 0;
-        if (++depth > kMaxMacroDepth) return 0;
-        double r = 0;
-        if (t[p].text == "!" && t[p].kind == Tok::Punct) {
-            ++p;
-            r = condUnary(t, p, depth) == 0;
-        } else if (t[p].text == "-" && t[p].kind == Tok::Punct) {
-            ++p;
-            r = -condUnary(t, p, depth);
-        } else if (t[p].text == "(" && t[p].kind == Tok::Punct) {
-            ++p;
-            r = condOr(t, p, depth);
-            if (p < t.size() && t[p].text == ")") ++p;
-        } else {
-            r = t[p].kind == Tok::Number ? t[p].number : 0;  // unknown identifiers are 0, as in C
-            ++p;
-        }
-        --depth;
-        return r;
+        std::vector<Token> expanded;
+        expand(toks, 0, expanded);
+        return IfExpression(expanded, dir[0].loc, m_errs).evaluate().value_or(false);
     }
 
     /// Expands macros in `in`, appending to `out`. `depth` bounds nesting;

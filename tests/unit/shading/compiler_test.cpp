@@ -158,6 +158,59 @@ TEST(Compiler, FunctionsReturnStrings) {
     expectNear(g.Ci[0], Vec3(1, 1, 1));
 }
 
+// #if takes C's integer constant expressions: arithmetic, shifts, bitwise
+// operators and ?: besides comparisons and logic, macros expanded first and
+// names left over 0. umbra knew only comparisons and logic and refused the
+// rest as a "malformed #if expression" (`#if TWO * 2 == 4` with TWO
+// defined as (ONE + ONE)); cpp, Pixie and Aqsis evaluate them.
+TEST(Compiler, IfEvaluatesCIntegerConstantExpressions) {
+    const std::pair<const char*, bool> cases[] = {
+        {"TWO * 2 == 4", true},
+        {"2 + 3 * 4 == 14", true},
+        {"1 - 1 - 1 == -1", true},
+        {"7 / 2 == 3 && -7 / 2 == -3", true},
+        {"10 % 3 == 1 && -7 % 3 == -1", true},
+        {"(1 << 2) == 4 && (-16 >> 2) == -4 && 1 << 2 + 1 == 8", true},
+        {"1 ? 2 : 0", true},
+        {"0 ? 1 : 0 ? 1 : 0", false},
+        {"~0 == -1 && (6 & 3) == 2 && (6 | 3) == 7 && (6 ^ 3) == 5", true},
+        {"(5 & 2) || 0", false},
+        {"defined TWO && defined(ONE) && !defined UNDEFINED && -+-1 == 1", true},
+        {"UNDEFINED_NAME == 0 && UNDEFINED_NAME + 1", true},
+        {"0 && 1 / 0 || (1 ? 1 : 1 % 0)", true},  // unevaluated: no division by zero
+        {"0x1F == 31 && 010 == 8 && 10u == 10 && 1L == 1", true},
+        {"-1 > 0u && -1 < 0", true},  // unsigned arithmetic if either side is
+        {"2 * 3 < 5", false},
+    };
+    for (const auto& [expr, truth] : cases) {
+        SCOPED_TRACE(expr);
+        Harness h;
+        ShadingGrid g = makeGrid(2, 1, [](float u, float) { return Vec3(u, 0, 1); });
+        h.surface(fmt::format("#define ONE 1\n#define TWO (ONE + ONE)\n"
+                              "#if {}\n#define RES 0.4\n#else\n#define RES 0.8\n#endif\n"
+                              "surface t() {{ Ci = RES; }}\n",
+                              expr),
+                  g);
+        expectNear(g.Ci[0], Vec3(truth ? 0.4f : 0.8f));
+    }
+    Harness h;
+    ShadingGrid g = makeGrid(2, 1, [](float u, float) { return Vec3(u, 0, 1); });
+    h.surface("#if 0\n#define RES 0.1\n#elif 2 * 3 > 5\n#define RES 0.2\n#endif\nsurface t() { Ci = RES; }\n", g);
+    expectNear(g.Ci[0], Vec3(0.2f));
+    // Errors name their place; garbage is refused without overflowing the stack.
+    h.expectRefused("#if 1 / (2 - 2)\n#endif\nsurface t() { Ci = 1; }\n",
+                    "t.sl:1:7: error: division by zero in #if expression");
+    h.expectRefused("#if 1.5 > 1\n#endif\nsurface t() { Ci = 1; }\n", "t.sl:1:5: error: floating constant '1.5'");
+    h.expectRefused("#if (1 + 2\n#endif\nsurface t() { Ci = 1; }\n", "t.sl:1:10: error: expected ')'");
+    h.expectRefused("#if 1 +\n#endif\nsurface t() { Ci = 1; }\n", "t.sl:1:7: error: missing operand");
+    for (const std::string& garbage : {std::string(5000, '('), std::string(5000, '-'), [] {
+             std::string s;
+             for (int i = 0; i < 2000; ++i) s += "1 ? 1 : ";
+             return s;
+         }()})
+        h.expectRefused("#if " + garbage + "1\n#endif\nsurface t() { Ci = 1; }\n", "#if expression nested too deeply");
+}
+
 // cpp looks only for directives in a skipped #if group, so notes holding
 // `@`, `$`, a backtick, an apostrophe or a lone quote may sit there, and an
 // unused macro may hold them too. umbra lexed the skipped text as shading
