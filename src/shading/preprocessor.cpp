@@ -507,7 +507,7 @@ public:
                 if (dir.empty()) continue;
                 const std::string& d = dir[0].text;
                 if (d == "ifdef" || d == "ifndef") {
-                    bool def = dir.size() > 1 && m_macros.count(dir[1].text);
+                    bool def = dir.size() > 1 && isDefined(dir[1].text);
                     bool take = active() && (d == "ifdef" ? def : !def);
                     if (dir.size() < 2) m_errs.error(dir[0].loc, fmt::format("expected a macro name after #{}", d));
                     conds.push_back({take, take, active(), hashLoc});
@@ -664,13 +664,36 @@ private:
             }
             Token value = dir[k];
             value.kind = Tok::Number;
-            value.text.assign(1, m_macros.count(dir[name].text) ? '1' : '0');
+            value.text.assign(1, isDefined(dir[name].text) ? '1' : '0');
             toks.push_back(std::move(value));
             k = name + (paren ? 1 : 0);
         }
         std::vector<Token> expanded;
         expand(toks, 0, expanded);
         return IfExpression(expanded, dir[0].loc, m_errs).evaluate().value_or(false);
+    }
+
+    /// cpp's predefined macros that shaders use: `__LINE__`, the line of
+    /// its use (of the outermost macro's use inside an expansion), and
+    /// `__FILE__`, the name of the file as a string literal. A #define of
+    /// the same name overrides them.
+    static bool isPredefined(const Token& t) {
+        return t.kind == Tok::Ident && (t.text == "__LINE__" || t.text == "__FILE__");
+    }
+    Token predefinedValue(const Token& use) const {
+        Token value = use;
+        if (use.text == "__LINE__") {
+            value.kind = Tok::Number;
+            value.number = use.loc.line;
+            value.text = std::to_string(use.loc.line);
+        } else {
+            value.kind = Tok::String;
+            value.text = *m_src.files[size_t(use.loc.file)].name;
+        }
+        return value;
+    }
+    bool isDefined(const std::string& name) const {
+        return m_macros.count(name) || name == "__LINE__" || name == "__FILE__";
     }
 
     /// Expands macros in `in`, appending to `out`. `depth` bounds nesting;
@@ -690,6 +713,10 @@ private:
                 return;
             }
             auto it = t.kind == Tok::Ident ? m_macros.find(t.text) : m_macros.end();
+            if (it == m_macros.end() && isPredefined(t)) {
+                out.push_back(predefinedValue(t));
+                continue;
+            }
             if (it == m_macros.end() || m_active.count(t.text)) {
                 out.push_back(t);
                 continue;

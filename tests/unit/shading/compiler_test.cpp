@@ -241,6 +241,26 @@ TEST(Compiler, SkippedGroupsAreOnlyScannedForDirectives) {
     EXPECT_NE(h.messages().find("t.sl:5:8: error: unexpected character '@'"), std::string::npos) << h.messages();
 }
 
+// cpp predefines __LINE__ (the line of its use; inside a macro, of the
+// macro's use) and __FILE__ (the file's name as a string literal). umbra
+// had neither ("undefined variable '__LINE__'"); cpp, Pixie and Aqsis have
+// both.
+TEST(Compiler, LineAndFileArePredefinedMacros) {
+    Harness h;
+    ShadingGrid g = makeGrid(2, 1, [](float u, float) { return Vec3(u, 0, 1); });
+    h.surface("#define HERE __LINE__\n"
+              "surface t() {\n"
+              "  float a = __LINE__;\n"
+              "  float b = HERE;\n"
+              "  float c = __FILE__ == \"test.sl\";\n"
+              "#if __LINE__ == 6 && defined(__FILE__) && defined __LINE__\n"
+              "  Ci = color(a, b, c);\n"
+              "#endif\n"
+              "}\n",
+              g);
+    expectNear(g.Ci[0], Vec3(3, 4, 1));
+}
+
 // A shader in the style found in the wild: macros with arguments, nested
 // functions with output parameters, illuminance with categories, output
 // parameters, arrays, and the RI spec 3.2 idioms.
