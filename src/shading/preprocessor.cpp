@@ -66,27 +66,71 @@ void CompileErrors::warning(const SrcLoc& loc, const std::string& msg) {
     m_diag.report(Severity::Warning, fileLoc(loc), msg + quote(loc));
 }
 
+namespace {
+
+/// A file's text after C's translation phase 2, which removes every
+/// backslash-newline before comments are recognised (phase 3): a `//`
+/// comment ending in a backslash goes on over the next line, a directive
+/// or a token may continue there. Maps offsets back to the lines and
+/// columns as written, so that later errors keep their places.
+class SplicedText {
+public:
+    explicit SplicedText(const std::string& written) {
+        m_anchors.push_back({0, 0});
+        size_t w = 0;
+        while (w < written.size()) {
+            if (written[w] == '\\') {
+                size_t newline = w + 1;
+                if (newline < written.size() && written[newline] == '\r') ++newline;
+                if (newline < written.size() && written[newline] == '\n') {
+                    w = newline + 1;
+                    m_anchors.push_back({m_text.size(), w});
+                    continue;
+                }
+            }
+            m_text += written[w++];
+        }
+        m_lineStarts.push_back(0);
+        for (size_t k = 0; k < written.size(); ++k)
+            if (written[k] == '\n') m_lineStarts.push_back(k + 1);
+    }
+
+    const std::string& text() const { return m_text; }
+
+    /// The line and column as written of text()[at].
+    SrcLoc loc(int file, size_t at) const {
+        auto anchor = std::upper_bound(m_anchors.begin(), m_anchors.end(), at,
+                                       [](size_t a, const Anchor& b) { return a < b.spliced; });
+        --anchor;
+        const size_t written = anchor->written + (at - anchor->spliced);
+        const auto line = std::upper_bound(m_lineStarts.begin(), m_lineStarts.end(), written) - 1;
+        return SrcLoc{file, int(line - m_lineStarts.begin()) + 1, int(written - *line) + 1};
+    }
+
+private:
+    /// From text()[spliced] on, the text is the one written from [written].
+    struct Anchor {
+        size_t spliced, written;
+    };
+    std::string m_text;
+    std::vector<Anchor> m_anchors;     // one per splice, by offset
+    std::vector<size_t> m_lineStarts;  // offsets in the written text
+};
+
+}  // namespace
+
 std::vector<Token> lexFile(const SourceSet& src, int file, CompileErrors& errs) {
-    const std::string& s = src.files[file].text;
+    const SplicedText spliced(src.files[file].text);
+    const std::string& s = spliced.text();
     std::vector<Token> out;
     size_t i = 0, n = s.size();
-    int line = 1;
-    size_t lineBegin = 0;
     bool lineStart = true, space = false;
-    auto loc = [&](size_t at) { return SrcLoc{file, line, int(at - lineBegin) + 1}; };
+    auto loc = [&](size_t at) { return spliced.loc(file, at); };
     while (i < n) {
         char c = s[i];
         if (c == '\n') {
-            ++line;
-            lineBegin = ++i;
+            ++i;
             lineStart = true;
-            continue;
-        }
-        if (c == '\\' && i + 1 < n && (s[i + 1] == '\n' || (s[i + 1] == '\r' && i + 2 < n && s[i + 2] == '\n'))) {
-            i += s[i + 1] == '\n' ? 2 : 3;  // line continuation: the directive goes on
-            ++line;
-            lineBegin = i;
-            space = true;
             continue;
         }
         if (std::isspace(static_cast<unsigned char>(c))) {
@@ -101,13 +145,7 @@ std::vector<Token> lexFile(const SourceSet& src, int file, CompileErrors& errs) 
         if (c == '/' && i + 1 < n && s[i + 1] == '*') {
             SrcLoc start = loc(i);
             i += 2;
-            while (i + 1 < n && !(s[i] == '*' && s[i + 1] == '/')) {
-                if (s[i] == '\n') {
-                    ++line;
-                    lineBegin = i + 1;
-                }
-                ++i;
-            }
+            while (i + 1 < n && !(s[i] == '*' && s[i + 1] == '/')) ++i;
             if (i + 1 >= n) {
                 errs.error(start, "unterminated comment");
                 break;

@@ -261,6 +261,29 @@ TEST(Compiler, LineAndFileArePredefinedMacros) {
     expectNear(g.Ci[0], Vec3(3, 4, 1));
 }
 
+// C splices lines (drops each backslash-newline) before it recognises
+// comments, so a // comment ending in a backslash swallows the next line,
+// and a token may go on over a splice. umbra ended the comment at the line
+// and ran `Ci = 0.9` silently; cpp and Aqsis give 0.3 (gcc warns of a
+// multi-line comment), Pixie 0.9 as umbra did.
+TEST(Compiler, LinesAreSplicedBeforeCommentsAreRecognised) {
+    Harness h;
+    ShadingGrid g = makeGrid(2, 1, [](float u, float) { return Vec3(u, 0, 1); });
+    h.surface("surface t() {\n"
+              "  Ci = 0.3; // a comment ending in a backslash \\\n"
+              "  Ci = 0.9;\n"
+              "  float ten = 1\\\n"
+              "0; float line = __LINE__;\n"
+              "  Ci = color(comp(Ci, 0), ten, line);\n"
+              "}\n",
+              g);
+    expectNear(g.Ci[0], Vec3(0.3f, 10, 5));
+    // Errors after splices and comments keep the lines and columns as written.
+    h.expectRefused("surface t() {\n  // \\\n  Ci = 1;\n  Ci = foo\\\nbar; /*\n */ Ci = baz;\n}\n",
+                    "t.sl:4:8: error: undefined variable 'foobar'");
+    EXPECT_NE(h.messages().find("t.sl:6:10: error: undefined variable 'baz'"), std::string::npos) << h.messages();
+}
+
 // A shader in the style found in the wild: macros with arguments, nested
 // functions with output parameters, illuminance with categories, output
 // parameters, arrays, and the RI spec 3.2 idioms.
