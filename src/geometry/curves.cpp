@@ -240,12 +240,34 @@ PointGroup::PointGroup(std::shared_ptr<const scene::PrimitiveRecord> record, std
                        int first, int count)
     : Primitive(std::move(record)), m_set(std::move(set)), m_first(first), m_count(count) {}
 
+namespace {
+
+/// How far past width/sqrt(2) a disc's square reaches in object space: a
+/// square of camera-space half side r * cbrt(volume scale) reaches
+/// cbrt(volume scale) / (least scale) times further there than under a
+/// similarity (1). Over the transform's keys; a camera that does not
+/// scale uniformly is not accounted for.
+float discReach(const scene::PrimitiveRecord& rec) {
+    std::vector<Mat4> transforms{rec.worldFromObject};
+    if (rec.worldFromObjectMotion)
+        for (float t : rec.worldFromObjectMotion->keyTimes()) transforms.push_back(rec.worldFromObjectMotion->at(t));
+    float reach = 1;
+    for (const Mat4& m : transforms) {
+        const float least = smallestSingularValue3(m), volume = std::abs(m.det3());
+        if (least > 0) reach = std::max(reach, std::cbrt(volume) / least);
+    }
+    return reach < 1.001f ? 1.0f : reach * 1.001f;  // similarities exactly as before
+}
+
+}  // namespace
+
 Bound3 PointGroup::bound() const {
     Bound3 b;
+    const float reach = discReach(record());
     for (int k = m_first; k < m_first + m_count; ++k) {
         const Vec3 p = m_set->data->point(size_t(k));
         // A square of side w facing any way stays within w/sqrt(2) of its centre.
-        const float r = 0.7072f * std::abs(m_set->width(k));
+        const float r = 0.7072f * std::abs(m_set->width(k)) * reach;
         b.extend(p - Vec3(r, r, r));
         b.extend(p + Vec3(r, r, r));
     }
@@ -294,16 +316,21 @@ Grid PointGroup::diceInView(int, int, const ViewContext& view) const {
     for (int q = 0; q < m_count; ++q) {
         const int k = m_first + q;
         const Vec3 c = sd.point(size_t(k));
-        const float r = 0.5f * m_set->width(k);
         // Discs lie parallel to the image plane, their normal the camera's
         // axis towards the eye, as Pixie and Aqsis shade them: a distant
-        // light lights every particle of a wide view alike.
-        Vec3 e = view.towardEye;
-        const float le = length(e);
-        e = le > 0 ? e / le : Vec3(0, 0, -1);
-        // dPdu x dPdv = a x (e x a) = e: the outward side faces the eye.
-        const Vec3 ax = anyPerpendicular(e);
-        const Vec3 bx = cross(e, ax) * sign;
+        // light lights every particle of a wide view alike. Their sides are
+        // the camera's axes, so a disc stays round under a non-uniform
+        // Scale (it was squashed into a dash, where both peers draw
+        // circles), its radius the width scaled by the transform's volume
+        // scale (the size there is the spec's silence: Pixie's discs are
+        // smaller, Aqsis takes the x scale).
+        const float r = 0.5f * m_set->width(k) * view.cameraPerObject;
+        const Vec3 e = view.towardEye;
+        // The outward side faces the eye: dPdu x dPdv along e.
+        const Vec3 ax = view.imageX;
+        Vec3 bx = view.imageY;
+        if (dot(cross(ax, bx), e) < 0) bx = -bx;
+        bx = bx * sign;
         for (int j = 0; j <= 1; ++j)
             for (int di = 0; di <= 1; ++di) {
                 const size_t vi = size_t(g.index(2 * q + di, j));

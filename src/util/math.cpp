@@ -1,5 +1,8 @@
 #include "umbra/util/math.h"
 
+#include <algorithm>
+#include <cmath>
+
 namespace umbra {
 
 Mat4 Mat4::inverse(bool* ok) const {
@@ -43,6 +46,37 @@ Bound3 transformBound(const Mat4& M, const Bound3& b) {
     if (b.empty()) return r;
     for (int i = 0; i < 8; ++i) r.extend(M.point(b.corner(i)));
     return r;
+}
+
+float smallestSingularValue3(const Mat4& m) {
+    // A = M^T M is symmetric positive semi-definite; its eigenvalues by the
+    // trigonometric closed form (Smith 1961), in double.
+    double a[3][3];
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+            double sum = 0;
+            for (int k = 0; k < 3; ++k) sum += double(m.m[k][i]) * double(m.m[k][j]);
+            a[i][j] = sum;
+        }
+    const double off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
+    double least;
+    if (off == 0) {
+        least = std::min({a[0][0], a[1][1], a[2][2]});
+    } else {
+        const double q = (a[0][0] + a[1][1] + a[2][2]) / 3;
+        const double p2 = (a[0][0] - q) * (a[0][0] - q) + (a[1][1] - q) * (a[1][1] - q) + (a[2][2] - q) * (a[2][2] - q) +
+                          2 * off;
+        const double p = std::sqrt(p2 / 6);
+        double b[3][3];
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) b[i][j] = (a[i][j] - (i == j ? q : 0)) / p;
+        const double detB = b[0][0] * (b[1][1] * b[2][2] - b[1][2] * b[2][1]) -
+                            b[0][1] * (b[1][0] * b[2][2] - b[1][2] * b[2][0]) +
+                            b[0][2] * (b[1][0] * b[2][1] - b[1][1] * b[2][0]);
+        const double phi = std::acos(std::clamp(detB / 2, -1.0, 1.0)) / 3;
+        least = q + 2 * p * std::cos(phi + 2 * M_PI / 3);  // the least of the three roots
+    }
+    return float(std::sqrt(std::max(0.0, least)));
 }
 
 }  // namespace umbra

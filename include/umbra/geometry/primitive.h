@@ -25,6 +25,12 @@ struct ViewContext {
     bool orthographic = true;
     Vec3 eye{0, 0, 0};         // perspective: the eye point
     Vec3 towardEye{0, 0, -1};  // orthographic: unit direction towards the eye
+    /// The camera's unit x and y axes in object space (not unit there under
+    /// a scale), and the camera-space length of an object-space unit as the
+    /// cube root of the transform's volume scale: what Points discs, round
+    /// in the image under any transform, are laid out with.
+    Vec3 imageX{1, 0, 0}, imageY{0, 1, 0};
+    float cameraPerObject = 1;
     /// From a point of the surface towards the eye (not normalized).
     Vec3 toward(const Vec3& p) const { return orthographic ? towardEye : eye - p; }
     /// The camera's eye seen from a primitive's object space.
@@ -33,6 +39,10 @@ struct ViewContext {
         v.orthographic = orthographic;
         v.eye = objectFromCamera.point({0, 0, 0});
         v.towardEye = normalize(objectFromCamera.vector({0, 0, -1}));
+        v.imageX = objectFromCamera.vector({1, 0, 0});
+        v.imageY = objectFromCamera.vector({0, 1, 0});
+        const float volume = std::abs(objectFromCamera.det3());
+        v.cameraPerObject = volume > 0 ? 1.0f / std::cbrt(volume) : 1.0f;
         return v;
     }
 };

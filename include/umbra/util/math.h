@@ -211,4 +211,8 @@ struct Mat4 {
 /// Transforms the eight corners of `b` by `M` (projective) and bounds them.
 Bound3 transformBound(const Mat4& M, const Bound3& b);
 
+/// The smallest singular value of the upper 3x3 of `m`: the least it
+/// stretches a unit vector (the square root of M^T M's least eigenvalue).
+float smallestSingularValue3(const Mat4& m);
+
 }  // namespace umbra

@@ -111,6 +111,46 @@ TEST(Points, DiscsCoverPiRSquared) {
     EXPECT_NEAR(got / expected, 1.0, 0.005) << got << " vs " << expected;
 }
 
+TEST(Points, DiscsStayRoundUnderANonUniformScale) {
+    // RI Spec 3.2: points are discs facing the camera. Under Scale 1 0.2 1
+    // (a star field flattened so) umbra squashed them into dashes; both
+    // peers draw circles. umbra's radius is the width's half times the
+    // scale's cube root of its volume (0.2^(1/3)); the same stays true
+    // turned 30 degrees about the view axis and scaled the other way.
+    ScratchDir dir("points-scaled");
+    const struct {
+        const char* transform;
+        double volume;
+    } cases[] = {{"Scale 1 0.2 1", 0.2}, {"Rotate 30 0 0 1 Scale 0.2 1 1", 0.2}, {"Scale 0.5 2 0.7", 0.7}};
+    for (const auto& [transform, volume] : cases) {
+        SCOPED_TRACE(transform);
+        const std::string world =
+            fmt::format("AttributeBegin {} Points \"P\" [0 0 0] \"constantwidth\" [2] AttributeEnd", transform);
+        Diagnostics diag;
+        test::renderRib(orthoFrame(dir.file("out.exr"), world), diag);
+        EXPECT_EQ(diag.errorCount(), 0);
+        Image img;
+        ASSERT_TRUE(test::readImage(dir.file("out.exr"), &img));
+        // Coverage and its second moments: a disc of radius R has area
+        // pi R^2 and the same spread, R^2 / 4, along x and y.
+        double area = 0, sx = 0, sy = 0, sxx = 0, syy = 0;
+        for (int y = 0; y < img.height; ++y)
+            for (int x = 0; x < img.width; ++x) {
+                const double a = img.at(x, y, 3), px = x + 0.5, py = y + 0.5;
+                area += a;
+                sx += a * px;
+                sy += a * py;
+                sxx += a * px * px;
+                syy += a * py * py;
+            }
+        const double R = std::cbrt(volume) * 64;  // width 2: radius 1 unit, 64 pixels a unit
+        EXPECT_NEAR(area / (M_PI * R * R), 1.0, 0.01);
+        const double vx = sxx / area - (sx / area) * (sx / area), vy = syy / area - (sy / area) * (sy / area);
+        EXPECT_NEAR(vx / vy, 1.0, 0.02);
+        EXPECT_NEAR(vx / (R * R / 4), 1.0, 0.03);
+    }
+}
+
 TEST(Points, PerspectiveMirroredCameraSameCoverage) {
     // Mirrored in x: the picture mirrors, one-sided discs and ribbons still face the camera.
     ScratchDir dir("points-mirror");

@@ -72,3 +72,15 @@ TEST(Rng, UniformMeanAndRange) {
     // The mean of n uniforms has standard deviation 1/sqrt(12 n) ~ 0.0009.
     EXPECT_NEAR(sum / n, 0.5, 0.005);
 }
+
+TEST(Math, SmallestSingularValueOfTheLinearPart) {
+    // A rotation keeps lengths; a scale's least factor is its least
+    // stretch, whichever side the rotation is on; a translation does not
+    // count; a flat (singular) one gives 0.
+    EXPECT_NEAR(smallestSingularValue3(Mat4::rotate(37, normalize(Vec3(1, 2, 3)))), 1.0f, 1e-5f);
+    const Mat4 s = Mat4::scale({0.5f, 2.0f, 0.7f}), r = Mat4::rotate(30, normalize(Vec3(1, -1, 2)));
+    EXPECT_NEAR(smallestSingularValue3(r * s), 0.5f, 1e-5f);
+    EXPECT_NEAR(smallestSingularValue3(s * r), 0.5f, 1e-5f);
+    EXPECT_NEAR(smallestSingularValue3(Mat4::translate({4, 5, 6}) * Mat4::scale({3, 3, 3})), 3.0f, 1e-5f);
+    EXPECT_NEAR(smallestSingularValue3(Mat4::scale({1, 0, 1})), 0.0f, 1e-6f);
+}
