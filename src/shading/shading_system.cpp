@@ -10,8 +10,9 @@
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
-#include <regex>
 #include <fstream>
+#include <regex>
+#include <set>
 #include <sstream>
 
 namespace umbra::shading {
@@ -314,33 +315,67 @@ std::shared_ptr<const Shader> ShadingSystem::compile(const std::string& path) {
     return shader;
 }
 
-std::optional<std::string> ShadingSystem::findFile(const std::string& name) const {
+namespace {
+
+/// The names of the shaders a source declares, found by pattern; a name
+/// that is a macro of the file (`surface NAME(...)`) is not one.
+std::vector<std::string> declaredShaderNames(const std::string& text) {
+    static const std::regex declaration(
+        "(^|[^A-Za-z0-9_])(surface|displacement|light|volume|imager)[ \t\r\n]+([A-Za-z_][A-Za-z0-9_]*)[ \t\r\n]*\\(");
+    static const std::regex definition("#[ \t]*define[ \t]+([A-Za-z_][A-Za-z0-9_]*)");
+    std::set<std::string> macros;
+    for (std::sregex_iterator it(text.begin(), text.end(), definition), end; it != end; ++it) macros.insert((*it)[1].str());
+    std::vector<std::string> names;
+    for (std::sregex_iterator it(text.begin(), text.end(), declaration), end; it != end; ++it)
+        if (!macros.count((*it)[3].str())) names.push_back((*it)[3].str());
+    return names;
+}
+
+}  // namespace
+
+std::optional<std::string> ShadingSystem::findFile(const std::string& name, std::string* declaresOther) const {
     namespace fs = std::filesystem;
     std::error_code ec;
     bool hasExt = name.size() > 3 && name.compare(name.size() - 3, 3, ".sl") == 0;
     if (fs::path(name).has_parent_path() && fs::is_regular_file(name, ec)) return name;
-    for (const std::string& d : m_searchPath) {
-        fs::path p = fs::path(d) / (hasExt ? name : name + ".sl");
-        if (fs::is_regular_file(p, ec)) return p.string();
-    }
     const bool identifier = !name.empty() && !std::isdigit(static_cast<unsigned char>(name[0])) &&
                             std::all_of(name.begin(), name.end(), [](char c) {
                                 return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
                             });
-    if (hasExt || !identifier) return std::nullopt;
-    // Compilers name their output after the shader, not the file
-    // (stripes-v2.sl declaring `surface stripes` gives stripes.slo,
-    // stripes.slx, stripes.sdr), so scenes name shaders whose source file
-    // is called otherwise: a source on the path that declares it will do.
-    const std::regex declares("(^|[^A-Za-z0-9_])(surface|displacement|light|volume|imager)[ \t\r\n]+" + name +
-                              "[ \t\r\n]*\\(");
     constexpr uintmax_t kLargestSource = 1 << 20;
+    // Compilers name their output after the shader, not the file: red.sl
+    // declaring `surface green` gives green.slo, and "red" is not found
+    // (Pixie and Aqsis say so and draw the default surface; umbra ran
+    // green). A file of the name declaring only another shader is passed
+    // over; one whose declaration is not seen (made by a macro) is taken.
+    auto otherShaderIn = [&](const fs::path& p) -> std::string {
+        std::string text;
+        if (!identifier || fs::file_size(p, ec) > kLargestSource || !readFile(p.string(), &text)) return "";
+        const std::vector<std::string> names = declaredShaderNames(text);
+        if (names.empty() || std::find(names.begin(), names.end(), name) != names.end()) return "";
+        return names.front();
+    };
+    for (const std::string& d : m_searchPath) {
+        fs::path p = fs::path(d) / (hasExt ? name : name + ".sl");
+        if (!fs::is_regular_file(p, ec)) continue;
+        if (hasExt) return p.string();
+        const std::string other = otherShaderIn(p);
+        if (other.empty()) return p.string();
+        if (declaresOther && declaresOther->empty())
+            *declaresOther = fmt::format("{} declares '{}'", p.filename().string(), other);
+    }
+    if (hasExt || !identifier) return std::nullopt;
+    // Scenes name shaders whose source file is called otherwise
+    // (stripes-v2.sl declaring `surface stripes`): a source on the path
+    // that declares it will do.
     for (const std::string& d : m_searchPath) {
         for (fs::directory_iterator it(d, ec), end; !ec && it != end; it.increment(ec)) {
             const fs::path& p = it->path();
             if (p.extension() != ".sl" || !it->is_regular_file(ec) || it->file_size(ec) > kLargestSource) continue;
             std::string text;
-            if (readFile(p.string(), &text) && std::regex_search(text, declares)) return p.string();
+            if (!readFile(p.string(), &text)) continue;
+            const std::vector<std::string> names = declaredShaderNames(text);
+            if (std::find(names.begin(), names.end(), name) != names.end()) return p.string();
         }
     }
     return std::nullopt;
@@ -352,12 +387,14 @@ std::shared_ptr<const Shader> ShadingSystem::find(const std::string& name, const
         auto it = m_byName.find(name);
         if (it != m_byName.end()) return it->second;
     }
-    const std::string found = findFile(name).value_or("");
+    std::string declaresOther;
+    const std::string found = findFile(name, &declaresOther).value_or("");
     std::shared_ptr<const Shader> shader;
     if (found.empty()) {
         std::string where;
         for (const std::string& d : m_searchPath) where += (where.empty() ? "" : ":") + d;
-        m_diag.error(loc, "cannot find shader '{}' (searched {})", name, where.empty() ? "nothing" : where);
+        m_diag.error(loc, "cannot find shader '{}' ({}searched {})", name,
+                     declaresOther.empty() ? "" : declaresOther + "; ", where.empty() ? "nothing" : where);
     } else {
         shader = compile(found);
     }

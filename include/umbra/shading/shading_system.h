@@ -183,8 +183,10 @@ public:
     /// Finds `name` (or name.sl) on the search path and compiles it on first
     /// use; null (with an error at `loc`) if not found or invalid.
     std::shared_ptr<const Shader> find(const std::string& name, const FileLoc& loc = {});
-    /// The file `name` (or name.sl) names on the search path, if any.
-    std::optional<std::string> findFile(const std::string& name) const;
+    /// The source of shader `name` on the search path, if any: name.sl
+    /// declaring it, else another .sl file declaring it. A name.sl that
+    /// declares another shader is passed over, and said in `declaresOther`.
+    std::optional<std::string> findFile(const std::string& name, std::string* declaresOther = nullptr) const;
     /// Compiles source text; `fileName` names it in messages. Not cached.
     std::shared_ptr<const Shader> compileSource(const std::string& source, const std::string& fileName);
 

@@ -455,6 +455,22 @@ TEST(Compat, AShaderIsFoundByItsDeclaredName) {
     EXPECT_EQ(sh->name(), "stripes");
     EXPECT_FALSE(h.sys.find("nosuch", FileLoc()));
     EXPECT_FALSE(h.sys.find("stripes(", FileLoc()));  // not a name: no search, no regex error
+    // The file of a name declaring another shader is not that shader:
+    // red.sl declaring `surface green` (a course's bump.sl declaring
+    // emboss) gives green.slo in every compiler, and Pixie and Aqsis do not
+    // find "red"; umbra ran green under the name red.
+    std::ofstream(root / "red.sl") << "surface green() { Ci = color(0, 1, 0); }\n";
+    std::ofstream(root / "made.sl") << "#define NAME made\nsurface NAME() { Ci = 1; }\n";
+    EXPECT_FALSE(h.sys.find("red", FileLoc()));
+    EXPECT_NE(h.messages().find("cannot find shader 'red' (red.sl declares 'green'; searched"), std::string::npos)
+        << h.messages();
+    auto green = h.sys.find("green", FileLoc());
+    ASSERT_TRUE(green) << h.messages();
+    EXPECT_EQ(green->name(), "green");
+    // A declaration made by a macro is not seen: the file of the name is taken.
+    auto made = h.sys.find("made", FileLoc());
+    ASSERT_TRUE(made) << h.messages();
+    EXPECT_EQ(made->name(), "made");
     fs::remove_all(root);
 }
 
