@@ -1669,30 +1669,9 @@ void SampleBuffer::resolve(film::Film& film) {
         return;
     }
     if (m_cfg.mode == HiderMode::Depth) {
-        using Reduce = SampleBufferConfig::DepthReduce;
-        // RenderMan's "max": the farthest sample (+infinity if any missed);
-        // "average": the mean of the samples that hit something.
-        auto reduce = [&](int px, int py) {
-            if (m_cfg.depthReduce == Reduce::Min) return minOver(m_z, px, py);
-            float mx = -kInfinity, sum = 0;
-            int hits = 0;
-            for (int j = 0; j < ys; ++j) {
-                size_t row = size_t((py - m_ry0) * ys + j) * size_t(m_sw) + size_t((px - m_rx0) * xs);
-                for (int i = 0; i < xs; ++i) {
-                    float z = m_z[row + size_t(i)];
-                    mx = std::max(mx, z);
-                    if (z != kInfinity) {
-                        sum += z;
-                        ++hits;
-                    }
-                }
-            }
-            if (m_cfg.depthReduce == Reduce::Max) return mx;
-            return hits > 0 ? sum / float(hits) : kInfinity;
-        };
         for (int py = by0; py < by1; ++py)
             for (int px = bx0; px < bx1; ++px) {
-                film.z(px, py) = reduce(px, py);
+                film.z(px, py) = pixelDepth(px, py);
                 if (film.hasDepthPair()) film.z2(px, py) = m_cfg.depthLayers > 1 ? minOver(m_z2, px, py) : kInfinity;
             }
         film.depthWritten(bx0, by0, bx1, by1);
@@ -1848,18 +1827,39 @@ void SampleBuffer::resolveFiltered(film::Film& film, int layer, const PatternFil
             for (int k = 0; k < 4; ++k) rgba[k] = acc[k] * inv;
             float* aov = film.aov(layer, px, py);
             for (int k = 0; k < aovN; ++k) aov[k] = acc[4 + k] * inv;
-            if (layer == 0 && film.hasDepth()) film.z(px, py) = nearestDepth(px, py);
+            if (layer == 0 && film.hasDepth()) film.z(px, py) = pixelDepth(px, py);
         }
 }
 
-float SampleBuffer::nearestDepth(int px, int py) const {
+float SampleBuffer::pixelDepth(int px, int py) const {
+    // RenderMan's depth filters over the pixel's own samples, unfiltered:
+    // "min" the nearest, "max" the farthest (+infinity if any missed),
+    // "average" the mean of the samples that hit something.
+    using Reduce = SampleBufferConfig::DepthReduce;
     const int xs = m_cfg.xSamples, ys = m_cfg.ySamples;
-    float z = kInfinity;
-    for (int j = 0; j < ys; ++j) {
-        const size_t row = size_t((py - m_ry0) * ys + j) * size_t(m_sw) + size_t((px - m_rx0) * xs);
-        for (int i = 0; i < xs; ++i) z = std::min(z, m_z[row + size_t(i)]);
+    auto rowOf = [&](int j) { return &m_z[size_t((py - m_ry0) * ys + j) * size_t(m_sw) + size_t((px - m_rx0) * xs)]; };
+    if (m_cfg.depthReduce == Reduce::Min) {
+        float mn = kInfinity;
+        for (int j = 0; j < ys; ++j) {
+            const float* row = rowOf(j);
+            for (int i = 0; i < xs; ++i) mn = std::min(mn, row[i]);
+        }
+        return mn;
     }
-    return z;
+    float mx = -kInfinity, sum = 0;
+    int hits = 0;
+    for (int j = 0; j < ys; ++j) {
+        const float* row = rowOf(j);
+        for (int i = 0; i < xs; ++i) {
+            mx = std::max(mx, row[i]);
+            if (row[i] != kInfinity) {
+                sum += row[i];
+                ++hits;
+            }
+        }
+    }
+    if (m_cfg.depthReduce == Reduce::Max) return mx;
+    return hits > 0 ? sum / float(hits) : kInfinity;
 }
 
 template <class Splat>
@@ -1927,7 +1927,7 @@ void SampleBuffer::resolveColour(film::Film& film, int layer, const PatternFilte
             const float inv = table.inverseWeightSum(positiveMod(px, kPatternPeriod), positiveMod(py, kPatternPeriod));
             float* rgba = film.rgba(layer, px, py);
             for (int k = 0; k < 4; ++k) rgba[k] = a[k] * inv;
-            if (layer == 0 && film.hasDepth()) film.z(px, py) = nearestDepth(px, py);
+            if (layer == 0 && film.hasDepth()) film.z(px, py) = pixelDepth(px, py);
         }
 }
 

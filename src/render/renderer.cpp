@@ -536,14 +536,15 @@ PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const st
         ss.sampling.jitter = options.jitter;
     }
     ss.sampling.mode = pass.depthOnly ? hider::HiderMode::Depth : hider::HiderMode::Colour;
-    if (pass.depthOnly) {
-        using Reduce = hider::SampleBufferConfig::DepthReduce;
-        DepthFilter filter = depthFilterOf(options, options.loc);
-        ss.sampling.depthReduce = filter == DepthFilter::Max       ? Reduce::Max
-                                  : filter == DepthFilter::Average ? Reduce::Average
-                                                                   : Reduce::Min;
-        ss.sampling.depthLayers = depthLayersOf(options, filter);
-    }
+    // "max" and "average" reduce each pixel's samples in colour frames'
+    // depth outputs too (Pixie's values); the two-layer filters need a
+    // depth-only frame (see cameraFrame).
+    using Reduce = hider::SampleBufferConfig::DepthReduce;
+    const DepthFilter filter = depthFilterOf(options, options.loc);
+    ss.sampling.depthReduce = filter == DepthFilter::Max       ? Reduce::Max
+                              : filter == DepthFilter::Average ? Reduce::Average
+                                                               : Reduce::Min;
+    if (pass.depthOnly) ss.sampling.depthLayers = depthLayersOf(options, filter);
     ss.maxEyeSplits = options.eyeSplits;
     Progress progress(settings.progress, label);
     ss.progress = [&](int done, int total, double workDone) { progress.update(done, total, workDone); };
@@ -839,6 +840,18 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
     // unused (8 MB at 1920 x 1080). A mode that does not parse keeps it
     // too; Film::write reports that mode.
     const bool depthRead = std::any_of(displays.begin(), displays.end(), film::displayReadsDepth);
+    // A colour frame keeps one depth a sample: "midpoint", "second" and
+    // "dual" need the second surface, which only a frame of depth displays
+    // (mode "z") finds. Its depth outputs hold the nearest depth, all alike
+    // (a zfile among them gave the nearest plus the dual offset).
+    const DepthFilter frameDepthFilter = depthFilterOf(options, options.loc);
+    const bool twoLayerFilter = frameDepthFilter == DepthFilter::Midpoint || frameDepthFilter == DepthFilter::Second ||
+                                frameDepthFilter == DepthFilter::Dual;
+    if (depthRead && !depthFrame && twoLayerFilter)
+        diag.warningOnce("colour-frame-depthfilter", options.loc,
+                         "Hider \"depthfilter\" \"{}\" needs a frame whose displays are all depth (mode \"z\"); "
+                         "this frame also writes colour, so its depth outputs hold the nearest depth",
+                         depthFilterName(frameDepthFilter));
     const film::FilmContent content = depthFrame ? depthFilmOf(options, depthFilterOf(options, options.loc))
                                       : depthRead ? film::FilmContent::Colour
                                                   : film::FilmContent::ColourOnly;
@@ -884,7 +897,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
                       {"bucket_size", {camera.bucketSize[0], camera.bucketSize[1]}}});
 
     film::DepthWriter depthWriter = [&](const scene::DisplayRecord& d, const film::Film& f) {
-        const DepthFilter filter = depthFilterOf(options, d.loc);
+        const DepthFilter filter = !depthFrame && twoLayerFilter ? DepthFilter::Min : depthFilterOf(options, d.loc);
         // The film is not read after its only display.
         DepthImage image = filmBecomesMap ? depthImageOf(std::move(film), pass, filter, dualOffsetOf(options))
                                           : depthImageOf(f, pass, filter, dualOffsetOf(options));

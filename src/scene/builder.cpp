@@ -1194,15 +1194,16 @@ void Builder::hider(const std::string& name, ri::ParamList params, const FileLoc
     if (name != "hidden" && name != "stochastic")
         unsupported("hider:" + name, loc, fmt::format("Hider: \"{}\" is not supported; \"hidden\" is used", name));
     if (const ri::Param* p = params.find("depthfilter")) {
-        // Exporters write "" for "not set" (Blender-to-Renderman), PRMan
-        // has "max" and "average": Aqsis and Pixie render such frames with
-        // "min", and so does umbra, with a warning.
+        // Exporters write "" for "not set" (Blender-to-Renderman): Aqsis
+        // and Pixie render such frames with "min", and so does umbra, with
+        // a warning. PRMan's "max" and "average" are umbra's too (Pixie's
+        // values; they were refused).
         const std::string& f = p->stringAt(0);
-        if (f == "min" || f == "second" || f == "midpoint" || f == "dual") {
+        if (f == "min" || f == "max" || f == "average" || f == "second" || f == "midpoint" || f == "dual") {
             m_options.depthFilter = f;
         } else {
-            m_diag.warning(p->loc, "Hider: \"depthfilter\" \"{}\" is not one umbra has (\"min\", \"second\", "
-                           "\"midpoint\", \"dual\"); \"min\" is used", f);
+            m_diag.warning(p->loc, "Hider: \"depthfilter\" \"{}\" is not one umbra has (\"min\", \"max\", "
+                           "\"average\", \"second\", \"midpoint\", \"dual\"); \"min\" is used", f);
             m_options.depthFilter = "min";
         }
     }

@@ -340,8 +340,9 @@ private:
     /// separable filter's weights.
     void resolveFiltered(film::Film& film, int layer, const PatternFilterWeights& table, int bx0, int by0, int bx1,
                          int by1);
-    /// The nearest opaque depth of pixel (px, py)'s own samples.
-    float nearestDepth(int px, int py) const;
+    /// The depth of pixel (px, py) from its own samples' nearest opaque
+    /// depths, by the frame's depth filter (SampleBufferConfig::depthReduce).
+    float pixelDepth(int px, int py) const;
     /// resolve() for frames without AOVs and a separable filter, into the
     /// film's filter layer `layer` with `table` (its filter's weights).
     void resolveColour(film::Film& film, int layer, const PatternFilterWeights& table, int bx0, int by0, int bx1,

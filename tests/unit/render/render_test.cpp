@@ -2,6 +2,7 @@
 // projected areas, seams, determinism across threads and bucket layouts.
 
 #include "support/render_harness.h"
+#include "umbra/shadow/depth_image.h"
 
 #include <gtest/gtest.h>
 
@@ -378,6 +379,59 @@ TEST(Shading, DPdtimeIsEachPointsVelocityOverTheShutter) {
         EXPECT_NEAR(img.at(32, 32, 1), c.expected.y, 1e-4f) << c.world;
         EXPECT_NEAR(img.at(32, 32, 2), c.expected.z, 1e-4f) << c.world;
     }
+}
+
+TEST(Film, DepthFiltersOfAColourFrame) {
+    // PRMan's Hider "depthfilter" "max" and "average" were refused (warned,
+    // "min" used); Pixie writes the farthest and the mean sample depth. A
+    // pixel half covered by a plane at z = 2 before one at z = 5 (regular
+    // 4x4 samples): min 2, max 5, average 3.5. "midpoint" needs the second
+    // surface, which a colour frame does not keep: warned, and its zfile
+    // and its "file" z agree on the nearest depth (the zfile held the
+    // nearest plus the dual offset, the TIFF the nearest, silently).
+    ScratchDir dir("colour-depthfilter");
+    const std::string frame = R"(Format 4 2 1
+ScreenWindow 0 4 0 2
+PixelFilter "box" 1 1
+PixelSamples 4 4
+Display "{0}" "file" "rgbaz"
+{1}
+Hider "hidden" "jitter" [0] "depthfilter" "{2}"
+Projection "orthographic"
+WorldBegin
+Surface "constant"
+Polygon "P" [0 0 5  4 0 5  4 2 5  0 2 5]
+Polygon "P" [1 0 2  2.5 0 2  2.5 2 2  1 2 2]
+WorldEnd
+)";
+    for (const auto& [filter, expected] : {std::pair{"min", 2.0f}, {"max", 5.0f}, {"average", 3.5f}}) {
+        Diagnostics diag;
+        diag.setRecord(true);
+        test::renderRib(fmt::format(fmt::runtime(frame), dir.file("z.tif"), "", filter), diag);
+        EXPECT_EQ(diag.warningCount(), 1) << filter;  // rgbaz mixes quantised and float channels
+        Image img;
+        ASSERT_TRUE(test::readImage(dir.file("z.tif"), &img));
+        ASSERT_EQ(img.channels, 5);
+        EXPECT_FLOAT_EQ(img.at(2, 0, 4), expected) << filter;
+        EXPECT_FLOAT_EQ(img.at(1, 0, 4), 2.0f) << filter;  // wholly the near plane
+    }
+    Diagnostics diag;
+    diag.setRecord(true);
+    test::renderRib(fmt::format(fmt::runtime(frame), dir.file("z.tif"),
+                                fmt::format("Display \"+{}\" \"zfile\" \"z\"", dir.file("mid.z")), "midpoint"),
+                    diag);
+    EXPECT_EQ(diag.errorCount(), 0);
+    bool warned = false;
+    for (const Diagnostic& m : diag.recorded()) warned = warned || m.str().find("needs a frame whose displays") != std::string::npos;
+    EXPECT_TRUE(warned);
+    Image img;
+    ASSERT_TRUE(test::readImage(dir.file("z.tif"), &img));
+    EXPECT_FLOAT_EQ(img.at(2, 0, 4), 2.0f);
+    DepthImage zfile;
+    ASSERT_TRUE(readZFile(dir.file("mid.z"), zfile, diag));
+    ASSERT_EQ(zfile.width, 4);
+    EXPECT_FLOAT_EQ(zfile.z[2], 2.0f);
+    EXPECT_FLOAT_EQ(zfile.z[0], 5.0f);
 }
 
 TEST(Shading, TextureinfoDescribesAShadowMapAsRenderManDoes) {
