@@ -397,14 +397,16 @@ void Renderer::noteFailure(int frame, int before) {
 
 void Renderer::prepare(scene::Builder& builder, const std::string& ribFile) const {
     // Shaders and textures named in a scene are looked for in the current
-    // directory, then beside the RIB file, then in the defaults ('@'), as
-    // Aqsis (".:@") and Pixie (".:$SHADERS") do for the current directory.
+    // directory, then beside the RIB file, then in the defaults. The
+    // current directory is in the defaults ('@') too, as in Aqsis and
+    // Pixie (".:$SHADERS"): course scenes write "./bin:@" for a shader
+    // beside the RIB, which umbra did not find.
     std::string ribDir = std::filesystem::path(ribFile).parent_path().string();
     if (ribFile == "-" || ribDir == ".") ribDir.clear();
-    const std::string initial = ribDir.empty() ? ".:@" : ".:" + ribDir + ":@";
+    const std::string initial = ribDir.empty() ? "@" : ".:" + ribDir + ":@";
     const RenderSettings& s = m_impl->settings;
-    builder.setDefaultSearchPath("shader", joinSearchPath(s.shaderPath));
-    builder.setDefaultSearchPath("texture", joinSearchPath(s.texturePath));
+    builder.setDefaultSearchPath("shader", expandSearchPath(".:@", "", joinSearchPath(s.shaderPath)));
+    builder.setDefaultSearchPath("texture", expandSearchPath(".:@", "", joinSearchPath(s.texturePath)));
     builder.setSearchPath("shader", initial);
     builder.setSearchPath("texture", initial);
 }

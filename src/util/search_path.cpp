@@ -76,7 +76,12 @@ std::string expandSearchPath(const std::string& given, const std::string& previo
             start = i + 1;
         }
     }
-    return joinSearchPath(out);
+    // A directory named twice (".:@" where '@' holds ".") is searched once,
+    // where it first comes.
+    std::vector<std::string> once;
+    for (std::string& d : out)
+        if (std::find(once.begin(), once.end(), d) == once.end()) once.push_back(std::move(d));
+    return joinSearchPath(once);
 }
 
 std::string executableDirectory() {

@@ -555,3 +555,30 @@ WorldEnd
     ASSERT_GT(plain.image.channelSum(0), 0.1 * 96 * 96);
     EXPECT_EQ(maxAbsDiff(area.image, plain.image, 3), 0.0);
 }
+
+TEST(Lenient, TheDefaultSearchPathHoldsTheCurrentDirectory) {
+    // Course scenes write Option "searchpath" "shader" ["./bin:@"] for
+    // shaders compiled beside the RIB; in Aqsis and Pixie '@' (the default)
+    // holds the current directory. umbra's '@' held only the standard
+    // shaders: "cannot find shader", the default surface drawn.
+    ScratchDir dir("searchpath-at");
+    std::ofstream(dir.file("greenish.sl")) << "surface greenish() { Ci = color(0, 1, 0); Oi = 1; }\n";
+    const std::string rib = fmt::format(R"(Option "searchpath" "shader" ["./bin:@"]
+Format 16 16 1
+Display "{}" "file" "rgb"
+Projection "orthographic"
+WorldBegin
+Surface "greenish"
+Polygon "P" [-2 -2 1  2 -2 1  2 2 1  -2 2 1]
+WorldEnd
+)",
+                                        dir.file("at.tif"));
+    char cwd[4096];
+    ASSERT_NE(getcwd(cwd, sizeof cwd), nullptr);
+    ASSERT_EQ(chdir(dir.file("").c_str()), 0);
+    Rendered r = renderScene(rib, dir.file("at.tif"));
+    ASSERT_EQ(chdir(cwd), 0);
+    EXPECT_EQ(r.errors, 0);
+    EXPECT_EQ(r.image.channelSum(0), 0.0);
+    EXPECT_EQ(r.image.channelSum(1), 16.0 * 16.0);
+}

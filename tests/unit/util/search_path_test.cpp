@@ -35,7 +35,8 @@ private:
 TEST(SearchPath, AmpersandIsThePreviousValueAndAtTheDefault) {
     EXPECT_EQ(expandSearchPath("/a:&", "/p:/q", "/d"), "/a:/p:/q");
     EXPECT_EQ(expandSearchPath("@:/a", "/p", "/d1:/d2"), "/d1:/d2:/a");
-    EXPECT_EQ(expandSearchPath("&:@:&", "/p", "/d"), "/p:/d:/p");
+    EXPECT_EQ(expandSearchPath("&:@:&", "/p", "/d"), "/p:/d");  // a directory is searched once, where it first comes
+    EXPECT_EQ(expandSearchPath(".:@", "", ".:/d"), ".:/d");
     EXPECT_EQ(expandSearchPath("/only", "/p", "/d"), "/only");
 }
 
@@ -62,7 +63,7 @@ TEST(SearchPath, AMarkerInsideAnEntryIsAMarkerToo) {
     // stays an entry of its own.
     EXPECT_EQ(expandSearchPath(".:../&", "/p:/q", "/d"), ".:../:/p:/q");
     EXPECT_EQ(expandSearchPath("&dir:a@b", "/p", "/d"), "/p:dir:a:/d:b");
-    EXPECT_EQ(expandSearchPath("x&&", "/p", "/d"), "x:/p:/p");
+    EXPECT_EQ(expandSearchPath("x&&", "/p", "/d"), "x:/p");
 }
 
 TEST(SearchPath, BuiltinShadersOfABuildTreeAreTheSourceShaders) {
