@@ -1086,6 +1086,14 @@ private:
             return {t, Ty::Bool};
         }
         if (a.ty == Ty::String || b.ty == Ty::String || a.ty == Ty::Void || b.ty == Ty::Void) return bad();
+        if ((op == "." || op == "^") && (isTriple(a.ty) != isTriple(b.ty)) && (a.ty == Ty::Float || b.ty == Ty::Float)) {
+            // RI Spec 3.2 section 13.1: a float with a triple is promoted by
+            // duplicating it (v ^ 2, v . 0.1; both peers take them).
+            const Ty tt = isTriple(a.ty) ? a.ty : b.ty;
+            a = coerce(a, tt, loc);
+            b = coerce(b, tt, loc);
+            if (!a || !b) return {};
+        }
         if (op == ".") {
             if (!isTriple(a.ty) || !isTriple(b.ty)) return bad();
             if ((a.ty == Ty::Color) != (b.ty == Ty::Color) && a.ty != Ty::Tuple && b.ty != Ty::Tuple) return bad();
@@ -1711,6 +1719,23 @@ private:
             }
             scope->vars[fm.name] = c.reg;
             readOnly.insert(c.reg);
+        }
+        // One variable given for an input and an output (f(r, r)): the
+        // input reads a copy of its value at the call, as if passed by
+        // value, and the output writes the variable (as Pixie and Aqsis).
+        // It was refused: the shared register was read-only.
+        std::set<int> outputRegs;
+        for (const auto& fm : f->formals)
+            if (fm.type.output && scope->vars.count(fm.name)) outputRegs.insert(scope->vars[fm.name]);
+        for (const auto& fm : f->formals) {
+            auto bound = scope->vars.find(fm.name);
+            if (fm.type.output || fm.type.arrayLen != 0 || bound == scope->vars.end() || !outputRegs.count(bound->second))
+                continue;
+            const int copy = temp(m_cs.regs[bound->second].ty);
+            emit(Op::Mov, e.loc, copy, bound->second);
+            readOnly.erase(bound->second);
+            readOnly.insert(copy);
+            bound->second = copy;
         }
         // The result register, and a mask frame when `return` can happen
         // before the end of the body.

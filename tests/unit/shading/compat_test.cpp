@@ -186,6 +186,33 @@ TEST(Compat, StringsChosenInsideAVaryingIf) {
     }
 }
 
+TEST(Compat, OneVariableForAnInputAndAnOutput) {
+    // f(r, r) with f(float a; output float b) { b = a * 2; }: the input
+    // reads r's value at the call and the output writes r, as in Pixie and
+    // Aqsis (0.4). umbra refused it ("'b' is not an output parameter").
+    // Also from inside a function, with the outer output given twice.
+    Harness h;
+    ShadingGrid g = line(2);
+    h.surface("void twice(float a; output float b) { b = a * 2; }\n"
+              "void step(output float x) { twice(x, x); x += 1; twice(x, x); }\n"
+              "surface t() { float r = 0.2, q = 0.5; twice(r, r); step(q); Ci = color(r, q, 0); }",
+              g);
+    EXPECT_EQ(h.diag.errorCount(), 0) << h.messages();
+    expectNear(g.Ci[0], Vec3(0.4f, 4.0f, 0));  // q: 0.5 -> 1 -> 2 -> 4
+}
+
+TEST(Compat, AFloatIsPromotedInDotAndCrossProducts) {
+    // RI Spec 3.2 section 13.1: a float with a triple in a binary operator
+    // is duplicated into each component; umbra refused '^' and '.' so.
+    Harness h;
+    ShadingGrid g = line(2);
+    h.surface("surface t() { vector c = vector(1, 0, 0) ^ 2; float d = vector(1, 2, 3) . 0.1, e = 2 . vector(1, 1, 1);\n"
+              "  Ci = color(ycomp(c), zcomp(c), d + e); }",
+              g);
+    EXPECT_EQ(h.diag.errorCount(), 0) << h.messages();
+    expectNear(g.Ci[0], Vec3(-2, 2, 6.6f), 1e-5f);
+}
+
 TEST(Compat, ClampTestsTheMinimumFirst) {
     // RI Spec 3.2: clamp(a, min, max) is min if a is below min, else max if
     // a is above max, else a; a min above max (ARMan's smoke clamps its
