@@ -235,6 +235,17 @@ bool bindParam(Exec& x, int r) {
     if (g.primvars && ri.ty != Ty::String) {
         for (const geometry::GridVar& gv : *g.primvars) {
             if (gv.name != ri.name || gv.components != per || gv.strings) continue;
+            if (!varying && gv.perVertex) {
+                // A value per vertex has no place in a uniform parameter:
+                // it keeps its value, as in Pixie and Aqsis (umbra took the
+                // first vertex's, silently).
+                x.ctx->system->diagnostics().warningOnce(
+                    "shading:uniformparam:" + x.cs->name + ":" + ri.name, FileLoc::inFile(x.cs->fileName),
+                    "shader '{}': primitive variable '{}' has a value per vertex, but the parameter is uniform; the "
+                    "parameter keeps its value (declare it varying in the shader to read the variable)",
+                    x.cs->name, ri.name);
+                break;
+            }
             if (varying && gv.perVertex) {
                 // arrays: element-major blocks of n values each
                 int comps = tyFloats(ri.ty);

@@ -434,6 +434,31 @@ WorldEnd
     EXPECT_FLOAT_EQ(zfile.z[0], 5.0f);
 }
 
+TEST(Shading, AVaryingPrimitiveVariableLeavesAUniformParameterAlone) {
+    // "varying float Kvu" given per vertex for a parameter the shader
+    // declares uniform: Pixie and Aqsis keep the parameter's default, with
+    // a message; umbra gave the whole patch the first vertex's value,
+    // silently. A varying parameter still reads it per point.
+    ScratchDir dir("uniform-param-primvar");
+    std::ofstream(dir.file("kvu.sl")) << "surface kvu(float Kvu = 0.25; varying float Kvv = 0.25) { Ci = color(Kvu, Kvv, 0); }\n";
+    Diagnostics diag;
+    diag.setRecord(true);
+    const Image img = renderWithShaders(dir, "",
+                                        "Surface \"kvu\" Patch \"bilinear\" \"P\" [-2 -2 0  2 -2 0  -2 2 0  2 2 0] "
+                                        "\"varying float Kvu\" [0.9 0.1 0.5 0.3] \"varying float Kvv\" [0.9 0.1 0.5 0.3]",
+                                        diag);
+    EXPECT_EQ(diag.errorCount(), 0);
+    EXPECT_EQ(diag.warningCount(), 1);
+    EXPECT_FLOAT_EQ(img.at(2, 2, 0), 0.25f);
+    EXPECT_FLOAT_EQ(img.at(61, 61, 0), 0.25f);
+    // Kvv bilinear over the patch: 0.9, 0.1, 0.5, 0.3 at its corners.
+    for (const auto& [x, y] : {std::pair{2, 2}, {61, 61}, {10, 50}}) {
+        const float u = (4.0f * (float(x) + 0.5f) / 64.0f) / 4.0f, v = (4.0f - 4.0f * (float(y) + 0.5f) / 64.0f) / 4.0f;
+        const float expected = (1 - v) * ((1 - u) * 0.9f + u * 0.1f) + v * ((1 - u) * 0.5f + u * 0.3f);
+        EXPECT_NEAR(img.at(x, y, 1), expected, 0.01f) << x << "," << y;
+    }
+}
+
 TEST(Shading, TextureinfoDescribesAShadowMapAsRenderManDoes) {
     // RI Spec 3.2's textureinfo table: "type" is "shadow" for a shadow map,
     // "resolution" the map's (umbra's files store only the box of finite
