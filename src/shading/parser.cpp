@@ -335,6 +335,35 @@ private:
             next();
             s->kind = Stmt::For;
             expect("(");
+            if (isTypeStart()) {
+                // for (float i = 0; ...): Aqsis's compiler takes a
+                // declaration here (Pixie's does not); it is read as a
+                // block of the declaration and the loop, so `i` is the
+                // loop's own. umbra said "the left side of an assignment
+                // must be a variable".
+                auto decl = std::make_unique<Stmt>();
+                decl->kind = Stmt::Decl;
+                decl->loc = peek().loc;
+                TypeSpec ts = typeSpec();
+                for (;;) {
+                    decl->decls.push_back(declarator(ts, true));
+                    if (m_panic || !isP(",")) break;
+                    next();
+                }
+                expect(";", "after the loop's declaration");
+                s->exprs.push_back(nullptr);
+                s->exprs.push_back(isP(";") ? nullptr : expr());
+                expect(";");
+                s->exprs.push_back(isP(")") ? nullptr : expr());
+                expect(")");
+                s->body.push_back(statement());
+                auto scope = std::make_unique<Stmt>();
+                scope->kind = Stmt::Block;
+                scope->loc = s->loc;
+                scope->body.push_back(std::move(decl));
+                scope->body.push_back(std::move(s));
+                return scope;
+            }
             s->exprs.push_back(isP(";") ? nullptr : expr());
             expect(";");
             s->exprs.push_back(isP(";") ? nullptr : expr());

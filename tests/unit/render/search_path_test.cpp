@@ -85,7 +85,8 @@ TEST(SearchPath, PrepareSeedsCurrentDirRibDirThenDefault) {
     p.parseString("Option \"searchpath\" \"shader\" \"/mine:&\"\nOption \"searchpath\" \"texture\" \"@:/late\"",
                   "/scenes/shot/scene.rib");
     EXPECT_EQ(builder.options().searchPaths.at("shader"), "/mine:.:/scenes/shot:/std/a:/std/b");
-    EXPECT_EQ(builder.options().searchPaths.at("texture"), "/tex:/late");
+    // '@' holds the current directory, as Aqsis's and Pixie's defaults do.
+    EXPECT_EQ(builder.options().searchPaths.at("texture"), ".:/tex:/late");
 
     scene::Builder relative(sink, diag);
     renderer.prepare(relative, "scene.rib");

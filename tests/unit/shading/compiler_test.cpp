@@ -284,6 +284,23 @@ TEST(Compiler, LinesAreSplicedBeforeCommentsAreRecognised) {
     EXPECT_NE(h.messages().find("t.sl:6:10: error: undefined variable 'baz'"), std::string::npos) << h.messages();
 }
 
+// for (float i = 0; ...): a declaration in the loop's first clause, as
+// student shaders write it (Aqsis takes it; Pixie does not). umbra said
+// "the left side of an assignment must be a variable". The loop's `i` is
+// its own: an outer `i` keeps its value.
+TEST(Compiler, ForLoopDeclaresItsCounter) {
+    Harness h;
+    ShadingGrid g = makeGrid(2, 1, [](float u, float) { return Vec3(u, 0, 1); });
+    h.surface("surface t() {\n"
+              "  float n = 0, i = 7;\n"
+              "  for (float i = 0, k = 2; i < 4; i += 1) n += 0.25 * k;\n"
+              "  for (uniform float j = 0; j < 3; j += 1) n += 1;\n"
+              "  Ci = color(n, i, 0);\n"
+              "}",
+              g);
+    expectNear(g.Ci[0], Vec3(5, 7, 0));
+}
+
 // A shader in the style found in the wild: macros with arguments, nested
 // functions with output parameters, illuminance with categories, output
 // parameters, arrays, and the RI spec 3.2 idioms.
