@@ -34,11 +34,38 @@ OIIO::TextureOpt toOiio(const TextureOptions& o) {
     opt.swidth = o.swidth;
     opt.twidth = o.twidth;
     opt.fill = o.fill;
+    // Bilinear between texels, as RenderMan's texture() reconstructs (a
+    // lookup at a texel's centre reads that texel; Pixie agrees). OpenImageIO's
+    // default, a B-spline bicubic when magnifying, read 0.56 at the centre
+    // of a checker's white texel and smeared block edges over 1.5 texels.
+    opt.interpmode = OIIO::TextureOpt::InterpBilinear;
     return opt;
 }
 
 /// Lookups across a blurred texture's box, per blurred direction.
 constexpr int kBlurTaps = 4;
+
+/// A footprint with an area: OpenImageIO's blur asserts (aborting the
+/// render) that both axes of the filter's ellipse are longer than 0, and a
+/// lookup along a line (texture(m, s, s)) or at one point (coordinates the
+/// same on every point) has none. The short side becomes perpendicular to
+/// the long one, a thousandth of it (or of 1e-6, for a point): the blur
+/// widens it anyway.
+void giveFootprintAnArea(float& dsdx, float& dtdx, float& dsdy, float& dtdy) {
+    const float lx = std::hypot(dsdx, dtdx), ly = std::hypot(dsdy, dtdy);
+    const float major = std::max({lx, ly, 1e-6f}), minor = 1e-3f * major;
+    if (std::abs(dsdx * dtdy - dtdx * dsdy) >= minor * major) return;
+    if (lx < 1e-6f && ly < 1e-6f) {
+        dsdx = dtdy = 1e-6f;
+        dtdx = dsdy = 0;
+    } else if (lx >= ly) {
+        dsdy = -dtdx / lx * minor;
+        dtdy = dsdx / lx * minor;
+    } else {
+        dsdx = dtdy / ly * minor;
+        dtdx = -dsdy / ly * minor;
+    }
+}
 
 const char* kFaceNames[6] = {"px", "nx", "py", "ny", "pz", "nz"};
 
@@ -202,6 +229,7 @@ public:
         const int ns = o.sblur > 0 ? kBlurTaps : 1, nt = o.tblur > 0 ? kBlurTaps : 1;
         opt.sblur = o.sblur > 0 ? o.sblur / float(ns) : 0.0f;
         opt.tblur = o.tblur > 0 ? o.tblur / float(nt) : 0.0f;
+        giveFootprintAnArea(dsdx, dtdx, dsdy, dtdy);
         thread_local std::vector<float> tap;
         tap.assign(size_t(nchannels), 0.0f);
         std::fill(result, result + nchannels, 0.0f);

@@ -126,6 +126,89 @@ TEST_F(TextureFilter, UnblurredEdgeStaysSharpAndTblurLeavesAnEdgeAcrossSAlone) {
     EXPECT_LE(sOnly, 1.15f * 0.25f);
 }
 
+/// A shader's image over the unit square (pixel x looks at s = (x + 0.5) / width).
+test::Image renderUnitSquare(const test::ScratchDir& dir, const std::string& shaderName, const std::string& make,
+                             int width, int height) {
+    std::string scratch = dir.file("");
+    scratch.pop_back();
+    const std::string image = dir.file(shaderName + ".tif");
+    const std::string rib = fmt::format(R"(Option "searchpath" "shader" ["{0}:&"]
+{1}
+Format {2} {3} 1
+PixelSamples 4 4
+PixelFilter "box" 1 1
+Quantize "rgba" 0 0 0 0
+Display "{4}" "file" "rgba"
+Projection "orthographic"
+ScreenWindow 0 1 0 1
+Translate 0 0 5
+WorldBegin
+Surface "{5}"
+Patch "bilinear" "P" [0 1 0  1 1 0  0 0 0  1 0 0]
+WorldEnd
+)",
+                                        scratch, make, width, height, image, shaderName);
+    Diagnostics diag;
+    diag.setQuiet(true);
+    const test::Image img = test::renderImage(rib, image, diag, 2);
+    EXPECT_EQ(diag.errorCount(), 0);
+    return img;
+}
+
+TEST_F(TextureFilter, BlurAlongALineOrAtAPointRenders) {
+    // A lookup whose footprint has no area (s and t the same, texture(m,
+    // s, s); or one point for the whole grid) with "blur" aborted the
+    // render: an assertion in OpenImageIO's blur. Pixie and Aqsis render
+    // it. Along the diagonal the step edge is blurred as across it.
+    const std::string make = fmt::format("MakeTexture \"{0}\" \"{1}\" \"clamp\" \"clamp\" \"box\" 1 1",
+                                         dir.file("edge.tif"), dir.file("edge.tx"));
+    const std::string shader = "diagonal";
+    std::ofstream(dir.file(shader + ".sl"))
+        << "surface " << shader << "() { Ci = float texture(\"" << dir.file("edge.tx")
+        << "\", s, s, \"blur\", 0.1);\n  if (s > 0.5) Ci += 0 * float texture(\"" << dir.file("edge.tx")
+        << "\", 0.3, 0.3, \"blur\", 0.2); Oi = 1; }\n";
+    const test::Image img = renderUnitSquare(dir, shader, make, kSize, 8);
+    ASSERT_EQ(img.width, kSize);
+    // A box of 0.1 across the step at s = 0.5: 0 before 0.45, 1 after 0.55.
+    EXPECT_NEAR(img.at(int(0.3f * kSize), 4, 0), 0.0f, 0.02f);
+    EXPECT_NEAR(img.at(int(0.7f * kSize), 4, 0), 1.0f, 0.02f);
+    EXPECT_NEAR(img.at(kSize / 2 - 1, 4, 0) + img.at(kSize / 2, 4, 0), 1.0f, 0.1f);
+}
+
+TEST(TextureMagnification, ATexelsCentreReadsTheTexel) {
+    // A 4x4 checker seen over 256 pixels: each texel's centre reads the
+    // texel's value (bilinear between texel centres, as RenderMan's
+    // texture() and Pixie; Aqsis 0.74). OpenImageIO's default bicubic
+    // B-spline read 0.56 at a white texel's centre with four black
+    // neighbours, and smeared every edge over 1.5 texels.
+    test::ScratchDir dir("texture-magnify");
+    {
+        auto out = OIIO::ImageOutput::create(dir.file("checker.tif"));
+        ASSERT_TRUE(out);
+        OIIO::ImageSpec spec(4, 4, 1, OIIO::TypeDesc::FLOAT);
+        ASSERT_TRUE(out->open(dir.file("checker.tif"), spec));
+        std::vector<float> px(16);
+        for (int y = 0; y < 4; ++y)
+            for (int x = 0; x < 4; ++x) px[size_t(y * 4 + x)] = (x + y) % 2 == 0 ? 1.0f : 0.0f;
+        ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, px.data()));
+        ASSERT_TRUE(out->close());
+    }
+    std::ofstream(dir.file("lookup.sl")) << "surface lookup() { Ci = float texture(\"" << dir.file("checker.tx")
+                                         << "\", s, t, \"width\", 0); Oi = 1; }\n";
+    const std::string make = fmt::format("MakeTexture \"{0}\" \"{1}\" \"clamp\" \"clamp\" \"box\" 1 1",
+                                         dir.file("checker.tif"), dir.file("checker.tx"));
+    const test::Image img = renderUnitSquare(dir, "lookup", make, 256, 256);
+    ASSERT_EQ(img.width, 256);
+    for (int ty = 0; ty < 4; ++ty)
+        for (int tx = 0; tx < 4; ++tx) {
+            // Texel (tx, ty)'s centre: s = (tx + 0.5) / 4, t = (ty + 0.5) / 4;
+            // t runs down the image, as the texture's rows do.
+            const int x = tx * 64 + 32, y = ty * 64 + 32;
+            const float expected = (tx + ty) % 2 == 0 ? 1.0f : 0.0f;
+            EXPECT_NEAR(0.5f * (img.at(x - 1, y - 1, 0) + img.at(x, y, 0)), expected, 0.03f) << tx << "," << ty;
+        }
+}
+
 // environment()'s "blur" follows the same rule, as an angle: a blur b is
 // 2 pi b radians (the lat-long map's s at the equator; Aqsis's reading),
 // along the longitude for "sblur" and the latitude for "tblur". A lat-long
