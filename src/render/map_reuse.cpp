@@ -67,6 +67,8 @@ void hashAttributes(Hasher& h, const scene::Attributes& a) {
     // any of them may steer dicing.
     h.u64(a.user.size());
     for (const auto& [name, p] : a.user) h.str(name).floats(p.floats).ints(p.ints).strings(p.strings);
+    h.u64(a.scopedSpaces.size());  // a displacement's spaces
+    for (const auto& [name, m] : a.scopedSpaces) h.str(name).matrix(m);
 }
 
 void hashRecord(Hasher& h, const scene::PrimitiveRecord& r) {

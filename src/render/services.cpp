@@ -138,9 +138,14 @@ bool Services::getMatrix(const shading::ShadingGrid& grid, const std::string& sp
         *currentFromSpace = cam.rasterFromCamera().inverse();
     } else {
         const auto& systems = st.frame->world->coordinateSystems;
-        auto it = systems.find(space);
-        if (it == systems.end()) return false;
-        *currentFromSpace = cam.cameraFromWorld * it->second;
+        const Mat4* named = nullptr;
+        if (st.record && st.record->attributes) {
+            named = st.record->attributes->space(space, systems);
+        } else if (auto it = systems.find(space); it != systems.end()) {
+            named = &it->second;
+        }
+        if (!named) return false;
+        *currentFromSpace = cam.cameraFromWorld * *named;
     }
     return true;
 }

@@ -159,9 +159,7 @@ float SurfacePipeline::displacementAllowance(const scene::Attributes& attrs, con
     } else if (space == "shader" && attrs.displacement) {
         c = cameraFromWorld * attrs.displacement->worldFromShader;
     } else if (space != "object") {
-        const auto& systems = m_frame.world->coordinateSystems;
-        auto it = systems.find(space);
-        if (it != systems.end()) c = cameraFromWorld * it->second;
+        if (const Mat4* named = attrs.space(space, m_frame.world->coordinateSystems)) c = cameraFromWorld * *named;
     }
     const float scale =
         std::max({length(c.vector({1, 0, 0})), length(c.vector({0, 1, 0})), length(c.vector({0, 0, 1}))});

@@ -199,9 +199,7 @@ const RequestSpec kRequests[] = {
      UMBRA_H(float ang = a.f(); Vec3 d1 = a.v3(); t.skew(ang, d1, a.v3(), l))},
     {"Perspective", "f", "fov", false, UMBRA_H(t.perspective(a.f(), l))},
     {"CoordinateSystem", "s", "name", false, UMBRA_H(t.coordinateSystem(a.s(), l))},
-    // PRMan's: a CoordinateSystem whose name AttributeEnd forgets. Named
-    // for the rest of the frame here (names are rarely reused in a frame).
-    {"ScopedCoordinateSystem", "s", "name", false, UMBRA_H(t.coordinateSystem(a.s(), l))},
+    // PRMan's: a CoordinateSystem whose name the end of its block forgets.
     {"ScopedCoordinateSystem", "s", "name", false, UMBRA_H(t.scopedCoordinateSystem(a.s(), l))},
     {"CoordSysTransform", "s", "name", false, UMBRA_H(t.coordSysTransform(a.s(), l))},
     {"Camera", "s", "name", true, UMBRA_H(t.camera(a.s(), std::move(p), l))},

@@ -683,8 +683,14 @@ void Builder::coordinateSystem(const std::string& name, const FileLoc& loc) {
 }
 
 void Builder::scopedCoordinateSystem(const std::string& name, const FileLoc& loc) {
-    unsupported("scopedcoordsys", loc, "ScopedCoordinateSystem: treated as CoordinateSystem (not scoped)");
-    coordinateSystem(name, loc);
+    // PRMan's: a CoordinateSystem that AttributeEnd forgets, the name's
+    // earlier meaning back in force (umbra kept it for the frame). Held in
+    // the attributes, so shaders of the primitives inside see it too.
+    if (!m_world) {
+        coordinateSystem(name, loc);  // the camera's: the frame's own
+        return;
+    }
+    mutableAttributes().scopedSpaces[name] = m_state.transform;
 }
 
 void Builder::camera(const std::string& name, ri::ParamList params, const FileLoc& loc) {
@@ -815,9 +821,8 @@ bool Builder::conditionValue(const std::string& name, ri::ExprValue* out) const 
 
 void Builder::coordSysTransform(const std::string& name, const FileLoc& loc) {
     if (m_world) {
-        auto it = m_world->coordinateSystems.find(name);
-        if (it != m_world->coordinateSystems.end()) {
-            setTransform(it->second);
+        if (const Mat4* space = m_state.attrs->space(name, m_world->coordinateSystems)) {
+            setTransform(*space);
             return;
         }
     } else {

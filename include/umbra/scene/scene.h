@@ -112,6 +112,17 @@ struct Attributes {
     /// Every other `Attribute "class" "name" value` by "class:name", for the
     /// attribute() shadeop and for modules' own attributes ("umbra:...").
     std::map<std::string, ri::Param> user;
+    /// Names given by ScopedCoordinateSystem in the world (world from the
+    /// named space): in force until the attribute block ends, before the
+    /// world's names of the same spelling.
+    std::map<std::string, Mat4> scopedSpaces;
+    /// The named space `name` (world from it) as this state sees it: its
+    /// scoped names, then the world's `named`. Null if neither has it.
+    const Mat4* space(const std::string& name, const std::map<std::string, Mat4>& named) const {
+        if (auto it = scopedSpaces.find(name); it != scopedSpaces.end()) return &it->second;
+        if (auto it = named.find(name); it != named.end()) return &it->second;
+        return nullptr;
+    }
 };
 
 /// The attributes of a piece of an object instance: the instance's, except

@@ -459,6 +459,35 @@ TEST(Shading, AVaryingPrimitiveVariableLeavesAUniformParameterAlone) {
     }
 }
 
+TEST(Shading, AScopedCoordinateSystemEndsWithItsAttributeBlock) {
+    // PRMan's ScopedCoordinateSystem: named until AttributeEnd, then the
+    // name's earlier meaning is back. umbra kept it for the frame (the
+    // request was even registered twice, the unscoped entry first): a
+    // square placed by CoordSysTransform after the block landed at the
+    // scoped place. Shaders inside the block see the scoped space.
+    ScratchDir dir("scoped-coordsys");
+    std::ofstream(dir.file("place.sl")) << "surface place() { point q = transform(\"place\", P); Ci = color(xcomp(q), 0, 0); }\n";
+    Diagnostics diag;
+    const std::string square = "Patch \"bilinear\" \"P\" [-0.25 -0.25 0  0.25 -0.25 0  -0.25 0.25 0  0.25 0.25 0]";
+    const Image img = renderWithShaders(
+        dir, "",
+        "AttributeBegin Translate -0.5 1 0 CoordinateSystem \"place\" AttributeEnd\n"
+        "AttributeBegin Translate 1 -1 0 ScopedCoordinateSystem \"place\" Surface \"place\" " + square +
+            " AttributeEnd\n"
+            "AttributeBegin CoordSysTransform \"place\" Surface \"constant\" Color [0 1 0] " + square + " AttributeEnd",
+        diag);
+    EXPECT_EQ(diag.errorCount(), 0);
+    EXPECT_EQ(diag.warningCount(), 0);
+    // 16 pixels a unit, x = 0 at column 32, y = 0 at row 32 (y up).
+    auto at = [&](float x, float y, int c) { return img.at(int(32 + 16 * x), int(32 - 16 * y), c); };
+    // The scoped square at (1, -1): its own place-space x is about 0.
+    EXPECT_NEAR(at(1.0f, -1.0f, 0), 0.0f, 0.05f);
+    EXPECT_EQ(at(1.0f, -1.0f, 1), 0.0f);
+    // After the block, "place" is the global one again: the green square at (-0.5, 1).
+    EXPECT_EQ(at(-0.5f, 1.0f, 1), 1.0f);
+    EXPECT_EQ(at(1.0f, -1.0f, 1), 0.0f);
+}
+
 TEST(Shading, TextureinfoDescribesAShadowMapAsRenderManDoes) {
     // RI Spec 3.2's textureinfo table: "type" is "shadow" for a shadow map,
     // "resolution" the map's (umbra's files store only the box of finite

@@ -366,13 +366,19 @@ TEST(Builder, CoordinateSystems) {
     ASSERT_EQ(r->messages().size(), 1u);
 }
 
-TEST(Builder, ScopedCoordinateSystemNamesACoordinateSystem) {
-    // PRMan's ScopedCoordinateSystem, as RenderMan for Maya writes it.
-    auto r = run("WorldBegin AttributeBegin Translate 2 0 0 ScopedCoordinateSystem \"proj\" AttributeEnd\n"
+TEST(Builder, ScopedCoordinateSystemNamesACoordinateSystemUntilAttributeEnd) {
+    // PRMan's ScopedCoordinateSystem, as RenderMan for Maya writes it: the
+    // name holds inside its attribute block, then its earlier meaning (here
+    // none) is back. umbra kept it for the whole frame.
+    auto r = run("WorldBegin AttributeBegin Translate 2 0 0 ScopedCoordinateSystem \"proj\"\n"
+                 "AttributeBegin CoordSysTransform \"proj\" Sphere 1 -1 1 360 AttributeEnd AttributeEnd\n"
                  "CoordSysTransform \"proj\" Sphere 1 -1 1 360 WorldEnd");
     const WorldRecord& w = r->sink.worlds.at(0);
     expectNear(w.primitives.at(0).worldFromObject.point({}), {2, 0, 0});
-    EXPECT_TRUE(r->messages().empty());
+    expectNear(w.primitives.at(1).worldFromObject.point({}), {0, 0, 0});
+    EXPECT_EQ(r->messages(), (std::vector<std::string>{
+        "s.rib:3:1: error: CoordSysTransform: unknown coordinate system \"proj\" (expected \"world\", \"camera\" or a "
+        "name given to CoordinateSystem)"}));
 }
 
 TEST(Builder, UnsupportedRequestsWarnOnce) {
