@@ -237,6 +237,18 @@ private:
         return d;
     }
 
+    // declaration := type declarator { ',' declarator } ';'
+    void declarations(Stmt& s, const char* endContext) {
+        s.kind = Stmt::Decl;
+        TypeSpec ts = typeSpec();
+        for (;;) {
+            s.decls.push_back(declarator(ts, true));
+            if (m_panic || !isP(",")) break;
+            next();
+        }
+        expect(";", endContext);
+    }
+
     // block := '{' { statement } '}'
     StmtP block() {
         auto s = std::make_unique<Stmt>();
@@ -299,14 +311,7 @@ private:
                 if (!s->func) s->kind = Stmt::Empty;
                 return s;
             }
-            s->kind = Stmt::Decl;
-            TypeSpec ts = typeSpec();
-            for (;;) {
-                s->decls.push_back(declarator(ts, true));
-                if (m_panic || !isP(",")) break;
-                next();
-            }
-            expect(";", "after declaration");
+            declarations(*s, "after declaration");
             return s;
         }
         if (isId("if")) {
@@ -342,15 +347,8 @@ private:
                 // loop's own. umbra said "the left side of an assignment
                 // must be a variable".
                 auto decl = std::make_unique<Stmt>();
-                decl->kind = Stmt::Decl;
                 decl->loc = peek().loc;
-                TypeSpec ts = typeSpec();
-                for (;;) {
-                    decl->decls.push_back(declarator(ts, true));
-                    if (m_panic || !isP(",")) break;
-                    next();
-                }
-                expect(";", "after the loop's declaration");
+                declarations(*decl, "after the loop's declaration");
                 s->exprs.push_back(nullptr);
                 s->exprs.push_back(isP(";") ? nullptr : expr());
                 expect(";");
