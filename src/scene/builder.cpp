@@ -25,6 +25,24 @@ const char* endName(int kind) {
 /// How deep SolidBegin operations may nest (docs/rib.md, Limits).
 constexpr int kMaxSolidNesting = 256;
 
+/// How much the object definitions may hold together before an instance
+/// inside a definition is refused (docs/rib.md, Limits): nested instances
+/// multiply, and each piece is a copy.
+constexpr size_t kMaxObjectBytes = size_t(256) << 20;
+
+/// About the bytes a record holds, its arrays and parameters included.
+size_t recordBytes(const PrimitiveRecord& r) {
+    size_t n = sizeof r + r.floatArgs.size() * sizeof(float) + r.intArgs.size() * sizeof(int);
+    for (const std::string& a : r.stringArgs) n += sizeof a + a.size();
+    for (const auto& a : r.intArrays) n += sizeof a + a.size() * sizeof(int);
+    for (const ri::Param& p : r.params.params()) {
+        n += sizeof p + p.floats.size() * sizeof(float) + p.ints.size() * sizeof(int);
+        for (const std::string& a : p.strings) n += sizeof a + a.size();
+    }
+    for (const PrimitiveRecord& shape : r.shapes) n += recordBytes(shape);
+    return n;
+}
+
 /// The procedural primitives of RI spec 3.2 §5.7, and the strings each
 /// needs at least: the archive; the program (with its command line) and
 /// the data block written to it; the DSO and the data block it converts.
@@ -464,7 +482,9 @@ void Builder::objectBegin(const std::string& handle, const FileLoc& loc) {
     }
     push(Block::Object, loc);
     m_objectHandle = handle;
-    m_objects[handle].clear();
+    ObjectDefinition& def = m_objects[handle];
+    m_objectBytes -= def.bytes;
+    def = {};
     m_objectAttributesAtBegin = m_state.attrs;
     bool ok = true;
     m_objectFromCurrentAtBegin = m_state.transform.inverse(&ok);
@@ -479,22 +499,33 @@ void Builder::objectEnd(const FileLoc& loc) {
 }
 
 void Builder::objectInstance(const std::string& handle, const FileLoc& loc) {
-    if (!m_objectHandle.empty()) {
-        m_diag.error(loc, "ObjectInstance: not allowed inside ObjectBegin/ObjectEnd (ignored)");
-        return;
-    }
     if (!requireWorld("ObjectInstance", loc)) return;
     auto it = m_objects.find(handle);
     if (it == m_objects.end()) {
         m_diag.error(loc, "ObjectInstance: unknown object \"{}\" (expected the handle of an ObjectBegin)", handle);
         return;
     }
+    // An instance inside a definition (PRMan, Pixie and Aqsis draw it) puts
+    // copies of the pieces into the object being defined, placed and
+    // attributed as they are here; its own instances place them again.
+    const bool nested = !m_objectHandle.empty();
+    if (nested && handle == m_objectHandle) {
+        m_diag.error(loc, "ObjectInstance: object \"{}\" inside its own definition (ignored)", handle);
+        return;
+    }
+    if (nested && m_objectBytes + it->second.bytes > kMaxObjectBytes) {
+        // Nested instances multiply: a few lines of RIB could ask for more
+        // copies than memory holds.
+        m_diag.error(loc, "ObjectInstance: the object definitions would hold more than {} MiB (instances nested "
+                     "too deep?); this instance in \"{}\" is ignored", kMaxObjectBytes >> 20, m_objectHandle);
+        return;
+    }
     if (skipMotionSample()) return;
     // Pieces share attributes: the instance's where the definition set
     // none, else one merge per distinct state inside the definition.
     std::map<const Attributes*, std::shared_ptr<const Attributes>> merged;
-    const int leaf = solidLeaf(loc);  // an instance is one solid
-    for (const ObjectPrim& op : it->second) {
+    const int leaf = nested ? -1 : solidLeaf(loc);  // an instance is one solid
+    for (const ObjectPrim& op : it->second.pieces) {
         PrimitiveRecord r = op.record;
         r.solid = leaf;
         r.worldFromObject = m_state.transform * op.objectFromPrim;
@@ -510,7 +541,10 @@ void Builder::objectInstance(const std::string& handle, const FileLoc& loc) {
             if (!a) a = std::make_shared<const Attributes>(instanceAttributes(*m_state.attrs, *op.atBegin, *op.record.attributes));
             r.attributes = a;
         }
-        m_world->primitives.push_back(std::move(r));
+        if (nested)
+            emitPrimitive(std::move(r));  // relative to the object being defined
+        else
+            m_world->primitives.push_back(std::move(r));
     }
 }
 
@@ -1714,8 +1748,10 @@ void Builder::emitPrimitive(PrimitiveRecord r) {
         // an instance supplies the rest (and its own motion).
         Mat4 objectFromPrim = m_objectFromCurrentAtBegin * r.worldFromObject;
         r.worldFromObjectMotion.reset();
-        ObjectPrim op{std::move(r), objectFromPrim, m_objectAttributesAtBegin};
-        m_objects[m_objectHandle].push_back(std::move(op));
+        ObjectDefinition& def = m_objects[m_objectHandle];
+        const size_t bytes = recordBytes(r);
+        def.bytes += bytes, m_objectBytes += bytes;
+        def.pieces.push_back(ObjectPrim{std::move(r), objectFromPrim, m_objectAttributesAtBegin});
         return;
     }
     r.solid = solidLeaf(r.loc);

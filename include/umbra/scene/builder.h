@@ -223,6 +223,10 @@ private:
         Mat4 objectFromPrim;
         std::shared_ptr<const Attributes> atBegin;  // the state at ObjectBegin
     };
+    struct ObjectDefinition {
+        std::vector<ObjectPrim> pieces;
+        size_t bytes = 0;  // about what the pieces hold (recordBytes)
+    };
 
     Attributes& mutableAttributes();
     std::shared_ptr<ShaderRecord> makeShader(const std::string& name, ri::ParamList params, const FileLoc& loc) const;
@@ -303,7 +307,8 @@ private:
     };
     std::vector<PreWorldLight> m_preWorldLights;
     std::map<std::string, ri::ParamDecl> m_declarations;  // by Declare, by name
-    std::map<std::string, std::vector<ObjectPrim>> m_objects;
+    std::map<std::string, ObjectDefinition> m_objects;
+    size_t m_objectBytes = 0;                    // of every definition together
     std::string m_objectHandle;                  // non-empty while defining an object
     std::shared_ptr<const Attributes> m_objectAttributesAtBegin;
     Mat4 m_objectFromCurrentAtBegin;

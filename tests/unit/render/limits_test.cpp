@@ -250,6 +250,26 @@ TEST(Limits, TinyShadingRateIsClampedAndTheSphereStillRenders) {
     EXPECT_NEAR(b, a, 0.02 * a);
 }
 
+TEST(Limits, InstancesNestedInDefinitionsStopAtTheDefinitionsBudget) {
+    // Each object holds four instances of the one before: object 20 would
+    // hold 4^19 disks. The definitions stop at 256 MiB, with one error at
+    // the first instance refused, and the frame renders (the disks lie
+    // behind the eye; the sphere is in view).
+    ScratchDir dir("limits-nested-instances");
+    std::string world = "ObjectBegin 1 Disk 0 .01 360 ObjectEnd\n";
+    for (int k = 2; k <= 20; ++k)
+        world += fmt::format("ObjectBegin {} ObjectInstance {} ObjectInstance {} Translate .01 0 0 ObjectInstance {} "
+                             "ObjectInstance {} ObjectEnd\n", k, k - 1, k - 1, k - 1, k - 1);
+    world += "AttributeBegin Translate 0 0 -100 ObjectInstance 20 AttributeEnd\nSphere 1 -1 1 360\n";
+    const ChildRun run = renderInChild(dir, "nested.rib", frame(dir.file("out.exr"), "", world));
+    ASSERT_TRUE(run.exited) << run.describe();
+    EXPECT_NE(run.status, 0) << run.describe();  // an error was reported
+    EXPECT_TRUE(contains(run.messages, "error: ObjectInstance: the object definitions would hold more than 256 MiB "
+                                       "(instances nested too deep?); this instance in"))
+        << run.messages;
+    EXPECT_GT(coverage(dir.file("out.exr")), 200.0);
+}
+
 TEST(Limits, HugePixelSamplesAndFilterAreClampedWithinOneGigabyte) {
     // PixelSamples 1000 1000 on a 64 x 48 frame would be 3e9 samples, and a
     // filter 1e6 pixels wide would make every bucket sample the whole

@@ -184,6 +184,28 @@ TEST(Builder, InstancesComposeTheInstanceTransform) {
         "s.rib:6:1: error: ObjectInstance: unknown object \"nothing\" (expected the handle of an ObjectBegin)"}));
 }
 
+TEST(Builder, InstancesInsideADefinitionAreItsPieces) {
+    // An object made of another's instances (PRMan, Pixie and Aqsis draw
+    // it): each piece is placed by the inner instance's transform inside
+    // the outer definition, then by the outer instance's; attributes the
+    // outer definition sets reach the inner pieces, the instance site's
+    // the rest. An object inside its own definition is refused.
+    auto r = run("WorldBegin\nObjectBegin 1 Translate 0 1 0 Color 1 0 0 Sphere 1 -1 1 360 Disk 0 1 360 ObjectEnd\n"
+                 "ObjectBegin 2 Translate 10 0 0 ObjectInstance 1 Opacity .5 .5 .5 Rotate 90 0 0 1 ObjectInstance 1\n"
+                 "ObjectInstance 2 ObjectEnd\n"
+                 "Color 0 0 1 Translate 0 0 5 ObjectInstance 2 WorldEnd");
+    const auto& prims = r->sink.worlds.at(0).primitives;
+    ASSERT_EQ(prims.size(), 4u);
+    expectNear(prims[0].worldFromObject.point({0, 0, 0}), {10, 1, 5});
+    expectNear(prims[2].worldFromObject.point({0, 0, 0}), {9, 0, 5});  // (0,1,0) turned to (-1,0,0)
+    EXPECT_EQ(prims[1].type, "Disk");
+    for (const auto& p : prims) EXPECT_EQ(p.attributes->color, Color(1, 0, 0));  // the inner definition's
+    EXPECT_EQ(prims[0].attributes->opacity, Color(1, 1, 1));
+    EXPECT_EQ(prims[2].attributes->opacity, Color(.5f, .5f, .5f));  // the outer definition's
+    EXPECT_EQ(r->messages(), (std::vector<std::string>{
+        "s.rib:4:1: error: ObjectInstance: object \"2\" inside its own definition (ignored)"}));
+}
+
 TEST(Builder, LightsAndIlluminate) {
     auto r = run("WorldBegin LightSource \"pointlight\" 1 \"intensity\" 2\nLightSource \"distantlight\" \"sun\"\n"
                  "AttributeBegin Illuminate 1 0 Sphere 1 -1 1 360 AttributeEnd\n"
