@@ -166,6 +166,7 @@ bool Services::shadow(const shading::ShadingGrid& grid, const shading::ShadowQue
     batch.dPdu_du = q.dPdu;
     batch.dPdv_dv = q.dPdv;
     batch.N = q.N;
+    for (int c = 0; c < 4; ++c) batch.corners[c] = q.corners[c];
     batch.worldFromCurrent = st.pass->camera.cameraFromWorld.inverse();
     batch.seed = q.seed;
     batch.pointId = q.indices;

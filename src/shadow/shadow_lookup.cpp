@@ -177,7 +177,12 @@ inline float sumLanes(F4 v) { return (v[0] + v[1]) + (v[2] + v[3]); }
 /// The texel bounds are the floors of the region's sides clamped to one
 /// texel beyond the data window: what a texel outside the window holds
 /// (+infinity) does not depend on how far out it is, and the clamp keeps
-/// the conversion in range for points far off the map.
+/// the conversion in range for points far off the map. For a point inside
+/// the map (its centre in the display window) they are also clamped to
+/// the map's border, as a texture lookup clamps: a region reaching past the
+/// edge reads the edge's texels there, so an occluder that fills the edge
+/// shadows the outermost texel wholly (as in PRMan, Pixie and Aqsis)
+/// instead of counting the samples beyond it as lit.
 struct PointRegions {
     std::vector<float> z, s, t, hs, ht;
     std::vector<int32_t> iLo, iHi, jLo, jHi;
@@ -190,6 +195,7 @@ struct PointRegions {
     struct Widths {
         float sWidth, tWidth, blurS, blurT, minHalf, maxHalf;
         int dx0, dx1, dy0, dy1;  // the data window, inclusive texel bounds
+        int width, height;       // the display window, [0, width) x [0, height)
     };
 
     void compute(const ShadowBatch& batch, const Mat4& lightFromCurrent, const Mat4& rasterFromCurrent,
@@ -217,9 +223,9 @@ struct PointRegions {
             const F4 depth = L[2][0] * px + L[2][1] * py + L[2][2] * pz + L[2][3];
             const F4 w = R[3][0] * px + R[3][1] * py + R[3][2] * pz + R[3][3];
             const F4 inv = 1.0f / w;
-            const F4 ss = (R[0][0] * px + R[0][1] * py + R[0][2] * pz + R[0][3]) * inv;
-            const F4 tt = (R[1][0] * px + R[1][1] * py + R[1][2] * pz + R[1][3]) * inv;
-            const I4 ok = (depth >= 0) & (w > 0) & finite4(ss) & finite4(tt);
+            F4 ss = (R[0][0] * px + R[0][1] * py + R[0][2] * pz + R[0][3]) * inv;
+            F4 tt = (R[1][0] * px + R[1][1] * py + R[1][2] * pz + R[1][3]) * inv;
+            I4 ok = (depth >= 0) & (w > 0) & finite4(ss) & finite4(tt);
             // The region: the footprint's corners P +- du/2 +- dv/2 projected
             // to first order (the projection's derivative at P), so one
             // divide serves the whole footprint; |+-a +- b| <= |a| + |b|.
@@ -238,6 +244,23 @@ struct PointRegions {
                 extent(batch.dPdv_dv, &vx, &vy);
                 hS = ux + vx;
                 hT = uy + vy;
+            }
+            if (batch.corners[0]) {
+                // The four-point form: the box around the corners'
+                // projections, whatever their order, centred on it.
+                F4 sLo = F4{} + kInfinity, sHi = -sLo, tLo = sLo, tHi = sHi;
+                for (const Vec3* corner : batch.corners) {
+                    F4 cx, cy, cz;
+                    lanes(corner, &cx, &cy, &cz);
+                    const F4 cw = R[3][0] * cx + R[3][1] * cy + R[3][2] * cz + R[3][3];
+                    const F4 cs = (R[0][0] * cx + R[0][1] * cy + R[0][2] * cz + R[0][3]) / cw;
+                    const F4 ct = (R[1][0] * cx + R[1][1] * cy + R[1][2] * cz + R[1][3]) / cw;
+                    ok &= (cw > 0) & finite4(cs) & finite4(ct);
+                    sLo = cs < sLo ? cs : sLo, sHi = cs > sHi ? cs : sHi;
+                    tLo = ct < tLo ? ct : tLo, tHi = ct > tHi ? ct : tHi;
+                }
+                ss = (sLo + sHi) * 0.5f, tt = (tLo + tHi) * 0.5f;
+                hS = (sHi - sLo) * 0.5f, hT = (tHi - tLo) * 0.5f;
             }
             // clamp(max(h * width + blur, minHalf), 0, maxHalf), keeping a
             // NaN for the test after it.
@@ -258,12 +281,16 @@ struct PointRegions {
             store4(&ht[size_t(i0)], hT);
             store4(&usable[size_t(i0)], ok);
             // (Lanes of unusable points, perhaps not numbers, convert 0.)
-            auto texel = [&](F4 v, int lo, int hi) {
-                const F4 inside = v < float(lo) ? F4{} + float(lo) : (v > float(hi) ? F4{} + float(hi) : v);
+            const I4 onMap = (ss >= 0) & (ss < float(wd.width)) & (tt >= 0) & (tt < float(wd.height));
+            auto texel = [&](F4 v, int lo, int hi, int last) {
+                const F4 l = onMap ? F4{} + float(std::max(lo, 0)) : F4{} + float(lo);
+                const F4 h = onMap ? F4{} + float(std::min(hi, last)) : F4{} + float(hi);
+                const F4 inside = v < l ? l : (v > h ? h : v);
                 return floorX4(ok ? inside : F4{});
             };
-            const I4 il = texel(ss - hS, wd.dx0 - 1, wd.dx1 + 1), ih = texel(ss + hS, wd.dx0 - 1, wd.dx1 + 1);
-            const I4 jl = texel(tt - hT, wd.dy0 - 1, wd.dy1 + 1), jh = texel(tt + hT, wd.dy0 - 1, wd.dy1 + 1);
+            const int lastS = wd.width - 1, lastT = wd.height - 1;
+            const I4 il = texel(ss - hS, wd.dx0 - 1, wd.dx1 + 1, lastS), ih = texel(ss + hS, wd.dx0 - 1, wd.dx1 + 1, lastS);
+            const I4 jl = texel(tt - hT, wd.dy0 - 1, wd.dy1 + 1, lastT), jh = texel(tt + hT, wd.dy0 - 1, wd.dy1 + 1, lastT);
             store4(&iLo[size_t(i0)], il);
             store4(&iHi[size_t(i0)], ih);
             store4(&jLo[size_t(i0)], jl);
@@ -624,7 +651,8 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
     thread_local PointRegions t_points;
     PointRegions& pts = t_points;
     pts.compute(batch, lightFromCurrent, rasterFromCurrent,
-                {params.sWidth, params.tWidth, blurS, blurT, minHalf, maxHalf, m_dx0, m_dx1, m_dy0, m_dy1});
+                {params.sWidth, params.tWidth, blurS, blurT, minHalf, maxHalf, m_dx0, m_dx1, m_dy0, m_dy1, m_width,
+                 m_height});
 
     if constexpr (!kPointSample) {
         const BatchBounds bounds{pts.allUsable, pts.zLo, pts.zHi, pts.loS, pts.hiS, pts.loT, pts.hiT};
@@ -1072,7 +1100,7 @@ void ShadowMap::lookupCube(const ShadowBatch& batch, const ShadowParams& params,
     // direction from the light: the largest light camera-space z. Points are
     // gathered per face into per-thread scratch (no allocation once warm).
     struct Scratch {
-        std::vector<Vec3> P, du, dv, N;
+        std::vector<Vec3> P, du, dv, N, corners[4];
         std::vector<float> out;
         std::vector<int> index, id;
     };
@@ -1084,6 +1112,7 @@ void ShadowMap::lookupCube(const ShadowBatch& batch, const ShadowParams& params,
     }
     for (Scratch& sc : scratch) {
         sc.P.clear(); sc.du.clear(); sc.dv.clear(); sc.N.clear(); sc.index.clear(); sc.id.clear();
+        for (auto& c : sc.corners) c.clear();
     }
     const bool footprint = batch.dPdu_du && batch.dPdv_dv;
     for (int i = 0; i < batch.count; ++i) {
@@ -1104,6 +1133,8 @@ void ShadowMap::lookupCube(const ShadowBatch& batch, const ShadowParams& params,
             sc.dv.push_back(batch.dPdv_dv[i]);
         }
         if (batch.N) sc.N.push_back(batch.N[i]);
+        if (batch.corners[0])
+            for (int c = 0; c < 4; ++c) sc.corners[c].push_back(batch.corners[c][i]);
         sc.index.push_back(i);
         sc.id.push_back(batch.pointId ? batch.pointId[i] : i);
     }
@@ -1116,6 +1147,7 @@ void ShadowMap::lookupCube(const ShadowBatch& batch, const ShadowParams& params,
         sub.dPdu_du = footprint ? sc.du.data() : nullptr;
         sub.dPdv_dv = footprint ? sc.dv.data() : nullptr;
         sub.N = batch.N ? sc.N.data() : nullptr;
+        for (int c = 0; c < 4; ++c) sub.corners[c] = batch.corners[0] ? sc.corners[c].data() : nullptr;
         sub.seed = hashKeys(batch.seed, uint32_t(f));
         sub.pointId = sc.id.data();
         sc.out.resize(sc.index.size());

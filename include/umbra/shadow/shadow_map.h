@@ -70,6 +70,10 @@ struct ShadowBatch {
     const Vec3* dPdu_du = nullptr;
     const Vec3* dPdv_dv = nullptr;
     const Vec3* N = nullptr;        ///< normals (second-depth maps); may be null
+    /// The four-point form shadow(name, P1, P2, P3, P4): each point's
+    /// region is the box around its four corners' projections into the map
+    /// (in any order), in place of the footprint's. Null: the footprint's.
+    const Vec3* corners[4] = {nullptr, nullptr, nullptr, nullptr};
     Mat4 worldFromCurrent;
     uint32_t seed = 0;              ///< identity of the call (frame, grid, light): seeds the samples
     /// Each point's identity within the call (its vertex in the grid), which
