@@ -169,8 +169,12 @@ TEST(BlobbyRender, CombinedFieldsHaveTheSilhouettesOfTheFieldEvaluatedHere) {
         // The centre pixel: bridged by add, a gap under max, carved out by
         // subtract only off centre (checked by the pixels above).
         const float centre = img.at(W / 2, H / 2, 3);
-        if (c.name[0] == 'a') EXPECT_GT(centre, 0.99f);
-        if (c.name[1] == 'a') EXPECT_LT(centre, 0.01f);
+        if (c.name[0] == 'a') {
+            EXPECT_GT(centre, 0.99f);
+        }
+        if (c.name[1] == 'a') {
+            EXPECT_LT(centre, 0.01f);
+        }
         EXPECT_GT(sc.edges, 0) << c.name;
     }
 }
