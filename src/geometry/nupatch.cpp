@@ -194,6 +194,28 @@ Grid NuPatch::dice(int nu, int nv) const {
             evalBezierGrid(cv.c.data(), v.components, sp.degU, sp.degV, a, b, gv.data.data());
         }
     }
+    if (g.N.empty() && sp.degU > 0 && sp.degV > 0) {
+        // The nets of d/da (degree degU - 1 along a) and d/db: n times the
+        // differences of neighbouring control points.
+        const int du = sp.degU, dv = sp.degV;
+        thread_local std::vector<float> netA, netB, ha, hb;
+        netA.resize(size_t((dv + 1) * du * 4));
+        netB.resize(size_t(dv * (du + 1) * 4));
+        auto at = [&](int l, int k) { return &sp.pos[size_t((l * (du + 1) + k) * 4)]; };
+        for (int l = 0; l <= dv; ++l)
+            for (int k = 0; k < du; ++k)
+                for (int c = 0; c < 4; ++c)
+                    netA[size_t((l * du + k) * 4 + c)] = float(du) * (at(l, k + 1)[c] - at(l, k)[c]);
+        for (int l = 0; l < dv; ++l)
+            for (int k = 0; k <= du; ++k)
+                for (int c = 0; c < 4; ++c)
+                    netB[size_t((l * (du + 1) + k) * 4 + c)] = float(dv) * (at(l + 1, k)[c] - at(l, k)[c]);
+        ha.resize(n * 4);
+        hb.resize(n * 4);
+        evalBezierGrid(netA.data(), 4, du - 1, dv, a, b, ha.data());
+        evalBezierGrid(netB.data(), 4, du, dv - 1, a, b, hb.data());
+        setDerivativeNormals(g, h.data(), ha.data(), hb.data(), sp.posDim, m_map);
+    }
     return g;
 }
 

@@ -184,7 +184,12 @@ std::shared_ptr<const BicubicCoeffs> BicubicCoeffs::make(const SurfaceData& sd, 
             }
         toPower(Au, Av, G, C);
         for (int k = 0; k < 4; ++k)
-            for (int l = 0; l < 4; ++l) c->pos[k][l][comp] = C[k][l];
+            for (int l = 0; l < 4; ++l) {
+                c->pos[k][l][comp] = C[k][l];
+                // d/du of sum C[k][l] u^k v^l: (k+1) C[k+1][l] at power k.
+                c->posDu[k][l][comp] = k < 3 ? float(k + 1) * C[k + 1][l] : 0.0f;
+                c->posDv[k][l][comp] = l < 3 ? float(l + 1) * C[k][l + 1] : 0.0f;
+            }
     }
     for (size_t vi = 0; vi < sd.vars.size(); ++vi) {
         const PrimVar& v = sd.vars[vi];
@@ -304,6 +309,14 @@ Grid BicubicPatch::dice(int nu, int nv) const {
             evalBicubicGrid(cv.c.data(), v.components, a, b, gv.data.data());
         }
     }
+    if (g.N.empty()) {
+        thread_local std::vector<float> ha, hb;
+        ha.resize(n * 4);
+        hb.resize(n * 4);
+        evalBicubicGrid(&m_coeffs->posDu[0][0][0], 4, a, b, ha.data());
+        evalBicubicGrid(&m_coeffs->posDv[0][0][0], 4, a, b, hb.data());
+        setDerivativeNormals(g, h.data(), ha.data(), hb.data(), dim, m_map);
+    }
     return g;
 }
 
@@ -419,8 +432,15 @@ struct BlockLattice {
 }  // namespace
 
 void BicubicBlock::positions(int nu, int nv, Vec3* P) const {
-    thread_local BlockLattice L;
     thread_local std::vector<float> h;
+    lattice(nu, nv, &BicubicCoeffs::pos, h);
+    const int dim = m_patches->coeffs[0]->posDim;
+    const size_t n = size_t(nu + 1) * size_t(nv + 1);
+    for (size_t k = 0; k < n; ++k) divideW(&h[k * 4], dim, &P[k]);
+}
+
+void BicubicBlock::lattice(int nu, int nv, float (BicubicCoeffs::*table)[4][4][4], std::vector<float>& h) const {
+    thread_local BlockLattice L;
     blockLattice(columns(), nu, L.firstU, L.a);
     blockLattice(rows(), nv, L.firstV, L.b);
     const size_t n = size_t(nu + 1) * size_t(nv + 1);
@@ -433,12 +453,10 @@ void BicubicBlock::positions(int nu, int nv, Vec3* P) const {
             const int c0 = L.firstU[size_t(p)], c1 = L.firstU[size_t(p) + 1];
             if (c1 <= c0) continue;
             const BicubicCoeffs& c = *m_patches->coeffs[m_patches->index(m_i0 + p, m_j0 + q)];
-            evalBicubicRect(&c.pos[0][0][0], 4, &L.a[size_t(c0)], c1 - c0, &L.b[size_t(r0)], r1 - r0,
+            evalBicubicRect(&(c.*table)[0][0][0], 4, &L.a[size_t(c0)], c1 - c0, &L.b[size_t(r0)], r1 - r0,
                             &h[size_t(r0) * stride + size_t(c0) * 4], stride);
         }
     }
-    const int dim = m_patches->coeffs[0]->posDim;
-    for (size_t k = 0; k < n; ++k) divideW(&h[k * 4], dim, &P[k]);
 }
 
 void BicubicBlock::dicePositions(int nu, int nv, std::vector<Vec3>& P) const {
@@ -540,6 +558,13 @@ Grid BicubicBlock::dice(int nu, int nv) const {
                             &L.b[size_t(r0)], r1 - r0, dst + (size_t(r0) * rowVerts + size_t(c0)) * size_t(comps),
                             rowVerts * size_t(comps));
         });
+    }
+    if (g.N.empty()) {
+        thread_local std::vector<float> h, ha, hb;
+        lattice(nu, nv, &BicubicCoeffs::pos, h);
+        lattice(nu, nv, &BicubicCoeffs::posDu, ha);
+        lattice(nu, nv, &BicubicCoeffs::posDv, hb);
+        setDerivativeNormals(g, h.data(), ha.data(), hb.data(), pa.coeffs[0]->posDim, pa.map(0, 0));
     }
     return g;
 }

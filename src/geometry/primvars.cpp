@@ -224,6 +224,38 @@ void initGrid(Grid& g, int nu, int nv, const ParamRange& r, const ParamMap& map,
     }
 }
 
+bool setDerivativeNormals(Grid& g, const float* H, const float* Ha, const float* Hb, int posDim, const ParamMap& map) {
+    const size_t n = g.P.size();
+    g.N.resize(n);
+    const float su = map.uScale != 0 ? 1.0f / map.uScale : 0.0f, sv = map.vScale != 0 ? 1.0f / map.vScale : 0.0f;
+    for (size_t k = 0; k < n; ++k) {
+        const float* h = H + 4 * k;
+        const float* ha = Ha + 4 * k;
+        const float* hb = Hb + 4 * k;
+        Vec3 pa(ha[0], ha[1], ha[2]), pb(hb[0], hb[1], hb[2]);
+        if (posDim == 4) {
+            // P = H / w: P' = (H' w - H w') / w^2, the common 1/w^2 kept
+            // as a scale of the cross product (1/w^4).
+            const Vec3 xyz(h[0], h[1], h[2]);
+            pa = pa * h[3] - xyz * ha[3];
+            pb = pb * h[3] - xyz * hb[3];
+            const float w2 = h[3] * h[3];
+            pa = pa / w2, pb = pb / w2;
+        }
+        pa = pa * su, pb = pb * sv;
+        const Vec3 c = cross(pa, pb);
+        const float len = length(c);
+        if (!(len > 1e-6f * length(pa) * length(pb)) || !(len < kInfinity)) {
+            g.N.clear();
+            return false;
+        }
+        g.N[k] = c;
+    }
+    g.ownNormals = true;
+    g.derivativeNormals = true;
+    return true;
+}
+
 GridVar& addGridVar(Grid& g, const PrimVar& v, bool perVertex) {
     GridVar& gv = g.vars.emplace_back();
     gv.name = v.name;

@@ -273,8 +273,8 @@ Grid SubdivFace::dice(int nu, int nv) const {
     const SurfaceData& sd = *m.sd;
     const SubdivFaceSurfaces& fs = *m_surfaces;
 
-    // Limit positions and a normal from the limit derivatives, kept only
-    // when it is defined everywhere on the grid.
+    // Limit positions and the normal dPdu x dPdv from the limit
+    // derivatives, kept only when it is defined everywhere on the grid.
     std::vector<Vec3> N(n);
     bool normalsOk = true;
     size_t k = 0;
@@ -286,7 +286,7 @@ Grid SubdivFace::dice(int nu, int nv) const {
             const Vec3 c = cross3(d, e);
             const float len = length(c);
             if (!(len > 1e-12f * std::max(1.0f, length(du) * length(dv)))) normalsOk = false;
-            N[k++] = normalsOk ? c / len : Vec3(0.0f);
+            N[k++] = normalsOk ? c : Vec3(0.0f);
         }
 
     // Every other variable goes through one limit stencil per vertex and
@@ -345,8 +345,9 @@ Grid SubdivFace::dice(int nu, int nv) const {
         }
     }
     if (g.N.empty() && normalsOk) {
-        g.N = std::move(N);
+        g.N = std::move(N);  // dPdu x dPdv, as the regular faces' blocks give it
         g.ownNormals = true;
+        g.derivativeNormals = true;
     }
 
     addDefaultVars(sd, g);

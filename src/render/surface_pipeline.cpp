@@ -370,6 +370,13 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
     // in. User-supplied normals are used as given.
     if (g.ownNormals && attrs.insideOut)
         for (Vec3& nrm : g.N) nrm = -nrm;
+    // A normal transforms by the inverse transpose, which divides
+    // dPdu x dPdv by the transform's determinant: scaled back, it is the
+    // cross product in "current" space, as long as the shading grid's Ng.
+    if (g.derivativeNormals) {
+        const float scale = std::abs(c.det3());
+        for (Vec3& nrm : g.N) nrm = nrm * scale;
+    }
 
     const PreparedAttributes& pa = m_frame.prepared(attrs);
     const bool flip = normalsFlip(attrs, c);

@@ -43,6 +43,8 @@ struct Grid {
     std::vector<Vec3> N;                // shading normals, or empty: derive from P
     bool ownNormals = false;            // N is the family's outward normal (e.g. a quadric's
                                         // closed form), not user-supplied: it follows Orientation
+    bool derivativeNormals = false;     // ... and is dPdu x dPdv, whose length the
+                                        // transform to "current" space keeps (RI 3.2: N = Ng)
     std::vector<float> u, v;            // surface parameters of each vertex
     float du = 0, dv = 0;               // parametric spacing between vertices
     std::vector<GridVar> vars;          // s, t, Cs, Os, user primitive variables

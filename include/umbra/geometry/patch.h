@@ -52,6 +52,8 @@ private:
 struct BicubicCoeffs {
     int posDim = 3;
     float pos[4][4][4];            // [k][l][component], homogeneous when posDim == 4
+    float posDu[4][4][4];          // the same of d/du and d/dv (the top power 0)
+    float posDv[4][4][4];
     struct Var {
         int index;                 // into SurfaceData::vars
         std::vector<float> c;      // [k][l][component], 16 * components
@@ -147,6 +149,10 @@ public:
                              std::vector<PrimitivePtr>& out);
 
 private:
+    /// The homogeneous values of one table of every patch's coefficients
+    /// (BicubicCoeffs::pos, posDu or posDv) at the block's nu x nv lattice,
+    /// 4 floats a vertex.
+    void lattice(int nu, int nv, float (BicubicCoeffs::*table)[4][4][4], std::vector<float>& h) const;
     void positions(int nu, int nv, Vec3* P) const;
 
     std::shared_ptr<const BicubicPatchArray> m_patches;

@@ -168,6 +168,17 @@ std::shared_ptr<const SurfaceData> readSurfaceData(const scene::PrimitiveRecord&
 void initGrid(Grid& g, int nu, int nv, const ParamRange& range, const ParamMap& map, std::vector<float>& a,
               std::vector<float>& b);
 
+/// The grid's N as dPdu x dPdv, from the homogeneous positions `H` and
+/// their partial derivatives `Ha`, `Hb` along the corner domain's a and b
+/// (4 floats a vertex; P = H / w when `posDim` is 4, else H's xyz), per unit
+/// of the primitive's u and v (u = uOffset + uScale a: ParamMap). Exact, so
+/// grids that share an edge give its vertices the same normal and a
+/// displaced surface does not crack between them. Marks N the family's own
+/// derivative normal (Grid::derivativeNormals). Leaves N empty and returns
+/// false when it vanishes anywhere on the grid (a pole, a collapsed edge):
+/// the shading grid's differences then stand in.
+bool setDerivativeNormals(Grid& g, const float* H, const float* Ha, const float* Hb, int posDim, const ParamMap& map);
+
 /// Interpolates every primitive variable onto `g` (already laid out by
 /// initGrid): varying, facevarying and (unless `skipVertex`) vertex classes
 /// bilinearly from the corners, uniform and constant as single values, N
