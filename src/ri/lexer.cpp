@@ -99,6 +99,12 @@ Token Lexer::makeError(int line, int column, std::string message) {
     return t;
 }
 
+Token Lexer::junkError(int line, int column, std::string message) {
+    Token t = makeError(line, column, std::move(message));
+    t.junk = true;
+    return t;
+}
+
 Token Lexer::inputError(int line, int column) {
     Token t = makeError(line, column, std::exchange(m_sourceError, {}));
     t.inputFailed = true;
@@ -175,7 +181,7 @@ Token Lexer::lexToken(bool* definition) {
             }
             if (m_pos < m_n || !refill(m_pos)) break;
         }
-        return makeError(t.line, t.column, fmt::format("unexpected control character 0x{:02x} (not RIB)", c));
+        return junkError(t.line, t.column, fmt::format("unexpected control character 0x{:02x} (not RIB)", c));
     }
     return lexWord(t.line, t.column);
 }
@@ -303,7 +309,7 @@ Token Lexer::lexBinary(int line, int column, bool* definition) {
     if (c == kRequest) {
         if (!field(1, &value)) return truncated();
         if (m_requests[value].empty())
-            return makeError(line, column,
+            return junkError(line, column,
                              fmt::format("binary RIB: request code {} used before it was defined (0314)", value));
         t.kind = TokenKind::Name;
         t.text = m_requests[value];
@@ -320,14 +326,14 @@ Token Lexer::lexBinary(int line, int column, bool* definition) {
         const uint32_t id = uint32_t(value);
         std::string defined, why;
         if (!definedString(&defined, &why))
-            return makeError(line, column, fmt::format("binary RIB: {} definition 0{:o} {}: {}",
+            return junkError(line, column, fmt::format("binary RIB: {} definition 0{:o} {}: {}",
                                                        c == kDefineRequest ? "request" : "string", c, id, why));
         if (c == kDefineRequest) {
             const bool word = !defined.empty() && std::none_of(defined.begin(), defined.end(), [](char ch) {
                 return endsWord(static_cast<unsigned char>(ch)) || static_cast<unsigned char>(ch) < 0x20;
             });
             if (!word)
-                return makeError(line, column,
+                return junkError(line, column,
                                  fmt::format("binary RIB: request code {} defined as \"{}\" (expected a request name)",
                                              id, defined));
             m_requests[id] = std::move(defined);
@@ -352,7 +358,7 @@ Token Lexer::lexBinary(int line, int column, bool* definition) {
         while (m_pos < m_n && isReserved(static_cast<unsigned char>(m_s[m_pos]))) ++m_pos;
         if (m_pos < m_n || !refill(m_pos)) break;
     }
-    return makeError(line, column, fmt::format("binary RIB: reserved byte 0{:o} (not a RIB token)", c));
+    return junkError(line, column, fmt::format("binary RIB: reserved byte 0{:o} (not a RIB token)", c));
 }
 
 Token Lexer::lexArrayElement() {

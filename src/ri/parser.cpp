@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <unistd.h>
 #include <unordered_map>
+#include <optional>
 
 namespace umbra::ri {
 
@@ -707,8 +708,12 @@ private:
                 advance();
                 break;
             case TokenKind::Error:
-                tokenError(request);
-                ok = false;
+                if (m_tok.junk) {
+                    tokenError("RIB");  // a stray, not the request's
+                } else {
+                    tokenError(request);
+                    ok = false;
+                }
                 advance();
                 break;
             default: advance(); break;
@@ -1059,27 +1064,40 @@ private:
                 Param p;
                 p.decl = candidates[0];
                 p.loc = at;
-                if (convert(request, nameValue, v, p, &why))
+                if (convert(request, nameValue, v, p, &why)) {
+                    if (!why.empty()) m_parser.m_diag.warning(at, "{}: {}", request, why);
                     params.add(std::move(p));
-                else
+                } else {
                     error(nameValue.line, nameValue.column, request, "{}", why);
+                }
                 continue;
             }
             // Lenient: the first declaration the values fit; else what the
             // values say, with one warning for the name.
+            // One that holds every value before one that drops some.
             bool done = false;
-            std::string firstWhy;
+            std::string firstWhy, truncatedWhy;
+            std::optional<Param> truncated;
             for (const ParamDecl& d : candidates) {
                 Value copy = v;
                 Param p;
                 p.decl = d;
                 p.loc = at;
                 if (convert(request, nameValue, copy, p, &why)) {
-                    params.add(std::move(p));
-                    done = true;
-                    break;
+                    if (why.empty()) {
+                        params.add(std::move(p));
+                        done = true;
+                        break;
+                    }
+                    if (!truncated) truncated = std::move(p), truncatedWhy = why;
+                    continue;
                 }
                 if (firstWhy.empty()) firstWhy = why;
+            }
+            if (!done && truncated) {
+                m_parser.m_diag.warning(at, "{}: {}", request, truncatedWhy);
+                params.add(std::move(*truncated));
+                done = true;
             }
             if (done) continue;
             Param p;
@@ -1091,6 +1109,7 @@ private:
                 continue;
             }
             m_parser.m_diag.warningOnce(onceKey, at, "{}: {}; read as \"{}\"", where, firstWhy, typeText(p.decl));
+            if (!why.empty()) m_parser.m_diag.warning(at, "{}: {}", request, why);
             params.add(std::move(p));
         }
     }
@@ -1139,6 +1158,26 @@ private:
         if (count == 0) {
             *why = fmt::format("parameter \"{}\" ({}) has no values", d.name, type);
             return false;
+        }
+        why->clear();
+        // A shader parameter given more values than fit: the leading ones,
+        // with a note the caller warns of (Pixie takes them silently, Aqsis
+        // warns). Geometry's counts are its topology's, not to be guessed.
+        const bool shader = isShaderRequest(request);
+        const size_t keep = !shader                                               ? count
+                            : d.storage == StorageClass::Constant && count > per ? per
+                            : count > per && count % per != 0                     ? count - count % per
+                                                                                  : count;
+        if (keep != count) {
+            *why = fmt::format("parameter \"{}\" ({}) expects {} value{}, got {}; {} used", d.name, type,
+                               d.storage == StorageClass::Constant ? std::to_string(per)
+                                                                   : fmt::format("a multiple of {}", per),
+                               per == 1 && d.storage == StorageClass::Constant ? "" : "s", count,
+                               keep == 1 ? std::string("the first is") : fmt::format("the first {} are", keep));
+            if (d.type == ParamType::String) p.strings.resize(keep);
+            else if (isFloatType(d.type)) p.floats.resize(keep);
+            else p.ints.resize(keep);
+            return true;
         }
         if (d.storage == StorageClass::Constant && count != per) {
             *why = fmt::format("parameter \"{}\" ({}) expects {} value{}, got {}", d.name, type, per,

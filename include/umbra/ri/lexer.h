@@ -38,6 +38,10 @@ struct Token {
     bool isInt = false;  // written without '.', exponent, and fits in int
     size_t offset = 0;   // byte offset of the token's first character in the input
     bool inputFailed = false;  // an Error because the input could not be read on (corrupt, truncated, over budget)
+    /// An Error of bytes that are no RIB token at all (control characters,
+    /// reserved or undefined binary codes): not part of the request being
+    /// read, whose values go on (Pixie and Aqsis draw it too).
+    bool junk = false;
 };
 
 /// Where a streaming Lexer reads its bytes from: a file, or a gzip
@@ -105,6 +109,7 @@ private:
     /// or a quoted ASCII one, right after the definition's code.
     bool definedString(std::string* out, std::string* why);
     Token makeError(int line, int column, std::string message);
+    Token junkError(int line, int column, std::string message);  // makeError, marked junk
     Token inputError(int line, int column);
     Token lexString(int line, int column);
     Token lexWord(int line, int column);

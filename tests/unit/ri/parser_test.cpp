@@ -162,15 +162,29 @@ TEST(Parser, DeclaredNamesLoseTheirBlanksAndNamesOfSeveralWordsAreWarnedAndIgnor
 }
 
 TEST(Parser, ParameterErrorsDropOnlyTheParameter) {
-    auto p = parse("Surface \"s\" \"Cs\" [1 0] \"Kd\" \"a\" \"constant float c\" [1 2] \"Ka\" 0.25 \"Ks\"");
+    // A shader parameter with more values than fit keeps the leading ones,
+    // with a warning (Pixie takes them silently, Aqsis warns); too few or
+    // of the wrong type drop it.
+    auto p = parse("Surface \"s\" \"Cs\" [1 0] \"Kd\" \"a\" \"constant float c\" [1 2] \"Ka\" 0.25 \"Ks\"\n"
+                   "Surface \"t\" \"uniform float[2] f\" [1 .5 .25] \"constant string n\" [\"blue\" \"red\"]");
     EXPECT_EQ(messages(p->diag), (std::vector<std::string>{
         "t.rib:1:13: error: Surface: parameter \"Cs\" (varying color) expects a multiple of 3 values, got 2",
         "t.rib:1:24: error: Surface: parameter \"Kd\" (uniform float) expects numbers, got string \"a\"",
-        "t.rib:1:33: error: Surface: parameter \"c\" (constant float) expects 1 value, got 2",
-        "t.rib:1:68: error: Surface: parameter \"Ks\" has no value"}));
-    ASSERT_EQ(p->rec.params.size(), 1u);
-    EXPECT_EQ(p->rec.params[0].size(), 1u);
+        "t.rib:1:33: warning: Surface: parameter \"c\" (constant float) expects 1 value, got 2; the first is used",
+        "t.rib:1:68: error: Surface: parameter \"Ks\" has no value",
+        "t.rib:2:13: warning: Surface: parameter \"f\" (uniform float[2]) expects a multiple of 2 values, got 3; the "
+        "first 2 are used",
+        "t.rib:2:45: warning: Surface: parameter \"n\" (constant string) expects 1 value, got 2; the first is "
+        "used"}));
+    ASSERT_EQ(p->rec.params.size(), 2u);
+    EXPECT_EQ(p->rec.params[0].size(), 2u);
     EXPECT_EQ(p->rec.params[0].getFloat("Ka", 0), 0.25f);
+    EXPECT_EQ(p->rec.params[0].getFloat("c", 0), 1.0f);
+    const ParamList& t = p->rec.params[1];
+    ASSERT_NE(t.find("f"), nullptr);
+    EXPECT_EQ(t.find("f")->floats, (std::vector<float>{1, 0.5f}));
+    ASSERT_NE(t.find("n"), nullptr);
+    EXPECT_EQ(t.find("n")->strings, (std::vector<std::string>{"blue"}));
 }
 
 TEST(Parser, UndeclaredShaderParametersAreTypedByTheirValues) {
@@ -235,6 +249,22 @@ TEST(Parser, StrayClosingBracketIsSkippedAndTheRequestKept) {
     EXPECT_EQ(p->rec.log, (std::vector<std::string>{"Polygon@t.rib:1:1", "Color", "Sphere@t.rib:5:1"}));
     EXPECT_EQ(messages(p->diag), (std::vector<std::string>{
         "t.rib:2:1: warning: Polygon: skipped a ']' that closes no '['"}));
+}
+
+TEST(Parser, BytesThatAreNoRibAreStrayAndTheRequestBeforeThemKept) {
+    // A control byte, a reserved binary byte or an undefined request code
+    // after a finished request is reported where it stands; the request
+    // is drawn (Pixie and Aqsis draw it too). A broken value inside the
+    // request still costs the request.
+    auto p = parse(std::string("Polygon \"P\" [0 0 0 1 0 0 1 1 0]\n\x01\nSphere 1 -1 1 360 \xf5\n"
+                               "Sphere 2 -2 2 360\n\xa6\x05\nSphere 3 -3 3 1e39\n"));
+    EXPECT_EQ(p->rec.log, (std::vector<std::string>{"Polygon@t.rib:1:1", "Sphere@t.rib:3:1", "Sphere@t.rib:4:1"}));
+    const auto m = messages(p->diag);
+    ASSERT_EQ(m.size(), 4u);
+    EXPECT_EQ(m[0], "t.rib:2:1: error: RIB: unexpected control character 0x01 (not RIB)");
+    EXPECT_EQ(m[1].rfind("t.rib:3:19: error: RIB: binary RIB: reserved byte", 0), 0u) << m[1];
+    EXPECT_EQ(m[2].rfind("t.rib:5:1: error: RIB: binary RIB: request code 5 used before it was defined", 0), 0u) << m[2];
+    EXPECT_EQ(m[3].rfind("t.rib:6:15: error: Sphere: number out of range", 0), 0u) << m[3];
 }
 
 std::string gzipBytes(const std::string& text) {
