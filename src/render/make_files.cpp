@@ -88,16 +88,18 @@ bool makeFile(const scene::MakeRecord& make, Diagnostics& diag) {
             diag.error(make.loc, "MakeTexture: expected swrap, twrap, filter, swidth and twidth");
             return false;
         }
+        std::string wrap[2];
         for (int k = 0; k < 2; ++k) {
-            const std::string& w = make.stringArgs[size_t(k)];
-            if (!knownWrap(w)) {
-                diag.error(make.loc, "MakeTexture: unknown {} \"{}\" (expected \"periodic\", \"black\" or \"clamp\")",
-                           k == 0 ? "swrap" : "twrap", w);
-                return false;
+            wrap[k] = make.stringArgs[size_t(k)];
+            if (!knownWrap(wrap[k])) {
+                // Pixie and Aqsis make the texture and wrap as black.
+                diag.warning(make.loc, "MakeTexture: unknown {} \"{}\" (expected \"periodic\", \"black\" or "
+                             "\"clamp\"); \"black\" is used", k == 0 ? "swrap" : "twrap", wrap[k]);
+                wrap[k] = "black";
             }
         }
-        request.swrap = make.stringArgs[0];
-        request.twrap = make.stringArgs[1];
+        request.swrap = wrap[0];
+        request.twrap = wrap[1];
         filter = make.stringArgs[2];
     } else {
         const size_t floats = cube ? 3 : 2;

@@ -147,6 +147,19 @@ TEST(Txmake, DefaultsAreBlackGaussianWidthTwo) {
     EXPECT_EQ(textureDifference(dir.file("rib.tx"), dir.file("cmd.tx")), "");
 }
 
+TEST(Txmake, AnUnknownWrapModeMakesABlackWrappedTexture) {
+    // RI Spec 3.2 knows periodic, clamp and black; Pixie and Aqsis make a
+    // texture of any other ("mirror") and wrap it as black. So does umbra,
+    // with a warning, where it made nothing and every lookup read 0.
+    ScratchDir dir("txmake-mirror");
+    writeImage(dir.file("pic.tif"), 16, 16, [](int x, int y) { return Vec3(x / 16.0f, y / 16.0f, 0.5f); });
+    ASSERT_TRUE(runRib(fmt::format("MakeTexture \"{}\" \"{}\" \"mirror\" \"black\" \"gaussian\" 2 2\n",
+                                   dir.file("pic.tif"), dir.file("mirror.tx"))));
+    ASSERT_TRUE(runRib(fmt::format("MakeTexture \"{}\" \"{}\" \"black\" \"black\" \"gaussian\" 2 2\n",
+                                   dir.file("pic.tif"), dir.file("black.tx"))));
+    EXPECT_EQ(textureDifference(dir.file("mirror.tx"), dir.file("black.tx")), "");
+}
+
 TEST(Txmake, LatLongEqualsMakeLatLongEnvironment) {
     ScratchDir dir("txmake-latlong");
     writeImage(dir.file("env.tif"), 64, 32, [](int x, int y) { return Vec3(x / 64.0f, y / 32.0f, 0.25f); });
