@@ -393,8 +393,11 @@ void Procedural::expand() const {
     const std::string first = rec.stringArgs.size() > 1 ? rec.stringArgs[1] : std::string();
     const std::string data = rec.stringArgs.size() > 2 ? rec.stringArgs[2] : std::string();
     if (m_depth >= ProceduralContext::kMaxDepth) {
-        ctx.diag().error(loc, "Procedural \"{}\": nested more than {} deep (an archive or program that makes itself?); "
-                         "not expanded", kind, ProceduralContext::kMaxDepth);
+        // Once a request: an archive naming itself twice reaches the limit
+        // on thousands of branches.
+        ctx.diag().errorOnce("procedural-depth:" + loc.str(), loc,
+                             "Procedural \"{}\": nested more than {} deep (an archive or program that makes itself?); "
+                             "not expanded", kind, ProceduralContext::kMaxDepth);
         ++ctx.failures;
         return;
     }
