@@ -715,7 +715,7 @@ void SampleBuffer::sampleBlurred(const MicroGrid& g) {
     if (perGrid && !boundMotion(g)) return;
     for (int j = 0; j < g.nv; ++j)
         for (int i = 0; i < g.nu; ++i) {
-            if (g.culled && g.culled[j * g.nu + i]) continue;
+            if (g.culled && g.culled[j * g.nu + i] == MicroGrid::kCulled) continue;
             if (g.discs && (i & 1)) continue;
             if (!perGrid) {
                 rasterizeBlurred(g, ctx, i, j, nullptr);
@@ -744,7 +744,7 @@ bool SampleBuffer::boundMotion(const MicroGrid& g) {
             b.first = 1;
             b.last = 0;
             // Not drawn: culled (back-facing), or a disc's odd neighbour.
-            if ((g.culled && g.culled[j * g.nu + i]) || (g.discs && (i & 1))) continue;
+            if ((g.culled && g.culled[j * g.nu + i] == MicroGrid::kCulled) || (g.discs && (i & 1))) continue;
             const size_t corner[4] = {size_t(j * nu1 + i), size_t(j * nu1 + i + 1), size_t((j + 1) * nu1 + i),
                                       size_t((j + 1) * nu1 + i + 1)};
             // rasterizeBlurred's bound over both keys, in its order.
@@ -865,6 +865,17 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
     ++m_blur.micropolygons;
 
     const uint32_t mp = uint32_t(j * g.nu + i);
+    // A micropolygon that turns its back during the shutter (Facing) is
+    // kept at a sample's time only where its winding in raster space is the
+    // one it has at the opening key (its diagonals' cross there), or the
+    // other one: +1 or -1, the sign a half's area must have; 0: any.
+    int facingSign = 0;
+    if (g.culled && g.culled[mp] >= MicroGrid::kKeepAsOpening) {
+        const Vec3 &a = g.P[corner[0]], &b = g.P[corner[1]], &c = g.P[corner[2]], &d = g.P[corner[3]];
+        const float cross = (d.x - a.x) * (c.y - b.y) - (d.y - a.y) * (c.x - b.x);
+        const int opening = cross > 0 ? 1 : cross < 0 ? -1 : 0;
+        facingSign = g.culled[mp] == MicroGrid::kKeepAsOpening ? opening : -opening;
+    }
     const bool nearestOnly = ctx.depthMode && m_cfg.depthLayers == 1 && g.csgLeaf < 0;  // CSG hits go to record()
     const float* depthOf = ctx.inverseDepth;
     auto depthAt = [&](size_t v) { return depthOf ? depthOf[v] : g.P[v].z; };
@@ -932,6 +943,7 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
                 int a = kHalves[h][0], b = kHalves[h][1], c = kHalves[h][2];
                 const float area = (q[b].x - q[a].x) * (q[c].y - q[a].y) - (q[b].y - q[a].y) * (q[c].x - q[a].x);
                 if (!(area != 0.0f && std::isfinite(area))) continue;
+                if (facingSign && (area > 0 ? 1 : -1) != facingSign) continue;
                 if (area < 0) std::swap(b, c);
                 ScalarEdge e0, e1, e2;
                 e0.setup(q[b].x, q[b].y, q[c].x, q[c].y);
@@ -1022,7 +1034,8 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
         for (int h = 0; h < 2; ++h) {
             const int a = kHalves[h][0], b = kHalves[h][1], c = kHalves[h][2];
             const F4 area = (qx[b] - qx[a]) * (qy[c] - qy[a]) - (qy[b] - qy[a]) * (qx[c] - qx[a]);
-            const I4 valid = (area != 0.0f) & finite4(area);
+            I4 valid = (area != 0.0f) & finite4(area);
+            if (facingSign) valid &= facingSign > 0 ? area > 0.0f : area < 0.0f;
             const I4 flip = area < 0.0f;
             const F4 bx = select(flip, qx[c], qx[b]), by = select(flip, qy[c], qy[b]);
             const F4 cx = select(flip, qx[b], qx[c]), cy = select(flip, qy[b], qy[c]);

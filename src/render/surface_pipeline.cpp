@@ -119,7 +119,9 @@ void SurfacePipeline::placementTimes(const geometry::Primitive& prim, std::vecto
         float turn = 0;
         if (rec.worldFromObjectMotion) turn = rec.worldFromObjectMotion->turnBetween(a, b);
         if (m_pass.cameraMotion) turn = std::max(turn, m_pass.cameraMotion->turnBetween(a, b));
-        const int pieces = std::clamp(int(std::ceil(turn / kMaxChordTurn)), 1, 8);
+        // A Rotate block keyed past a half turn turns as far as it says
+        // (TransformRequest): up to the placements' cap in one interval.
+        const int pieces = std::clamp(int(std::ceil(turn / kMaxChordTurn)), 1, int(kMaxPlacementTimes) - 1);
         for (int i = 1; i < pieces; ++i) fine.push_back(a + (b - a) * float(i) / float(pieces));
         fine.push_back(b);
     }
@@ -582,12 +584,19 @@ bool SurfacePipeline::cullFacing(const std::vector<Vec3>& keyed, size_t keys, bo
                                  hider::ShadedGrid& out) const {
     // A micropolygon faces the eye when its outward normal points at it:
     // dPdu x dPdv in camera space, negated when normalsFlip() says so. A
-    // moving one is dropped only when it is culled at every key.
+    // moving one culled at some keys and not at others is kept at the
+    // sample times it faces the way it should (the hider tells by its
+    // winding then, MicroGrid::Facing): a card turning its back during the
+    // shutter shows for the part it faces the eye.
+    using Facing = hider::MicroGrid::Facing;
     const int nu = out.nu, nv = out.nv, nu1 = nu + 1;
     const size_t verts = size_t(nu1) * size_t(nv + 1);
     const bool perspective = m_pass.camera.perspective;
     const bool dropFront = m_pass.cull == Pass::Cull::Front;
-    out.culled.assign(size_t(nu) * size_t(nv), 1);
+    out.culled.assign(size_t(nu) * size_t(nv), Facing::kCulled);
+    thread_local std::vector<uint8_t> keptAtOpening, droppedSomewhere;
+    keptAtOpening.assign(out.culled.size(), 0);
+    droppedSomewhere.assign(out.culled.size(), 0);
     bool anyKept = false;
     for (size_t k = 0; k < keys; ++k) {
         const Vec3* P = keyed.data() + k * verts;
@@ -602,10 +611,17 @@ bool SurfacePipeline::cullFacing(const std::vector<Vec3>& keyed, size_t keys, bo
                 float toward = perspective ? dot(n, centre) : n.z;  // > 0: faces away (unflipped)
                 bool front = flip ? toward > 0 : toward < 0;
                 bool drop = dropFront ? front : !front;
-                if (!drop) out.culled[size_t(j * nu + i)] = 0;
+                const size_t m = size_t(j * nu + i);
+                if (!drop) out.culled[m] = Facing::kKept;
+                if (k == 0) keptAtOpening[m] = !drop;
+                droppedSomewhere[m] |= drop;
                 anyKept |= !drop;
             }
     }
+    if (keys > 1)
+        for (size_t m = 0; m < out.culled.size(); ++m)
+            if (out.culled[m] == Facing::kKept && droppedSomewhere[m])
+                out.culled[m] = keptAtOpening[m] ? Facing::kKeepAsOpening : Facing::kKeepUnlikeOpening;
     return anyKept;
 }
 

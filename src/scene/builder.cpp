@@ -160,9 +160,15 @@ bool Builder::requireWorld(const std::string& request, const FileLoc& loc) {
     return false;
 }
 
-bool Builder::skipMotionSample() {
+bool Builder::skipMotionSample(const char* request, const FileLoc& loc) {
     if (!m_motion || m_blocks.empty() || m_blocks.back().kind != Block::Motion) return false;
-    return ++m_motion->requests > 1;
+    if (++m_motion->requests == 1) return false;
+    if (!m_motion->warnedUnblurred) {
+        m_motion->warnedUnblurred = true;
+        m_diag.warning(loc, "{}: not blurred in a motion block (umbra blurs transforms and primitives); the "
+                       "block's first request is used", request);
+    }
+    return true;
 }
 
 void Builder::setTransform(const Mat4& m) {
@@ -520,7 +526,7 @@ void Builder::objectInstance(const std::string& handle, const FileLoc& loc) {
                      "too deep?); this instance in \"{}\" is ignored", kMaxObjectBytes >> 20, m_objectHandle);
         return;
     }
-    if (skipMotionSample()) return;
+    if (skipMotionSample("ObjectInstance", loc)) return;
     // Pieces share attributes: the instance's where the definition set
     // none, else one merge per distinct state inside the definition.
     std::map<const Attributes*, std::shared_ptr<const Attributes>> merged;
@@ -582,8 +588,14 @@ void Builder::motionEnd(const FileLoc& loc) {
                      got > n ? "the extra ones are ignored" : "the last is held for the missing times");
     };
     if (!block->transforms.empty()) {
-        std::vector<Mat4> keys = block->transforms;
+        std::vector<TransformRequest> keys = block->transforms;
         if (keys.size() != n && n > 0) countMismatch("transforms", keys.size());
+        for (const TransformRequest& k : keys)
+            if (k.kind != keys[0].kind) {
+                m_diag.warning(block->loc, "MotionBegin: the block's transforms are not all the same request (RI "
+                               "spec: one kind a block); blurred between their matrices");
+                break;
+            }
         keys.resize(std::max<size_t>(n, 1), keys.back());
         auto moving = std::make_shared<MotionTransform>(block->absolute ? MotionTransform()
                                                         : m_state.motion ? *m_state.motion
@@ -602,14 +614,38 @@ void Builder::motionEnd(const FileLoc& loc) {
         bool same = true;
         for (size_t k = 1; k < shapes.size() && k < n && same; ++k) {
             const PrimitiveRecord& r = shapes[k];
+            // A Polygon's (and a Points', a Curves') topology is also its
+            // number of positions.
+            auto positions = [](const PrimitiveRecord& x) {
+                size_t count = 0;
+                for (const char* name : {"P", "Pw", "Pz"})
+                    if (const ri::Param* p = x.params.find(name)) count += p->floats.size();
+                return count;
+            };
             same = r.type == first.type && r.intArgs == first.intArgs && r.intArrays == first.intArrays &&
-                   r.stringArgs == first.stringArgs && r.floatArgs.size() == first.floatArgs.size();
+                   r.stringArgs == first.stringArgs && r.floatArgs.size() == first.floatArgs.size() &&
+                   positions(r) == positions(first);
             if (!same)
                 m_diag.error(r.loc, "{}: a motion block's primitives must have the same type and topology as its "
                              "first ({} at {}); the block renders the first, unblurred", r.type, first.type,
                              first.loc.str());
         }
         if (same && n > 1) {
+            // Shading happens once, at the opening (as in PRMan and Aqsis):
+            // a colour or other variable that changes between the keys is
+            // the first key's. Said once, where it changes.
+            for (size_t k = 1; k < shapes.size() && k < n; ++k)
+                for (const ri::Param& p : shapes[k].params.params()) {
+                    static const char* kMoved[] = {"P", "Pw", "Pz", "N", "width", "constantwidth"};
+                    if (std::any_of(std::begin(kMoved), std::end(kMoved),
+                                    [&](const char* m) { return p.decl.name == m; }))
+                        continue;
+                    const ri::Param* q = first.params.find(p.decl.name);
+                    if (q && q->floats == p.floats && q->ints == p.ints && q->strings == p.strings) continue;
+                    m_diag.warningOnce("motion:primvar:" + p.decl.name, shapes[k].loc,
+                                       "{}: \"{}\" differs between the motion block's keys; the first key's is used "
+                                       "(umbra shades once, at the shutter's opening)", shapes[k].type, p.decl.name);
+                }
             for (size_t k = 1; k < n; ++k) first.shapes.push_back(k < shapes.size() ? shapes[k] : shapes.back());
             for (PrimitiveRecord& r : first.shapes) r.shapes.clear();
             first.shapeTimes = block->times;
@@ -618,7 +654,8 @@ void Builder::motionEnd(const FileLoc& loc) {
     }
 }
 
-void Builder::concat(const Mat4& m, bool absolute) {
+void Builder::concat(const TransformRequest& request, bool absolute) {
+    const Mat4& m = request.matrix;
     if (m_motion && !m_blocks.empty() && m_blocks.back().kind == Block::Motion) {
         ++m_motion->requests;
         if (!m_motion->shapes.empty()) {
@@ -627,7 +664,7 @@ void Builder::concat(const Mat4& m, bool absolute) {
             return;
         }
         if (!m_motion->times.empty()) {
-            m_motion->transforms.push_back(m);
+            m_motion->transforms.push_back(request);
             m_motion->absolute |= absolute;
             return;
         }
@@ -650,39 +687,30 @@ void Builder::identity(const FileLoc& loc) { concat(Mat4::identity(), true); }
 void Builder::transform(const Mat4& m, const FileLoc& loc) { concat(m, true); }
 
 void Builder::concatTransform(const Mat4& m, const FileLoc& loc) { concat(m); }
-void Builder::translate(const Vec3& d, const FileLoc& loc) { concat(Mat4::translate(d)); }
+void Builder::translate(const Vec3& d, const FileLoc& loc) {
+    concat({TransformRequest::Kind::Translate, {d.x, d.y, d.z}, Mat4::translate(d)});
+}
 
 void Builder::rotate(float angleDeg, const Vec3& axis, const FileLoc& loc) {
     if (length(axis) == 0) {
         m_diag.error(loc, "Rotate: the axis must not be (0, 0, 0)");
         return;
     }
-    concat(Mat4::rotate(angleDeg, axis));
+    concat({TransformRequest::Kind::Rotate, {angleDeg, axis.x, axis.y, axis.z}, Mat4::rotate(angleDeg, axis)});
 }
 
-void Builder::scale(const Vec3& s, const FileLoc& loc) { concat(Mat4::scale(s)); }
+void Builder::scale(const Vec3& s, const FileLoc& loc) {
+    concat({TransformRequest::Kind::Scale, {s.x, s.y, s.z}, Mat4::scale(s)});
+}
 
 void Builder::skew(float angleDeg, const Vec3& d1, const Vec3& d2, const FileLoc& loc) {
-    // Shear along d2 in proportion to the distance along e (d1 made
-    // perpendicular to d2), so that d1 turns by `angle` towards d2:
-    // p' = p + k (e . p) d2n with k = tan(alpha + angle) - tan(alpha),
-    // alpha being d1's angle from e.
-    Vec3 d2n = normalize(d2);
-    Vec3 perp = d1 - d2n * dot(d1, d2n);
-    float x = length(perp), y = dot(d1, d2n);
-    float alpha = std::atan2(y, x);
-    float target = alpha + radians(angleDeg);
-    if (length(d2) == 0 || x <= 0 || std::fabs(target) >= kPi / 2) {
+    Mat4 m;
+    if (!skewMatrix(angleDeg, d1, d2, &m)) {
         m_diag.error(loc, "Skew: the vectors must not be parallel and the skewed vector must stay within 90 degrees "
                      "of its perpendicular (ignored)");
         return;
     }
-    float k = std::tan(target) - y / x;
-    Vec3 e = perp / x;
-    Mat4 m;
-    for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) m.m[i][j] += k * d2n[i] * e[j];
-    concat(m);
+    concat({TransformRequest::Kind::Skew, {angleDeg, d1.x, d1.y, d1.z, d2.x, d2.y, d2.z}, m});
 }
 
 void Builder::perspective(float fovDeg, const FileLoc& loc) {
@@ -1323,12 +1351,12 @@ void Builder::attribute(const std::string& name, ri::ParamList params, const Fil
 }
 
 void Builder::color(const Color& c, const FileLoc& loc) {
-    if (skipMotionSample()) return;
+    if (skipMotionSample("Color", loc)) return;
     mutableAttributes().color = c;
 }
 
 void Builder::opacity(const Color& c, const FileLoc& loc) {
-    if (skipMotionSample()) return;
+    if (skipMotionSample("Opacity", loc)) return;
     mutableAttributes().opacity = c;
 }
 
@@ -1463,17 +1491,17 @@ void Builder::geometricApproximation(const std::string& type, float value, const
 }
 
 void Builder::surface(const std::string& name, ri::ParamList params, const FileLoc& loc) {
-    if (skipMotionSample()) return;
+    if (skipMotionSample("Surface", loc)) return;
     mutableAttributes().surface = makeShader(name, std::move(params), loc);
 }
 
 void Builder::displacement(const std::string& name, ri::ParamList params, const FileLoc& loc) {
-    if (skipMotionSample()) return;
+    if (skipMotionSample("Displacement", loc)) return;
     mutableAttributes().displacement = makeShader(name, std::move(params), loc);
 }
 
 void Builder::atmosphere(const std::string& name, ri::ParamList params, const FileLoc& loc) {
-    if (skipMotionSample()) return;
+    if (skipMotionSample("Atmosphere", loc)) return;
     mutableAttributes().atmosphere = makeShader(name, std::move(params), loc);
 }
 
@@ -1527,7 +1555,7 @@ void Builder::addLight(const char* request, const std::string& name, const std::
         return;
     }
     if (!lightAllowed(request, name, handle, params, loc)) return;
-    if (skipMotionSample()) return;
+    if (skipMotionSample(request, loc)) return;
     LightRecord l;
     l.shader = *makeShader(name, std::move(params), loc);
     l.handle = handle;
@@ -1677,7 +1705,7 @@ void Builder::primitive(const std::string& type, ri::RequestArgs args, ri::Param
     emitPrimitive(std::move(r));
 }
 
-bool Builder::proceduralValid(const ri::RequestArgs& args, const FileLoc& loc) {
+bool Builder::proceduralValid(ri::RequestArgs& args, const FileLoc& loc) {
     const std::string name = args.strings.empty() ? std::string() : args.strings[0];
     const ProceduralKind* kind = nullptr;
     for (const ProceduralKind& k : kProceduralKinds)
@@ -1697,19 +1725,27 @@ bool Builder::proceduralValid(const ri::RequestArgs& args, const FileLoc& loc) {
     return boundValid(args, loc);
 }
 
-bool Builder::boundValid(const ri::RequestArgs& args, const FileLoc& loc) {
-    const std::vector<float>& b = args.floats;
+bool Builder::boundValid(ri::RequestArgs& args, const FileLoc& loc) {
+    std::vector<float>& b = args.floats;
     if (b.size() != 6) {
         m_diag.error(loc, "Procedural: expected a bound of 6 floats [xmin xmax ymin ymax zmin zmax], got {} (skipped)",
                      b.size());
         return false;
     }
-    for (int a = 0; a < 3; ++a)
-        if (!(b[size_t(2 * a)] <= b[size_t(2 * a + 1)])) {
-            m_diag.error(loc, "Procedural: the bound's {} range [{} {}] is empty or not a number (expected min <= max; "
-                         "skipped)", "xyz"[a], b[size_t(2 * a)], b[size_t(2 * a + 1)]);
+    for (int a = 0; a < 3; ++a) {
+        float& lo = b[size_t(2 * a)];
+        float& hi = b[size_t(2 * a + 1)];
+        if (lo > hi) {
+            // Written max first: Pixie and Aqsis take the range it spans.
+            m_diag.warning(loc, "Procedural: the bound's {} range [{} {}] is written max first (expected min <= max; "
+                           "read as [{} {}])", "xyz"[a], lo, hi, hi, lo);
+            std::swap(lo, hi);
+        }
+        if (!(lo <= hi)) {
+            m_diag.error(loc, "Procedural: the bound's {} range [{} {}] is not a number (skipped)", "xyz"[a], lo, hi);
             return false;
         }
+    }
     return true;
 }
 

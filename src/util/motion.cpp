@@ -69,6 +69,63 @@ float quaternionDot(const float a[4], const float b[4]) {
 
 }  // namespace
 
+bool skewMatrix(float angleDeg, const Vec3& d1, const Vec3& d2, Mat4* m) {
+    // Shear along d2 in proportion to the distance along e (d1 made
+    // perpendicular to d2), so that d1 turns by `angle` towards d2:
+    // p' = p + k (e . p) d2n with k = tan(alpha + angle) - tan(alpha),
+    // alpha being d1's angle from e.
+    if (length(d2) == 0) return false;
+    const Vec3 d2n = normalize(d2);
+    const Vec3 perp = d1 - d2n * dot(d1, d2n);
+    const float x = length(perp), y = dot(d1, d2n);
+    const float target = std::atan2(y, x) + radians(angleDeg);
+    if (!(x > 0) || !(std::fabs(target) < kPi / 2)) return false;
+    const float k = std::tan(target) - y / x;
+    const Vec3 e = perp / x;
+    *m = Mat4();
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) m->m[i][j] += k * d2n[i] * e[j];
+    return true;
+}
+
+TransformRequest TransformRequest::between(const TransformRequest& a, const TransformRequest& b, float f) {
+    TransformRequest r = a;
+    for (int k = 0; k < 7; ++k) r.p[k] = a.p[k] + f * (b.p[k] - a.p[k]);
+    switch (a.kind) {
+    case Kind::Translate: r.matrix = Mat4::translate(Vec3(r.p[0], r.p[1], r.p[2])); break;
+    case Kind::Rotate: r.matrix = Mat4::rotate(r.p[0], Vec3(r.p[1], r.p[2], r.p[3])); break;
+    case Kind::Scale: r.matrix = Mat4::scale(Vec3(r.p[0], r.p[1], r.p[2])); break;
+    case Kind::Skew:
+        // Each key is a valid skew, and so is every angle between two.
+        if (!skewMatrix(r.p[0], Vec3(r.p[1], r.p[2], r.p[3]), Vec3(r.p[4], r.p[5], r.p[6]), &r.matrix))
+            r.matrix = f < 0.5f ? a.matrix : b.matrix;
+        break;
+    case Kind::Matrix:
+        for (int i = 0; i < 4; ++i)
+            for (int j = 0; j < 4; ++j) r.matrix.m[i][j] = a.matrix.m[i][j] + f * (b.matrix.m[i][j] - a.matrix.m[i][j]);
+        break;
+    }
+    return r;
+}
+
+bool TransformRequest::sameMotion(const TransformRequest& a, const TransformRequest& b) {
+    if (a.kind != b.kind || a.kind == Kind::Matrix) return false;
+    auto same = [&](int from, int to) {
+        for (int k = from; k < to; ++k)
+            if (a.p[k] != b.p[k]) return false;
+        return true;
+    };
+    switch (a.kind) {
+    case Kind::Rotate: {
+        // One axis (any length): the angle alone moves.
+        const Vec3 x(a.p[1], a.p[2], a.p[3]), y(b.p[1], b.p[2], b.p[3]);
+        return same(1, 4) || length(cross(normalize(x), normalize(y))) < 1e-6f && dot(x, y) > 0;
+    }
+    case Kind::Skew: return same(1, 7);
+    default: return true;
+    }
+}
+
 DecomposedTransform decompose(const Mat4& m) {
     DecomposedTransform d;
     d.translation = {m.m[0][3], m.m[1][3], m.m[2][3]};
@@ -166,7 +223,8 @@ Mat4 MotionTransform::at(float t) const {
             size_t k = size_t(std::upper_bound(f.times.begin(), f.times.end(), t) - f.times.begin()) - 1;
             const float span = f.times[k + 1] - f.times[k];
             const float u = span > 0 ? (t - f.times[k]) / span : 0.0f;
-            r = r * interpolate(f.parts[k], f.parts[k + 1], u);
+            r = r * (f.requests.empty() ? interpolate(f.parts[k], f.parts[k + 1], u)
+                                        : TransformRequest::between(f.requests[k], f.requests[k + 1], u).matrix);
         }
     }
     return r;
@@ -176,14 +234,14 @@ void MotionTransform::postMultiply(const Mat4& m) {
     if (!m_factors.empty() && m_factors.back().times.empty())
         m_factors.back().keys[0] = m_factors.back().keys[0] * m;
     else
-        m_factors.push_back({{}, {m}, {}});
+        m_factors.push_back({{}, {m}, {}, {}});
 }
 
 void MotionTransform::preMultiply(const Mat4& m) {
     if (!m_factors.empty() && m_factors.front().times.empty())
         m_factors.front().keys[0] = m * m_factors.front().keys[0];
     else
-        m_factors.insert(m_factors.begin(), Factor{{}, {m}, {}});
+        m_factors.insert(m_factors.begin(), Factor{{}, {m}, {}, {}});
 }
 
 void MotionTransform::postMultiplyMoving(const std::vector<float>& times, const std::vector<Mat4>& keys) {
@@ -191,8 +249,22 @@ void MotionTransform::postMultiplyMoving(const std::vector<float>& times, const 
         if (!keys.empty()) postMultiply(keys[0]);
         return;
     }
-    Factor f{times, keys, {}};
+    Factor f{times, keys, {}, {}};
     for (const Mat4& k : keys) f.parts.push_back(decompose(k));
+    m_factors.push_back(std::move(f));
+}
+
+void MotionTransform::postMultiplyMoving(const std::vector<float>& times, const std::vector<TransformRequest>& keys) {
+    bool parametric = keys.size() > 1 && times.size() >= 2;
+    for (size_t k = 1; k < keys.size() && parametric; ++k) parametric = TransformRequest::sameMotion(keys[0], keys[k]);
+    if (!parametric) {
+        std::vector<Mat4> matrices;
+        for (const TransformRequest& r : keys) matrices.push_back(r.matrix);
+        postMultiplyMoving(times, matrices);
+        return;
+    }
+    Factor f{times, {}, {}, keys};
+    for (const TransformRequest& r : keys) f.keys.push_back(r.matrix);
     m_factors.push_back(std::move(f));
 }
 
@@ -213,7 +285,18 @@ float MotionTransform::turnBetween(float t0, float t1) const {
             const float a = std::max(t0, f.times[k]), b = std::min(t1, f.times[k + 1]);
             const float span = f.times[k + 1] - f.times[k];
             if (!(b > a) || !(span > 0)) continue;
-            most = std::max(most, rotationAngle(f.parts[k], f.parts[k + 1]) * (b - a) / span);
+            float turn;
+            if (f.requests.empty()) {
+                turn = rotationAngle(f.parts[k], f.parts[k + 1]);
+            } else {
+                // A Rotate turns by its angle's change; a Skew's vector
+                // turns by its angle's. Translate and Scale move each point
+                // along a line.
+                const TransformRequest::Kind kind = f.requests[k].kind;
+                const bool turns = kind == TransformRequest::Kind::Rotate || kind == TransformRequest::Kind::Skew;
+                turn = turns ? radians(std::abs(f.requests[k + 1].p[0] - f.requests[k].p[0])) : 0.0f;
+            }
+            most = std::max(most, turn * (b - a) / span);
         }
     }
     return most;

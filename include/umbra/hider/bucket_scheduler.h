@@ -42,7 +42,7 @@ struct ShadedGrid {
     std::vector<float> aov;   // aovFloats per vertex
     int aovFloats = 0;
     bool matte = false;
-    std::vector<uint8_t> culled;  // per micropolygon, non-zero to skip; empty: none
+    std::vector<uint8_t> culled;  // per micropolygon, a MicroGrid::Facing code; empty: none
     std::shared_ptr<const geometry::TrimRegion> trim;  // see MicroGrid; null: none
     std::vector<float> uv;    // per vertex (u, v) when trimmed
     uint64_t id = 0;

@@ -74,10 +74,14 @@ struct MicroGrid {
     const float* aov = nullptr; // per vertex, aovCount floats each; may be null
     int aovCount = 0;           // must equal the buffer's aovCount when aov is set
     bool matte = false;         // Matte 1: hides what is behind, contributes no colour or alpha
-    /// Per micropolygon (j * nu + i), non-zero to skip it: the renderer's
-    /// back-face culling of one-sided surfaces, and the depth pass's
-    /// culling of solids' light-facing surfaces. Null: nothing culled.
+    /// Per micropolygon (j * nu + i), a Facing code: kCulled to skip it
+    /// (the renderer's back-face culling of one-sided surfaces, the depth
+    /// pass's culling of solids' light-facing surfaces), or, on a moving
+    /// grid, kept only at the sample times it faces the way it does
+    /// (kKeepAsOpening) or does not (kKeepUnlikeOpening) at the opening key.
+    /// Null: nothing culled.
     const uint8_t* culled = nullptr;
+    enum Facing : uint8_t { kKept = 0, kCulled = 1, kKeepAsOpening = 2, kKeepUnlikeOpening = 3 };
     uint64_t id = 0;            // stable identity (same on every run) for deterministic ties
     /// Trimming: a sample is dropped where `trim` does not keep the (u, v)
     /// interpolated (linearly in raster space, as depth is) from `uv`, two

@@ -203,10 +203,11 @@ private:
     struct MotionBlock {
         std::vector<float> times;
         FileLoc loc;
-        std::vector<Mat4> transforms;   // each request's own matrix
+        std::vector<TransformRequest> transforms;  // each request, with its own matrix
         bool absolute = false;          // Transform/Identity requests: they replace the current transform
         std::vector<PrimitiveRecord> shapes;
         int requests = 0;               // every request seen in the block
+        bool warnedUnblurred = false;   // skipMotionSample() said so
     };
     struct OpenBlock {
         Block kind;
@@ -241,8 +242,9 @@ private:
     void addLight(const char* request, const std::string& name, const std::string& handle, ri::ParamList params,
                   const FileLoc& loc, bool area);
     /// Inside a motion block, true for every request after the block's
-    /// first (for requests that are not blurred: only the first counts).
-    bool skipMotionSample();
+    /// first (for requests that are not blurred: only the first counts),
+    /// warned once a block.
+    bool skipMotionSample(const char* request, const FileLoc& loc);
     /// The current transform becomes `m`, not moving.
     void setTransform(const Mat4& m);
     /// At `Projection`: the current transform is the screen transformation
@@ -251,13 +253,14 @@ private:
     /// part is warned about at `loc` and dropped.
     void takeScreenTransform(const FileLoc& loc);
     /// Composes a transform request; inside a motion block, collects it.
-    void concat(const Mat4& m, bool absolute = false);
+    void concat(const Mat4& m, bool absolute = false) { concat(TransformRequest::of(m), absolute); }
+    void concat(const TransformRequest& request, bool absolute = false);
     /// The record of a primitive request, with the current transform and
     /// attributes (and its motion).
     void placeRecord(PrimitiveRecord& r) const;
     /// Checks a Procedural request's name, strings and bound.
-    bool proceduralValid(const ri::RequestArgs& args, const FileLoc& loc);
-    bool boundValid(const ri::RequestArgs& args, const FileLoc& loc);
+    bool proceduralValid(ri::RequestArgs& args, const FileLoc& loc);
+    bool boundValid(ri::RequestArgs& args, const FileLoc& loc);
     /// Adds a finished primitive record to the world or the object being defined.
     void emitPrimitive(PrimitiveRecord r);
     /// Appends a plain Polygon to the world's last record when that is a

@@ -27,6 +27,33 @@ struct DecomposedTransform {
     bool affine = true;
 };
 
+/// A transform request as the RIB gave it. A motion block whose keys are
+/// all one kind of request (Translate, Rotate about one axis, Scale, Skew
+/// between the same vectors) moves that request's parameters linearly, as
+/// RI Spec 3.2 says: a Rotate from 0 to 270 degrees turns three quarters of
+/// a turn, a Scale from 1 to -1 flattens through 0 instead of tumbling, a
+/// Skew from 0 to 60 stays a shear. Other blocks interpolate their key
+/// matrices, decomposed (below).
+struct TransformRequest {
+    enum class Kind { Matrix, Translate, Rotate, Scale, Skew };
+    Kind kind = Kind::Matrix;
+    /// Translate dx dy dz; Rotate angle (degrees) and axis; Scale sx sy sz;
+    /// Skew angle (degrees), d1, d2.
+    float p[7] = {};
+    Mat4 matrix;  // the request's own matrix
+
+    static TransformRequest of(const Mat4& m) { return {Kind::Matrix, {}, m}; }
+    /// The request of the same kind with parameters (1 - f) a + f b.
+    static TransformRequest between(const TransformRequest& a, const TransformRequest& b, float f);
+    /// Whether a and b differ only in the parameters a block moves.
+    static bool sameMotion(const TransformRequest& a, const TransformRequest& b);
+};
+
+/// The Skew request's matrix (RI Spec 3.2): d1 turned by `angleDeg` towards
+/// d2. False when d1 and d2 are parallel or the skewed vector would reach
+/// 90 degrees from d1's perpendicular.
+bool skewMatrix(float angleDeg, const Vec3& d1, const Vec3& d2, Mat4* m);
+
 DecomposedTransform decompose(const Mat4& m);
 /// Interpolates between two decomposed keys, f in [0, 1].
 Mat4 interpolate(const DecomposedTransform& a, const DecomposedTransform& b, float f);
@@ -42,7 +69,7 @@ float rotationAngle(const DecomposedTransform& a, const DecomposedTransform& b);
 class MotionTransform {
 public:
     MotionTransform() = default;
-    explicit MotionTransform(const Mat4& fixed) { m_factors.push_back({{}, {fixed}, {}}); }
+    explicit MotionTransform(const Mat4& fixed) { m_factors.push_back({{}, {fixed}, {}, {}}); }
 
     bool moving() const;
     /// The transform at time t (clamped to each factor's keys).
@@ -53,6 +80,10 @@ public:
     void preMultiply(const Mat4& m);
     /// Appends a moving factor: this * keys(t).
     void postMultiplyMoving(const std::vector<float>& times, const std::vector<Mat4>& keys);
+    /// The same for a block's requests: by their parameters when every key
+    /// moves the same request (TransformRequest::sameMotion), else by
+    /// their matrices.
+    void postMultiplyMoving(const std::vector<float>& times, const std::vector<TransformRequest>& keys);
     /// Every key time of every moving factor, ascending, without repeats.
     std::vector<float> keyTimes() const;
     /// The largest angle any one factor turns through between times t0 and
@@ -63,7 +94,8 @@ private:
     struct Factor {
         std::vector<float> times;   // empty: fixed
         std::vector<Mat4> keys;     // one (fixed) or one per time
-        std::vector<DecomposedTransform> parts;  // per key, when moving
+        std::vector<DecomposedTransform> parts;  // per key, when moving by matrices
+        std::vector<TransformRequest> requests;  // per key, when moving by parameters
     };
     std::vector<Factor> m_factors;
 };

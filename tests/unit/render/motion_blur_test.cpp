@@ -198,6 +198,116 @@ TEST(MotionBlur, RotationKeysFollowTheArc) {
     EXPECT_NEAR(grow.at(5.0f).point({1, 0, 0}).x, 3.0f, 1e-5);  // held after the last key
 }
 
+TEST(MotionBlur, ABlockOfOneRequestMovesItsParametersLinearly) {
+    // RI Spec 3.2: a motion block's parameters change linearly. A Rotate
+    // keyed 0 and 270 degrees is at 135 halfway (the matrices' shorter arc
+    // would turn the other way); 0 and 360 is a whole turn, not a standstill.
+    using Kind = TransformRequest::Kind;
+    auto rotate = [](float angle) {
+        return TransformRequest{Kind::Rotate, {angle, 0, 0, 2}, Mat4::rotate(angle, {0, 0, 2})};
+    };
+    auto expectMatrix = [](const Mat4& got, const Mat4& want, const char* what) {
+        for (int i = 0; i < 4; ++i)
+            for (int j = 0; j < 4; ++j) EXPECT_NEAR(got.m[i][j], want.m[i][j], 1e-5) << what << " " << i << "," << j;
+    };
+    MotionTransform threeQuarters, whole;
+    threeQuarters.postMultiplyMoving({0, 1}, std::vector<TransformRequest>{rotate(0), rotate(270)});
+    whole.postMultiplyMoving({0, 1}, std::vector<TransformRequest>{rotate(0), rotate(360)});
+    expectMatrix(threeQuarters.at(0.5f), Mat4::rotate(135, {0, 0, 1}), "rotate 0..270 at 1/2");
+    expectMatrix(whole.at(0.25f), Mat4::rotate(90, {0, 0, 1}), "rotate 0..360 at 1/4");
+    EXPECT_NEAR(whole.turnBetween(0, 1), 2 * kPi, 1e-5);  // placements sample the whole turn
+    // A Scale from 1 to -1 flattens through 0 (the matrices' decomposition
+    // tumbled it as a half turn); a Skew stays a shear.
+    MotionTransform flip;
+    flip.postMultiplyMoving({0, 1}, std::vector<TransformRequest>{{Kind::Scale, {1, 1, 1}, Mat4::scale({1, 1, 1})},
+                                                                 {Kind::Scale, {-1, 1, 1}, Mat4::scale({-1, 1, 1})}});
+    expectMatrix(flip.at(0.25f), Mat4::scale({0.5f, 1, 1}), "scale 1..-1 at 1/4");
+    expectMatrix(flip.at(0.5f), Mat4::scale({0, 1, 1}), "scale 1..-1 at 1/2");
+    Mat4 skew0, skew60, skew30;
+    ASSERT_TRUE(skewMatrix(0, {0, 1, 0}, {1, 0, 0}, &skew0));
+    ASSERT_TRUE(skewMatrix(60, {0, 1, 0}, {1, 0, 0}, &skew60));
+    ASSERT_TRUE(skewMatrix(30, {0, 1, 0}, {1, 0, 0}, &skew30));
+    MotionTransform shear;
+    shear.postMultiplyMoving({0, 1}, std::vector<TransformRequest>{{Kind::Skew, {0, 0, 1, 0, 1, 0, 0}, skew0},
+                                                                  {Kind::Skew, {60, 0, 1, 0, 1, 0, 0}, skew60}});
+    expectMatrix(shear.at(0.5f), skew30, "skew 0..60 at 1/2");
+    EXPECT_NEAR(shear.at(0.5f).point({0, 1, 0}).y, 1.0f, 1e-6);  // y untouched at every time
+    // Requests of different kinds, or Rotates about different axes, blend
+    // their matrices as before.
+    MotionTransform mixed, byMatrix;
+    mixed.postMultiplyMoving({0, 1}, std::vector<TransformRequest>{rotate(0), {Kind::Rotate, {90, 1, 0, 0},
+                                                                              Mat4::rotate(90, {1, 0, 0})}});
+    byMatrix.postMultiplyMoving({0, 1}, {Mat4::rotate(0, {0, 0, 1}), Mat4::rotate(90, {1, 0, 0})});
+    expectMatrix(mixed.at(0.3f), byMatrix.at(0.3f), "rotations about two axes");
+}
+
+TEST(MotionBlur, ABarKeyedThreeQuartersOfATurnSweepsThem) {
+    // The bar of RotatingBarMatchesItsClosedForm keyed Rotate 0 and 270:
+    // it sweeps counter-clockwise through three quadrants, covering a
+    // point at radius r there a fraction 2 asin(0.5 / r) / (3 pi / 2) of
+    // the shutter, and never the fourth (the matrices' shorter way round
+    // turned it 90 degrees clockwise through that one alone). Its path
+    // is placed in chords of at most pi/16 (8 a key interval, before: 0.965
+    // of the closed form).
+    ScratchDir dir("mb-bar270");
+    const std::string rib = orthoFrame(80, 80, 16, "Shutter 0 1\n") +
+                            "WorldBegin\nSurface \"constant\"\n"
+                            "MotionBegin [0 1]\nRotate 0 0 0 1\nRotate 270 0 0 1\nMotionEnd\n"
+                            "Polygon \"P\" [0 -0.5 5  30 -0.5 5  30 0.5 5  0 0.5 5]\nWorldEnd\n";
+    Image img = render(rib, dir);
+    ASSERT_EQ(img.width, 80);
+    double swept = 0, fourth = 0;
+    int count = 0, fourthCount = 0;
+    for (int y = 0; y < 80; ++y)
+        for (int x = 0; x < 80; ++x) {
+            const double cx = x + 0.5 - 40, cy = 40 - (y + 0.5);
+            const double r = std::hypot(cx, cy);
+            double a = std::atan2(cy, cx);
+            if (a < 0) a += 2 * kPi;
+            if (r < 10 || r >= 25) continue;  // away from the bar's ends
+            if (a > 0.35 && a < 3 * kPi / 2 - 0.35) {
+                swept += img.at(x, y, 3) / (2 * std::asin(0.5 / r) / (3 * kPi / 2));
+                ++count;
+            } else if (a > 3 * kPi / 2 + 0.35 && a < 2 * kPi - 0.35) {
+                fourth += img.at(x, y, 3);
+                ++fourthCount;
+            }
+        }
+    ASSERT_GT(count, 100);
+    ASSERT_GT(fourthCount, 20);
+    EXPECT_NEAR(swept / count, 1.0, 0.03) << "measured / closed-form coverage in the swept quadrants";
+    EXPECT_EQ(fourth, 0.0) << "the quadrant the bar never reaches";
+}
+
+TEST(MotionBlur, AOneSidedCardTurningItsBackShowsWhileItFacesTheEye) {
+    // A Sides 1 card 40 units wide turning about y from 0 to 180 degrees
+    // (orthographic, Rotate keyed linearly in its angle): at angle a its
+    // half-width is 20 |cos a|, and it faces the eye for a < 90 only. A
+    // column at x is covered while 20 |cos a| > |x|: a fraction
+    // acos(|x| / 20) / pi of the shutter facing the eye, and as long again
+    // facing away, which Sides 2 shows too. Culled only when it faced
+    // away at every key, it showed for both (the Sides 2 picture).
+    ScratchDir dir("mb-card");
+    const std::string card = "MotionBegin [0 1]\nRotate 0 0 1 0\nRotate 180 0 1 0\nMotionEnd\n"
+                             "Polygon \"P\" [-20 -10 0  20 -10 0  20 10 0  -20 10 0]\nWorldEnd\n";
+    auto frame = [&](int sides) {
+        return orthoFrame(48, 16, 8, "Shutter 0 1\n") + fmt::format("WorldBegin\nSurface \"constant\"\nSides {}\n", sides) +
+               "Translate 0 0 30\n" + card;
+    };
+    const Image one = render(frame(1), dir), two = render(frame(2), dir);
+    ASSERT_EQ(one.width, 48);
+    ASSERT_EQ(two.width, 48);
+    double worst = 0;
+    for (int x = 8; x < 40; ++x) {
+        double a = 0, b = 0;
+        for (int y = 0; y < 16; ++y) a += one.at(x, y, 3), b += two.at(x, y, 3);
+        a /= 16, b /= 16;
+        const double expected = std::acos(std::abs(x + 0.5 - 24) / 20) / kPi;
+        worst = std::max({worst, std::abs(a - expected), std::abs(b - 2 * expected)});
+    }
+    EXPECT_LT(worst, 0.03) << "largest error of a column's coverage, Sides 1 and 2";
+}
+
 /// A perspective frame with a lens; fov 90 over 96 pixels: 48 pixels per unit of x/z.
 std::string lensFrame(const std::string& dof, int samples = 8) {
     return fmt::format("Format 96 96 1\nPixelSamples {0} {0}\nPixelFilter \"box\" 1 1\n"

@@ -452,11 +452,15 @@ TEST(Builder, MalformedProceduralsAndUnknownGeometryAreReportedAtTheRequest) {
         "s.rib:3:1: error: Procedural \"DelayedReadArchive\": expected the arguments [\"archive.rib\"], got 0 strings "
         "(skipped)",
         "s.rib:4:1: error: Procedural: expected a bound of 6 floats [xmin xmax ymin ymax zmin zmax], got 4 (skipped)",
-        "s.rib:5:1: error: Procedural: the bound's x range [1 0] is empty or not a number (expected min <= max; "
-        "skipped)",
+        "s.rib:5:1: warning: Procedural: the bound's x range [1 0] is written max first (expected min <= max; read "
+        "as [0 1])",
         "s.rib:6:1: warning: Geometry \"bunny\": drawn by some other renderers; umbra draws only \"teapot\" (skipped)",
         "s.rib:7:1: warning: Geometry \"kettle\": unknown; umbra draws only \"teapot\" (skipped)"}));
-    EXPECT_TRUE(r->sink.worlds.at(0).primitives.empty());
+    // The bound written max first is read as the range it spans (Pixie and
+    // Aqsis draw it); the others are skipped.
+    const auto& p = r->sink.worlds.at(0).primitives;
+    ASSERT_EQ(p.size(), 1u);
+    EXPECT_EQ(p[0].floatArgs, (std::vector<float>{0, 1, 0, 1, 0, 1}));
 }
 
 TEST(Builder, MotionBlocksAroundTransformsMoveTheCurrentTransform) {
@@ -505,6 +509,32 @@ TEST(Builder, MalformedMotionBlocksAreReported) {
     const auto& p = r->sink.worlds.at(0).primitives;
     ASSERT_EQ(p.size(), 1u);
     EXPECT_TRUE(p[0].shapes.empty());
+}
+
+TEST(Builder, MotionBlocksSayWhatTheyDoNotBlur) {
+    // Transforms of different kinds blend their matrices (RI spec: one
+    // kind a block), a Color is not blurred (the first is used), and a
+    // Polygon whose keys have different vertex counts is not a deformation.
+    auto r = run("WorldBegin\nMotionBegin [0 1] Translate 1 0 0 Rotate 90 0 0 1 MotionEnd\n"
+                 "MotionBegin [0 1] Color 1 0 0 Color 0 1 0 MotionEnd\n"
+                 "MotionBegin [0 1] Polygon \"P\" [0 0 0 1 0 0 1 1 0 0 1 0] Polygon \"P\" [0 0 0 1 0 0 1 1 0] MotionEnd\n"
+                 "MotionBegin [0 1] Polygon \"P\" [0 0 0 1 0 0 1 1 0] \"Cs\" [1 0 0 1 0 0 1 0 0] "
+                 "Polygon \"P\" [0 0 1 1 0 1 1 1 1] \"Cs\" [0 1 0 0 1 0 0 1 0] MotionEnd\n"
+                 "WorldEnd");
+    EXPECT_EQ(r->messages(), (std::vector<std::string>{
+        "s.rib:2:1: warning: MotionBegin: the block's transforms are not all the same request (RI spec: one kind a "
+        "block); blurred between their matrices",
+        "s.rib:3:31: warning: Color: not blurred in a motion block (umbra blurs transforms and primitives); the "
+        "block's first request is used",
+        "s.rib:4:57: error: Polygon: a motion block's primitives must have the same type and topology as its first "
+        "(Polygon at s.rib:4:19); the block renders the first, unblurred",
+        "s.rib:5:76: warning: Polygon: \"Cs\" differs between the motion block's keys; the first key's is used "
+        "(umbra shades once, at the shutter's opening)"}));
+    const auto& p = r->sink.worlds.at(0).primitives;
+    ASSERT_EQ(p.size(), 2u);
+    EXPECT_TRUE(p[0].shapes.empty());
+    EXPECT_EQ(p[0].attributes->color, Color(1, 0, 0));
+    EXPECT_EQ(p[1].shapes.size(), 1u);  // the deformation is blurred
 }
 
 TEST(Builder, AMotionBlockLeftOpenIsClosedWithItsWorld) {
