@@ -814,8 +814,9 @@ TEST(SampleBuffer, TimeStrataHitWhatEverySampleWould) {
         int hit = 0;
         forEachSample(every, [&](int px, int py, int s) {
             EXPECT_EQ(strata.depth(px, py, s), every.depth(px, py, s)) << px << "," << py << " sample " << s;
-            if (mode == HiderMode::Colour)
+            if (mode == HiderMode::Colour) {
                 EXPECT_EQ(strata.fragmentCount(px, py, s), every.fragmentCount(px, py, s));
+            }
             hit += every.depth(px, py, s) < kInfinity;
         });
         EXPECT_GT(hit, 500);  // the grids cover a good part of the bucket
@@ -980,8 +981,9 @@ TEST(SampleBuffer, LensStrataHitWhatEverySampleWould) {
         int hit = 0;
         forEachSample(every, [&](int px, int py, int s) {
             EXPECT_EQ(strata.depth(px, py, s), every.depth(px, py, s)) << px << "," << py << " sample " << s;
-            if (mode == HiderMode::Colour)
+            if (mode == HiderMode::Colour) {
                 EXPECT_EQ(strata.fragmentCount(px, py, s), every.fragmentCount(px, py, s));
+            }
             hit += every.depth(px, py, s) < kInfinity;
         });
         EXPECT_GT(hit, 1500);
