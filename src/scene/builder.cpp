@@ -387,7 +387,10 @@ void Builder::worldBegin(const FileLoc& loc) {
             areaLightSource(l.name, l.handle, l.params, l.loc);
         else
             lightSource(l.name, l.handle, l.params, l.loc);
-        if (m_world->lights.size() > first) m_world->lights.back().shader.worldFromShader = worldFromCamera * l.cameraFromShader;
+        if (m_world->lights.size() > first) {
+            m_world->lights.back().shader.worldFromShader = worldFromCamera * l.cameraFromShader;
+            if (!l.on) illuminate(l.handle, false, l.loc);
+        }
     }
 }
 
@@ -1570,7 +1573,15 @@ void Builder::addLight(const char* request, const std::string& name, const std::
 
 void Builder::illuminate(const std::string& handle, bool on, const FileLoc& loc) {
     if (!m_world) {
-        m_diag.error(loc, "Illuminate: only allowed inside WorldBegin/WorldEnd (ignored)");
+        // A light given before WorldBegin (PRMan, Pixie and Aqsis take
+        // Illuminate there too): whether it starts on in the world.
+        for (auto l = m_preWorldLights.rbegin(); l != m_preWorldLights.rend(); ++l)
+            if (l->handle == handle) {
+                l->on = on;
+                return;
+            }
+        m_diag.error(loc, "Illuminate: unknown light handle \"{}\" (expected the handle of a LightSource given "
+                     "before it)", handle);
         return;
     }
     auto it = m_lightHandles.find(handle);

@@ -307,6 +307,7 @@ private:
         Mat4 cameraFromShader;
         bool area = false;
         FileLoc loc;
+        bool on = true;  // Illuminate before WorldBegin may turn it off
     };
     std::vector<PreWorldLight> m_preWorldLights;
     std::map<std::string, ri::ParamDecl> m_declarations;  // by Declare, by name

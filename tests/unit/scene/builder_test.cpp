@@ -224,6 +224,20 @@ TEST(Builder, LightsAndIlluminate) {
         "s.rib:6:1: error: Illuminate: unknown light handle \"9\" (expected the handle of a LightSource)"}));
 }
 
+TEST(Builder, IlluminateBeforeWorldBeginSwitchesALightGivenThere) {
+    // Lights given before WorldBegin start on in the world (as PRMan, Pixie
+    // and Aqsis); an Illuminate there turns one off (or on again), as in
+    // both peers. It was refused and the light stayed on.
+    auto r = run("LightSource \"pointlight\" 1\nLightSource \"distantlight\" \"sun\"\nIlluminate 1 0\n"
+                 "Illuminate \"sun\" 0 Illuminate \"sun\" 1\nIlluminate 7 0\nWorldBegin Sphere 1 -1 1 360 WorldEnd");
+    const WorldRecord& w = r->sink.worlds.at(0);
+    ASSERT_EQ(w.lights.size(), 2u);
+    EXPECT_EQ(w.primitives.at(0).attributes->lights, (std::vector<int>{1}));
+    EXPECT_EQ(r->messages(), (std::vector<std::string>{
+        "s.rib:5:1: error: Illuminate: unknown light handle \"7\" (expected the handle of a LightSource given before "
+        "it)"}));
+}
+
 TEST(Builder, FrameEndRestoresOptions) {
     auto r = run("Format 100 50 1\nFrameBegin 7 Format 320 240 1 Display \"a.tif\" \"tiff\" \"rgba\"\n"
                  "Display \"+a.z\" \"zfile\" \"z\" WorldBegin WorldEnd FrameEnd\nFrameBegin 8 WorldBegin WorldEnd FrameEnd");
