@@ -188,6 +188,12 @@ bool readZFile(const std::string& path, DepthImage& out, Diagnostics& diag, cons
     return true;
 }
 
+Mat4 defaultNdcFromScreen(int w, int h) { return ndcFromScreen(w, h); }
+
+// tiff_depth.cpp
+bool readTiffDepth(const std::string& path, DepthImage& out, Diagnostics& diag, const FileLoc& loc,
+                   const char* what);
+
 namespace {
 
 // readDepthFile, its messages starting with `what` ("MakeShadow: ").
@@ -208,7 +214,9 @@ bool readDepthFileAs(const char* what, const std::string& in, DepthImage& image,
     }
     if (magic == kZFileMagic || magic == byteSwap(kZFileMagic)) return readZFile(in, image, diag, loc);
     if (magic == kExrMagic) return readDepthImage(in, image, diag, loc);
-    diag.error(loc, "{}\"{}\" is neither a zfile nor an OpenEXR depth image (magic {:#010x})", what, in, magic);
+    if (magic == 0x002A4949u || magic == 0x2A004D4Du) return readTiffDepth(in, image, diag, loc, what);  // II*. MM.*
+    diag.error(loc, "{}\"{}\" is neither a zfile nor an OpenEXR or TIFF depth image (magic {:#010x})", what, in,
+               magic);
     return false;
 }
 

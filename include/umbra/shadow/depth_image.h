@@ -145,8 +145,14 @@ bool writeZFile(const std::string& path, const DepthImage& image, Diagnostics& d
 /// is inferred from Np (orthographic when its w column is (0,0,0,1)).
 bool readZFile(const std::string& path, DepthImage& out, Diagnostics& diag, const FileLoc& loc = {});
 
-/// Reads a zfile (recognised by its magic) or any OpenEXR depth image
-/// readDepthImage accepts, a depth map written by writeDepthMap among them.
+/// NDC from RenderMan screen space for a w x h image with the default
+/// screen window (as zfiles store their Np).
+Mat4 defaultNdcFromScreen(int w, int h);
+
+/// Reads a zfile (recognised by its magic), any OpenEXR depth image
+/// readDepthImage accepts (a depth map written by writeDepthMap among
+/// them), or a TIFF of one 32-bit float channel with the Pixar matrix tags
+/// (a "file" display's "z" output).
 /// False (with an error naming `loc` and the file) on failure.
 bool readDepthFile(const std::string& path, DepthImage& out, Diagnostics& diag, const FileLoc& loc = {});
 

@@ -208,6 +208,34 @@ MakeShadow "{}" "{}"
     EXPECT_TRUE(rib == readBytes(dir.file("cmd.shd")));
 }
 
+TEST(Txmake, ShadowFromADepthTiffEqualsShadowFromAZfile) {
+    // The RenderMan books render the depth for MakeShadow as `Display
+    // "zbuffer.tiff" "file" "z"`; MakeShadow takes that TIFF (RI Spec 3.2:
+    // "a file containing a depth image"; Pixie does too) and makes the map
+    // the zfile of the same frame makes, byte for byte. It refused it.
+    ScratchDir dir("makeshadow-tiff");
+    Diagnostics diag;
+    diag.setRecord(true);
+    test::renderRib(fmt::format(R"(Display "{}" "zfile" "z"
+Display "+{}" "file" "z"
+Format 40 30 1
+Projection "perspective" "fov" 40
+WorldBegin
+  Translate 0 0 5
+  Sphere 1 -1 1 360
+  Translate 0.5 0.3 2
+  Cylinder 0.7 -1 1 300
+WorldEnd
+MakeShadow "{}" "{}"
+MakeShadow "{}" "{}"
+)", dir.file("d.z"), dir.file("d.tif"), dir.file("d.z"), dir.file("z.shd"), dir.file("d.tif"), dir.file("tif.shd")),
+                    diag);
+    ASSERT_EQ(diag.errorCount(), 0) << (diag.recorded().empty() ? "" : diag.recorded()[0].message);
+    const std::string fromZ = readBytes(dir.file("z.shd"));
+    ASSERT_GT(fromZ.size(), 100u);
+    EXPECT_TRUE(fromZ == readBytes(dir.file("tif.shd")));
+}
+
 TEST(Txmake, ErrorsNameTheFileAndWriteNothing) {
     ScratchDir dir("txmake-errors");
     std::string log;
