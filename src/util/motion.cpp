@@ -100,10 +100,7 @@ TransformRequest TransformRequest::between(const TransformRequest& a, const Tran
         if (!skewMatrix(r.p[0], Vec3(r.p[1], r.p[2], r.p[3]), Vec3(r.p[4], r.p[5], r.p[6]), &r.matrix))
             r.matrix = f < 0.5f ? a.matrix : b.matrix;
         break;
-    case Kind::Matrix:
-        for (int i = 0; i < 4; ++i)
-            for (int j = 0; j < 4; ++j) r.matrix.m[i][j] = a.matrix.m[i][j] + f * (b.matrix.m[i][j] - a.matrix.m[i][j]);
-        break;
+    case Kind::Matrix: break;  // never moved by its parameters (sameMotion): decomposed instead
     }
     return r;
 }
@@ -119,7 +116,7 @@ bool TransformRequest::sameMotion(const TransformRequest& a, const TransformRequ
     case Kind::Rotate: {
         // One axis (any length): the angle alone moves.
         const Vec3 x(a.p[1], a.p[2], a.p[3]), y(b.p[1], b.p[2], b.p[3]);
-        return same(1, 4) || length(cross(normalize(x), normalize(y))) < 1e-6f && dot(x, y) > 0;
+        return same(1, 4) || (length(cross(normalize(x), normalize(y))) < 1e-6f && dot(x, y) > 0);
     }
     case Kind::Skew: return same(1, 7);
     default: return true;

@@ -43,7 +43,8 @@ struct TransformRequest {
     Mat4 matrix;  // the request's own matrix
 
     static TransformRequest of(const Mat4& m) { return {Kind::Matrix, {}, m}; }
-    /// The request of the same kind with parameters (1 - f) a + f b.
+    /// The request of the same kind with parameters (1 - f) a + f b (a
+    /// and b moving the same request: sameMotion).
     static TransformRequest between(const TransformRequest& a, const TransformRequest& b, float f);
     /// Whether a and b differ only in the parameters a block moves.
     static bool sameMotion(const TransformRequest& a, const TransformRequest& b);
