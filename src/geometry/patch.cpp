@@ -431,8 +431,7 @@ struct BlockLattice {
 
 }  // namespace
 
-void BicubicBlock::positions(int nu, int nv, Vec3* P) const {
-    thread_local std::vector<float> h;
+void BicubicBlock::positions(int nu, int nv, Vec3* P, std::vector<float>& h) const {
     lattice(nu, nv, &BicubicCoeffs::pos, h);
     const int dim = m_patches->coeffs[0]->posDim;
     const size_t n = size_t(nu + 1) * size_t(nv + 1);
@@ -461,7 +460,8 @@ void BicubicBlock::lattice(int nu, int nv, float (BicubicCoeffs::*table)[4][4][4
 
 void BicubicBlock::dicePositions(int nu, int nv, std::vector<Vec3>& P) const {
     P.resize(size_t(nu + 1) * size_t(nv + 1));
-    positions(nu, nv, P.data());
+    thread_local std::vector<float> h;
+    positions(nu, nv, P.data(), h);
 }
 
 Grid BicubicBlock::dice(int nu, int nv) const {
@@ -472,7 +472,8 @@ Grid BicubicBlock::dice(int nu, int nv) const {
     g.nv = nv;
     const size_t n = size_t(g.vertexCount());
     g.P.resize(n);
-    positions(nu, nv, g.P.data());
+    thread_local std::vector<float> h;  // the homogeneous positions, for the normals below
+    positions(nu, nv, g.P.data(), h);
     BlockLattice L;
     blockLattice(columns(), nu, L.firstU, L.a);
     blockLattice(rows(), nv, L.firstV, L.b);
@@ -560,8 +561,7 @@ Grid BicubicBlock::dice(int nu, int nv) const {
         });
     }
     if (g.N.empty()) {
-        thread_local std::vector<float> h, ha, hb;
-        lattice(nu, nv, &BicubicCoeffs::pos, h);
+        thread_local std::vector<float> ha, hb;
         lattice(nu, nv, &BicubicCoeffs::posDu, ha);
         lattice(nu, nv, &BicubicCoeffs::posDv, hb);
         setDerivativeNormals(g, h.data(), ha.data(), hb.data(), pa.coeffs[0]->posDim, pa.map(0, 0));

@@ -153,7 +153,8 @@ private:
     /// (BicubicCoeffs::pos, posDu or posDv) at the block's nu x nv lattice,
     /// 4 floats a vertex.
     void lattice(int nu, int nv, float (BicubicCoeffs::*table)[4][4][4], std::vector<float>& h) const;
-    void positions(int nu, int nv, Vec3* P) const;
+    /// P at the lattice; `h` keeps their homogeneous values.
+    void positions(int nu, int nv, Vec3* P, std::vector<float>& h) const;
 
     std::shared_ptr<const BicubicPatchArray> m_patches;
     int m_i0, m_j0, m_i1, m_j1;
