@@ -80,12 +80,20 @@ struct Node {
     enum Resolution : int { kUnresolved, kResolving, kResolved };
     std::atomic<int> resolution{kUnresolved};
     State state = State::Culled;
-    std::vector<std::unique_ptr<Node>> children;
+    /// A split node's pieces, each beside the buckets it covers: every
+    /// bucket visiting the node looks through them all for its own, and
+    /// reading the ranges side by side instead of from each piece was a
+    /// quarter of the scheduler's own time on the production frame.
+    struct Piece {
+        int bx0, by0, bx1, by1;
+        std::unique_ptr<Node> node;
+        bool covers(int bx, int by) const { return bx >= bx0 && bx <= bx1 && by >= by0 && by <= by1; }
+    };
+    std::vector<Piece> children;
     std::unique_ptr<ShadedGrid> grid;
     std::atomic<int> visitsLeft{0};
 
     int bucketCount() const { return std::max(0, bx1 - bx0 + 1) * std::max(0, by1 - by0 + 1); }
-    bool covers(int bx, int by) const { return bx >= bx0 && bx <= bx1 && by >= by0 && by <= by1; }
 };
 
 /// The identity of the k-th piece of a split node: stable whatever the
@@ -160,12 +168,13 @@ struct Frame {
 
     void shareBudget(Node& parent) {
         if (!parent.prim->diceable()) {
-            for (auto& child : parent.children) child->splitBudget = kOwnBudget;
+            for (auto& child : parent.children) child.node->splitBudget = kOwnBudget;
             return;
         }
         double total = 0;
-        for (auto& child : parent.children) total += child->need = need(*child);
-        for (auto& child : parent.children) child->splitBudget = parent.splitBudget * (child->need / total);
+        for (auto& child : parent.children) total += child.node->need = need(*child.node);
+        for (auto& child : parent.children)
+            child.node->splitBudget = parent.splitBudget * (child.node->need / total);
     }
 
     void resolve(Node& node, SchedulerStats& stats) {
@@ -188,7 +197,7 @@ struct Frame {
                 child->id = childId(node.id, k);
                 child->eyeSplits = node.eyeSplits + (plan.eyeSplit ? 1 : 0);
                 if (place(*child, &node))
-                    node.children.push_back(std::move(child));
+                    node.children.push_back({child->bx0, child->by0, child->bx1, child->by1, std::move(child)});
                 else
                     ++stats.culled;
             }
@@ -217,7 +226,7 @@ struct Frame {
     void release(Node& node) {
         if (node.grid) --gridsAlive;
         node.grid.reset();
-        for (auto& child : node.children) release(*child);
+        for (auto& child : node.children) release(*child.node);
         node.children.clear();
         node.children.shrink_to_fit();
     }
@@ -306,8 +315,8 @@ struct Frame {
                 buffer.sample(node->grid->view());
             } else if (node->state == Node::State::Split) {
                 for (auto& child : node->children)
-                    if (child->covers(bx, by)) {
-                        w.queue.push_back(child.get());
+                    if (child.covers(bx, by)) {
+                        w.queue.push_back(child.node.get());
                         std::push_heap(w.queue.begin(), w.queue.end(), nearestOnTop);
                     }
             }
