@@ -57,6 +57,8 @@ constexpr const char* kUmbraVersion = "0.1.0";
 /// The camera pass's bucket size (pixels) in a motion-blurred frame when
 /// neither --bucket-size nor Option "limits" "bucketsize" gives one.
 constexpr int kBlurredBucketSize = 32;
+/// A depth pass's bucket size (texels) when the user gives none.
+constexpr int kDepthBucketSize = 64;
 
 double peakResidentMiB() {
     rusage ru{};
@@ -520,11 +522,16 @@ PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const st
         // filter's comparison assumes a texel holds its surfaces' depths at
         // its centre: the minimum of jittered samples is a point nearer the
         // light, and a two-layer map's virtual samples then see an open
-        // floor shadow itself. Automatic maps' buckets hold about as many
-        // samples as a camera bucket does.
+        // floor shadow itself. A depth pass's buckets, automatic or a
+        // light-view frame's, are 64 texels wide unless the user gave a
+        // size: about as many samples as a camera bucket holds. 16-texel
+        // buckets cost a 2048^2 light-view frame 16,384 bucket walks, and
+        // it took 30-40% longer at either thread count (docs/performance.md,
+        // "Depth passes' buckets"). The map does not depend on the size.
         ss.sampling.xSamples = ss.sampling.ySamples = 1;
         ss.sampling.jitter = false;
-        if (settings.bucketSize <= 0 && pass.name != "camera") ss.bucketSize[0] = ss.bucketSize[1] = 64;
+        const bool userSize = settings.bucketSize > 0 || (pass.name == "camera" && options.bucketSizeSet);
+        if (!userSize) ss.bucketSize[0] = ss.bucketSize[1] = kDepthBucketSize;
     } else {
         ss.sampling.xSamples = std::max(1, options.pixelSamples[0]);
         ss.sampling.ySamples = std::max(1, options.pixelSamples[1]);

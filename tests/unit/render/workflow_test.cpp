@@ -184,6 +184,73 @@ WorldEnd
     }
 }
 
+// A light-view frame (Display "zfile") is cut into 64-texel buckets unless
+// the user gives a size, as automatic maps are: the map is the same
+// whatever the size, and a size given by Option "limits" or --bucket-size
+// is kept.
+TEST(Workflow, ALightViewFramesBucketsAre64TexelsUnlessGivenAndItsZfileIsTheSame) {
+    ScratchDir dir("zfile-buckets");
+    struct Run {
+        std::vector<int> bucketSize;
+        int buckets = 0;
+        std::string bytes;
+    };
+    auto run = [&](const std::string& option, int flag) {
+        Diagnostics diag;
+        const nlohmann::json stats = test::renderRib(fmt::format(R"(
+{0}
+Display "{1}" "zfile" "z"
+Format 200 136 1
+PixelSamples 1 1
+Hider "hidden" "jitter" [0]
+Projection "perspective" "fov" [40]
+WorldBegin
+  Translate 0 0 6
+  Sphere 1 -1 1 360
+  Translate 1.5 0.5 1
+  Sphere 0.8 -0.8 0.8 360
+  Translate -3 -1 -0.5
+  Rotate 30 1 1 0
+  Cylinder 0.6 -0.5 0.5 360
+WorldEnd
+)", option, dir.file("light.z")),
+                                                     diag, 2, flag);
+        EXPECT_EQ(diag.errorCount(), 0) << option << flag;
+        Run r;
+        for (const auto& p : stats["frames"][0]["passes"])
+            if (p["name"] == "camera") {
+                r.bucketSize = p["bucket_size"].get<std::vector<int>>();
+                r.buckets = p["counts"]["buckets"].get<int>();
+            }
+        std::ifstream f(dir.file("light.z"), std::ios::binary);
+        r.bytes.assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+        return r;
+    };
+    const Run automatic = run("", 0);
+    EXPECT_EQ(automatic.bucketSize, (std::vector<int>{64, 64}));
+    EXPECT_EQ(automatic.buckets, 4 * 3);  // 200 x 136 texels
+    const Run option = run("Option \"limits\" \"bucketsize\" [16 16]", 0);
+    EXPECT_EQ(option.bucketSize, (std::vector<int>{16, 16}));
+    EXPECT_EQ(option.buckets, 13 * 9);
+    const Run flag = run("", 16);
+    EXPECT_EQ(flag.bucketSize, (std::vector<int>{16, 16}));
+    const Run odd = run("Option \"limits\" \"bucketsize\" [24 8]", 0);
+    EXPECT_EQ(odd.bucketSize, (std::vector<int>{24, 8}));
+    // 136 bytes of header and 200 x 136 depths, the same in every run, and
+    // the casters are in it.
+    ASSERT_EQ(automatic.bytes.size(), size_t(136 + 200 * 136 * 4));
+    EXPECT_EQ(automatic.bytes, option.bytes);
+    EXPECT_EQ(automatic.bytes, flag.bytes);
+    EXPECT_EQ(automatic.bytes, odd.bytes);
+    DepthImage z;
+    Diagnostics diag;
+    ASSERT_TRUE(readZFile(dir.file("light.z"), z, diag));
+    int finite = 0;
+    for (float d : z.z) finite += d < kInfinity;
+    EXPECT_GT(finite, 2000);
+    EXPECT_LT(finite, 200 * 136 / 2);
+}
+
 TEST(Workflow, AutomaticMapMatchesRayTracedShadow) {
     // The same scene with an automatic map and with exact ray-traced shadows:
     // the shadowed areas must agree except along the edge.
