@@ -54,10 +54,10 @@ namespace {
 constexpr float kDepthFlatness = 0.25f;
 
 constexpr const char* kUmbraVersion = "0.1.0";
-/// The camera pass's bucket size (pixels) in a motion-blurred frame when
-/// neither --bucket-size nor Option "limits" "bucketsize" gives one.
-constexpr int kBlurredBucketSize = 32;
-/// A depth pass's bucket size (texels) when the user gives none.
+/// Bucket sizes (pixels) when neither --bucket-size nor Option "limits"
+/// "bucketsize" gives one: a camera pass's, and a depth pass's (one sample
+/// a texel, so about as many samples a bucket).
+constexpr int kCameraBucketSize = 32;
 constexpr int kDepthBucketSize = 64;
 
 double peakResidentMiB() {
@@ -535,13 +535,16 @@ PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const st
     } else {
         ss.sampling.xSamples = std::max(1, options.pixelSamples[0]);
         ss.sampling.ySamples = std::max(1, options.pixelSamples[1]);
-        // Blurred camera passes: a moving micropolygon's swept bound reaches
-        // about four 16-pixel buckets, and each visit bounds and walks its
-        // time strata again; larger buckets save the blurred frame about a
-        // sixth (docs/performance.md, "Motion blur cost"). The picture does
-        // not depend on the bucket size. A size the user gave is kept.
-        if (frame.motionBlur() && settings.bucketSize <= 0 && !options.bucketSizeSet)
-            ss.bucketSize[0] = ss.bucketSize[1] = kBlurredBucketSize;
+        // 32-pixel buckets unless the user gave a size. A bucket samples
+        // its pixels and the filter's margin around them: a 2 x 2 filter's
+        // margin is 27% more samples around 16 pixels, 13% around 32, and
+        // the benchmark frames took 6-10% fewer instructions at 32
+        // (docs/performance.md, "Camera buckets of 32 pixels"). A moving
+        // micropolygon's swept bound reaches fewer buckets too, each visit
+        // bounding and walking its time strata again ("Motion blur
+        // cost"). The picture does not depend on the bucket size.
+        if (settings.bucketSize <= 0 && !options.bucketSizeSet)
+            ss.bucketSize[0] = ss.bucketSize[1] = kCameraBucketSize;
         ss.sampling.jitter = options.jitter;
     }
     ss.sampling.mode = pass.depthOnly ? hider::HiderMode::Depth : hider::HiderMode::Colour;

@@ -258,8 +258,9 @@ struct Options {
     std::string depthFilter = "min";
     int bucketSize[2] = {16, 16};
     /// Option "limits" "bucketsize" was given: the renderer then keeps
-    /// bucketSize for every pass (otherwise it picks larger buckets for
-    /// depth passes and blurred camera passes: docs/performance.md).
+    /// bucketSize for every pass but automatic maps' (otherwise it picks
+    /// 32 pixels for camera passes and 64 for depth passes:
+    /// docs/performance.md).
     bool bucketSizeSet = false;
     int gridSize = 256;                       // max micropolygons per grid
     int eyeSplits = 10;

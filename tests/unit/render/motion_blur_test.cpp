@@ -414,10 +414,10 @@ TEST(MotionBlur, SamePixelsForAnyThreadCountAndBucketSize) {
     EXPECT_EQ(test::maxAbsDiff(one, odd, 4), 0.0);
 }
 
-TEST(MotionBlur, BlurredFramesTakeLargerBucketsUnlessTold) {
-    // A blurred frame's camera pass is cut into 32-pixel buckets unless
-    // --bucket-size or Option "limits" "bucketsize" says otherwise; a still
-    // frame keeps 16. The picture is the same whatever the buckets.
+TEST(MotionBlur, CameraPassesTake32PixelBucketsUnlessTold) {
+    // A camera pass, blurred or still, is cut into 32-pixel buckets unless
+    // --bucket-size or Option "limits" "bucketsize" says otherwise. The
+    // picture is the same whatever the buckets.
     ScratchDir dir("mb-buckets");
     const std::string frame =
         "Format 96 64 1\nPixelSamples 4 4\n{}Projection \"perspective\" \"fov\" 40\n{}"
@@ -461,7 +461,10 @@ TEST(MotionBlur, BlurredFramesTakeLargerBucketsUnlessTold) {
     const Run oddOption = run(blurred, "Option \"limits\" \"bucketsize\" [24 8]\n", 0);
     EXPECT_EQ(bucketSize(oddOption), (std::vector<int>{24, 8}));
     const Run sharp = run(still, "", 0);
-    EXPECT_EQ(bucketSize(sharp), (std::vector<int>{16, 16}));
+    EXPECT_EQ(bucketSize(sharp), (std::vector<int>{32, 32}));
+    const Run sharpFlag = run(still, "", 16);
+    EXPECT_EQ(bucketSize(sharpFlag), (std::vector<int>{16, 16}));
+    EXPECT_EQ(test::maxAbsDiff(sharp.image, sharpFlag.image, 4), 0.0);
     // Bit-identical pictures, and the frame was blurred (not the still one).
     EXPECT_EQ(test::maxAbsDiff(automatic.image, option.image, 4), 0.0);
     EXPECT_EQ(test::maxAbsDiff(automatic.image, flag.image, 4), 0.0);
