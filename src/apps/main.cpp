@@ -54,7 +54,7 @@ int main(int argc, char** argv) {
     render->add_flag("--progress", settings.progress, "Show progress: buckets done, elapsed, ETA");
     render->add_option("--stats", statsPath, "Write statistics as JSON (FILE.json: one document at the end; FILE.jsonl: a line per frame as it ends)");
     render->add_option("--bucket-size", settings.bucketSize,
-                       "Bucket size in pixels (default 16; 32 for a motion-blurred camera pass)")
+                       "Bucket size in pixels (default 32 for camera passes, 64 for depth passes)")
         ->check(CLI::Range(1, 4096));
     render->add_flag("--quiet", settings.quiet, "Print errors only");
     render->add_flag("--no-shadows", settings.noShadows, "Turn every depth pass and shadow() lookup off");
