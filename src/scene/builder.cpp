@@ -538,9 +538,15 @@ void Builder::objectInstance(const std::string& handle, const FileLoc& loc) {
         PrimitiveRecord r = op.record;
         r.solid = leaf;
         r.worldFromObject = m_state.transform * op.objectFromPrim;
-        if (m_state.motion) {
-            auto moving = std::make_shared<MotionTransform>(*m_state.motion);
-            moving->postMultiply(op.objectFromPrim);
+        // The instance's motion, then the piece's own inside the definition
+        // (a motion block there moves every instance alike).
+        if (m_state.motion || op.objectFromPrimMotion) {
+            auto moving = std::make_shared<MotionTransform>(m_state.motion ? *m_state.motion
+                                                                           : MotionTransform(m_state.transform));
+            if (op.objectFromPrimMotion)
+                moving->postMultiply(*op.objectFromPrimMotion);
+            else
+                moving->postMultiply(op.objectFromPrim);
             r.worldFromObjectMotion = std::move(moving);
         }
         if (op.record.attributes == op.atBegin) {
@@ -1794,11 +1800,18 @@ void Builder::emitPrimitive(PrimitiveRecord r) {
         // Inside a definition the record is relative to the object's space;
         // an instance supplies the rest (and its own motion).
         Mat4 objectFromPrim = m_objectFromCurrentAtBegin * r.worldFromObject;
+        std::shared_ptr<const MotionTransform> objectFromPrimMotion;
+        if (r.worldFromObjectMotion && r.worldFromObjectMotion->moving()) {
+            auto moving = std::make_shared<MotionTransform>(*r.worldFromObjectMotion);
+            moving->preMultiply(m_objectFromCurrentAtBegin);
+            objectFromPrimMotion = std::move(moving);
+        }
         r.worldFromObjectMotion.reset();
         ObjectDefinition& def = m_objects[m_objectHandle];
         const size_t bytes = recordBytes(r);
         def.bytes += bytes, m_objectBytes += bytes;
-        def.pieces.push_back(ObjectPrim{std::move(r), objectFromPrim, m_objectAttributesAtBegin});
+        def.pieces.push_back(
+            ObjectPrim{std::move(r), objectFromPrim, std::move(objectFromPrimMotion), m_objectAttributesAtBegin});
         return;
     }
     r.solid = solidLeaf(r.loc);

@@ -241,6 +241,15 @@ void MotionTransform::preMultiply(const Mat4& m) {
         m_factors.insert(m_factors.begin(), Factor{{}, {m}, {}, {}});
 }
 
+void MotionTransform::postMultiply(const MotionTransform& m) {
+    for (const Factor& f : m.m_factors) {
+        if (f.times.empty())
+            postMultiply(f.keys[0]);
+        else
+            m_factors.push_back(f);
+    }
+}
+
 void MotionTransform::postMultiplyMoving(const std::vector<float>& times, const std::vector<Mat4>& keys) {
     if (keys.size() == 1 || times.size() < 2) {
         if (!keys.empty()) postMultiply(keys[0]);

@@ -222,6 +222,9 @@ private:
     struct ObjectPrim {
         PrimitiveRecord record;   // its attributes: the state inside the definition
         Mat4 objectFromPrim;
+        /// A transform moving inside the definition (a motion block there),
+        /// relative to the object's space; null when it does not move.
+        std::shared_ptr<const MotionTransform> objectFromPrimMotion;
         std::shared_ptr<const Attributes> atBegin;  // the state at ObjectBegin
     };
     struct ObjectDefinition {

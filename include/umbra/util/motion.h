@@ -79,6 +79,9 @@ public:
     void postMultiply(const Mat4& m);
     /// m * this (e.g. an instance's transform before its definition's).
     void preMultiply(const Mat4& m);
+    /// this * m, m moving too: its factors follow this one's (an instance
+    /// moving, and a piece of its definition moving inside it).
+    void postMultiply(const MotionTransform& m);
     /// Appends a moving factor: this * keys(t).
     void postMultiplyMoving(const std::vector<float>& times, const std::vector<Mat4>& keys);
     /// The same for a block's requests: by their parameters when every key

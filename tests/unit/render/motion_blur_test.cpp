@@ -87,6 +87,31 @@ TEST(MotionBlur, TranslatingSquareLeavesTheAveragedCoverageProfile) {
     expectSlidingSquare(render(rib, dir), "polygon");
 }
 
+// A motion block inside an object definition moves every instance (as
+// Pixie and Aqsis draw it); it was dropped, and the square drawn sharp at
+// its first key. An instance placed by a moving transform of its own adds
+// that motion to the piece's.
+TEST(MotionBlur, AMotionBlockInsideAnObjectMovesItsInstances) {
+    ScratchDir dir("mb-object");
+    const std::string square = "Polygon \"P\" [-4 -8 5  4 -8 5  4 8 5  -4 8 5]\n";
+    for (const char* block : {"TransformBegin\n", "AttributeBegin\n"}) {
+        const std::string end = std::string(block) == "TransformBegin\n" ? "TransformEnd\n" : "AttributeEnd\n";
+        const std::string rib = orthoFrame(48, 16, 8, "Shutter 0 1\n") +
+                                "WorldBegin\nSurface \"constant\"\nObjectBegin 1\n" + block +
+                                "MotionBegin [0 1]\nTranslate -10 0 0\nTranslate 10 0 0\nMotionEnd\n" + square + end +
+                                "ObjectEnd\nObjectInstance 1\nWorldEnd\n";
+        expectSlidingSquare(render(rib, dir), block);
+    }
+    // Half the sweep in the definition, half around the instance: the same
+    // profile as the whole sweep in one block.
+    const std::string both = orthoFrame(48, 16, 8, "Shutter 0 1\n") +
+                             "WorldBegin\nSurface \"constant\"\nObjectBegin 1\n"
+                             "MotionBegin [0 1]\nTranslate -5 0 0\nTranslate 5 0 0\nMotionEnd\n" + square +
+                             "ObjectEnd\nMotionBegin [0 1]\nTranslate -5 0 0\nTranslate 5 0 0\nMotionEnd\n"
+                             "ObjectInstance 1\nWorldEnd\n";
+    expectSlidingSquare(render(both, dir), "moving instance of a moving piece");
+}
+
 TEST(MotionBlur, MovingCurvesLeaveTheAveragedCoverageProfile) {
     // A camera-facing ribbon 8 wide from y = -8 to 8 is the square above:
     // moved by a transform and deformed between two shapes, it must leave
