@@ -172,6 +172,7 @@ bool Services::shadow(const shading::ShadingGrid& grid, const shading::ShadowQue
     batch.pointId = q.indices;
     ShadowParams params = paramsOf(q, m_diag);
     if (params.bias == 0 && params.bias0 == 0 && params.bias1 == 0) applyDefaultBias(*map, params);
+    if (!grid.dPdtime.empty() && map->timeTile() > 0) warnMovingReceiver(grid, q, *map, params, batch.worldFromCurrent);
     ShadowStats stats;
     // The thread's CPU clock, not the wall's: a lookup preempted on a busy
     // machine is not charged for the time it waited. Read for a sample of
@@ -183,6 +184,32 @@ bool Services::shadow(const shading::ShadingGrid& grid, const shading::ShadowQue
     std::lock_guard<std::mutex> lock(m_statsMutex);
     m_stats += stats;
     return true;
+}
+
+void Services::warnMovingReceiver(const shading::ShadingGrid& grid, const shading::ShadowQuery& q, const ShadowMap& map,
+                                  const ShadowParams& params, const Mat4& worldFromCurrent) {
+    // A map of moving casters holds each texel at one time of the shutter
+    // (docs/motion.md), but a surface is shaded, and looked up, at the
+    // shutter's opening: where it moves (in the light's space) by more than
+    // the bias, the texels of later times hold it nearer the light than the
+    // point compared with them, and it shadows itself. Said once per map.
+    const Mat4 lightFromCurrent = map.lightFromWorld() * worldFromCurrent;
+    const float bias = std::max({params.bias, params.bias0, params.bias1});
+    float largest = 0;
+    for (int k = 0; k < q.count; ++k) {
+        const size_t v = size_t(q.indices ? q.indices[k] : k);
+        if (v >= grid.dPdtime.size()) continue;
+        const Vec3 moved = lightFromCurrent.vector(grid.dPdtime[v] * grid.dtime);
+        largest = std::max(largest, length(moved));
+    }
+    if (!(largest > bias)) return;
+    const GridState& st = stateOf(grid);
+    m_diag.warningOnce("moving receiver " + q.mapName, st.record ? st.record->loc : FileLoc(),
+                       "shadow(\"{}\"): this surface moves {:.3g} in the light's space during the shutter, more "
+                       "than the bias {:.3g}; it is compared at the shutter's opening with the casters of every "
+                       "time the map holds, and may shadow itself (give a bias above its motion, or make the "
+                       "map with Shutter 0 0 for a sharp shadow: docs/motion.md)",
+                       q.mapName, largest, bias);
 }
 
 FileLoc Services::primitiveLocation(const shading::ShadingGrid& grid) {
