@@ -35,9 +35,9 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 UMBRA = os.path.join(ROOT, 'build', 'bin', 'umbra')
 
 
-def start(rib, work, threads):
+def start(umbra, rib, work, threads):
     env = dict(os.environ, SOURCE_DATE_EPOCH='0')
-    return subprocess.Popen([UMBRA, 'render', '--quiet', '--threads', str(threads), os.path.basename(rib)],
+    return subprocess.Popen([umbra, 'render', '--quiet', '--threads', str(threads), os.path.basename(rib)],
                             cwd=work, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
 
 
@@ -50,23 +50,22 @@ def finish(proc):
     return usage.ru_utime + usage.ru_stime
 
 
-def timed(rib, works, threads):
+def timed(umbra, rib, works, threads):
     """Wall seconds until every copy has finished, and each copy's CPU seconds."""
     t0 = time.perf_counter()
-    procs = [start(rib, w, threads) for w in works]
+    procs = [start(umbra, rib, w, threads) for w in works]
     cpu = [finish(p) for p in procs]
     return time.perf_counter() - t0, cpu
 
 
 def main():
-    global UMBRA
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument('rib', nargs='?', default=os.path.join(ROOT, 'scenes', 'bench', 'production', 'production.rib'))
     ap.add_argument('--runs', type=int, default=8)
     ap.add_argument('--threads', type=int, default=2)
     ap.add_argument('--umbra', default=None, help='the umbra binary (default: build/bin/umbra)')
     args = ap.parse_args()
-    UMBRA = os.path.abspath(args.umbra or UMBRA)
+    umbra = os.path.abspath(args.umbra or UMBRA)
     src = os.path.dirname(os.path.abspath(args.rib))
     works = []
     try:
@@ -76,14 +75,14 @@ def main():
                 if os.path.isfile(os.path.join(src, f)):
                     shutil.copy(os.path.join(src, f), w)
             works.append(w)
-        timed(args.rib, works[:1], 1)  # warm the page cache and the shaders
+        timed(umbra, args.rib, works[:1], 1)  # warm the page cache and the shaders
         rows = []
         print('%5s %9s %9s %9s %9s %9s %10s %6s' % ('round', 'alone (s)', 'pair (s)', 'two (s)', 'speed-up',
                                                     'ceiling', 'efficiency', 'load'))
         for r in range(args.runs):
-            alone, _ = timed(args.rib, works[:1], 1)
-            pair, _ = timed(args.rib, works, 1)
-            two, _ = timed(args.rib, works[:1], args.threads)
+            alone, _ = timed(umbra, args.rib, works[:1], 1)
+            pair, _ = timed(umbra, args.rib, works, 1)
+            two, _ = timed(umbra, args.rib, works[:1], args.threads)
             speedup, ceiling = alone / two, args.threads * alone / pair
             rows.append((alone, pair, two, speedup, ceiling, speedup / ceiling))
             print('%5d %9.3f %9.3f %9.3f %8.2fx %8.2fx %10.2f %6.2f' % (r + 1, *rows[-1], os.getloadavg()[0]))

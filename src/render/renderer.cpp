@@ -477,8 +477,25 @@ PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const st
                                    film::Film& film, const std::string& label) {
     const scene::Options& options = frame.world->options;
     hider::SchedulerSettings ss;
-    ss.bucketSize[0] = settings.bucketSize > 0 ? settings.bucketSize : options.bucketSize[0];
-    ss.bucketSize[1] = settings.bucketSize > 0 ? settings.bucketSize : options.bucketSize[1];
+    // Buckets: --bucket-size, else Option "limits" "bucketsize" (but for
+    // automatic maps), else 32 pixels for a camera pass and 64 texels for a
+    // depth pass (one sample a texel: about as many samples a bucket). A
+    // bucket samples its pixels and the filter's margin around them: a 2 x
+    // 2 filter's margin is 27% more samples around 16 pixels, 13% around
+    // 32, and the benchmark frames took 6-10% fewer instructions at 32
+    // ("Camera buckets of 32 pixels" in docs/performance.md); a moving
+    // micropolygon's swept bound reaches fewer buckets ("Motion blur
+    // cost"). 16-texel buckets cost a 2048^2 light-view frame 16,384 bucket
+    // walks and 30-40% of its time ("Depth passes' buckets"). The pictures
+    // and maps do not depend on the size.
+    const bool automaticMap = pass.depthOnly && pass.name != "camera";
+    ss.bucketSize[0] = ss.bucketSize[1] = pass.depthOnly ? kDepthBucketSize : kCameraBucketSize;
+    if (settings.bucketSize > 0) {
+        ss.bucketSize[0] = ss.bucketSize[1] = settings.bucketSize;
+    } else if (options.bucketSizeSet && !automaticMap) {
+        ss.bucketSize[0] = options.bucketSize[0];
+        ss.bucketSize[1] = options.bucketSize[1];
+    }
     ss.threads = settings.threads;
     ss.filterMargin = film.filterMargin();
     ss.sampling.frameSeed = frame.frameSeed;
@@ -522,29 +539,12 @@ PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const st
         // filter's comparison assumes a texel holds its surfaces' depths at
         // its centre: the minimum of jittered samples is a point nearer the
         // light, and a two-layer map's virtual samples then see an open
-        // floor shadow itself. A depth pass's buckets, automatic or a
-        // light-view frame's, are 64 texels wide unless the user gave a
-        // size: about as many samples as a camera bucket holds. 16-texel
-        // buckets cost a 2048^2 light-view frame 16,384 bucket walks, and
-        // it took 30-40% longer at either thread count (docs/performance.md,
-        // "Depth passes' buckets"). The map does not depend on the size.
+        // floor shadow itself.
         ss.sampling.xSamples = ss.sampling.ySamples = 1;
         ss.sampling.jitter = false;
-        const bool userSize = settings.bucketSize > 0 || (pass.name == "camera" && options.bucketSizeSet);
-        if (!userSize) ss.bucketSize[0] = ss.bucketSize[1] = kDepthBucketSize;
     } else {
         ss.sampling.xSamples = std::max(1, options.pixelSamples[0]);
         ss.sampling.ySamples = std::max(1, options.pixelSamples[1]);
-        // 32-pixel buckets unless the user gave a size. A bucket samples
-        // its pixels and the filter's margin around them: a 2 x 2 filter's
-        // margin is 27% more samples around 16 pixels, 13% around 32, and
-        // the benchmark frames took 6-10% fewer instructions at 32
-        // (docs/performance.md, "Camera buckets of 32 pixels"). A moving
-        // micropolygon's swept bound reaches fewer buckets too, each visit
-        // bounding and walking its time strata again ("Motion blur
-        // cost"). The picture does not depend on the bucket size.
-        if (settings.bucketSize <= 0 && !options.bucketSizeSet)
-            ss.bucketSize[0] = ss.bucketSize[1] = kCameraBucketSize;
         ss.sampling.jitter = options.jitter;
     }
     ss.sampling.mode = pass.depthOnly ? hider::HiderMode::Depth : hider::HiderMode::Colour;
