@@ -165,6 +165,16 @@ Vec2 SampleBuffer::sampleLens(int px, int py, int s, const SampleBufferConfig& c
     return hider::sampleLens(positiveMod(px, kPatternPeriod), positiveMod(py, kPatternPeriod), s, patternSettings(c));
 }
 
+std::vector<float> SampleBuffer::periodTimes(const SampleBufferConfig& c) {
+    UMBRA_CHECK(c.xSamples == 1 && c.ySamples == 1, "periodTimes: {} x {} samples a pixel, expected one", c.xSamples,
+                c.ySamples);
+    std::vector<float> times(size_t(kPatternPeriod) * size_t(kPatternPeriod));
+    for (int y = 0; y < kPatternPeriod; ++y)
+        for (int x = 0; x < kPatternPeriod; ++x)
+            times[size_t(y) * size_t(kPatternPeriod) + size_t(x)] = hider::sampleTime(x, y, 0, patternSettings(c));
+    return times;
+}
+
 void SampleBuffer::reset(const SampleBufferConfig& c) {
     UMBRA_CHECK(c.x1 > c.x0 && c.y1 > c.y0, "empty bucket [{},{})x[{},{})", c.x0, c.x1, c.y0, c.y1);
     UMBRA_CHECK(c.xSamples >= 1 && c.ySamples >= 1 && c.margin >= 0 && c.aovCount >= 0, "bad sample buffer settings");

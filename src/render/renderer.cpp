@@ -188,6 +188,9 @@ struct PassResult {
     double wall = 0, cpu = 0;
     uint64_t samples = 0;
     int bucketSize[2] = {0, 0};  // the buckets the pass was cut into
+    /// A depth pass of moving casters (Pass::timeTile): when each texel
+    /// holds its casters (DepthImage::texelTimes).
+    std::vector<float> texelTimes;
 };
 
 /// An automatic map's file being written on a thread of its own while the
@@ -572,6 +575,7 @@ PassResult Renderer::Impl::runPass(FrameState& frame, const Pass& pass, const st
     r.samples = uint64_t(film.width()) * film.height() * ss.sampling.xSamples * ss.sampling.ySamples;
     r.bucketSize[0] = ss.bucketSize[0];
     r.bucketSize[1] = ss.bucketSize[1];
+    if (pass.timeTile > 0 && ss.sampling.motion) r.texelTimes = hider::SampleBuffer::periodTimes(ss.sampling);
     return r;
 }
 
@@ -913,6 +917,7 @@ void Renderer::Impl::renderWorld(const scene::WorldRecord& world, int& failed) {
         // The film is not read after its only display.
         DepthImage image = filmBecomesMap ? depthImageOf(std::move(film), pass, filter, dualOffsetOf(options))
                                           : depthImageOf(f, pass, filter, dualOffsetOf(options));
+        image.texelTimes = camera.texelTimes;
         bool ok = d.driver == "zfile" ? writeZFile(d.name, image, diag, d.loc) : writeDepthMap(d.name, image, diag, d.loc);
         maps->invalidate(d.name);
         std::erase_if(reusableMaps, [&](const auto& entry) { return entry.second.path == d.name; });
@@ -1112,7 +1117,9 @@ LightMap Renderer::Impl::makeLightMap(FrameState& frame, LightMapJob& job,
                                {"counts", schedulerJson(r.counters)},
                                {"samples", r.samples},
                                {"bucket_size", {r.bucketSize[0], r.bucketSize[1]}}});
-        return depthImageOf(std::move(film), pass, filter, job.dualOffset);
+        DepthImage image = depthImageOf(std::move(film), pass, filter, job.dualOffset);
+        image.texelTimes = std::move(r.texelTimes);
+        return image;
     };
 
     // The map goes to this frame's lookups from memory: its header from the

@@ -172,7 +172,21 @@ bool Services::shadow(const shading::ShadingGrid& grid, const shading::ShadowQue
     batch.pointId = q.indices;
     ShadowParams params = paramsOf(q, m_diag);
     if (params.bias == 0 && params.bias0 == 0 && params.bias1 == 0) applyDefaultBias(*map, params);
-    if (!grid.dPdtime.empty() && map->timeTile() > 0) warnMovingReceiver(grid, q, *map, params, batch.worldFromCurrent);
+    // A moving surface: its motion over the shutter, point by point, for a
+    // map of moving casters to compare each time with it where it is then.
+    thread_local std::vector<Vec3> t_motion;
+    if (!grid.dPdtime.empty() && map->timeTile() > 0) {
+        if (map->knowsTexelTimes()) {
+            t_motion.resize(size_t(q.count));
+            for (int k = 0; k < q.count; ++k) {
+                const size_t v = size_t(q.indices ? q.indices[k] : k);
+                t_motion[size_t(k)] = v < grid.dPdtime.size() ? grid.dPdtime[v] * grid.dtime : Vec3();
+            }
+            batch.motion = t_motion.data();
+        } else {
+            warnMovingReceiver(grid, q, *map, params, batch.worldFromCurrent);
+        }
+    }
     ShadowStats stats;
     // The thread's CPU clock, not the wall's: a lookup preempted on a busy
     // machine is not charged for the time it waited. Read for a sample of

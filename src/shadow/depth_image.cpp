@@ -163,6 +163,8 @@ bool prepareMap(const DepthImage& image, PreparedMap& out, std::string& why) {
     header.insert(kAttrDepthFilter, Imf::StringAttribute(depthFilterName(image.filter)));
     header.insert(kAttrDualOffset, Imf::FloatAttribute(image.dualOffset));
     if (image.timeTile > 0) header.insert(kAttrTimeTile, Imf::IntAttribute(image.timeTile));
+    if (validTexelTimes(image.texelTimes, image.timeTile))
+        header.insert(kAttrTexelTimes, Imf::FloatVectorAttribute(image.texelTimes));
     header.insert(kAttrTilesX, Imf::IntAttribute(tilesX));
     header.insert(kAttrTilesY, Imf::IntAttribute(tilesY));
     header.insert(kAttrTileMinZ, Imf::FloatVectorAttribute(tileMin));
@@ -505,6 +507,7 @@ bool readDepthImage(const std::string& path, DepthImage& out, Diagnostics& diag,
         img.filter = m.filter;
         img.dualOffset = m.dualOffset;
         img.timeTile = m.timeTile;
+        img.texelTimes = m.texelTimes;
         out = std::move(img);
         return true;
     } catch (const std::exception& e) {

@@ -12,6 +12,7 @@
 #include <ImfMatrixAttribute.h>
 #include <ImfStringAttribute.h>
 
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,8 @@ inline constexpr const char* kAttrDualOffset = "umbra:dualoffset";
 /// Motion blur: texels hold their casters at times interleaved over tiles
 /// of this many texels a side (hider/sample_buffer.h kTimeTile); 0: still.
 inline constexpr const char* kAttrTimeTile = "umbra:timetile";
+/// The time of each texel over one period of the pattern (DepthImage::texelTimes).
+inline constexpr const char* kAttrTexelTimes = "umbra:texeltimes";
 inline constexpr const char* kAttrTilesX = "umbra:tilesX";
 inline constexpr const char* kAttrTilesY = "umbra:tilesY";
 inline constexpr const char* kAttrTileMinZ = "umbra:tileMinZ";
@@ -66,7 +69,18 @@ struct MapMatrices {
     DepthFilter filter = DepthFilter::Min;
     float dualOffset = 0;
     int timeTile = 0;
+    std::vector<float> texelTimes;  // empty, or a valid table (validTexelTimes)
 };
+
+/// A table of texel times a map can use: n * n times in [0, 1], n a
+/// multiple of the time tile and at most 64.
+inline bool validTexelTimes(const std::vector<float>& times, int timeTile) {
+    const int n = int(std::lround(std::sqrt(double(times.size()))));
+    if (timeTile <= 0 || n == 0 || size_t(n) * size_t(n) != times.size() || n > 64 || n % timeTile != 0) return false;
+    for (float t : times)
+        if (!(t >= 0.0f && t <= 1.0f)) return false;
+    return true;
+}
 
 /// Reads worldToCamera/worldToNDC (required) and the umbra attributes
 /// (optional: the projection is inferred from worldToNDC when absent).
@@ -99,6 +113,10 @@ inline bool readMapMatrices(const Imf::Header& header, MapMatrices& out, std::st
     if (auto* a = header.findTypedAttribute<Imf::FloatAttribute>(kAttrDualOffset)) out.dualOffset = a->value();
     if (auto* a = header.findTypedAttribute<Imf::IntAttribute>(kAttrTimeTile))
         out.timeTile = std::clamp(a->value(), 0, 64);
+    // Texel times another writer got wrong are dropped, not an error: the
+    // map is still a map, looked up as one of unknown times.
+    if (auto* a = header.findTypedAttribute<Imf::FloatVectorAttribute>(kAttrTexelTimes))
+        if (validTexelTimes(a->value(), out.timeTile)) out.texelTimes = a->value();
     return true;
 }
 

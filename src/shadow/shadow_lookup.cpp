@@ -163,6 +163,27 @@ struct RegionSamples {
     template <typename T, typename V> static void store(std::vector<T>& v, int k, V x) { store4(&v[size_t(k)], x); }
 };
 
+/// Reeves' sample counts: a region smaller than NumSamples texels gets
+/// about one sample per texel, else NumSamples split by the region's
+/// aspect ratio; at least MinSamples per axis.
+inline void reevesCounts(int samples, int minSamples, float hs, float ht, int* ns, int* nt) {
+    if (samples == 1) {
+        *ns = *nt = 1;
+    } else if (hs * ht * 4.0f < float(samples)) {
+        *ns = clamp(int(hs * 2.0f + 0.5f), minSamples, samples);
+        *nt = clamp(int(ht * 2.0f + 0.5f), minSamples, samples);
+    } else {
+        *nt = clamp(int(std::sqrt(ht * float(samples) / hs) + 0.5f), minSamples, samples);
+        *ns = clamp(int(float(samples) / float(*nt) + 0.5f), minSamples, samples);
+    }
+}
+
+/// v mod n in [0, n), for n > 0.
+inline int positiveMod(int v, int n) {
+    const int r = v % n;
+    return r < 0 ? r + n : r;
+}
+
 /// The sum of the lanes. Box-filter weights are 1, so sums of them are
 /// exact in any order; Gaussian weights sum in this fixed order.
 inline float sumLanes(F4 v) { return (v[0] + v[1]) + (v[2] + v[3]); }
@@ -583,9 +604,16 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
     const bool randomBias = biasLo != biasHi;
     const int samples = std::max(1, params.samples);
     const int minSamples = clamp(params.minSamples, 1, samples);
+    // Moving receivers on a map of moving casters whose texel times are
+    // known are looked up time by time (movingShadow below), every point
+    // of the batch, without the shortcuts that assume one depth and place.
+    const bool timeByTime = !kPointSample && batch.motion && knowsTexelTimes();
     // A map of moving casters holds each time in one texel of every time
-    // tile: regions span at least a tile, so each sees the whole shutter.
-    const float minHalf = std::max({0.0f, params.minSize * 0.5f, float(m_timeTile) * 0.5f});
+    // tile: regions span at least a tile, so each sees the whole shutter
+    // (looked up time by time, each sample picks its time and the texel of
+    // that time nearest it, which spreads it by about a tile already).
+    const float minHalf =
+        std::max({0.0f, params.minSize * 0.5f, timeByTime ? 0.0f : float(m_timeTile) * 0.5f});
     // Regions larger than this (half-width, texels) gain nothing: clamping
     // keeps the sample arithmetic finite for wild footprints.
     const float maxHalf = 4.0f * float(std::max(m_width, m_height)) + 4.0f;
@@ -656,7 +684,7 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
 
     if constexpr (!kPointSample) {
         const BatchBounds bounds{pts.allUsable, pts.zLo, pts.zHi, pts.loS, pts.hiS, pts.loT, pts.hiT};
-        if (hasData && batchDecided(batch, params, bounds, batchPlanes, planeLit && minSamples >= 2, out, st)) {
+        if (hasData && !timeByTime && batchDecided(batch, params, bounds, batchPlanes, planeLit && minSamples >= 2, out, st)) {
             stats += st;
             return;
         }
@@ -765,10 +793,109 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
         return true;
     };
 
+    // A moving receiver (docs/motion.md): the map holds each time of the
+    // shutter in one texel of every time tile ("slot" k of the tile). Where
+    // the point is at each slot's time is projected once. A sample, at
+    // offset (du, dv) in the point's region, looks in each slot for the
+    // texel of that slot in the time tile under where the point then is
+    // plus the offset, and takes the one of all slots nearest its place:
+    // for a still point that is the texel under the sample, for a moving
+    // one a texel at the offset from where the point is at that texel's
+    // time. It compares the texel with the point's depth at that time. So
+    // a surface that moves is compared with itself at one time, and with
+    // the casters where they were then. For two-layer maps' virtual
+    // samples its tangent plane moves with it (its turning is not
+    // followed). The regions' sampling is always the jittered one.
+    struct MovingSample {
+        int iu, iv;
+        float time, bias, depth, weight;
+    };
+    thread_local std::vector<MovingSample> t_moving;
+    thread_local std::vector<float> t_slotS, t_slotT;
+    auto movingShadow = [&](int i) -> float {
+        const Vec3 P = batch.P[i], M = batch.motion[i];
+        const auto& L = lightFromCurrent.m;
+        const auto& R = rasterFromCurrent.m;
+        auto depthOf = [&](const Vec3& X) { return L[2][0] * X.x + L[2][1] * X.y + L[2][2] * X.z + L[2][3]; };
+        const float hs = pts.hs[size_t(i)], ht = pts.ht[size_t(i)];
+        int ns, nt;
+        reevesCounts(samples, minSamples, hs, ht, &ns, &nt);
+        const int count = ns * nt, T = m_timeTile, slots = T * T, n = m_timePeriod, tilesPerSide = n / T;
+        // Where the point is at each slot's time (NaN: behind the light).
+        std::vector<float>& slotS = t_slotS;
+        std::vector<float>& slotT = t_slotT;
+        slotS.assign(size_t(slots), std::numeric_limits<float>::quiet_NaN());
+        slotT.assign(size_t(slots), std::numeric_limits<float>::quiet_NaN());
+        for (int k = 0; k < slots; ++k) {
+            const Vec3 at = P + M * m_slotTime[size_t(k)];
+            const float w = R[3][0] * at.x + R[3][1] * at.y + R[3][2] * at.z + R[3][3];
+            const float sc = (R[0][0] * at.x + R[0][1] * at.y + R[0][2] * at.z + R[0][3]) / w;
+            const float tc = (R[1][0] * at.x + R[1][1] * at.y + R[1][2] * at.z + R[1][3]) / w;
+            if (w > 0 && depthOf(at) >= 0 && std::abs(sc) < 1e9f && std::abs(tc) < 1e9f)
+                slotS[size_t(k)] = sc, slotT[size_t(k)] = tc;
+        }
+        const float ds = 2.0f * hs / float(ns), dt = 2.0f * ht / float(nt);
+        const uint32_t pointSeed = hashCombine(batchSeed, uint32_t(batch.pointId ? batch.pointId[i] : i));
+        const bool gaussianFilter = params.filter == ShadowParams::Filter::Gaussian;
+        std::vector<MovingSample>& taken = t_moving;
+        taken.clear();
+        float inShadow = 0, weightSum = 0;
+        for (int k = 0; k < count; ++k) {
+            const SampleRandoms r(pointSeed, k);
+            const float du = (float(k / nt) + r.ju()) * ds - hs, dv = (float(k % nt) + r.jv()) * dt - ht;
+            MovingSample m;
+            float nearest = kInfinity;
+            for (int slot = 0; slot < slots; ++slot) {
+                const float u = slotS[size_t(slot)] + du, v = slotT[size_t(slot)] + dv;
+                if (!(std::abs(u) < 1e9f && std::abs(v) < 1e9f)) continue;  // behind the light then
+                const int tx = floorInt(u / float(T)), ty = floorInt(v / float(T));
+                const int texel =
+                    m_slotTexel[size_t(positiveMod(ty, tilesPerSide) * tilesPerSide + positiveMod(tx, tilesPerSide)) *
+                                    size_t(slots) +
+                                size_t(slot)];
+                const int iu = tx * T + texel % T, iv = ty * T + texel / T;
+                const float ex = float(iu) + 0.5f - u, ey = float(iv) + 0.5f - v, d2 = ex * ex + ey * ey;
+                if (d2 < nearest) nearest = d2, m.iu = iu, m.iv = iv;
+            }
+            if (nearest == kInfinity) continue;  // behind the light all the shutter
+            m.time = m_texelTimes[size_t(positiveMod(m.iv, n)) * size_t(n) + size_t(positiveMod(m.iu, n))];
+            m.bias = randomBias ? std::min(biasHi, biasLo + r.jbias() * (biasHi - biasLo)) : biasMid;
+            const bool stored = m.iu >= dx0 && m.iu <= dx1 && m.iv >= dy0 && m.iv <= dy1;
+            m.depth = stored ? depthAt(m.iu, m.iv) : kInfinity;
+            const float ru = du / std::max(hs, 1e-30f), rv = dv / std::max(ht, 1e-30f);
+            m.weight = gaussianFilter ? std::exp(-2.0f * (ru * ru + rv * rv)) : 1.0f;
+            weightSum += m.weight;
+            if (depthOf(P + M * m.time) > m.depth + m.bias) inShadow += m.weight;
+            taken.push_back(m);
+        }
+        ++st.filtered;
+        st.samples += uint64_t(count);
+        // Two-layer maps: Wang & Molnar's Figure 10, as for a still point.
+        const bool mixed = inShadow > 0 && inShadow < weightSum;
+        if (virtualCompare && (mixed || (inShadow > 0 && facesLight(planes, P, batch.N[i])))) {
+            ++st.virtualPoints;
+            inShadow = 0;
+            for (const MovingSample& m : taken) {
+                const TangentPlane plane = tangentPlane(planes, P + M * m.time, batch.N[i]);
+                const bool shadowed =
+                    plane.valid ? m.depth != kInfinity &&
+                                      virtualDeeper(plane, m.iu, m.iv,
+                                                    m.depth + m.bias + kVirtualSlack * std::abs(m.depth))
+                                : depthOf(P + M * m.time) > m.depth + m.bias;
+                if (shadowed) inShadow += m.weight;
+            }
+        }
+        return weightSum > 0 ? inShadow / weightSum : 0.0f;
+    };
+
     for (int i = 0; i < batch.count; ++i) {
         out[i] = 0;
         ++st.points;
         const Vec3 P = batch.P[i];
+        if (timeByTime && hasData) {
+            out[i] = movingShadow(i);
+            continue;
+        }
         // This point's tangent plane (second-depth maps), made on first use.
         TangentPlane pointPlane;
         bool pointPlaneKnown = false;
@@ -877,19 +1004,8 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                 if (culled(lo, hi, st.texelRangeLit, st.texelRangeShadowed)) continue;
             }
 
-            // Reeves' sample counts: a region smaller than NumSamples texels
-            // gets about one sample per texel, else NumSamples split by the
-            // region's aspect ratio.
             int ns, nt;
-            if (samples == 1) {
-                ns = nt = 1;
-            } else if (hs * ht * 4.0f < float(samples)) {
-                ns = clamp(int(hs * 2.0f + 0.5f), minSamples, samples);
-                nt = clamp(int(ht * 2.0f + 0.5f), minSamples, samples);
-            } else {
-                nt = clamp(int(std::sqrt(ht * float(samples) / hs) + 0.5f), minSamples, samples);
-                ns = clamp(int(float(samples) / float(nt) + 0.5f), minSamples, samples);
-            }
+            reevesCounts(samples, minSamples, hs, ht, &ns, &nt);
             // An open surface stored as its own second layer (§3.3): a
             // receiver whose tangent plane is the plane the covered blocks
             // store, facing the light, gets every virtual sample lit, and
@@ -1100,7 +1216,7 @@ void ShadowMap::lookupCube(const ShadowBatch& batch, const ShadowParams& params,
     // direction from the light: the largest light camera-space z. Points are
     // gathered per face into per-thread scratch (no allocation once warm).
     struct Scratch {
-        std::vector<Vec3> P, du, dv, N, corners[4];
+        std::vector<Vec3> P, du, dv, N, motion, corners[4];
         std::vector<float> out;
         std::vector<int> index, id;
     };
@@ -1111,7 +1227,7 @@ void ShadowMap::lookupCube(const ShadowBatch& batch, const ShadowParams& params,
         for (int c = 0; c < 4; ++c) rows[f][c] = m.m[2][c];
     }
     for (Scratch& sc : scratch) {
-        sc.P.clear(); sc.du.clear(); sc.dv.clear(); sc.N.clear(); sc.index.clear(); sc.id.clear();
+        sc.P.clear(); sc.du.clear(); sc.dv.clear(); sc.N.clear(); sc.motion.clear(); sc.index.clear(); sc.id.clear();
         for (auto& c : sc.corners) c.clear();
     }
     const bool footprint = batch.dPdu_du && batch.dPdv_dv;
@@ -1133,6 +1249,7 @@ void ShadowMap::lookupCube(const ShadowBatch& batch, const ShadowParams& params,
             sc.dv.push_back(batch.dPdv_dv[i]);
         }
         if (batch.N) sc.N.push_back(batch.N[i]);
+        if (batch.motion) sc.motion.push_back(batch.motion[i]);
         if (batch.corners[0])
             for (int c = 0; c < 4; ++c) sc.corners[c].push_back(batch.corners[c][i]);
         sc.index.push_back(i);
@@ -1147,6 +1264,7 @@ void ShadowMap::lookupCube(const ShadowBatch& batch, const ShadowParams& params,
         sub.dPdu_du = footprint ? sc.du.data() : nullptr;
         sub.dPdv_dv = footprint ? sc.dv.data() : nullptr;
         sub.N = batch.N ? sc.N.data() : nullptr;
+        sub.motion = batch.motion ? sc.motion.data() : nullptr;
         for (int c = 0; c < 4; ++c) sub.corners[c] = batch.corners[0] ? sc.corners[c].data() : nullptr;
         sub.seed = hashKeys(batch.seed, uint32_t(f));
         sub.pointId = sc.id.data();

@@ -20,6 +20,7 @@
 #include <fstream>
 #include <future>
 #include <mutex>
+#include <numeric>
 
 namespace umbra {
 
@@ -264,6 +265,10 @@ void ShadowMap::setFaces(std::vector<std::shared_ptr<ShadowMap>> faces) {
     m_filter = f0.m_filter;
     m_dualOffset = f0.m_dualOffset;
     m_timeTile = f0.m_timeTile;
+    m_timePeriod = f0.m_timePeriod;
+    m_texelTimes = f0.m_texelTimes;
+    m_slotTexel = f0.m_slotTexel;
+    m_slotTime = f0.m_slotTime;
     m_finiteCount = 0;
     for (const auto& f : faces) m_finiteCount += f->m_finiteCount;
     m_faces = std::move(faces);
@@ -306,6 +311,31 @@ bool ShadowMap::openPart(std::string& why) const {
     return true;
 }
 
+void ShadowMap::setupTimeSlots(const std::vector<float>& texelTimes) {
+    m_timePeriod = 0;
+    m_texelTimes.clear(), m_slotTexel.clear(), m_slotTime.clear();
+    // A time tile's texels must fit the slot index (uint8_t).
+    if (!validTexelTimes(texelTimes, m_timeTile) || m_timeTile > 16) return;
+    const int n = int(std::lround(std::sqrt(double(texelTimes.size())))), T = m_timeTile, slots = T * T;
+    const int tilesPerSide = n / T;
+    m_timePeriod = n;
+    m_texelTimes = texelTimes;
+    m_slotTexel.resize(size_t(tilesPerSide) * size_t(tilesPerSide) * size_t(slots));
+    m_slotTime.assign(size_t(slots), 0.0f);
+    std::vector<int> order(static_cast<size_t>(slots));
+    for (int ty = 0; ty < tilesPerSide; ++ty)
+        for (int tx = 0; tx < tilesPerSide; ++tx) {
+            auto timeOf = [&](int k) { return texelTimes[size_t(ty * T + k / T) * size_t(n) + size_t(tx * T + k % T)]; };
+            std::iota(order.begin(), order.end(), 0);
+            std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return timeOf(a) < timeOf(b); });
+            const size_t tile = size_t(ty * tilesPerSide + tx) * size_t(slots);
+            for (int k = 0; k < slots; ++k) {
+                m_slotTexel[tile + size_t(k)] = uint8_t(order[size_t(k)]);
+                m_slotTime[size_t(k)] += timeOf(order[size_t(k)]) / float(tilesPerSide * tilesPerSide);
+            }
+        }
+}
+
 bool ShadowMap::initHeader(const Imf::Header& header, int tilesX, int tilesY, std::string& why) {
     const Imf::TileDescription& td = header.tileDescription();
     const Imf::Channel* z = header.channels().findChannel("Z");
@@ -321,6 +351,7 @@ bool ShadowMap::initHeader(const Imf::Header& header, int tilesX, int tilesY, st
     m_filter = mm.filter;
     m_dualOffset = mm.dualOffset;
     m_timeTile = mm.timeTile;
+    setupTimeSlots(mm.texelTimes);
 
     const Imath::Box2i display = header.displayWindow(), data = header.dataWindow();
     if (display.min.x != 0 || display.min.y != 0) {

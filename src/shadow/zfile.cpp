@@ -1,6 +1,8 @@
 #include "umbra/shadow/depth_image.h"
 #include "umbra/util/file.h"
 
+#include "map_header.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -14,6 +16,14 @@ namespace {
 constexpr uint32_t kZFileMagic = 0x2f0867abU;
 constexpr uint32_t kExrMagic = 0x01312f76U;  // bytes 76 2f 31 01, read little-endian
 constexpr size_t kZFileHeaderBytes = 4 + 2 + 2 + 16 * 4 + 16 * 4;
+/// A motion-blurred depth frame's zfile carries, after its depths, when
+/// each texel holds its casters (DepthImage::texelTimes), so MakeShadow's
+/// map can compare moving receivers time by time: this tag, the time tile
+/// and the table's side n (int32 each), and n * n float times, in the
+/// file's byte order. Readers that read the w * h depths after the header
+/// (PRMan's, Pixie's, Aqsis's) stop before it.
+constexpr char kTimesTag[8] = {'u', 'm', 'b', 'r', 'a', 'T', 'I', 'M'};
+constexpr size_t kTimesHeaderBytes = sizeof kTimesTag + 4 + 4;
 
 // RenderMan's default screen window for an image of aspect w/h.
 void defaultScreenWindow(int w, int h, float* l, float* r, float* b, float* t) {
@@ -88,6 +98,14 @@ bool writeZFileImpl(const std::string& named, const DepthImage& image, std::stri
                 out.write(reinterpret_cast<const char*>(row.data()), std::streamsize(row.size() * sizeof(float)));
             }
         }
+        if (validTexelTimes(image.texelTimes, image.timeTile)) {
+            const int32_t tile = image.timeTile, side = int32_t(std::lround(std::sqrt(double(image.texelTimes.size()))));
+            out.write(kTimesTag, sizeof kTimesTag);
+            out.write(reinterpret_cast<const char*>(&tile), 4);
+            out.write(reinterpret_cast<const char*>(&side), 4);
+            out.write(reinterpret_cast<const char*>(image.texelTimes.data()),
+                      std::streamsize(image.texelTimes.size() * sizeof(float)));
+        }
         out.flush();
         if (!out) {
             out.close();
@@ -124,7 +142,9 @@ bool readZFile(const std::string& path, DepthImage& out, Diagnostics& diag, cons
         diag.error(loc, "cannot open zfile \"{}\"", path);
         return false;
     }
-    const uint64_t size = uint64_t(in.tellg());
+    uint64_t size = uint64_t(in.tellg());
+    int timeTile = 0;
+    std::vector<float> texelTimes;
     in.seekg(0);
     unsigned char header[kZFileHeaderBytes];
     if (size < kZFileHeaderBytes || !in.read(reinterpret_cast<char*>(header), kZFileHeaderBytes)) {
@@ -158,6 +178,33 @@ bool readZFile(const std::string& path, DepthImage& out, Diagnostics& diag, cons
         return false;
     }
     const uint64_t expected = kZFileHeaderBytes + uint64_t(w) * uint64_t(h) * 4;
+    // umbra's record of the texels' times may follow the depths.
+    if (size > expected + kTimesHeaderBytes) {
+        in.seekg(std::streamoff(expected));
+        char tag[sizeof kTimesTag];
+        int32_t tile = 0, side = 0;
+        in.read(tag, sizeof tag);
+        in.read(reinterpret_cast<char*>(&tile), 4);
+        in.read(reinterpret_cast<char*>(&side), 4);
+        if (swap) tile = byteSwap(tile), side = byteSwap(side);
+        const bool tagged = in && std::memcmp(tag, kTimesTag, sizeof tag) == 0;
+        if (tagged && side > 0 && side <= 64 &&
+            size == expected + kTimesHeaderBytes + uint64_t(side) * uint64_t(side) * 4) {
+            std::vector<float> times(size_t(side) * size_t(side));
+            in.read(reinterpret_cast<char*>(times.data()), std::streamsize(times.size() * sizeof(float)));
+            if (swap)
+                for (float& t : times) t = byteSwap(t);
+            // A table that is not one (another writer's bytes) is dropped:
+            // the depths are still a map, of unknown times.
+            if (in && validTexelTimes(times, tile)) {
+                timeTile = tile;
+                texelTimes = std::move(times);
+            }
+            size = expected;
+        }
+        in.clear();
+        in.seekg(std::streamoff(kZFileHeaderBytes));
+    }
     if (size != expected) {
         diag.error(loc, "cannot read zfile \"{}\": {} bytes, expected {} for {}x{} depths{}", path, size, expected, w,
                    h, size < expected ? " (truncated)" : "");
@@ -184,6 +231,8 @@ bool readZFile(const std::string& path, DepthImage& out, Diagnostics& diag, cons
     const auto& n = img.ndcFromWorld.m;
     img.projection = (n[3][0] == 0 && n[3][1] == 0 && n[3][2] == 0) ? Projection::Orthographic
                                                                     : Projection::Perspective;
+    img.timeTile = timeTile;
+    img.texelTimes = std::move(texelTimes);
     out = std::move(img);
     return true;
 }

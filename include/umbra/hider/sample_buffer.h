@@ -247,6 +247,11 @@ public:
     /// lens disc (depth of field), for the buffer's settings `config`.
     static float sampleTime(int px, int py, int s, const SampleBufferConfig& config);
     static Vec2 sampleLens(int px, int py, int s, const SampleBufferConfig& config);
+    /// The time of each pixel's one sample over one period of the pattern:
+    /// pixel (x, y)'s at [(y mod P) * P + x mod P]. What a depth map of
+    /// moving casters records of its texels (DepthImage::texelTimes);
+    /// `config` takes one sample a pixel.
+    static std::vector<float> periodTimes(const SampleBufferConfig& config);
     /// The dissolve value of the sample in global stratum column sx, row sy
     /// (sample s of pixel (px, py) is column px * xs + s % xs, row
     /// py * ys + s / xs): a hash of the stratum and the frame seed, so

@@ -65,6 +65,12 @@ struct DepthImage {
     /// times interleaved over tiles of timeTile x timeTile texels, so a
     /// lookup filters over at least one tile (docs/motion.md); 0: still.
     int timeTile = 0;
+    /// Maps of moving casters: the time, in [0, 1) of the shutter, at which
+    /// texel (x, y) holds its casters is texelTimes[(y % n) * n + x % n],
+    /// n * n the table's size (the sample pattern's period, 32; n a multiple
+    /// of timeTile). A lookup then compares each time's texels with a moving
+    /// receiver where it is at that time (docs/motion.md). Empty: unknown.
+    std::vector<float> texelTimes;
     /// The texels a light's depth pass wrote: outside [writtenX0, writtenX1)
     /// x [writtenY0, writtenY1) every texel is +infinity and its storage is
     /// never read (the pass left those pages untouched: on these hosts each

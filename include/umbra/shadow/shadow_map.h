@@ -76,6 +76,12 @@ struct ShadowBatch {
     const Vec3* corners[4] = {nullptr, nullptr, nullptr, nullptr};
     Mat4 worldFromCurrent;
     uint32_t seed = 0;              ///< identity of the call (frame, grid, light): seeds the samples
+    /// Each point's motion over the shutter, current space: where it is at
+    /// the close less where it is at the opening, to first order (dPdtime
+    /// times the shutter's length). On a map of moving casters whose texel
+    /// times are known, each of its times' texels is compared with the point
+    /// where it is at that time (docs/motion.md). Null: still points.
+    const Vec3* motion = nullptr;
     /// Each point's identity within the call (its vertex in the grid), which
     /// seeds its samples with `seed`: a point's samples do not depend on
     /// which other points were looked up with it. Null: its place in the batch.
@@ -256,6 +262,9 @@ public:
     DepthFilter depthFilter() const { return m_filter; }
     float dualOffset() const { return m_dualOffset; }
     int timeTile() const { return m_timeTile; }
+    /// A map of moving casters that knows when each texel holds them
+    /// (DepthImage::texelTimes): moving receivers are looked up time by time.
+    bool knowsTexelTimes() const { return !m_slotTexel.empty(); }
     bool empty() const { return m_finiteCount == 0; }
     /// Data window (bounding box of finite depths), inclusive raster bounds.
     int dataMinX() const { return m_dx0; }
@@ -444,6 +453,17 @@ private:
     DepthFilter m_filter = DepthFilter::Min;
     float m_dualOffset = 0;
     int m_timeTile = 0;  // see DepthImage::timeTile
+    /// Known texel times (DepthImage::texelTimes), over a period of
+    /// m_timePeriod texels a side; for each time tile of the period, its
+    /// texels in order of time (dy * m_timeTile + dx), the k-th of every
+    /// tile being "slot" k; and each slot's time, averaged over the tiles
+    /// (the same in every tile for umbra's maps, which time a texel's one
+    /// sample at its fine stratum's middle). Empty when unknown.
+    int m_timePeriod = 0;
+    std::vector<float> m_texelTimes;
+    std::vector<uint8_t> m_slotTexel;
+    std::vector<float> m_slotTime;
+    void setupTimeSlots(const std::vector<float>& texelTimes);
     uint64_t m_fileBytes = 0;
     /// Virtual sampling: planes go from light camera space to the light's
     /// screen space (raster x, raster y, depth coordinate) by

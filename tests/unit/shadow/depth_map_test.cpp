@@ -630,6 +630,61 @@ TEST(ZFile, RoundTripsDepthsAndMatrices) {
     EXPECT_EQ(back.projection, Projection::Perspective);
 }
 
+// A map of moving casters made the way exporters make maps (a zfile, then
+// MakeShadow) must still say when each texel holds its casters, or moving
+// receivers shadow themselves (docs/motion.md): umbra's zfile carries the
+// times after the depths, where readers of w x h depths stop. A trailer
+// that is not a table of times is dropped; bytes that are not a trailer
+// are an error, as before.
+TEST(ZFile, CarriesTheTexelTimesOfAMapOfMovingCastersAfterItsDepths) {
+    DepthImage img(9, 5);
+    for (int y = 0; y < 5; ++y)
+        for (int x = 0; x < 9; ++x) img.at(x, y) = 1.0f + float(x + y);
+    test::setRasterIsWorld(img);
+    img.timeTile = 4;
+    img.texelTimes.resize(32 * 32);
+    for (size_t k = 0; k < img.texelTimes.size(); ++k) img.texelTimes[k] = (float((k * 7) % 16) + 0.5f) / 16.0f;
+    const std::string path = scratchFile("times.z");
+    ASSERT_TRUE(writeZFile(path, img));
+    const size_t depthsEnd = 136u + 9u * 5u * 4u;
+    EXPECT_EQ(std::filesystem::file_size(path), depthsEnd + 8u + 4u + 4u + 32u * 32u * 4u);
+    const std::string bytes = readBytes(path);
+    EXPECT_EQ(bytes.substr(depthsEnd, 8), "umbraTIM");
+
+    Diagnostics diag;
+    DepthImage back;
+    ASSERT_TRUE(readZFile(path, back, diag));
+    EXPECT_EQ(back.z, img.z);
+    EXPECT_EQ(back.timeTile, 4);
+    EXPECT_EQ(back.texelTimes, img.texelTimes);
+    const std::string exr = scratchFile("times.exr");
+    ASSERT_TRUE(makeShadow(path, exr, diag));
+    auto map = ShadowMap::open(exr, diag);
+    ASSERT_TRUE(map);
+    EXPECT_EQ(map->timeTile(), 4);
+    EXPECT_TRUE(map->knowsTexelTimes());
+
+    // Not a table of times (one above 1): the depths are read, the times not.
+    std::string bad = bytes;
+    const float late = 2.0f;
+    std::memcpy(&bad[depthsEnd + 16 + 4 * 5], &late, 4);
+    writeBytes(path, bad);
+    ASSERT_TRUE(readZFile(path, back, diag));
+    EXPECT_EQ(back.z, img.z);
+    EXPECT_TRUE(back.texelTimes.empty());
+    // Not a trailer at all: the size is wrong, as it was.
+    bad = bytes;
+    bad[depthsEnd] = 'U';
+    writeBytes(path, bad);
+    Diagnostics d2;
+    d2.setRecord(true);
+    d2.setPolicy(Diagnostics::Policy::Ignore);
+    EXPECT_FALSE(readZFile(path, back, d2));
+    EXPECT_EQ(d2.recorded().at(0).message,
+              fmt::format("cannot read zfile \"{}\": {} bytes, expected {} for 9x5 depths", path, bytes.size(),
+                          depthsEnd));
+}
+
 TEST(ZFile, BigEndianFilesAndBadFiles) {
     // A 2x1 big-endian zfile built by hand: depths 1.5 and 1e30 (empty).
     std::string be;
