@@ -176,16 +176,9 @@ bool Services::shadow(const shading::ShadingGrid& grid, const shading::ShadowQue
     // map of moving casters to compare each time with it where it is then.
     thread_local std::vector<Vec3> t_motion;
     if (!grid.dPdtime.empty() && map->timeTile() > 0) {
-        if (map->knowsTexelTimes()) {
-            t_motion.resize(size_t(q.count));
-            for (int k = 0; k < q.count; ++k) {
-                const size_t v = size_t(q.indices ? q.indices[k] : k);
-                t_motion[size_t(k)] = v < grid.dPdtime.size() ? grid.dPdtime[v] * grid.dtime : Vec3();
-            }
-            batch.motion = t_motion.data();
-        } else {
-            warnMovingReceiver(grid, q, *map, params, batch.worldFromCurrent);
-        }
+        surfaceMotion(grid, q, t_motion);
+        if (map->knowsTexelTimes()) batch.motion = t_motion.data();
+        else warnMovingReceiver(grid, q, *map, params, batch.worldFromCurrent, t_motion);
     }
     ShadowStats stats;
     // The thread's CPU clock, not the wall's: a lookup preempted on a busy
@@ -200,28 +193,44 @@ bool Services::shadow(const shading::ShadingGrid& grid, const shading::ShadowQue
     return true;
 }
 
+void Services::surfaceMotion(const shading::ShadingGrid& grid, const shading::ShadowQuery& q,
+                             std::vector<Vec3>& motion) const {
+    // dPdtime runs from the opening to the close in the camera's space at
+    // each time: under a moving camera, where the point is at the close
+    // is carried back to the opening's camera ("current") space.
+    const GridState& st = stateOf(grid);
+    const bool cameraMoves = st.pass->cameraMotion != nullptr;
+    const Mat4 currentFromClosing =
+        cameraMoves ? st.pass->camera.cameraFromWorld * st.pass->cameraMotion->at(st.frame->shutterClose).inverse()
+                    : Mat4::identity();
+    motion.resize(size_t(q.count));
+    for (int k = 0; k < q.count; ++k) {
+        const size_t v = size_t(q.indices ? q.indices[k] : k);
+        const Vec3 moved = v < grid.dPdtime.size() ? grid.dPdtime[v] * grid.dtime : Vec3();
+        motion[size_t(k)] = cameraMoves ? currentFromClosing.point(q.P[k] + moved) - q.P[k] : moved;
+    }
+}
+
 void Services::warnMovingReceiver(const shading::ShadingGrid& grid, const shading::ShadowQuery& q, const ShadowMap& map,
-                                  const ShadowParams& params, const Mat4& worldFromCurrent) {
+                                  const ShadowParams& params, const Mat4& worldFromCurrent,
+                                  const std::vector<Vec3>& motion) {
     // A map of moving casters holds each texel at one time of the shutter
-    // (docs/motion.md), but a surface is shaded, and looked up, at the
-    // shutter's opening: where it moves (in the light's space) by more than
-    // the bias, the texels of later times hold it nearer the light than the
-    // point compared with them, and it shadows itself. Said once per map.
+    // (docs/motion.md); when it does not say which, a surface is looked up
+    // at the shutter's opening: where it moves (in the light's space) by
+    // more than the bias, the texels of later times hold it nearer the
+    // light than the point compared with them, and it shadows itself.
+    // Said once per map.
     const Mat4 lightFromCurrent = map.lightFromWorld() * worldFromCurrent;
     const float bias = std::max({params.bias, params.bias0, params.bias1});
     float largest = 0;
-    for (int k = 0; k < q.count; ++k) {
-        const size_t v = size_t(q.indices ? q.indices[k] : k);
-        if (v >= grid.dPdtime.size()) continue;
-        const Vec3 moved = lightFromCurrent.vector(grid.dPdtime[v] * grid.dtime);
-        largest = std::max(largest, length(moved));
-    }
+    for (const Vec3& m : motion) largest = std::max(largest, length(lightFromCurrent.vector(m)));
     if (!(largest > bias)) return;
     const GridState& st = stateOf(grid);
     m_diag.warningOnce("moving receiver " + q.mapName, st.record ? st.record->loc : FileLoc(),
                        "shadow(\"{}\"): this surface moves {:.3g} in the light's space during the shutter, more "
-                       "than the bias {:.3g}; it is compared at the shutter's opening with the casters of every "
-                       "time the map holds, and may shadow itself (give a bias above its motion, or make the "
+                       "than the bias {:.3g}, and the map does not say when its texels hold their casters (it was "
+                       "made before maps did); it is compared at the shutter's opening with the casters of every "
+                       "time, and may shadow itself (remake the map, give a bias above the motion, or make the "
                        "map with Shutter 0 0 for a sharp shadow: docs/motion.md)",
                        q.mapName, largest, bias);
 }

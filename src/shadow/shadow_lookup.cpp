@@ -178,11 +178,12 @@ inline void reevesCounts(int samples, int minSamples, float hs, float ht, int* n
     }
 }
 
-/// v mod n in [0, n), for n > 0.
-inline int positiveMod(int v, int n) {
-    const int r = v % n;
-    return r < 0 ? r + n : r;
-}
+/// The most time slots (texels of a time tile) a map's lookups handle.
+constexpr int kMaxTimeSlots = 256;
+/// A moving receiver's region of at most this area (texels) is filtered
+/// over every texel of every time in it; a larger one with Reeves' count of
+/// jittered samples.
+constexpr int kEnumeratedRegion = 64;
 
 /// The sum of the lanes. Box-filter weights are 1, so sums of them are
 /// exact in any order; Gaussian weights sum in this fixed order.
@@ -609,11 +610,8 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
     // of the batch, without the shortcuts that assume one depth and place.
     const bool timeByTime = !kPointSample && batch.motion && knowsTexelTimes();
     // A map of moving casters holds each time in one texel of every time
-    // tile: regions span at least a tile, so each sees the whole shutter
-    // (looked up time by time, each sample picks its time and the texel of
-    // that time nearest it, which spreads it by about a tile already).
-    const float minHalf =
-        std::max({0.0f, params.minSize * 0.5f, timeByTime ? 0.0f : float(m_timeTile) * 0.5f});
+    // tile: regions span at least a tile, so each sees the whole shutter.
+    const float minHalf = std::max({0.0f, params.minSize * 0.5f, float(m_timeTile) * 0.5f});
     // Regions larger than this (half-width, texels) gain nothing: clamping
     // keeps the sample arithmetic finite for wild footprints.
     const float maxHalf = 4.0f * float(std::max(m_width, m_height)) + 4.0f;
@@ -799,75 +797,154 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
     // offset (du, dv) in the point's region, looks in each slot for the
     // texel of that slot in the time tile under where the point then is
     // plus the offset, and takes the one of all slots nearest its place:
-    // for a still point that is the texel under the sample, for a moving
-    // one a texel at the offset from where the point is at that texel's
-    // time. It compares the texel with the point's depth at that time. So
-    // a surface that moves is compared with itself at one time, and with
-    // the casters where they were then. For two-layer maps' virtual
-    // samples its tangent plane moves with it (its turning is not
-    // followed). The regions' sampling is always the jittered one.
+    // a texel at the offset from where the point is at that texel's time.
+    // (A point whose place moves less than a quarter texel takes the texel
+    // under it.) It compares the texel with the point's depth at that
+    // time. So a surface that moves is compared with itself at one time,
+    // and with the casters where they were then. For two-layer maps'
+    // virtual samples its tangent plane moves with it (its turning is not
+    // followed). The regions' sampling is always the jittered one. Points
+    // are culled by the depth ranges as still ones are, with their regions
+    // swept over the shutter and their depths' range over it.
     struct MovingSample {
         int iu, iv;
         float time, bias, depth, weight;
     };
     thread_local std::vector<MovingSample> t_moving;
-    thread_local std::vector<float> t_slotS, t_slotT;
     auto movingShadow = [&](int i) -> float {
         const Vec3 P = batch.P[i], M = batch.motion[i];
         const auto& L = lightFromCurrent.m;
         const auto& R = rasterFromCurrent.m;
         auto depthOf = [&](const Vec3& X) { return L[2][0] * X.x + L[2][1] * X.y + L[2][2] * X.z + L[2][3]; };
         const float hs = pts.hs[size_t(i)], ht = pts.ht[size_t(i)];
-        int ns, nt;
-        reevesCounts(samples, minSamples, hs, ht, &ns, &nt);
-        const int count = ns * nt, T = m_timeTile, slots = T * T, n = m_timePeriod, tilesPerSide = n / T;
-        // Where the point is at each slot's time (NaN: behind the light).
-        std::vector<float>& slotS = t_slotS;
-        std::vector<float>& slotT = t_slotT;
-        slotS.assign(size_t(slots), std::numeric_limits<float>::quiet_NaN());
-        slotT.assign(size_t(slots), std::numeric_limits<float>::quiet_NaN());
+        // Tile and period sides are powers of two (setupTimeSlots): shifts
+        // and masks, not divisions, in the search below.
+        const int T = m_timeTile, slots = T * T, tileShift = std::countr_zero(unsigned(T)), tileMask = T - 1;
+        const int periodMask = m_timePeriod - 1, tilesMask = (m_timePeriod >> tileShift) - 1;
+        const int tilesShift = std::countr_zero(unsigned(m_timePeriod >> tileShift));
+        const float inverseT = 1.0f / float(T);
+        // Where the point is at each slot's time, and the box of those
+        // places (a slot behind the light has none).
+        float slotS[kMaxTimeSlots], slotT[kMaxTimeSlots];
+        bool slotSeen[kMaxTimeSlots];
+        float sLo = kInfinity, sHi = -kInfinity, tLo = kInfinity, tHi = -kInfinity;
         for (int k = 0; k < slots; ++k) {
             const Vec3 at = P + M * m_slotTime[size_t(k)];
             const float w = R[3][0] * at.x + R[3][1] * at.y + R[3][2] * at.z + R[3][3];
-            const float sc = (R[0][0] * at.x + R[0][1] * at.y + R[0][2] * at.z + R[0][3]) / w;
-            const float tc = (R[1][0] * at.x + R[1][1] * at.y + R[1][2] * at.z + R[1][3]) / w;
-            if (w > 0 && depthOf(at) >= 0 && std::abs(sc) < 1e9f && std::abs(tc) < 1e9f)
-                slotS[size_t(k)] = sc, slotT[size_t(k)] = tc;
+            slotS[k] = (R[0][0] * at.x + R[0][1] * at.y + R[0][2] * at.z + R[0][3]) / w;
+            slotT[k] = (R[1][0] * at.x + R[1][1] * at.y + R[1][2] * at.z + R[1][3]) / w;
+            slotSeen[k] = w > 0 && depthOf(at) >= 0 && std::abs(slotS[k]) < 1e9f && std::abs(slotT[k]) < 1e9f;
+            if (!slotSeen[k]) continue;
+            sLo = std::min(sLo, slotS[k]), sHi = std::max(sHi, slotS[k]);
+            tLo = std::min(tLo, slotT[k]), tHi = std::max(tHi, slotT[k]);
         }
-        const float ds = 2.0f * hs / float(ns), dt = 2.0f * ht / float(nt);
+        if (!(sLo <= sHi)) {  // behind the light all the shutter
+            ++st.outside;
+            return 0.0f;
+        }
+        // The texels the swept region reaches (one beyond the data window at
+        // most), and the point's depths over the shutter (linear in time).
+        const auto bound = [](float v, int lo, int hi) { return clamp(floorInt(clamp(v, float(lo), float(hi))), lo, hi); };
+        const int iLo = bound(sLo - hs, dx0 - 1, dx1 + 1), iHi = bound(sHi + hs, dx0 - 1, dx1 + 1);
+        const int jLo = bound(tLo - ht, dy0 - 1, dy1 + 1), jHi = bound(tHi + ht, dy0 - 1, dy1 + 1);
+        if (iHi < dx0 || iLo > dx1 || jHi < dy0 || jLo > dy1) {
+            ++st.outside;
+            return 0.0f;
+        }
+        // (Depth is affine in position, so linear in time.)
+        const float zOpen = depthOf(P), zClose = depthOf(P + M), zMotion = zClose - zOpen;
+        const float zLo = std::min(zOpen, zClose), zHi = std::max(zOpen, zClose);
+        if (params.tileCulling) {
+            const int ci0 = std::max(iLo, dx0), ci1 = std::min(iHi, dx1), cj0 = std::max(jLo, dy0), cj1 = std::min(jHi, dy1);
+            const bool inside = ci0 == iLo && ci1 == iHi && cj0 == jLo && cj1 == jHi;
+            const Covered c = covered(ci0, ci1, cj0, cj1);
+            float zMin, zMax;
+            bool planar = false;
+            if (blockRange(c, &zMin, &zMax, &planar) || tileRange(c, &zMin, &zMax)) {
+                if (zHi <= zMin + biasLo) {
+                    ++st.culledLit;
+                    return 0.0f;
+                }
+                // (A two-layer map's light-facing points would take virtual
+                // samples: not culled as shadowed.)
+                if (inside && zLo > zMax + biasHi && !virtualCompare) {
+                    ++st.culledShadowed;
+                    return 1.0f;
+                }
+            }
+        }
         const uint32_t pointSeed = hashCombine(batchSeed, uint32_t(batch.pointId ? batch.pointId[i] : i));
         const bool gaussianFilter = params.filter == ShadowParams::Filter::Gaussian;
         std::vector<MovingSample>& taken = t_moving;
         taken.clear();
         float inShadow = 0, weightSum = 0;
-        for (int k = 0; k < count; ++k) {
-            const SampleRandoms r(pointSeed, k);
-            const float du = (float(k / nt) + r.ju()) * ds - hs, dv = (float(k % nt) + r.jv()) * dt - ht;
+        // Texel (iu, iv) as a sample at offset (du, dv) from where the point
+        // is at the texel's time, its bias drawn with `r`.
+        auto take = [&](int iu, int iv, float du, float dv, float area, const SampleRandoms& r) {
             MovingSample m;
-            float nearest = kInfinity;
-            for (int slot = 0; slot < slots; ++slot) {
-                const float u = slotS[size_t(slot)] + du, v = slotT[size_t(slot)] + dv;
-                if (!(std::abs(u) < 1e9f && std::abs(v) < 1e9f)) continue;  // behind the light then
-                const int tx = floorInt(u / float(T)), ty = floorInt(v / float(T));
-                const int texel =
-                    m_slotTexel[size_t(positiveMod(ty, tilesPerSide) * tilesPerSide + positiveMod(tx, tilesPerSide)) *
-                                    size_t(slots) +
-                                size_t(slot)];
-                const int iu = tx * T + texel % T, iv = ty * T + texel / T;
-                const float ex = float(iu) + 0.5f - u, ey = float(iv) + 0.5f - v, d2 = ex * ex + ey * ey;
-                if (d2 < nearest) nearest = d2, m.iu = iu, m.iv = iv;
-            }
-            if (nearest == kInfinity) continue;  // behind the light all the shutter
-            m.time = m_texelTimes[size_t(positiveMod(m.iv, n)) * size_t(n) + size_t(positiveMod(m.iu, n))];
+            m.iu = iu, m.iv = iv;
+            m.time = m_texelTimes[size_t((iv & periodMask) * m_timePeriod + (iu & periodMask))];
             m.bias = randomBias ? std::min(biasHi, biasLo + r.jbias() * (biasHi - biasLo)) : biasMid;
-            const bool stored = m.iu >= dx0 && m.iu <= dx1 && m.iv >= dy0 && m.iv <= dy1;
-            m.depth = stored ? depthAt(m.iu, m.iv) : kInfinity;
+            const bool stored = iu >= dx0 && iu <= dx1 && iv >= dy0 && iv <= dy1;
+            m.depth = stored ? depthAt(iu, iv) : kInfinity;
             const float ru = du / std::max(hs, 1e-30f), rv = dv / std::max(ht, 1e-30f);
-            m.weight = gaussianFilter ? std::exp(-2.0f * (ru * ru + rv * rv)) : 1.0f;
+            m.weight = gaussianFilter ? area * std::exp(-2.0f * (ru * ru + rv * rv)) : area;
             weightSum += m.weight;
-            if (depthOf(P + M * m.time) > m.depth + m.bias) inShadow += m.weight;
+            if (zOpen + zMotion * m.time > m.depth + m.bias) inShadow += m.weight;
             taken.push_back(m);
+        };
+        auto slotTexel = [&](int tx, int ty, int slot) {
+            return int(m_slotTexel[size_t(((((ty & tilesMask) << tilesShift) | (tx & tilesMask)) << (2 * tileShift)) |
+                                          slot)]);
+        };
+        if (4.0f * hs * ht <= float(kEnumeratedRegion)) {
+            // A region of a few texels (the usual: a tile, or a little more):
+            // every texel that overlaps the region where the point is at the
+            // texel's time is a sample, weighed by the overlap, so shadows
+            // ramp smoothly without jitter's noise. Each time tile holds one
+            // texel of each slot, so a slot's texels are found tile by tile
+            // over the region around the point at that slot's time.
+            for (int slot = 0; slot < slots; ++slot) {
+                if (!slotSeen[slot]) continue;
+                const float s0 = slotS[slot] - hs, s1 = slotS[slot] + hs, t0 = slotT[slot] - ht, t1 = slotT[slot] + ht;
+                const int tx0 = floorInt((s0 - 0.5f) * inverseT), tx1 = floorInt((s1 + 0.5f) * inverseT);
+                const int ty0 = floorInt((t0 - 0.5f) * inverseT), ty1 = floorInt((t1 + 0.5f) * inverseT);
+                for (int ty = ty0; ty <= ty1; ++ty)
+                    for (int tx = tx0; tx <= tx1; ++tx) {
+                        const int texel = slotTexel(tx, ty, slot);
+                        const int iu = (tx << tileShift) + (texel & tileMask), iv = (ty << tileShift) + (texel >> tileShift);
+                        const float overlapU = std::min(float(iu + 1), s1) - std::max(float(iu), s0);
+                        const float overlapV = std::min(float(iv + 1), t1) - std::max(float(iv), t0);
+                        if (!(overlapU > 0 && overlapV > 0)) continue;
+                        const float cu = float(iu) + 0.5f, cv = float(iv) + 0.5f;
+                        take(iu, iv, cu - slotS[slot], cv - slotT[slot], overlapU * overlapV,
+                             SampleRandoms(pointSeed, int(hashKeys(uint32_t(iu), uint32_t(iv)) & 0xffffffu)));
+                    }
+            }
+        } else {
+            // A wide region (blur, a large footprint): Reeves' count of
+            // jittered samples, each taking, of all the slots, the texel
+            // nearest its offset from where the point is at that slot's time.
+            int ns, nt;
+            reevesCounts(samples, minSamples, hs, ht, &ns, &nt);
+            const float ds = 2.0f * hs / float(ns), dt = 2.0f * ht / float(nt);
+            for (int k = 0; k < ns * nt; ++k) {
+                const SampleRandoms r(pointSeed, k);
+                const float du = (float(k / nt) + r.ju()) * ds - hs, dv = (float(k % nt) + r.jv()) * dt - ht;
+                float nearest = kInfinity;
+                int bestU = 0, bestV = 0;
+                for (int slot = 0; slot < slots; ++slot) {
+                    if (!slotSeen[slot]) continue;
+                    const float u = slotS[slot] + du, v = slotT[slot] + dv;
+                    const int tx = floorInt(u * inverseT), ty = floorInt(v * inverseT), texel = slotTexel(tx, ty, slot);
+                    const int iu = (tx << tileShift) + (texel & tileMask), iv = (ty << tileShift) + (texel >> tileShift);
+                    const float ex = float(iu) + 0.5f - u, ey = float(iv) + 0.5f - v, d2 = ex * ex + ey * ey;
+                    if (d2 < nearest) nearest = d2, bestU = iu, bestV = iv;
+                }
+                take(bestU, bestV, du, dv, 1.0f, r);
+            }
         }
+        const int count = int(taken.size());
         ++st.filtered;
         st.samples += uint64_t(count);
         // Two-layer maps: Wang & Molnar's Figure 10, as for a still point.
@@ -881,7 +958,7 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                     plane.valid ? m.depth != kInfinity &&
                                       virtualDeeper(plane, m.iu, m.iv,
                                                     m.depth + m.bias + kVirtualSlack * std::abs(m.depth))
-                                : depthOf(P + M * m.time) > m.depth + m.bias;
+                                : zOpen + zMotion * m.time > m.depth + m.bias;
                 if (shadowed) inShadow += m.weight;
             }
         }

@@ -12,6 +12,7 @@
 #include <ImfTiledInputPart.h>
 #include <nlohmann/json.hpp>
 
+#include <bit>
 #include <cmath>
 #include <exception>
 #include <chrono>
@@ -314,9 +315,11 @@ bool ShadowMap::openPart(std::string& why) const {
 void ShadowMap::setupTimeSlots(const std::vector<float>& texelTimes) {
     m_timePeriod = 0;
     m_texelTimes.clear(), m_slotTexel.clear(), m_slotTime.clear();
-    // A time tile's texels must fit the slot index (uint8_t).
+    // A time tile's texels must fit the slot index (uint8_t) and the
+    // lookup's table of slots (256); its search takes powers of two.
     if (!validTexelTimes(texelTimes, m_timeTile) || m_timeTile > 16) return;
     const int n = int(std::lround(std::sqrt(double(texelTimes.size())))), T = m_timeTile, slots = T * T;
+    if (!std::has_single_bit(unsigned(n)) || !std::has_single_bit(unsigned(T))) return;
     const int tilesPerSide = n / T;
     m_timePeriod = n;
     m_texelTimes = texelTimes;
