@@ -828,12 +828,17 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
         float slotS[kMaxTimeSlots], slotT[kMaxTimeSlots];
         bool slotSeen[kMaxTimeSlots];
         float sLo = kInfinity, sHi = -kInfinity, tLo = kInfinity, tHi = -kInfinity;
+        // The point's homogeneous raster position and depth are linear in
+        // time: its place at a time is one divide away.
+        const float x0 = R[0][0] * P.x + R[0][1] * P.y + R[0][2] * P.z + R[0][3], xm = R[0][0] * M.x + R[0][1] * M.y + R[0][2] * M.z;
+        const float y0 = R[1][0] * P.x + R[1][1] * P.y + R[1][2] * P.z + R[1][3], ym = R[1][0] * M.x + R[1][1] * M.y + R[1][2] * M.z;
+        const float w0 = R[3][0] * P.x + R[3][1] * P.y + R[3][2] * P.z + R[3][3], wm = R[3][0] * M.x + R[3][1] * M.y + R[3][2] * M.z;
+        const float z0 = depthOf(P), zm = depthOf(P + M) - z0;
         for (int k = 0; k < slots; ++k) {
-            const Vec3 at = P + M * m_slotTime[size_t(k)];
-            const float w = R[3][0] * at.x + R[3][1] * at.y + R[3][2] * at.z + R[3][3];
-            slotS[k] = (R[0][0] * at.x + R[0][1] * at.y + R[0][2] * at.z + R[0][3]) / w;
-            slotT[k] = (R[1][0] * at.x + R[1][1] * at.y + R[1][2] * at.z + R[1][3]) / w;
-            slotSeen[k] = w > 0 && depthOf(at) >= 0 && std::abs(slotS[k]) < 1e9f && std::abs(slotT[k]) < 1e9f;
+            const float time = m_slotTime[size_t(k)], w = w0 + wm * time, inverse = 1.0f / w;
+            slotS[k] = (x0 + xm * time) * inverse;
+            slotT[k] = (y0 + ym * time) * inverse;
+            slotSeen[k] = w > 0 && z0 + zm * time >= 0 && std::abs(slotS[k]) < 1e9f && std::abs(slotT[k]) < 1e9f;
             if (!slotSeen[k]) continue;
             sLo = std::min(sLo, slotS[k]), sHi = std::max(sHi, slotS[k]);
             tLo = std::min(tLo, slotT[k]), tHi = std::max(tHi, slotT[k]);
@@ -845,14 +850,18 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
         // The texels the swept region reaches (one beyond the data window at
         // most), and the point's depths over the shutter (linear in time).
         const auto bound = [](float v, int lo, int hi) { return clamp(floorInt(clamp(v, float(lo), float(hi))), lo, hi); };
-        const int iLo = bound(sLo - hs, dx0 - 1, dx1 + 1), iHi = bound(sHi + hs, dx0 - 1, dx1 + 1);
-        const int jLo = bound(tLo - ht, dy0 - 1, dy1 + 1), jHi = bound(tHi + ht, dy0 - 1, dy1 + 1);
+        // A wide region's samples take the nearest texel of a slot, up to a
+        // time tile from the sample: its reach grows by one.
+        const bool enumerated = 4.0f * hs * ht <= float(kEnumeratedRegion);
+        const float reach = enumerated ? 0.0f : float(T);
+        const int iLo = bound(sLo - hs - reach, dx0 - 1, dx1 + 1), iHi = bound(sHi + hs + reach, dx0 - 1, dx1 + 1);
+        const int jLo = bound(tLo - ht - reach, dy0 - 1, dy1 + 1), jHi = bound(tHi + ht + reach, dy0 - 1, dy1 + 1);
         if (iHi < dx0 || iLo > dx1 || jHi < dy0 || jLo > dy1) {
             ++st.outside;
             return 0.0f;
         }
         // (Depth is affine in position, so linear in time.)
-        const float zOpen = depthOf(P), zClose = depthOf(P + M), zMotion = zClose - zOpen;
+        const float zOpen = z0, zClose = z0 + zm, zMotion = zm;
         const float zLo = std::min(zOpen, zClose), zHi = std::max(zOpen, zClose);
         if (params.tileCulling) {
             const int ci0 = std::max(iLo, dx0), ci1 = std::min(iHi, dx1), cj0 = std::max(jLo, dy0), cj1 = std::min(jHi, dy1);
@@ -880,46 +889,92 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
         float inShadow = 0, weightSum = 0;
         // Texel (iu, iv) as a sample at offset (du, dv) from where the point
         // is at the texel's time, its bias drawn with `r`.
-        auto take = [&](int iu, int iv, float du, float dv, float area, const SampleRandoms& r) {
+        // The swept region's texels, when they lie in one tile of the map
+        // and its data window (the usual), read straight from the tile.
+        const float* single = nullptr;
+        int singleX = 0, singleY = 0;
+        {
+            const int ci0 = std::max(iLo, dx0), ci1 = std::min(iHi, dx1), cj0 = std::max(jLo, dy0), cj1 = std::min(jHi, dy1);
+            const Covered c = covered(ci0, ci1, cj0, cj1);
+            if (ci0 == iLo && ci1 == iHi && cj0 == jLo && cj1 == jHi && c.tx0 == c.tx1 && c.ty0 == c.ty1) {
+                (void)depthAt(ci0, cj0);  // pins the tile in the memo
+                single = memo.data[TileMemo::slot(m_mapId, c.tx0, c.ty0)];
+                singleX = m_fileX0 + (c.tx0 << shiftX);
+                singleY = m_fileY0 + (c.ty0 << shiftY);
+            }
+        }
+        // Only two-layer maps' virtual samples look at the samples again.
+        const bool keep = virtualCompare;
+        const float invHs = 1.0f / std::max(hs, 1e-30f), invHt = 1.0f / std::max(ht, 1e-30f);
+        int samplesTaken = 0;
+        // `sample`: the jittered sample's index, or -1 for a texel taken
+        // whole (its bias drawn by its place).
+        auto take = [&](int iu, int iv, float du, float dv, float area, int sample) {
+            ++samplesTaken;
             MovingSample m;
             m.iu = iu, m.iv = iv;
             m.time = m_texelTimes[size_t((iv & periodMask) * m_timePeriod + (iu & periodMask))];
-            m.bias = randomBias ? std::min(biasHi, biasLo + r.jbias() * (biasHi - biasLo)) : biasMid;
-            const bool stored = iu >= dx0 && iu <= dx1 && iv >= dy0 && iv <= dy1;
-            m.depth = stored ? depthAt(iu, iv) : kInfinity;
-            const float ru = du / std::max(hs, 1e-30f), rv = dv / std::max(ht, 1e-30f);
-            m.weight = gaussianFilter ? area * std::exp(-2.0f * (ru * ru + rv * rv)) : area;
+            m.bias = biasMid;
+            if (randomBias) {
+                const int key = sample >= 0 ? sample : int(hashKeys(uint32_t(iu), uint32_t(iv)) & 0xffffffu);
+                m.bias = std::min(biasHi, biasLo + SampleRandoms(pointSeed, key).jbias() * (biasHi - biasLo));
+            }
+            if (single) {
+                m.depth = single[((iv - singleY) << shiftX) + (iu - singleX)];
+            } else {
+                const bool stored = iu >= dx0 && iu <= dx1 && iv >= dy0 && iv <= dy1;
+                m.depth = stored ? depthAt(iu, iv) : kInfinity;
+            }
+            m.weight = area;
+            if (gaussianFilter) {
+                const float ru = du * invHs, rv = dv * invHt;
+                m.weight *= std::exp(-2.0f * (ru * ru + rv * rv));
+            }
             weightSum += m.weight;
             if (zOpen + zMotion * m.time > m.depth + m.bias) inShadow += m.weight;
-            taken.push_back(m);
+            if (keep) taken.push_back(m);
         };
         auto slotTexel = [&](int tx, int ty, int slot) {
             return int(m_slotTexel[size_t(((((ty & tilesMask) << tilesShift) | (tx & tilesMask)) << (2 * tileShift)) |
                                           slot)]);
         };
-        if (4.0f * hs * ht <= float(kEnumeratedRegion)) {
+        if (enumerated) {
             // A region of a few texels (the usual: a tile, or a little more):
             // every texel that overlaps the region where the point is at the
             // texel's time is a sample, weighed by the overlap, so shadows
-            // ramp smoothly without jitter's noise. Each time tile holds one
-            // texel of each slot, so a slot's texels are found tile by tile
-            // over the region around the point at that slot's time.
-            for (int slot = 0; slot < slots; ++slot) {
-                if (!slotSeen[slot]) continue;
+            // ramp smoothly without jitter's noise. Found texel by texel
+            // over the swept region when it is small (a point moving a few
+            // texels), else slot by slot: each time tile holds one texel of
+            // each slot, so a slot's texels are found tile by tile over the
+            // region around where the point is at that slot's time. The
+            // same texels either way.
+            auto overlapping = [&](int iu, int iv, int slot) {
                 const float s0 = slotS[slot] - hs, s1 = slotS[slot] + hs, t0 = slotT[slot] - ht, t1 = slotT[slot] + ht;
-                const int tx0 = floorInt((s0 - 0.5f) * inverseT), tx1 = floorInt((s1 + 0.5f) * inverseT);
-                const int ty0 = floorInt((t0 - 0.5f) * inverseT), ty1 = floorInt((t1 + 0.5f) * inverseT);
-                for (int ty = ty0; ty <= ty1; ++ty)
-                    for (int tx = tx0; tx <= tx1; ++tx) {
-                        const int texel = slotTexel(tx, ty, slot);
-                        const int iu = (tx << tileShift) + (texel & tileMask), iv = (ty << tileShift) + (texel >> tileShift);
-                        const float overlapU = std::min(float(iu + 1), s1) - std::max(float(iu), s0);
-                        const float overlapV = std::min(float(iv + 1), t1) - std::max(float(iv), t0);
-                        if (!(overlapU > 0 && overlapV > 0)) continue;
-                        const float cu = float(iu) + 0.5f, cv = float(iv) + 0.5f;
-                        take(iu, iv, cu - slotS[slot], cv - slotT[slot], overlapU * overlapV,
-                             SampleRandoms(pointSeed, int(hashKeys(uint32_t(iu), uint32_t(iv)) & 0xffffffu)));
+                const float overlapU = std::min(float(iu + 1), s1) - std::max(float(iu), s0);
+                const float overlapV = std::min(float(iv + 1), t1) - std::max(float(iv), t0);
+                if (!(overlapU > 0 && overlapV > 0)) return;
+                take(iu, iv, float(iu) + 0.5f - slotS[slot], float(iv) + 0.5f - slotT[slot], overlapU * overlapV, -1);
+            };
+            const int sweptTexels = (iHi - iLo + 1) * (jHi - jLo + 1);
+            if (sweptTexels <= 3 * slots) {
+                for (int iv = jLo; iv <= jHi; ++iv) {
+                    const uint8_t* slotRow = &m_texelSlot[size_t(iv & periodMask) * size_t(m_timePeriod)];
+                    for (int iu = iLo; iu <= iHi; ++iu) {
+                        const int slot = slotRow[iu & periodMask];
+                        if (slotSeen[slot]) overlapping(iu, iv, slot);
                     }
+                }
+            } else {
+                for (int slot = 0; slot < slots; ++slot) {
+                    if (!slotSeen[slot]) continue;
+                    const int tx0 = floorInt((slotS[slot] - hs) * inverseT), tx1 = floorInt((slotS[slot] + hs) * inverseT);
+                    const int ty0 = floorInt((slotT[slot] - ht) * inverseT), ty1 = floorInt((slotT[slot] + ht) * inverseT);
+                    for (int ty = ty0; ty <= ty1; ++ty)
+                        for (int tx = tx0; tx <= tx1; ++tx) {
+                            const int texel = slotTexel(tx, ty, slot);
+                            overlapping(tx * T + (texel & tileMask), ty * T + (texel >> tileShift), slot);
+                        }
+                }
             }
         } else {
             // A wide region (blur, a large footprint): Reeves' count of
@@ -937,14 +992,14 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                     if (!slotSeen[slot]) continue;
                     const float u = slotS[slot] + du, v = slotT[slot] + dv;
                     const int tx = floorInt(u * inverseT), ty = floorInt(v * inverseT), texel = slotTexel(tx, ty, slot);
-                    const int iu = (tx << tileShift) + (texel & tileMask), iv = (ty << tileShift) + (texel >> tileShift);
+                    const int iu = tx * T + (texel & tileMask), iv = ty * T + (texel >> tileShift);
                     const float ex = float(iu) + 0.5f - u, ey = float(iv) + 0.5f - v, d2 = ex * ex + ey * ey;
                     if (d2 < nearest) nearest = d2, bestU = iu, bestV = iv;
                 }
-                take(bestU, bestV, du, dv, 1.0f, r);
+                take(bestU, bestV, du, dv, 1.0f, k);
             }
         }
-        const int count = int(taken.size());
+        const int count = int(samplesTaken);
         ++st.filtered;
         st.samples += uint64_t(count);
         // Two-layer maps: Wang & Molnar's Figure 10, as for a still point.

@@ -270,6 +270,7 @@ void ShadowMap::setFaces(std::vector<std::shared_ptr<ShadowMap>> faces) {
     m_texelTimes = f0.m_texelTimes;
     m_slotTexel = f0.m_slotTexel;
     m_slotTime = f0.m_slotTime;
+    m_texelSlot = f0.m_texelSlot;
     m_finiteCount = 0;
     for (const auto& f : faces) m_finiteCount += f->m_finiteCount;
     m_faces = std::move(faces);
@@ -314,7 +315,7 @@ bool ShadowMap::openPart(std::string& why) const {
 
 void ShadowMap::setupTimeSlots(const std::vector<float>& texelTimes) {
     m_timePeriod = 0;
-    m_texelTimes.clear(), m_slotTexel.clear(), m_slotTime.clear();
+    m_texelTimes.clear(), m_slotTexel.clear(), m_slotTime.clear(), m_texelSlot.clear();
     // A time tile's texels must fit the slot index (uint8_t) and the
     // lookup's table of slots (256); its search takes powers of two.
     if (!validTexelTimes(texelTimes, m_timeTile) || m_timeTile > 16) return;
@@ -325,6 +326,7 @@ void ShadowMap::setupTimeSlots(const std::vector<float>& texelTimes) {
     m_texelTimes = texelTimes;
     m_slotTexel.resize(size_t(tilesPerSide) * size_t(tilesPerSide) * size_t(slots));
     m_slotTime.assign(size_t(slots), 0.0f);
+    m_texelSlot.resize(size_t(n) * size_t(n));
     std::vector<int> order(static_cast<size_t>(slots));
     for (int ty = 0; ty < tilesPerSide; ++ty)
         for (int tx = 0; tx < tilesPerSide; ++tx) {
@@ -334,6 +336,8 @@ void ShadowMap::setupTimeSlots(const std::vector<float>& texelTimes) {
             const size_t tile = size_t(ty * tilesPerSide + tx) * size_t(slots);
             for (int k = 0; k < slots; ++k) {
                 m_slotTexel[tile + size_t(k)] = uint8_t(order[size_t(k)]);
+                const int texel = order[size_t(k)];
+                m_texelSlot[size_t(ty * T + texel / T) * size_t(n) + size_t(tx * T + texel % T)] = uint8_t(k);
                 m_slotTime[size_t(k)] += timeOf(order[size_t(k)]) / float(tilesPerSide * tilesPerSide);
             }
         }

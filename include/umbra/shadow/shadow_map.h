@@ -463,6 +463,7 @@ private:
     std::vector<float> m_texelTimes;
     std::vector<uint8_t> m_slotTexel;
     std::vector<float> m_slotTime;
+    std::vector<uint8_t> m_texelSlot;  // each texel's slot over the period, [y * period + x]
     void setupTimeSlots(const std::vector<float>& texelTimes);
     uint64_t m_fileBytes = 0;
     /// Virtual sampling: planes go from light camera space to the light's
