@@ -792,19 +792,16 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
     };
 
     // A moving receiver (docs/motion.md): the map holds each time of the
-    // shutter in one texel of every time tile ("slot" k of the tile). Where
-    // the point is at each slot's time is projected once. A sample, at
-    // offset (du, dv) in the point's region, looks in each slot for the
-    // texel of that slot in the time tile under where the point then is
-    // plus the offset, and takes the one of all slots nearest its place:
-    // a texel at the offset from where the point is at that texel's time.
-    // (A point whose place moves less than a quarter texel takes the texel
-    // under it.) It compares the texel with the point's depth at that
-    // time. So a surface that moves is compared with itself at one time,
-    // and with the casters where they were then. For two-layer maps'
-    // virtual samples its tangent plane moves with it (its turning is not
-    // followed). The regions' sampling is always the jittered one. Points
-    // are culled by the depth ranges as still ones are, with their regions
+    // shutter in one texel of every time tile ("slot" k of the tile), and
+    // the point is compared with each texel where it is at that texel's
+    // time: with itself at one time, and with the casters where they were
+    // then. Where the point is at each slot's time is projected once. A
+    // region of a few texels takes every texel that overlaps it where the
+    // point is at the texel's time; a wide one jittered samples, each the
+    // texel, of all slots, nearest its offset from where the point is at
+    // the slot's time. For two-layer maps' virtual samples the tangent
+    // plane moves with the point (its turning is not followed). Points are
+    // culled by the depth ranges as still ones are, with their regions
     // swept over the shutter and their depths' range over it.
     struct MovingSample {
         int iu, iv;
@@ -887,8 +884,6 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
         std::vector<MovingSample>& taken = t_moving;
         taken.clear();
         float inShadow = 0, weightSum = 0;
-        // Texel (iu, iv) as a sample at offset (du, dv) from where the point
-        // is at the texel's time, its bias drawn with `r`.
         // The swept region's texels, when they lie in one tile of the map
         // and its data window (the usual), read straight from the tile.
         const float* single = nullptr;
@@ -907,8 +902,10 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
         const bool keep = virtualCompare;
         const float invHs = 1.0f / std::max(hs, 1e-30f), invHt = 1.0f / std::max(ht, 1e-30f);
         int samplesTaken = 0;
-        // `sample`: the jittered sample's index, or -1 for a texel taken
-        // whole (its bias drawn by its place).
+        // Texel (iu, iv) as a sample at offset (du, dv) from where the point
+        // is at the texel's time, weighing `area`; `sample`: the jittered
+        // sample's index, or -1 for a texel taken whole (its bias drawn by
+        // its place).
         auto take = [&](int iu, int iv, float du, float dv, float area, int sample) {
             ++samplesTaken;
             MovingSample m;
