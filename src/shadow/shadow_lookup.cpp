@@ -805,7 +805,8 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
     // swept over the shutter and their depths' range over it.
     struct MovingSample {
         int iu, iv;
-        float time, bias, depth, weight;
+        float time;  // the fraction of its motion the point has made at the texel's time
+        float bias, depth, weight;
     };
     thread_local std::vector<MovingSample> t_moving;
     auto movingShadow = [&](int i) -> float {
@@ -830,9 +831,16 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
         const float x0 = R[0][0] * P.x + R[0][1] * P.y + R[0][2] * P.z + R[0][3], xm = R[0][0] * M.x + R[0][1] * M.y + R[0][2] * M.z;
         const float y0 = R[1][0] * P.x + R[1][1] * P.y + R[1][2] * P.z + R[1][3], ym = R[1][0] * M.x + R[1][1] * M.y + R[1][2] * M.z;
         const float w0 = R[3][0] * P.x + R[3][1] * P.y + R[3][2] * P.z + R[3][3], wm = R[3][0] * M.x + R[3][1] * M.y + R[3][2] * M.z;
-        const float z0 = depthOf(P), zm = depthOf(P + M) - z0;
+        const float z0 = depthOf(P), zm = depthOf(P + M) - z0, z1 = z0 + zm;
+        // The depth pass moved its micropolygons linearly in its raster
+        // space and in 1/z under perspective: at time u of the shutter the
+        // map holds a point that goes from depth z0 to z1 where it is at
+        // fraction u z0 / ((1 - u) z1 + u z0) of its straight path (the
+        // point of the path whose 1/z is the blend of the ends').
+        const bool projective = m_projection == Projection::Perspective && z0 > 0 && z1 > 0;
+        auto along = [&](float u) { return projective ? u * z0 / ((1.0f - u) * z1 + u * z0) : u; };
         for (int k = 0; k < slots; ++k) {
-            const float time = m_slotTime[size_t(k)], w = w0 + wm * time, inverse = 1.0f / w;
+            const float time = along(m_slotTime[size_t(k)]), w = w0 + wm * time, inverse = 1.0f / w;
             slotS[k] = (x0 + xm * time) * inverse;
             slotT[k] = (y0 + ym * time) * inverse;
             slotSeen[k] = w > 0 && z0 + zm * time >= 0 && std::abs(slotS[k]) < 1e9f && std::abs(slotT[k]) < 1e9f;
@@ -858,7 +866,7 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
             return 0.0f;
         }
         // (Depth is affine in position, so linear in time.)
-        const float zOpen = z0, zClose = z0 + zm, zMotion = zm;
+        const float zOpen = z0, zClose = z1, zMotion = zm;
         const float zLo = std::min(zOpen, zClose), zHi = std::max(zOpen, zClose);
         if (params.tileCulling) {
             const int ci0 = std::max(iLo, dx0), ci1 = std::min(iHi, dx1), cj0 = std::max(jLo, dy0), cj1 = std::min(jHi, dy1);
@@ -910,7 +918,7 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
             ++samplesTaken;
             MovingSample m;
             m.iu = iu, m.iv = iv;
-            m.time = m_texelTimes[size_t((iv & periodMask) * m_timePeriod + (iu & periodMask))];
+            m.time = along(m_texelTimes[size_t((iv & periodMask) * m_timePeriod + (iu & periodMask))]);
             m.bias = biasMid;
             if (randomBias) {
                 const int key = sample >= 0 ? sample : int(hashKeys(uint32_t(iu), uint32_t(iv)) & 0xffffffu);
