@@ -172,13 +172,25 @@ bool Services::shadow(const shading::ShadingGrid& grid, const shading::ShadowQue
     batch.pointId = q.indices;
     ShadowParams params = paramsOf(q, m_diag);
     if (params.bias == 0 && params.bias0 == 0 && params.bias1 == 0) applyDefaultBias(*map, params);
-    // A moving surface: its motion over the shutter, point by point, for a
+    // A moving surface: its path over the shutter, point by point, for a
     // map of moving casters to compare each time with it where it is then.
-    thread_local std::vector<Vec3> t_motion;
-    if (!grid.dPdtime.empty() && map->timeTile() > 0) {
-        surfaceMotion(grid, q, t_motion);
-        if (map->knowsTexelTimes()) batch.motion = t_motion.data();
-        else warnMovingReceiver(grid, q, *map, params, batch.worldFromCurrent, t_motion);
+    thread_local std::vector<Vec3> t_offsets;
+    const size_t keys = grid.pathTimes.size();
+    if (keys > 1 && map->timeTile() > 0) {
+        t_offsets.resize(keys * size_t(q.count));
+        const size_t n = size_t(grid.size());
+        for (size_t k = 0; k < keys; ++k)
+            for (int i = 0; i < q.count; ++i) {
+                const size_t v = size_t(q.indices ? q.indices[i] : i);
+                t_offsets[k * size_t(q.count) + size_t(i)] = v < n ? grid.pathOffsets[k * n + v] : Vec3();
+            }
+        if (map->knowsTexelTimes()) {
+            batch.pathKeys = int(keys);
+            batch.pathTimes = grid.pathTimes.data();
+            batch.pathOffsets = t_offsets.data();
+        } else {
+            warnMovingReceiver(grid, q, *map, params, batch.worldFromCurrent, t_offsets);
+        }
     }
     ShadowStats stats;
     // The thread's CPU clock, not the wall's: a lookup preempted on a busy
@@ -193,27 +205,9 @@ bool Services::shadow(const shading::ShadingGrid& grid, const shading::ShadowQue
     return true;
 }
 
-void Services::surfaceMotion(const shading::ShadingGrid& grid, const shading::ShadowQuery& q,
-                             std::vector<Vec3>& motion) const {
-    // dPdtime runs from the opening to the close in the camera's space at
-    // each time: under a moving camera, where the point is at the close
-    // is carried back to the opening's camera ("current") space.
-    const GridState& st = stateOf(grid);
-    const bool cameraMoves = st.pass->cameraMotion != nullptr;
-    const Mat4 currentFromClosing =
-        cameraMoves ? st.pass->camera.cameraFromWorld * st.pass->cameraMotion->at(st.frame->shutterClose).inverse()
-                    : Mat4::identity();
-    motion.resize(size_t(q.count));
-    for (int k = 0; k < q.count; ++k) {
-        const size_t v = size_t(q.indices ? q.indices[k] : k);
-        const Vec3 moved = v < grid.dPdtime.size() ? grid.dPdtime[v] * grid.dtime : Vec3();
-        motion[size_t(k)] = cameraMoves ? currentFromClosing.point(q.P[k] + moved) - q.P[k] : moved;
-    }
-}
-
 void Services::warnMovingReceiver(const shading::ShadingGrid& grid, const shading::ShadowQuery& q, const ShadowMap& map,
                                   const ShadowParams& params, const Mat4& worldFromCurrent,
-                                  const std::vector<Vec3>& motion) {
+                                  const std::vector<Vec3>& pathOffsets) {
     // A map of moving casters holds each texel at one time of the shutter
     // (docs/motion.md); when it does not say which, a surface is looked up
     // at the shutter's opening: where it moves (in the light's space) by
@@ -223,7 +217,7 @@ void Services::warnMovingReceiver(const shading::ShadingGrid& grid, const shadin
     const Mat4 lightFromCurrent = map.lightFromWorld() * worldFromCurrent;
     const float bias = std::max({params.bias, params.bias0, params.bias1});
     float largest = 0;
-    for (const Vec3& m : motion) largest = std::max(largest, length(lightFromCurrent.vector(m)));
+    for (const Vec3& offset : pathOffsets) largest = std::max(largest, length(lightFromCurrent.vector(offset)));
     if (!(largest > bias)) return;
     const GridState& st = stateOf(grid);
     m_diag.warningOnce("moving receiver " + q.mapName, st.record ? st.record->loc : FileLoc(),

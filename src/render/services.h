@@ -83,10 +83,8 @@ private:
     /// casters whose texels' times are unknown (one made from a zfile)
     /// further than the bias (it may shadow itself: docs/motion.md).
     void warnMovingReceiver(const shading::ShadingGrid& grid, const shading::ShadowQuery& q, const ShadowMap& map,
-                            const ShadowParams& params, const Mat4& worldFromCurrent, const std::vector<Vec3>& motion);
-    /// Each point of `q`'s motion over the shutter in "current" space (the
-    /// camera's at the opening): ShadowBatch::motion.
-    void surfaceMotion(const shading::ShadingGrid& grid, const shading::ShadowQuery& q, std::vector<Vec3>& motion) const;
+                            const ShadowParams& params, const Mat4& worldFromCurrent,
+                            const std::vector<Vec3>& pathOffsets);
     static constexpr float kDefaultShadowBias = 0.225f;
     /// Exact shadows by tracing towards the light (reference mode).
     bool raytrace(const GridState& st, const shading::ShadowQuery& q, float* result);

@@ -404,6 +404,23 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
             for (int i = 0; i < n; ++i)
                 sg.dPdtime[size_t(i)] = (atClose.point(closed[i]) - g.P[size_t(i)]) / sg.dtime;
         }
+        // The path shadow() follows through a map of moving casters: the
+        // undisplaced surface at every placement time, the camera held at
+        // the opening.
+        sg.pathTimes.clear();
+        sg.pathOffsets.clear();
+        if (keys > 1 && sg.dtime > 0) {
+            sg.pathTimes.resize(keys);
+            sg.pathOffsets.resize(keys * size_t(n));
+            for (size_t k = 0; k < keys; ++k) {
+                sg.pathTimes[k] = (times[k] - m_frame.shutterOpen) / sg.dtime;
+                const Mat4 currentFromObject =
+                    cam.cameraFromWorld * (rec.worldFromObjectMotion ? rec.worldFromObjectMotion->at(times[k]) : rec.worldFromObject);
+                const Vec3* at = &objectAt[k * size_t(n)];
+                for (int i = 0; i < n; ++i)
+                    sg.pathOffsets[k * size_t(n) + size_t(i)] = currentFromObject.point(at[i]) - g.P[size_t(i)];
+            }
+        }
         sg.seed = hashKeys(m_frame.frameSeed, uint32_t(id), uint32_t(id >> 32));
         sg.renderState = &state;
 

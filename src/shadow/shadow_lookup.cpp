@@ -608,7 +608,7 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
     // Moving receivers on a map of moving casters whose texel times are
     // known are looked up time by time (movingShadow below), every point
     // of the batch, without the shortcuts that assume one depth and place.
-    const bool timeByTime = !kPointSample && batch.motion && knowsTexelTimes();
+    const bool timeByTime = !kPointSample && batch.pathKeys > 1 && knowsTexelTimes();
     // A map of moving casters holds each time in one texel of every time
     // tile: regions span at least a tile, so each sees the whole shutter.
     const float minHalf = std::max({0.0f, params.minSize * 0.5f, float(m_timeTile) * 0.5f});
@@ -805,12 +805,16 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
     // swept over the shutter and their depths' range over it.
     struct MovingSample {
         int iu, iv;
-        float time;  // the fraction of its motion the point has made at the texel's time
+        Vec3 at;           // where the point is at the texel's time
+        float pointDepth;  // its depth there
         float bias, depth, weight;
     };
     thread_local std::vector<MovingSample> t_moving;
+    thread_local std::vector<Vec3> t_keyPoints;
+    thread_local std::vector<float> t_keyDepths;
+    const int pathKeys = batch.pathKeys;
     auto movingShadow = [&](int i) -> float {
-        const Vec3 P = batch.P[i], M = batch.motion[i];
+        const Vec3 P = batch.P[i];
         const auto& L = lightFromCurrent.m;
         const auto& R = rasterFromCurrent.m;
         auto depthOf = [&](const Vec3& X) { return L[2][0] * X.x + L[2][1] * X.y + L[2][2] * X.z + L[2][3]; };
@@ -821,29 +825,45 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
         const int periodMask = m_timePeriod - 1, tilesMask = (m_timePeriod >> tileShift) - 1;
         const int tilesShift = std::countr_zero(unsigned(m_timePeriod >> tileShift));
         const float inverseT = 1.0f / float(T);
+        // Where the point is at time u of the shutter, as the depth pass
+        // placed it: between the path's keys it moved its micropolygons
+        // linearly in its raster space and, under perspective, in 1/z, so
+        // between keys at depths za and zb, at fraction v of the interval,
+        // the map holds the point that has made v za / ((1 - v) zb + v za)
+        // of its straight way (the point whose 1/z is the ends' blend).
+        const float* keyTimes = batch.pathTimes;
+        std::vector<Vec3>& keyPoint = t_keyPoints;
+        std::vector<float>& keyDepth = t_keyDepths;
+        keyPoint.resize(size_t(pathKeys));
+        keyDepth.resize(size_t(pathKeys));
+        for (int k = 0; k < pathKeys; ++k) {
+            keyPoint[size_t(k)] = P + batch.pathOffsets[size_t(k) * size_t(batch.count) + size_t(i)];
+            keyDepth[size_t(k)] = depthOf(keyPoint[size_t(k)]);
+        }
+        const bool perspective = m_projection == Projection::Perspective;
+        auto pointAt = [&](float u) {
+            size_t a = 0;
+            while (int(a) + 2 < pathKeys && u > keyTimes[a + 1]) ++a;
+            const Vec3 A = keyPoint[a], B = keyPoint[a + 1];
+            const float za = keyDepth[a], zb = keyDepth[a + 1], span = keyTimes[a + 1] - keyTimes[a];
+            const float v = span > 0 ? std::clamp((u - keyTimes[a]) / span, 0.0f, 1.0f) : 0.0f;
+            const bool projective = perspective && za > 0 && zb > 0;
+            return A + (B - A) * (projective ? v * za / ((1.0f - v) * zb + v * za) : v);
+        };
         // Where the point is at each slot's time, and the box of those
         // places (a slot behind the light has none).
-        float slotS[kMaxTimeSlots], slotT[kMaxTimeSlots];
+        float slotS[kMaxTimeSlots], slotT[kMaxTimeSlots], slotDepth[kMaxTimeSlots];
+        Vec3 slotPoint[kMaxTimeSlots];
         bool slotSeen[kMaxTimeSlots];
         float sLo = kInfinity, sHi = -kInfinity, tLo = kInfinity, tHi = -kInfinity;
-        // The point's homogeneous raster position and depth are linear in
-        // time: its place at a time is one divide away.
-        const float x0 = R[0][0] * P.x + R[0][1] * P.y + R[0][2] * P.z + R[0][3], xm = R[0][0] * M.x + R[0][1] * M.y + R[0][2] * M.z;
-        const float y0 = R[1][0] * P.x + R[1][1] * P.y + R[1][2] * P.z + R[1][3], ym = R[1][0] * M.x + R[1][1] * M.y + R[1][2] * M.z;
-        const float w0 = R[3][0] * P.x + R[3][1] * P.y + R[3][2] * P.z + R[3][3], wm = R[3][0] * M.x + R[3][1] * M.y + R[3][2] * M.z;
-        const float z0 = depthOf(P), zm = depthOf(P + M) - z0, z1 = z0 + zm;
-        // The depth pass moved its micropolygons linearly in its raster
-        // space and in 1/z under perspective: at time u of the shutter the
-        // map holds a point that goes from depth z0 to z1 where it is at
-        // fraction u z0 / ((1 - u) z1 + u z0) of its straight path (the
-        // point of the path whose 1/z is the blend of the ends').
-        const bool projective = m_projection == Projection::Perspective && z0 > 0 && z1 > 0;
-        auto along = [&](float u) { return projective ? u * z0 / ((1.0f - u) * z1 + u * z0) : u; };
         for (int k = 0; k < slots; ++k) {
-            const float time = along(m_slotTime[size_t(k)]), w = w0 + wm * time, inverse = 1.0f / w;
-            slotS[k] = (x0 + xm * time) * inverse;
-            slotT[k] = (y0 + ym * time) * inverse;
-            slotSeen[k] = w > 0 && z0 + zm * time >= 0 && std::abs(slotS[k]) < 1e9f && std::abs(slotT[k]) < 1e9f;
+            const Vec3 X = pointAt(m_slotTime[size_t(k)]);
+            slotPoint[k] = X;
+            slotDepth[k] = depthOf(X);
+            const float w = R[3][0] * X.x + R[3][1] * X.y + R[3][2] * X.z + R[3][3], inverse = 1.0f / w;
+            slotS[k] = (R[0][0] * X.x + R[0][1] * X.y + R[0][2] * X.z + R[0][3]) * inverse;
+            slotT[k] = (R[1][0] * X.x + R[1][1] * X.y + R[1][2] * X.z + R[1][3]) * inverse;
+            slotSeen[k] = w > 0 && slotDepth[k] >= 0 && std::abs(slotS[k]) < 1e9f && std::abs(slotT[k]) < 1e9f;
             if (!slotSeen[k]) continue;
             sLo = std::min(sLo, slotS[k]), sHi = std::max(sHi, slotS[k]);
             tLo = std::min(tLo, slotT[k]), tHi = std::max(tHi, slotT[k]);
@@ -865,9 +885,10 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
             ++st.outside;
             return 0.0f;
         }
-        // (Depth is affine in position, so linear in time.)
-        const float zOpen = z0, zClose = z1, zMotion = zm;
-        const float zLo = std::min(zOpen, zClose), zHi = std::max(zOpen, zClose);
+        // Between keys depth runs monotonically: its range over the shutter
+        // is the keys'.
+        const float zLo = *std::min_element(keyDepth.begin(), keyDepth.end());
+        const float zHi = *std::max_element(keyDepth.begin(), keyDepth.end());
         if (params.tileCulling) {
             const int ci0 = std::max(iLo, dx0), ci1 = std::min(iHi, dx1), cj0 = std::max(jLo, dy0), cj1 = std::min(jHi, dy1);
             const bool inside = ci0 == iLo && ci1 == iHi && cj0 == jLo && cj1 == jHi;
@@ -914,11 +935,18 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
         // is at the texel's time, weighing `area`; `sample`: the jittered
         // sample's index, or -1 for a texel taken whole (its bias drawn by
         // its place).
-        auto take = [&](int iu, int iv, float du, float dv, float area, int sample) {
+        auto take = [&](int iu, int iv, int slot, float du, float dv, float area, int sample) {
             ++samplesTaken;
             MovingSample m;
             m.iu = iu, m.iv = iv;
-            m.time = along(m_texelTimes[size_t((iv & periodMask) * m_timePeriod + (iu & periodMask))]);
+            // (The slot's time in umbra's maps, whose tiles all time their
+            // k-th texel alike.)
+            const float u = m_texelTimes[size_t((iv & periodMask) * m_timePeriod + (iu & periodMask))];
+            if (u == m_slotTime[size_t(slot)]) {
+                m.at = slotPoint[slot], m.pointDepth = slotDepth[slot];
+            } else {
+                m.at = pointAt(u), m.pointDepth = depthOf(m.at);
+            }
             m.bias = biasMid;
             if (randomBias) {
                 const int key = sample >= 0 ? sample : int(hashKeys(uint32_t(iu), uint32_t(iv)) & 0xffffffu);
@@ -936,7 +964,7 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                 m.weight *= std::exp(-2.0f * (ru * ru + rv * rv));
             }
             weightSum += m.weight;
-            if (zOpen + zMotion * m.time > m.depth + m.bias) inShadow += m.weight;
+            if (m.pointDepth > m.depth + m.bias) inShadow += m.weight;
             if (keep) taken.push_back(m);
         };
         auto slotTexel = [&](int tx, int ty, int slot) {
@@ -958,7 +986,7 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                 const float overlapU = std::min(float(iu + 1), s1) - std::max(float(iu), s0);
                 const float overlapV = std::min(float(iv + 1), t1) - std::max(float(iv), t0);
                 if (!(overlapU > 0 && overlapV > 0)) return;
-                take(iu, iv, float(iu) + 0.5f - slotS[slot], float(iv) + 0.5f - slotT[slot], overlapU * overlapV, -1);
+                take(iu, iv, slot, float(iu) + 0.5f - slotS[slot], float(iv) + 0.5f - slotT[slot], overlapU * overlapV, -1);
             };
             const int sweptTexels = (iHi - iLo + 1) * (jHi - jLo + 1);
             if (sweptTexels <= 3 * slots) {
@@ -992,16 +1020,16 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
                 const SampleRandoms r(pointSeed, k);
                 const float du = (float(k / nt) + r.ju()) * ds - hs, dv = (float(k % nt) + r.jv()) * dt - ht;
                 float nearest = kInfinity;
-                int bestU = 0, bestV = 0;
+                int bestU = 0, bestV = 0, bestSlot = 0;
                 for (int slot = 0; slot < slots; ++slot) {
                     if (!slotSeen[slot]) continue;
                     const float u = slotS[slot] + du, v = slotT[slot] + dv;
                     const int tx = floorInt(u * inverseT), ty = floorInt(v * inverseT), texel = slotTexel(tx, ty, slot);
                     const int iu = tx * T + (texel & tileMask), iv = ty * T + (texel >> tileShift);
                     const float ex = float(iu) + 0.5f - u, ey = float(iv) + 0.5f - v, d2 = ex * ex + ey * ey;
-                    if (d2 < nearest) nearest = d2, bestU = iu, bestV = iv;
+                    if (d2 < nearest) nearest = d2, bestU = iu, bestV = iv, bestSlot = slot;
                 }
-                take(bestU, bestV, du, dv, 1.0f, k);
+                take(bestU, bestV, bestSlot, du, dv, 1.0f, k);
             }
         }
         const int count = int(samplesTaken);
@@ -1013,12 +1041,12 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
             ++st.virtualPoints;
             inShadow = 0;
             for (const MovingSample& m : taken) {
-                const TangentPlane plane = tangentPlane(planes, P + M * m.time, batch.N[i]);
+                const TangentPlane plane = tangentPlane(planes, m.at, batch.N[i]);
                 const bool shadowed =
                     plane.valid ? m.depth != kInfinity &&
                                       virtualDeeper(plane, m.iu, m.iv,
                                                     m.depth + m.bias + kVirtualSlack * std::abs(m.depth))
-                                : zOpen + zMotion * m.time > m.depth + m.bias;
+                                : m.pointDepth > m.depth + m.bias;
                 if (shadowed) inShadow += m.weight;
             }
         }
@@ -1353,7 +1381,7 @@ void ShadowMap::lookupCube(const ShadowBatch& batch, const ShadowParams& params,
     // direction from the light: the largest light camera-space z. Points are
     // gathered per face into per-thread scratch (no allocation once warm).
     struct Scratch {
-        std::vector<Vec3> P, du, dv, N, motion, corners[4];
+        std::vector<Vec3> P, du, dv, N, path, corners[4];
         std::vector<float> out;
         std::vector<int> index, id;
     };
@@ -1364,7 +1392,7 @@ void ShadowMap::lookupCube(const ShadowBatch& batch, const ShadowParams& params,
         for (int c = 0; c < 4; ++c) rows[f][c] = m.m[2][c];
     }
     for (Scratch& sc : scratch) {
-        sc.P.clear(); sc.du.clear(); sc.dv.clear(); sc.N.clear(); sc.motion.clear(); sc.index.clear(); sc.id.clear();
+        sc.P.clear(); sc.du.clear(); sc.dv.clear(); sc.N.clear(); sc.path.clear(); sc.index.clear(); sc.id.clear();
         for (auto& c : sc.corners) c.clear();
     }
     const bool footprint = batch.dPdu_du && batch.dPdv_dv;
@@ -1386,7 +1414,6 @@ void ShadowMap::lookupCube(const ShadowBatch& batch, const ShadowParams& params,
             sc.dv.push_back(batch.dPdv_dv[i]);
         }
         if (batch.N) sc.N.push_back(batch.N[i]);
-        if (batch.motion) sc.motion.push_back(batch.motion[i]);
         if (batch.corners[0])
             for (int c = 0; c < 4; ++c) sc.corners[c].push_back(batch.corners[c][i]);
         sc.index.push_back(i);
@@ -1401,7 +1428,16 @@ void ShadowMap::lookupCube(const ShadowBatch& batch, const ShadowParams& params,
         sub.dPdu_du = footprint ? sc.du.data() : nullptr;
         sub.dPdv_dv = footprint ? sc.dv.data() : nullptr;
         sub.N = batch.N ? sc.N.data() : nullptr;
-        sub.motion = batch.motion ? sc.motion.data() : nullptr;
+        if (batch.pathKeys > 1) {
+            // The face's points' paths, key by key.
+            const size_t count = sc.index.size();
+            sc.path.resize(size_t(batch.pathKeys) * count);
+            for (int k = 0; k < batch.pathKeys; ++k)
+                for (size_t j = 0; j < count; ++j)
+                    sc.path[size_t(k) * count + j] =
+                        batch.pathOffsets[size_t(k) * size_t(batch.count) + size_t(sc.index[j])];
+            sub.pathOffsets = sc.path.data();
+        }
         for (int c = 0; c < 4; ++c) sub.corners[c] = batch.corners[0] ? sc.corners[c].data() : nullptr;
         sub.seed = hashKeys(batch.seed, uint32_t(f));
         sub.pointId = sc.id.data();

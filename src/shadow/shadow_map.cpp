@@ -341,6 +341,19 @@ void ShadowMap::setupTimeSlots(const std::vector<float>& texelTimes) {
                 m_slotTime[size_t(k)] += timeOf(order[size_t(k)]) / float(tilesPerSide * tilesPerSide);
             }
         }
+    // Umbra's maps time every tile's k-th texel alike: the slot's time is
+    // then exactly its texels' (a mean of equal floats need not be).
+    for (int k = 0; k < slots; ++k) {
+        const int texel = m_slotTexel[size_t(k)];
+        const float first = texelTimes[size_t(texel / T) * size_t(n) + size_t(texel % T)];
+        bool shared = true;
+        for (int tile = 0; tile < tilesPerSide * tilesPerSide && shared; ++tile) {
+            const int tx = tile % tilesPerSide, ty = tile / tilesPerSide;
+            const int t = m_slotTexel[size_t(tile) * size_t(slots) + size_t(k)];
+            shared = texelTimes[size_t(ty * T + t / T) * size_t(n) + size_t(tx * T + t % T)] == first;
+        }
+        if (shared) m_slotTime[size_t(k)] = first;
+    }
 }
 
 bool ShadowMap::initHeader(const Imf::Header& header, int tilesX, int tilesY, std::string& why) {

@@ -125,6 +125,14 @@ public:
     /// `dPdtime`); empty for a still grid (then 0). resize() and bind()
     /// leave it alone: the renderer fills or clears it for every grid.
     std::vector<Vec3> dPdtime;
+    /// A moving grid's path for shadow lookups: at each of its placement
+    /// times (`pathTimes`, fractions of the shutter from 0 to 1), each
+    /// vertex's offset from where it is at the opening, in current space
+    /// with the camera held at the opening (so the world's motion, not the
+    /// camera's): pathOffsets[key * size() + vertex]. Empty for a still
+    /// grid; the renderer fills or clears both for every grid.
+    std::vector<float> pathTimes;
+    std::vector<Vec3> pathOffsets;
     // Uniform globals.
     float du = 0, dv = 0;
     Vec3 E{0, 0, 0};

@@ -76,12 +76,15 @@ struct ShadowBatch {
     const Vec3* corners[4] = {nullptr, nullptr, nullptr, nullptr};
     Mat4 worldFromCurrent;
     uint32_t seed = 0;              ///< identity of the call (frame, grid, light): seeds the samples
-    /// Each point's motion over the shutter, current space: where it is at
-    /// the close less where it is at the opening, to first order (dPdtime
-    /// times the shutter's length). On a map of moving casters whose texel
-    /// times are known, each of its times' texels is compared with the point
-    /// where it is at that time (docs/motion.md). Null: still points.
-    const Vec3* motion = nullptr;
+    /// Moving points' paths over the shutter: `pathKeys` times, fractions of
+    /// the shutter from 0 to 1 (`pathTimes`), and each point's offset from
+    /// P at each, in current space with the camera held at the opening:
+    /// pathOffsets[key * count + point]. On a map of moving casters whose
+    /// texel times are known, each time's texels are compared with the
+    /// point where it is at that time (docs/motion.md). 0 keys: still.
+    int pathKeys = 0;
+    const float* pathTimes = nullptr;
+    const Vec3* pathOffsets = nullptr;
     /// Each point's identity within the call (its vertex in the grid), which
     /// seeds its samples with `seed`: a point's samples do not depend on
     /// which other points were looked up with it. Null: its place in the batch.

@@ -539,6 +539,14 @@ std::string movingFloor(double toward) {
         "Polygon \"P\" [-6 -6 10  6 -6 10  6 6 10  -6 6 10]\n",
         -toward);
 }
+/// The floor going `toward` the light by mid-shutter and back by the close.
+std::string thereAndBackFloor(double toward) {
+    return fmt::format(
+        "Surface \"matte\" \"Kd\" [1] \"Ka\" [0]\n"
+        "MotionBegin [0 0.5 1]\nTranslate 0 0 0\nTranslate 0 0 {}\nTranslate 0 0 0\nMotionEnd\n"
+        "Polygon \"P\" [-6 -6 10  6 -6 10  6 6 10  -6 6 10]\n",
+        -toward);
+}
 
 /// The floor's map made as exporters make one: a light-view frame writing
 /// a zfile, then MakeShadow.
@@ -550,14 +558,15 @@ std::string movingFloorMapFrames(double toward) {
 
 /// The floor seen from the light (orthographic, 40 x 40), lit by the spot
 /// with the shadow map `map` ("" for none).
-std::string movingFloorFrame(double toward, const std::string& map, const std::string& options = "") {
+std::string movingFloorFrame(double toward, const std::string& map, const std::string& options = "",
+                             const std::string& floor = "") {
     return fmt::format(
         "FrameBegin 2\nFormat 40 40 1\nPixelSamples 4 4\nPixelFilter \"box\" 1 1\nProjection \"orthographic\"\n"
         "ScreenWindow -1 1 -1 1\nShutter 0 1\nOption \"umbra\" \"shadowmapsize\" [256]\n{}"
         "Quantize \"rgba\" 0 0 0 0\nDisplay \"out.tif\" \"file\" \"rgba\"\nWorldBegin\n"
         "LightSource \"shadowspot\" 1 \"coneangle\" [0.7] \"conedeltaangle\" [0] \"intensity\" [100]{}\n{}"
         "WorldEnd\nFrameEnd\n",
-        options, map.empty() ? "" : " \"shadowname\" [\"" + map + "\"]", movingFloor(toward));
+        options, map.empty() ? "" : " \"shadowname\" [\"" + map + "\"]", floor.empty() ? movingFloor(toward) : floor);
 }
 
 /// The floor's mean red over its middle, and the warnings that it may
@@ -616,6 +625,16 @@ TEST(MotionBlur, ASurfaceMovingTowardItsLightIsComparedWithItselfAtEachTime) {
         const double lit = movingFloorLight(movingFloorFrame(2.0, "", options), dir, &warnings);
         EXPECT_NEAR(movingFloorLight(movingFloorFrame(2.0, "auto", options), dir, &warnings) / lit, 1.0, 0.01)
             << options;
+    }
+    // Along its keys, not the line from its opening to its close: a floor
+    // that goes 1 toward the light and back (read 0.25 when followed on
+    // that line, which stands still).
+    for (const char* options : {"", "Option \"umbra\" \"depthfilter\" \"second\"\n"}) {
+        const std::string floor = thereAndBackFloor(1.0);
+        const double lit = movingFloorLight(movingFloorFrame(0, "", options, floor), dir, &warnings);
+        EXPECT_NEAR(movingFloorLight(movingFloorFrame(0, "auto", options, floor), dir, &warnings) / lit, 1.0, 0.01)
+            << "there and back, " << options;
+        EXPECT_EQ(warnings, 0);
     }
 }
 
