@@ -559,14 +559,15 @@ std::string movingFloorMapFrames(double toward) {
 /// The floor seen from the light (orthographic, 40 x 40), lit by the spot
 /// with the shadow map `map` ("" for none).
 std::string movingFloorFrame(double toward, const std::string& map, const std::string& options = "",
-                             const std::string& floor = "") {
+                             const std::string& floor = "", const std::string& lightParams = "") {
     return fmt::format(
         "FrameBegin 2\nFormat 40 40 1\nPixelSamples 4 4\nPixelFilter \"box\" 1 1\nProjection \"orthographic\"\n"
         "ScreenWindow -1 1 -1 1\nShutter 0 1\nOption \"umbra\" \"shadowmapsize\" [256]\n{}"
         "Quantize \"rgba\" 0 0 0 0\nDisplay \"out.tif\" \"file\" \"rgba\"\nWorldBegin\n"
         "LightSource \"shadowspot\" 1 \"coneangle\" [0.7] \"conedeltaangle\" [0] \"intensity\" [100]{}\n{}"
         "WorldEnd\nFrameEnd\n",
-        options, map.empty() ? "" : " \"shadowname\" [\"" + map + "\"]", floor.empty() ? movingFloor(toward) : floor);
+        options, map.empty() ? "" : " \"shadowname\" [\"" + map + "\"]" + lightParams,
+        floor.empty() ? movingFloor(toward) : floor);
 }
 
 /// The floor's mean red over its middle, and the warnings that it may
@@ -625,6 +626,15 @@ TEST(MotionBlur, ASurfaceMovingTowardItsLightIsComparedWithItselfAtEachTime) {
         const double lit = movingFloorLight(movingFloorFrame(2.0, "", options), dir, &warnings);
         EXPECT_NEAR(movingFloorLight(movingFloorFrame(2.0, "auto", options), dir, &warnings) / lit, 1.0, 0.01)
             << options;
+    }
+    // A wide filter region (16 times the footprint: 12 texels) takes
+    // jittered samples, each the nearest texel of its time, instead of
+    // every texel.
+    for (const char* options : {"", "Option \"umbra\" \"depthfilter\" \"second\"\n"}) {
+        const double lit = movingFloorLight(movingFloorFrame(2.0, "", options), dir, &warnings);
+        EXPECT_NEAR(movingFloorLight(movingFloorFrame(2.0, "auto", options, "", " \"width\" [16]"), dir, &warnings) / lit,
+                    1.0, 0.01)
+            << "width 16, " << options;
     }
     // Along its keys, not the line from its opening to its close: a floor
     // that goes 1 toward the light and back (read 0.25 when followed on
