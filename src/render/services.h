@@ -80,8 +80,9 @@ private:
     /// "bias" (or "bias0"/"bias1"); 0.225 when unset, as PRMan.
     void applyDefaultBias(const ShadowMap& map, ShadowParams& params) const;
     /// Warns once per map when a moving surface looks up a map of moving
-    /// casters whose texels' times are unknown (one made from a zfile)
-    /// further than the bias (it may shadow itself: docs/motion.md).
+    /// casters whose texels' times are unknown (a map made before maps
+    /// recorded them) further than the bias (it may shadow itself:
+    /// docs/motion.md).
     void warnMovingReceiver(const shading::ShadingGrid& grid, const shading::ShadowQuery& q, const ShadowMap& map,
                             const ShadowParams& params, const Mat4& worldFromCurrent,
                             const std::vector<Vec3>& pathOffsets);

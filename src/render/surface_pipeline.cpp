@@ -406,10 +406,11 @@ bool SurfacePipeline::shade(const geometry::Primitive& prim, int nu, int nv, uin
         }
         // The path shadow() follows through a map of moving casters: the
         // undisplaced surface at every placement time, the camera held at
-        // the opening (a piece only the camera moves past has none).
+        // the opening (a piece only the camera moves past has none, and a
+        // depth pass, which runs no light, needs none).
         sg.pathTimes.clear();
         sg.pathOffsets.clear();
-        if (keys > 1 && sg.dtime > 0 && rec.moving()) {
+        if (keys > 1 && sg.dtime > 0 && rec.moving() && !m_pass.depthOnly) {
             sg.pathTimes.resize(keys);
             sg.pathOffsets.resize(keys * size_t(n));
             for (size_t k = 0; k < keys; ++k) {

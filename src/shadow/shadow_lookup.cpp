@@ -889,10 +889,11 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
         // is the keys'.
         const float zLo = *std::min_element(keyDepth.begin(), keyDepth.end());
         const float zHi = *std::max_element(keyDepth.begin(), keyDepth.end());
+        // The swept region's texels in the data window, and their tiles.
+        const int ci0 = std::max(iLo, dx0), ci1 = std::min(iHi, dx1), cj0 = std::max(jLo, dy0), cj1 = std::min(jHi, dy1);
+        const bool inside = ci0 == iLo && ci1 == iHi && cj0 == jLo && cj1 == jHi;
+        const Covered c = covered(ci0, ci1, cj0, cj1);
         if (params.tileCulling) {
-            const int ci0 = std::max(iLo, dx0), ci1 = std::min(iHi, dx1), cj0 = std::max(jLo, dy0), cj1 = std::min(jHi, dy1);
-            const bool inside = ci0 == iLo && ci1 == iHi && cj0 == jLo && cj1 == jHi;
-            const Covered c = covered(ci0, ci1, cj0, cj1);
             float zMin, zMax;
             bool planar = false;
             if (blockRange(c, &zMin, &zMax, &planar) || tileRange(c, &zMin, &zMax)) {
@@ -917,15 +918,11 @@ void ShadowMap::lookupImpl(const ShadowBatch& batch, const ShadowParams& params,
         // and its data window (the usual), read straight from the tile.
         const float* single = nullptr;
         int singleX = 0, singleY = 0;
-        {
-            const int ci0 = std::max(iLo, dx0), ci1 = std::min(iHi, dx1), cj0 = std::max(jLo, dy0), cj1 = std::min(jHi, dy1);
-            const Covered c = covered(ci0, ci1, cj0, cj1);
-            if (ci0 == iLo && ci1 == iHi && cj0 == jLo && cj1 == jHi && c.tx0 == c.tx1 && c.ty0 == c.ty1) {
-                (void)depthAt(ci0, cj0);  // pins the tile in the memo
-                single = memo.data[TileMemo::slot(m_mapId, c.tx0, c.ty0)];
-                singleX = m_fileX0 + (c.tx0 << shiftX);
-                singleY = m_fileY0 + (c.ty0 << shiftY);
-            }
+        if (inside && c.tx0 == c.tx1 && c.ty0 == c.ty1) {
+            (void)depthAt(ci0, cj0);  // pins the tile in the memo
+            single = memo.data[TileMemo::slot(m_mapId, c.tx0, c.ty0)];
+            singleX = m_fileX0 + (c.tx0 << shiftX);
+            singleY = m_fileY0 + (c.ty0 << shiftY);
         }
         // Only two-layer maps' virtual samples look at the samples again.
         const bool keep = virtualCompare;

@@ -530,22 +530,20 @@ TEST(MotionBlur, BlurredShadingStaysSmoothUnderTheDefaultFilter) {
     EXPECT_LT(rms, 0.0075);
 }
 
-/// A floor at z = 10 moving `toward` a spotlight at the origin that looks
-/// along +z, over the shutter.
+/// A floor at z = 10 under a spotlight at the origin that looks along +z,
+/// moved by `motion` (a MotionBegin block of Translates).
+std::string floorMovedBy(const std::string& motion) {
+    return "Surface \"matte\" \"Kd\" [1] \"Ka\" [0]\n" + motion +
+           "Polygon \"P\" [-6 -6 10  6 -6 10  6 6 10  -6 6 10]\n";
+}
+/// The floor moving `toward` the light over the shutter.
 std::string movingFloor(double toward) {
-    return fmt::format(
-        "Surface \"matte\" \"Kd\" [1] \"Ka\" [0]\n"
-        "MotionBegin [0 1]\nTranslate 0 0 0\nTranslate 0 0 {}\nMotionEnd\n"
-        "Polygon \"P\" [-6 -6 10  6 -6 10  6 6 10  -6 6 10]\n",
-        -toward);
+    return floorMovedBy(fmt::format("MotionBegin [0 1]\nTranslate 0 0 0\nTranslate 0 0 {}\nMotionEnd\n", -toward));
 }
 /// The floor going `toward` the light by mid-shutter and back by the close.
 std::string thereAndBackFloor(double toward) {
-    return fmt::format(
-        "Surface \"matte\" \"Kd\" [1] \"Ka\" [0]\n"
-        "MotionBegin [0 0.5 1]\nTranslate 0 0 0\nTranslate 0 0 {}\nTranslate 0 0 0\nMotionEnd\n"
-        "Polygon \"P\" [-6 -6 10  6 -6 10  6 6 10  -6 6 10]\n",
-        -toward);
+    return floorMovedBy(fmt::format(
+        "MotionBegin [0 0.5 1]\nTranslate 0 0 0\nTranslate 0 0 {}\nTranslate 0 0 0\nMotionEnd\n", -toward));
 }
 
 /// The floor's map made as exporters make one: a light-view frame writing
