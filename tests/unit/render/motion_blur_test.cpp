@@ -129,9 +129,19 @@ TEST(MotionBlur, MovingCurvesLeaveTheAveragedCoverageProfile) {
                                  "Curves \"linear\" [2] \"nonperiodic\" \"P\" [-10 -8 5  -10 8 5] \"constantwidth\" [8]\n"
                                  "Curves \"linear\" [2] \"nonperiodic\" \"P\" [10 -8 5  10 8 5] \"constantwidth\" [8]\n"
                                  "MotionEnd\nWorldEnd\n";
-    for (const std::string* rib : {&transformed, &deformed}) {
-        expectSlidingSquare(render(*rib, dir), rib == &deformed ? "deformed" : "transformed");
-    }
+    // A ribbon (curves given normals) facing the eye, its normals tilting
+    // along the curve between the keys: its width direction, across N and
+    // the tangent, stays x at every time, so it too is the square.
+    const std::string ribbon = orthoFrame(48, 16, 8, "Shutter 0 1\n") +
+                               "WorldBegin\nSurface \"constant\"\nMotionBegin [0 1]\n"
+                               "Curves \"linear\" [2] \"nonperiodic\" \"P\" [-10 -8 5  -10 8 5] "
+                               "\"N\" [0 0 -1  0 0 -1] \"constantwidth\" [8]\n"
+                               "Curves \"linear\" [2] \"nonperiodic\" \"P\" [10 -8 5  10 8 5] "
+                               "\"N\" [0 -0.6 -0.8  0 -0.6 -0.8] \"constantwidth\" [8]\n"
+                               "MotionEnd\nWorldEnd\n";
+    expectSlidingSquare(render(transformed, dir), "transformed");
+    expectSlidingSquare(render(deformed, dir), "deformed");
+    expectSlidingSquare(render(ribbon, dir), "ribbon");
 }
 
 TEST(MotionBlur, MovingBlobbyLeavesTheSlidingDiscsAveragedCoverage) {
