@@ -49,13 +49,13 @@ def main():
     if not os.access(UMBRA, os.X_OK):
         subprocess.run([os.path.join(ROOT, 'scripts', 'build.sh')], check=True)
     pixie = os.path.join(PEERS, 'bin', 'pixie-rndr')
-    use_pixie = not args.no_peers and os.access(pixie, os.X_OK)
-    if not use_pixie:
+    peers_here = not args.no_peers and os.access(pixie, os.X_OK)
+    if not peers_here:
         print('(no peer renderers found: umbra\'s figures alone)')
     threads_all = os.cpu_count()
     wanted = set(args.scenes.split(',')) if args.scenes else None
-    print('%-16s %7s %9s %13s %9s %9s %10s %8s' % ('scene', 'threads', 'wall (s)', 'Mmicropoly/s', 'speed-up',
-                                                  'peak MiB', 'Pixie (s)', 'umbra/Pixie'))
+    print('%-16s %7s %9s %13s %9s %9s %10s %8s %9s' % ('scene', 'threads', 'wall (s)', 'Mmicropoly/s', 'speed-up',
+                                                       'peak MiB', 'Pixie (s)', 'umbra/Pixie', 'Pixie MiB'))
     for rib in scenes():
         name = os.path.splitext(os.path.basename(rib))[0]
         if wanted and name not in wanted:
@@ -68,12 +68,15 @@ def main():
                     shutil.copy(os.path.join(src, f), work)
             else:
                 shutil.copy(rib, work)
+            # Per scene: one Pixie cannot render (umbra's automatic maps)
+            # leaves the others' comparisons in place.
+            use_pixie = peers_here
             if use_pixie:
                 sls = [f for f in os.listdir(work) if f.endswith('.sl')]
                 if sls and run([os.path.join(PEERS, 'bin', 'pixie-sdrc')] + sls, work, peer=True) is None:
                     use_pixie = False
             best, mps, rss = {}, {}, {}
-            best_pixie = None
+            best_pixie = pixie_rss = None
             for _ in range(args.runs):
                 for threads in sorted({1, threads_all}):
                     wall, peak = run([UMBRA, 'render', os.path.basename(rib), '--threads', str(threads), '--quiet',
@@ -89,11 +92,12 @@ def main():
                         use_pixie = False
                     else:
                         best_pixie = ran[0] if best_pixie is None else min(best_pixie, ran[0])
+                        pixie_rss = ran[1] if pixie_rss is None else max(pixie_rss, ran[1])
             for threads in sorted(best):
                 line = '%-16s %7d %9.3f %13.2f %8.2fx %9.0f' % (name, threads, best[threads], mps[threads] / 1e6,
                                                               best[1] / best[threads], rss[threads])
                 if use_pixie and best_pixie is not None and threads == threads_all:
-                    line += ' %10.3f %8.2f' % (best_pixie, best[threads] / best_pixie)
+                    line += ' %10.3f %8.2f %9.0f' % (best_pixie, best[threads] / best_pixie, pixie_rss)
                 print(line)
             sys.stdout.flush()
         finally:

@@ -20,7 +20,7 @@ def run(cmd, cwd, peer=False):
     code = os.waitstatus_to_exitcode(status)
     if code != 0:
         if peer:
-            print('(%s failed, so Pixie is left out: %s)' % (os.path.basename(cmd[0]), err.strip()[-300:]))
+            print('(%s failed, so it is left out of this scene: %s)' % (os.path.basename(cmd[0]), err.strip()[-300:]))
             return None
         sys.exit('%s failed (%d):\n%s' % (' '.join(cmd), code, err[-2000:]))
     return wall, usage.ru_maxrss / 1024.0
