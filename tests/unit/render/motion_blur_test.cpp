@@ -88,6 +88,24 @@ TEST(MotionBlur, TranslatingSquareLeavesTheAveragedCoverageProfile) {
     expectSlidingSquare(render(rib, dir), "polygon");
 }
 
+// Keys that leave part of the shutter uncovered hold the piece at their
+// first (or last) position there: a square keyed at times 0.5 and 1 under
+// Shutter 0 1 stands at c = -10 for the first half and slides to 10 in the
+// second. (Aqsis 1.8.4 draws the held half at about a third of its
+// coverage, and Pixie 2.2.6 nothing of this orthographic frame.)
+TEST(MotionBlur, KeysCoveringPartOfTheShutterHoldTheirEnds) {
+    ScratchDir dir("mb-held");
+    const std::string rib = orthoFrame(48, 16, 8, "Shutter 0 1\n") +
+                            "WorldBegin\nSurface \"constant\"\n"
+                            "MotionBegin [0.5 1]\nTranslate -10 0 0\nTranslate 10 0 0\nMotionEnd\n"
+                            "Polygon \"P\" [-4 -8 5  4 -8 5  4 8 5  -4 8 5]\nWorldEnd\n";
+    auto heldThenSliding = [](double x0) {
+        const double held = std::max(0.0, std::min(x0 + 1, -6.0) - std::max(x0, -14.0));
+        return 0.5 * held + 0.5 * slidingCoverage(x0);
+    };
+    expectColumnProfile(render(rib, dir), "held, then sliding", heldThenSliding, 8.0);
+}
+
 // A motion block inside an object definition moves every instance (as
 // Pixie and Aqsis draw it); it was dropped, and the square drawn sharp at
 // its first key. An instance placed by a moving transform of its own adds
