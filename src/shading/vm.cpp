@@ -222,9 +222,14 @@ bool bindParam(Exec& x, int r) {
     int per = ri.floatsPerValue();
     float* dst = x.ptr[size_t(r)];
     bool varying = x.vary[size_t(r)];
-    if (g.primvars && ri.ty == Ty::String && ri.arrayLen == 0) {
+    // A light is not the primitive's: its parameters are its LightSource's,
+    // whatever variables the lit surface carries (a floor's "intensity" or
+    // "width" changed every light's, where PRMan, Pixie and Aqsis bind
+    // primitive variables only to the primitive's own shaders).
+    const std::vector<geometry::GridVar>* primvars = x.cs->kind == ShaderKind::Light ? nullptr : g.primvars;
+    if (primvars && ri.ty == Ty::String && ri.arrayLen == 0) {
         // A constant or uniform string variable: one value per grid.
-        for (const geometry::GridVar& gv : *g.primvars) {
+        for (const geometry::GridVar& gv : *primvars) {
             if (gv.name != ri.name || !gv.strings || gv.data.empty()) continue;
             const float k = gv.data[0];
             if (!(k >= 0 && k < float(gv.strings->size()))) continue;
@@ -232,8 +237,8 @@ bool bindParam(Exec& x, int r) {
             return true;
         }
     }
-    if (g.primvars && ri.ty != Ty::String) {
-        for (const geometry::GridVar& gv : *g.primvars) {
+    if (primvars && ri.ty != Ty::String) {
+        for (const geometry::GridVar& gv : *primvars) {
             if (gv.name != ri.name || gv.components != per || gv.strings) continue;
             if (!varying && gv.perVertex) {
                 // A value per vertex has no place in a uniform parameter:

@@ -459,6 +459,28 @@ TEST(Shading, AVaryingPrimitiveVariableLeavesAUniformParameterAlone) {
     }
 }
 
+TEST(Shading, PrimitiveVariablesBindToTheSurfacesShadersNotToItsLights) {
+    // A floor carrying "constant float intensity" dimmed every light that
+    // lit it to that intensity (and a "width" changed shadowspot's blur):
+    // umbra bound primitive variables to light shaders too. PRMan binds
+    // them to the primitive's own shaders, and Pixie and Aqsis light such
+    // a floor as if it had none. matte under a distant light of intensity
+    // 1 along the view: Ci = Kd, the patch's own Kd of 0.5.
+    ScratchDir dir("primvars-not-lights");
+    const std::string light = "LightSource \"distantlight\" 1 \"from\" [0 0 0] \"to\" [0 0 1] \"intensity\" [1]\n";
+    const std::string patch = "Surface \"matte\" Patch \"bilinear\" \"P\" [-2 -2 0  2 -2 0  -2 2 0  2 2 0] "
+                              "\"constant float Kd\" [0.5]";
+    for (const char* extra : {"", " \"constant float intensity\" [0.25]", " \"varying float intensity\" [0 0 0 0]"}) {
+        Diagnostics diag;
+        diag.setRecord(true);
+        const Image img = renderWithShaders(dir, "", light + patch + extra, diag);
+        EXPECT_EQ(diag.errorCount(), 0) << extra;
+        EXPECT_EQ(diag.warningCount(), 0) << extra;
+        for (const auto& [x, y] : {std::pair{2, 2}, {32, 32}, {61, 40}})
+            EXPECT_FLOAT_EQ(img.at(x, y, 0), 0.5f) << extra << " at " << x << "," << y;
+    }
+}
+
 TEST(Shading, AScopedCoordinateSystemEndsWithItsAttributeBlock) {
     // PRMan's ScopedCoordinateSystem: named until AttributeEnd, then the
     // name's earlier meaning is back. umbra kept it for the frame (the
