@@ -8,14 +8,25 @@ namespace umbra::dice {
 
 float eyePlaneZ(const DiceParams& p) { return clamp(p.nearClip, 1e-6f, 1e-3f); }
 
-Bound3 cameraBound(const Bound3& objectBound, const DiceParams& p) {
-    if (objectBound.empty()) return objectBound;
-    Bound3 b = transformBound(p.cameraFromObject, objectBound);
-    if (p.displacementBound > 0) {
+namespace {
+
+Bound3 padded(Bound3 b, const DiceParams& p) {
+    if (!b.empty() && p.displacementBound > 0) {
         b.min -= Vec3(p.displacementBound);
         b.max += Vec3(p.displacementBound);
     }
     return b;
+}
+
+}  // namespace
+
+Bound3 cameraBound(const Bound3& objectBound, const DiceParams& p) {
+    if (objectBound.empty()) return objectBound;
+    return padded(transformBound(p.cameraFromObject, objectBound), p);
+}
+
+Bound3 cameraBound(const geometry::Primitive& prim, const DiceParams& p) {
+    return padded(prim.cameraBound(p.cameraFromObject, p.orthographic), p);
 }
 
 bool outsideView(const Bound3& cb, const DiceParams& p) {
@@ -320,7 +331,7 @@ void warnBudget(const geometry::Primitive& prim, Diagnostics* diag) {
 
 double rasterNeed(const geometry::Primitive& prim, const DiceParams& p) {
     if (!prim.diceable()) return -1;
-    const Bound3 cb = p.sweep.empty() ? cameraBound(prim.bound(), p) : p.sweep;
+    const Bound3 cb = p.sweep.empty() ? cameraBound(prim, p) : p.sweep;
     if (!p.orthographic && cb.min.z < eyePlaneZ(p)) return -1;
     thread_local std::vector<Vec3> P;
     // A coarser lattice than decide()'s: a budget needs proportions, not counts.
@@ -346,14 +357,20 @@ double boundNeed(const Bound3& rasterBound, const DiceParams& p) {
     return o.across * o.down + o.strips;
 }
 
-DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, const DiceParams& p, int eyeSplits,
-                  Diagnostics* diag) {
+DiceResult decide(const geometry::Primitive& prim, const DiceParams& p, int eyeSplits, Diagnostics* diag) {
     DiceResult res;
-    const Bound3 cb = p.sweep.empty() ? cameraBound(objectBound, p) : p.sweep;
+    const Bound3 cb = p.sweep.empty() ? cameraBound(prim, p) : p.sweep;
     if (outsideView(cb, p)) return res;  // Cull
 
     if (!p.orthographic && cb.min.z < eyePlaneZ(p)) {
-        if (eyeSplits >= p.maxEyeSplits) {
+        // A group of items (points) comes down to single items in finitely
+        // many splits: it is split past the limit, which stops surfaces
+        // that would split forever. (A point cloud around a point light
+        // crosses its cube faces' planes everywhere; cut at ten splits, the
+        // groups still across them were culled, their shadows lost.)
+        int itemsU = 0, itemsV = 0;
+        const bool items = prim.fixedCounts(&itemsU, &itemsV);
+        if (eyeSplits >= p.maxEyeSplits && !items) {
             if (diag)
                 diag->warningOnce("dice:eyesplits", prim.record().loc,
                                   "{}: geometry still crosses the eye plane after {} eye splits; culling it "
@@ -390,7 +407,14 @@ DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, co
             res.splitU = zu >= zv;
         }
         if (!splittable(prim, res)) {
-            if (diag)
+            // (A piece that moves across the plane, a single point, say,
+            // beside a point light, cannot be split out of it.)
+            if (diag && !p.sweep.empty())
+                diag->warningOnce("dice:eyemotion", prim.record().loc,
+                                  "{}: a piece that cannot be split further moves across the eye plane during the "
+                                  "shutter; culling it",
+                                  prim.record().type);
+            else if (diag)
                 diag->warningOnce("dice:eyeprecision", prim.record().loc,
                                   "{}: geometry crosses the eye plane in a piece too small to split in float "
                                   "precision; culling it (are its coordinates corrupt or enormous?)",

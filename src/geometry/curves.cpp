@@ -274,6 +274,24 @@ Bound3 PointGroup::bound() const {
     return b;
 }
 
+Bound3 PointGroup::cameraBound(const Mat4& cameraFromObject, bool) const {
+    // diceInView lays each square out along the camera's x and y axes with
+    // half side r = w/2 x cameraPerObject: in camera space, the centre
+    // +-r in x and y at the centre's depth. The margin covers the rounding
+    // of laying it out in object space and carrying it here.
+    const float volume = std::abs(cameraFromObject.det3());
+    const float cameraPerObject = volume > 0 ? std::cbrt(volume) : 1.0f;
+    Bound3 b;
+    for (int k = m_first; k < m_first + m_count; ++k) {
+        const Vec3 c = cameraFromObject.point(m_set->data->point(size_t(k)));
+        const float r = 0.5f * std::abs(m_set->width(k)) * cameraPerObject;
+        const float slack = 1e-4f * r + 1e-5f * (std::abs(c.x) + std::abs(c.y) + std::abs(c.z));
+        b.extend(c - Vec3(r + slack, r + slack, slack));
+        b.extend(c + Vec3(r + slack, r + slack, slack));
+    }
+    return b;
+}
+
 void PointGroup::split(bool, std::vector<PrimitivePtr>& out) const {
     if (m_count < 2) {
         out.push_back(std::make_unique<PointGroup>(recordPtr(), m_set, m_first, m_count));

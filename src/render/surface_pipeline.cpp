@@ -136,12 +136,11 @@ void SurfacePipeline::placementTimes(const geometry::Primitive& prim, std::vecto
 
 Bound3 SurfacePipeline::sweptBound(const geometry::Primitive& prim, const dice::DiceParams& p,
                                    const std::vector<float>& times) const {
-    const Bound3 ob = prim.bound();
     Bound3 b;
     dice::DiceParams at = p;
     for (float t : times) {
         at.cameraFromObject = cameraFromObjectAt(prim.record(), t);
-        const Bound3 cb = dice::cameraBound(ob, at);
+        const Bound3 cb = dice::cameraBound(prim, at);
         if (!cb.empty()) b.extend(cb);
     }
     return b;
@@ -210,7 +209,7 @@ dice::DiceParams SurfacePipeline::diceParams(const geometry::Primitive& prim) co
     placementTimes(prim, times);
     const bool lens = m_pass.lensRadius > 0 && cam.perspective;
     if (times.size() > 1 || lens) {
-        const Bound3 cb = times.size() > 1 ? sweptBound(prim, p, times) : dice::cameraBound(prim.bound(), p);
+        const Bound3 cb = times.size() > 1 ? sweptBound(prim, p, times) : dice::cameraBound(prim, p);
         if (times.size() > 1) p.sweep = cb;
         // What blurs into the image from outside it is not culled: the
         // window grows by the bound's largest circle of confusion, and a
@@ -259,7 +258,7 @@ Bound3 SurfacePipeline::rasterBound(const geometry::Primitive& prim) {
     // first: a ground plane left out of a depth map costs nothing there.
     if (!takesPart(prim.attributes()) || prim.trimmedAway()) return {};
     dice::DiceParams p = diceParams(prim);
-    const Bound3 cb = p.sweep.empty() ? dice::cameraBound(prim.bound(), p) : p.sweep;
+    const Bound3 cb = p.sweep.empty() ? dice::cameraBound(prim, p) : p.sweep;
     if (dice::outsideView(cb, p)) return {};
     Bound3 r = dice::rasterBoundOfCamera(cb, p);
     if (m_pass.lensRadius > 0 && m_pass.camera.perspective && std::isfinite(r.min.x)) {
@@ -277,7 +276,7 @@ hider::GeometryPipeline::Plan SurfacePipeline::plan(const geometry::Primitive& p
     dice::DiceParams p = diceParams(prim);
     p.splitBudget = splitBudget;
     p.pieceNeed = need;
-    dice::DiceResult r = dice::decide(prim, prim.bound(), p, eyeSplits, &m_diag);
+    dice::DiceResult r = dice::decide(prim, p, eyeSplits, &m_diag);
     Plan plan;
     plan.action = r.decision == dice::Decision::Dice    ? Action::Dice
                   : r.decision == dice::Decision::Split ? Action::Split

@@ -107,6 +107,9 @@ float eyePlaneZ(const DiceParams& p);
 /// Camera-space bound of an object-space bound, padded by the
 /// displacement bound.
 Bound3 cameraBound(const Bound3& objectBound, const DiceParams& p);
+/// The same of a primitive as this camera's eye sees it
+/// (geometry::Primitive::cameraBound: a point's disc faces it).
+Bound3 cameraBound(const geometry::Primitive& prim, const DiceParams& p);
 
 /// Raster-space bound for bucket assignment: x, y in pixels, z the camera
 /// z range. When the bound crosses the eye plane (perspective) x and y are
@@ -145,7 +148,7 @@ bool outsideView(const Bound3& cameraBound, const DiceParams& p);
 /// caller passes result.eyeSplit ? eyeSplits + 1 : eyeSplits to the pieces.
 /// `diag` (optional) gets a once-per-run warning when the eye-split limit
 /// culls geometry.
-DiceResult decide(const geometry::Primitive& prim, const Bound3& objectBound, const DiceParams& p, int eyeSplits = 0,
+DiceResult decide(const geometry::Primitive& prim, const DiceParams& p, int eyeSplits = 0,
                   Diagnostics* diag = nullptr);
 
 /// Longest raster lengths along u and along v of an (nu+1) x (nv+1) lattice

@@ -108,6 +108,8 @@ public:
     /// One square per point (nu, nv are always fixedCounts()).
     Grid diceInView(int nu, int nv, const ViewContext& view) const override;
     void dicePositions(int nu, int nv, std::vector<Vec3>& P) const override;
+    /// Each disc's square, its sides the camera's axes: at its centre's depth.
+    Bound3 cameraBound(const Mat4& cameraFromObject, bool orthographic) const override;
 
 private:
     std::shared_ptr<const PointSet> m_set;

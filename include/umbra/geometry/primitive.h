@@ -85,6 +85,16 @@ public:
     /// discs) override it; their dice() uses a default view looking down
     /// +z. bound() must hold for every view.
     virtual Grid diceInView(int nu, int nv, const ViewContext& view) const { return dice(nu, nv); }
+    /// The camera-space bound of what diceInView() makes for an eye at the
+    /// origin of camera space (ViewContext::ofCamera(cameraFromObject's
+    /// inverse)): bound() carried there, or tighter for a family that turns
+    /// to face the eye. A point's disc lies across the view, at its centre's
+    /// depth: bounded for every view, it crossed the eye plane of a light
+    /// standing a disc's width from it, and its shadow was culled.
+    virtual Bound3 cameraBound(const Mat4& cameraFromObject, bool orthographic) const {
+        (void)orthographic;
+        return transformBound(cameraFromObject, bound());
+    }
     /// True when the family fixes its own grid counts (points: one
     /// micropolygon per point): the REYES loop dices at (*nu, *nv) when
     /// they fit a grid, and splits otherwise.

@@ -87,7 +87,7 @@ int runReyes(std::vector<PrimitivePtr> prims, const DiceParams& p, Diagnostics* 
     while (!work.empty() && ++steps < 100000) {
         auto [prim, eye] = std::move(work.back());
         work.pop_back();
-        const DiceResult r = decide(*prim, prim->bound(), p, eye, diag);
+        const DiceResult r = decide(*prim, p, eye, diag);
         if (r.decision == Decision::Dice) onDice(*prim, r);
         if (r.decision != Decision::Split) continue;
         std::vector<PrimitivePtr> kids;
@@ -105,7 +105,7 @@ TEST(Dice, MicropolygonsAreAboutShadingRatePixels) {
         p.shadingRate = rate;
         p.gridSize = 1 << 20;
         auto q = quad({-0.3f, -0.2f, 0}, {0.3f, -0.2f, 0}, {0.3f, 0.2f, 0}, {-0.3f, 0.2f, 0});
-        const DiceResult r = decide(*q, q->bound(), p);
+        const DiceResult r = decide(*q, p);
         ASSERT_EQ(r.decision, Decision::Dice);
         double mu, mv;
         meanEdges(q->dice(r.nu, r.nv), p, &mu, &mv);
@@ -117,11 +117,11 @@ TEST(Dice, MicropolygonsAreAboutShadingRatePixels) {
 TEST(Dice, TooBigSplitsAcrossTheLongerDirection) {
     DiceParams p = perspective(Mat4::translate({0, 0, 10}));
     auto wide = quad({-2, -0.5f, 0}, {2, -0.5f, 0}, {2, 0.5f, 0}, {-2, 0.5f, 0});
-    DiceResult r = decide(*wide, wide->bound(), p);
+    DiceResult r = decide(*wide, p);
     EXPECT_EQ(r.decision, Decision::Split);
     EXPECT_TRUE(r.splitU);
     auto tall = quad({-0.5f, -2, 0}, {0.5f, -2, 0}, {0.5f, 2, 0}, {-0.5f, 2, 0});
-    r = decide(*tall, tall->bound(), p);
+    r = decide(*tall, p);
     EXPECT_EQ(r.decision, Decision::Split);
     EXPECT_FALSE(r.splitU);
 }
@@ -142,14 +142,14 @@ TEST(Dice, APieceWhoseSplitBudgetIsSpentIsDicedIntoOneGridWithAWarning) {
         diag.setSink([](const Diagnostic&) {});
         for (const double budget : {double(kInfinity), twoGrids}) {
             p.splitBudget = budget;
-            const DiceResult r = decide(*q, q->bound(), p, 0, &diag);
+            const DiceResult r = decide(*q, p, 0, &diag);
             EXPECT_EQ(r.decision, Decision::Split) << rate << " " << budget;
             EXPECT_TRUE(r.splitU);
         }
         EXPECT_EQ(diag.warningCount(), 0);
         for (const double budget : {twoGrids * 0.99, 0.0}) {
             p.splitBudget = budget;
-            const DiceResult r = decide(*q, q->bound(), p, 0, &diag);
+            const DiceResult r = decide(*q, p, 0, &diag);
             ASSERT_EQ(r.decision, Decision::Dice) << rate << " " << budget;
             EXPECT_LE(r.nu * r.nv, p.gridSize);
             EXPECT_GE(r.nu * r.nv, p.gridSize / 2);  // as fine as one grid allows
@@ -165,7 +165,7 @@ TEST(Dice, APieceWhoseSplitBudgetIsSpentIsDicedIntoOneGridWithAWarning) {
         quiet.setSink([](const Diagnostic&) {});
         p.splitBudget = 0;
         p.pieceNeed = rate * p.gridSize;
-        EXPECT_EQ(decide(*q, q->bound(), p, 0, &quiet).decision, Decision::Dice);
+        EXPECT_EQ(decide(*q, p, 0, &quiet).decision, Decision::Dice);
         EXPECT_EQ(quiet.warningCount(), 0);
         p.pieceNeed = kInfinity;
     }
@@ -227,25 +227,25 @@ TEST(Dice, LoopRespectsGridSizeAndShadingRateOnASphere) {
 TEST(Dice, CullsOutsideTheViewAndTheClippingRange) {
     auto sphere = make("Sphere", {1, -1, 1, 360});
     DiceParams behind = perspective(Mat4::translate({0, 0, -10}));
-    EXPECT_EQ(decide(*sphere, sphere->bound(), behind).decision, Decision::Cull);
+    EXPECT_EQ(decide(*sphere, behind).decision, Decision::Cull);
     DiceParams right = perspective(Mat4::translate({30, 0, 10}));
-    EXPECT_EQ(decide(*sphere, sphere->bound(), right).decision, Decision::Cull);
+    EXPECT_EQ(decide(*sphere, right).decision, Decision::Cull);
     DiceParams above = perspective(Mat4::translate({0, 30, 10}));
-    EXPECT_EQ(decide(*sphere, sphere->bound(), above).decision, Decision::Cull);
+    EXPECT_EQ(decide(*sphere, above).decision, Decision::Cull);
     DiceParams far = perspective(Mat4::translate({0, 0, 100}));
     far.farClip = 50;
-    EXPECT_EQ(decide(*sphere, sphere->bound(), far).decision, Decision::Cull);
+    EXPECT_EQ(decide(*sphere, far).decision, Decision::Cull);
     DiceParams near = perspective(Mat4::translate({0, 0, 3}));
     near.nearClip = 5;
-    EXPECT_EQ(decide(*sphere, sphere->bound(), near).decision, Decision::Cull);
+    EXPECT_EQ(decide(*sphere, near).decision, Decision::Cull);
     // In view, it is not culled; displacement padding can bring it back in.
     DiceParams in = perspective(Mat4::translate({0, 0, 100}));
-    EXPECT_NE(decide(*sphere, sphere->bound(), in).decision, Decision::Cull);
+    EXPECT_NE(decide(*sphere, in).decision, Decision::Cull);
     DiceParams edge = perspective(Mat4::translate({0, 0, -1.5f}));
     edge.orthographic = false;
-    EXPECT_EQ(decide(*sphere, sphere->bound(), edge).decision, Decision::Cull);
+    EXPECT_EQ(decide(*sphere, edge).decision, Decision::Cull);
     edge.displacementBound = 1;
-    EXPECT_NE(decide(*sphere, sphere->bound(), edge).decision, Decision::Cull);
+    EXPECT_NE(decide(*sphere, edge).decision, Decision::Cull);
 }
 
 TEST(Dice, NotDiceableSplits) {
@@ -254,7 +254,7 @@ TEST(Dice, NotDiceableSplits) {
     Diagnostics diag;
     auto prims = makePrimitives(record("Polygon", {}, {pointParam(P)}), diag);
     ASSERT_EQ(prims.size(), 1u);
-    EXPECT_EQ(decide(*prims[0], prims[0]->bound(), perspective()).decision, Decision::Split);
+    EXPECT_EQ(decide(*prims[0], perspective()).decision, Decision::Split);
 }
 
 TEST(Dice, EyeSplitsStraddlingGeometryThenCullsWithOneWarning) {
@@ -262,7 +262,7 @@ TEST(Dice, EyeSplitsStraddlingGeometryThenCullsWithOneWarning) {
     p.maxEyeSplits = 6;
     // A ground plane from behind the camera to in front of it; v runs along z.
     auto ground = quad({-1, -1, -5}, {1, -1, -5}, {1, -1, 5}, {-1, -1, 5});
-    const DiceResult first = decide(*ground, ground->bound(), p);
+    const DiceResult first = decide(*ground, p);
     EXPECT_EQ(first.decision, Decision::Split);
     EXPECT_TRUE(first.eyeSplit);
     EXPECT_FALSE(first.splitU);
@@ -349,7 +349,7 @@ TEST(Dice, OrthographicNeverEyeSplits) {
     p.rasterFromCamera = Mat4::scale({100, 100, 1});
     p.nearClip = -100;  // orthographic: z below the eye is fine
     auto ground = quad({-1, -1, -5}, {1, -1, -5}, {1, -1, 5}, {-1, -1, 5});
-    const DiceResult r = decide(*ground, ground->bound(), p);
+    const DiceResult r = decide(*ground, p);
     EXPECT_FALSE(r.eyeSplit);
     EXPECT_NE(r.decision, Decision::Cull);
 }
@@ -460,10 +460,10 @@ TEST(Dice, FlatnessDicesSmoothSurfacesCoarselyWithinTheirStandOff) {
         DiceParams p = perspective(Mat4::translate({0.1f, 0.2f, 5}) * Mat4::rotate(40, {1, 0.3f, 0}));
         p.shadingRate = 4;
         p.gridSize = 1 << 20;
-        const DiceResult byRate = decide(*c.prim, c.prim->bound(), p);
+        const DiceResult byRate = decide(*c.prim, p);
         for (float flatness : {0.25f, 0.05f}) {
             p.flatness = flatness;
-            const DiceResult r = decide(*c.prim, c.prim->bound(), p);
+            const DiceResult r = decide(*c.prim, p);
             ASSERT_EQ(r.decision, Decision::Dice) << c.name;
             EXPECT_LE(r.nu, byRate.nu) << c.name;  // never finer than the rate
             EXPECT_LE(r.nv, byRate.nv) << c.name;
@@ -501,12 +501,12 @@ TEST(Dice, GeometricFlatnessDicesCurvedSurfacesFinerThanACoarseRate) {
         DiceParams p = perspective(Mat4::translate({0.1f, 0.2f, 5}) * Mat4::rotate(40, {1, 0.3f, 0}));
         p.shadingRate = 1000;
         p.gridSize = 1 << 20;
-        const DiceResult byRate = decide(*c.prim, c.prim->bound(), p);
+        const DiceResult byRate = decide(*c.prim, p);
         ASSERT_EQ(byRate.decision, Decision::Dice) << c.name;
         EXPECT_GT(worstNormalStandOff(*c.prim, p, byRate.nu, byRate.nv), 2.0f) << c.name;
         for (float flatness : {0.5f, 0.1f}) {
             p.maxStandOff = flatness;
-            const DiceResult r = decide(*c.prim, c.prim->bound(), p);
+            const DiceResult r = decide(*c.prim, p);
             ASSERT_EQ(r.decision, Decision::Dice) << c.name;
             EXPECT_GE(r.nu, byRate.nu) << c.name;  // never coarser than the rate
             EXPECT_GE(r.nv, byRate.nv) << c.name;
@@ -515,9 +515,9 @@ TEST(Dice, GeometricFlatnessDicesCurvedSurfacesFinerThanACoarseRate) {
         // A fine rate already dices within the stand-off: flatness adds nothing.
         p.shadingRate = 0.25f;
         p.maxStandOff = 0;
-        const DiceResult fine = decide(*c.prim, c.prim->bound(), p);
+        const DiceResult fine = decide(*c.prim, p);
         p.maxStandOff = 0.5f;
-        const DiceResult same = decide(*c.prim, c.prim->bound(), p);
+        const DiceResult same = decide(*c.prim, p);
         EXPECT_EQ(same.nu, fine.nu) << c.name;
         EXPECT_EQ(same.nv, fine.nv) << c.name;
     }
@@ -533,9 +533,9 @@ TEST(Dice, GeometricFlatnessDicesCurvedSurfacesFinerThanACoarseRate) {
         for (float rate : {1000.0f, 64.0f, 1.0f}) {
             DiceParams p = perspective(Mat4::translate({0.1f, 0.2f, 4}) * Mat4::rotate(30, {1, 0.3f, 0}));
             p.shadingRate = rate;
-            const DiceResult before = decide(*prim, prim->bound(), p);
+            const DiceResult before = decide(*prim, p);
             p.maxStandOff = 0.5f;
-            const DiceResult after = decide(*prim, prim->bound(), p);
+            const DiceResult after = decide(*prim, p);
             EXPECT_EQ(after.decision, before.decision) << rate;
             EXPECT_EQ(after.nu, before.nu) << rate;
             EXPECT_EQ(after.nv, before.nv) << rate;
@@ -596,25 +596,25 @@ TEST(Dice, HugeShadingRateStillDicesACurvedSurfaceIntoSeveralMicropolygons) {
         return twice / 2;
     };
     const double disk = M_PI * 10 * 10;  // radius 320 / 32 pixels
-    DiceResult r = decide(*sphere, sphere->bound(), p);
+    DiceResult r = decide(*sphere, p);
     ASSERT_EQ(r.decision, Decision::Dice);
     EXPECT_EQ(r.nu, 8);
     EXPECT_EQ(r.nv, 4);
     EXPECT_GT(silhouette(r), 0.75 * disk);
     auto q = quad({-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0});
-    const DiceResult withFloor = decide(*q, q->bound(), p);
+    const DiceResult withFloor = decide(*q, p);
     // Without the floor, the old answer.
     p.maxTurn = 0;
-    r = decide(*sphere, sphere->bound(), p);
+    r = decide(*sphere, p);
     ASSERT_EQ(r.decision, Decision::Dice);
     EXPECT_LT(silhouette(r), 0.05 * disk) << r.nu << "x" << r.nv;
-    const DiceResult noFloor = decide(*q, q->bound(), p);
+    const DiceResult noFloor = decide(*q, p);
     EXPECT_EQ(withFloor.nu, noFloor.nu);
     EXPECT_EQ(withFloor.nv, noFloor.nv);
     // The floor gives way to gridSize rather than forcing a split.
     p.maxTurn = kPi / 4;
     p.gridSize = 16;
-    r = decide(*sphere, sphere->bound(), p);
+    r = decide(*sphere, p);
     ASSERT_EQ(r.decision, Decision::Dice);
     EXPECT_LE(r.nu * r.nv, 16);
     EXPECT_GE(r.nu * r.nv, 12);

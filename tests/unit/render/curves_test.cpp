@@ -302,4 +302,90 @@ AttributeEnd
     EXPECT_NEAR(dark / expected, 1.0, 0.15) << dark << " vs " << expected;
 }
 
+TEST(Points, ACloudAroundAPointLightLosesNoShadowToTheEyeSplitLimit) {
+    // 3,000 points around a point light: the planes of its cube map's faces
+    // run through the cloud, and halving the points ten times (the default
+    // eye-split limit) left groups of two or three on both sides of a
+    // plane. Those were culled with a warning, their shadows lost (29% of
+    // the pixels of such a frame changed). A group of points reaches single
+    // points in finitely many splits, so it is split past the limit: the
+    // frame is the one rendered with no limit in reach.
+    ScratchDir dir("points-cloud-eyesplits");
+    std::string points, widths;
+    uint32_t seed = 12345;
+    auto uniform = [&](float lo, float hi) {
+        seed = seed * 1664525u + 1013904223u;
+        return lo + (hi - lo) * float(seed >> 8) / float(1u << 24);
+    };
+    for (int k = 0; k < 3000; ++k) {
+        points += fmt::format("{} {} {} ", uniform(-1.5f, 1.5f), uniform(-1.5f, 1.5f), uniform(-1.8f, 0.5f));
+        widths += fmt::format("{} ", uniform(0.02f, 0.08f));
+    }
+    auto render = [&](const std::string& limit, Diagnostics& diag) {
+        const std::string world = "LightSource \"shadowpoint\" 1 \"from\" [0 0 -0.5] \"intensity\" [2] "
+                                  "\"shadowname\" [\"auto\"]\nSurface \"matte\"\nPoints \"P\" [" + points +
+                                  "] \"width\" [" + widths + "]\nPolygon \"P\" [-2 -2 1  2 -2 1  2 2 1  -2 2 1]\n";
+        test::renderRib(limit + "Option \"umbra\" \"shadowmapsize\" [256]\n" + orthoFrame(dir.file("out.exr"), world),
+                        diag);
+        Image img;
+        EXPECT_TRUE(test::readImage(dir.file("out.exr"), &img));
+        return img;
+    };
+    Diagnostics diag;
+    diag.setRecord(true);
+    const Image limited = render("", diag);
+    EXPECT_EQ(diag.warningCount(), 0) << (diag.recorded().empty() ? "" : diag.recorded()[0].message);
+    Diagnostics quiet;
+    const Image unlimited = render("Option \"limits\" \"eyesplits\" [40]\n", quiet);
+    ASSERT_EQ(limited.width, unlimited.width);
+    int differing = 0;
+    for (int y = 0; y < limited.height; ++y)
+        for (int x = 0; x < limited.width; ++x) differing += limited.at(x, y, 0) != unlimited.at(x, y, 0);
+    EXPECT_EQ(differing, 0);
+}
+
+TEST(Points, ADiscCloseToItsLightCastsItsShadow) {
+    // A disc of width 0.6 held 0.4 from a light, 2 from a floor: its
+    // shadow is the disc scaled by 2 / 0.4, radius 1.5. Bounded as a disc
+    // turned any way (a cube of half side 0.42) it crossed the light's eye
+    // plane; a lone point cannot be split, so it was culled, with a warning
+    // about corrupt coordinates, and cast nothing. Both a spotlight and a
+    // point light's cube map; the shadowed fraction of each pixel from the
+    // same frame without the disc.
+    ScratchDir dir("points-near-light");
+    for (const char* light : {"LightSource \"shadowspot\" 1 \"from\" [0 0 -1] \"to\" [0 0 1] \"coneangle\" [1.3] "
+                              "\"intensity\" [4] \"shadowname\" [\"auto\"]",
+                              "LightSource \"shadowpoint\" 1 \"from\" [0 0 -1] \"intensity\" [4] "
+                              "\"shadowname\" [\"auto\"]"}) {
+        auto render = [&](const std::string& caster, Diagnostics& diag) {
+            const std::string world = std::string(light) + R"(
+AttributeBegin
+  Attribute "visibility" "camera" [0]
+  )" + caster + R"(
+AttributeEnd
+Surface "matte" "Kd" [1] "Ka" [0]
+Polygon "P" [-2 -2 1  2 -2 1  2 2 1  -2 2 1]
+)";
+            test::renderRib("Option \"umbra\" \"shadowmapsize\" [1024]\n" + orthoFrame(dir.file("out.exr"), world), diag);
+            Image img;
+            EXPECT_TRUE(test::readImage(dir.file("out.exr"), &img));
+            return img;
+        };
+        Diagnostics diag;
+        diag.setRecord(true);
+        const Image shadowed = render("Points \"P\" [0 0 -0.6] \"constantwidth\" [0.6]", diag);
+        EXPECT_EQ(diag.errorCount(), 0) << light;
+        EXPECT_EQ(diag.warningCount(), 0) << light << ": " << (diag.recorded().empty() ? "" : diag.recorded()[0].message);
+        Diagnostics quiet;
+        const Image lit = render("", quiet);
+        ASSERT_EQ(shadowed.width, lit.width);
+        double dark = 0;
+        for (int y = 0; y < lit.height; ++y)
+            for (int x = 0; x < lit.width; ++x)
+                if (lit.at(x, y, 0) > 1e-3f) dark += 1.0 - double(shadowed.at(x, y, 0)) / double(lit.at(x, y, 0));
+        const double expected = M_PI * 1.5 * 1.5 * 64 * 64;
+        EXPECT_NEAR(dark / expected, 1.0, 0.05) << light << ": " << dark << " vs " << expected;
+    }
+}
+
 }  // namespace
