@@ -371,7 +371,14 @@ DiceResult decide(const geometry::Primitive& prim, const DiceParams& p, int eyeS
         int itemsU = 0, itemsV = 0;
         const bool items = prim.fixedCounts(&itemsU, &itemsV);
         if (eyeSplits >= p.maxEyeSplits && !items) {
-            if (diag)
+            // A piece that moves across the plane stays across it however
+            // finely it is cut: more splits would not help.
+            if (diag && !p.sweep.empty())
+                diag->warningOnce("dice:eyemotionsplits", prim.record().loc,
+                                  "{}: geometry moves across the eye plane during the shutter; culling what "
+                                  "still crosses it after {} eye splits",
+                                  prim.record().type, p.maxEyeSplits);
+            else if (diag)
                 diag->warningOnce("dice:eyesplits", prim.record().loc,
                                   "{}: geometry still crosses the eye plane after {} eye splits; culling it "
                                   "(raise Option \"limits\" \"eyesplits\" or move the near clipping plane)",
