@@ -143,11 +143,12 @@ double boundNeed(const Bound3& rasterBound, const DiceParams& p);
 /// space (no division, so it works for bounds behind the eye too).
 bool outsideView(const Bound3& cameraBound, const DiceParams& p);
 
-/// Decides whether `prim` (with object bound `objectBound`) is culled,
-/// split or diced. `eyeSplits` is how many eye splits produced it; the
-/// caller passes result.eyeSplit ? eyeSplits + 1 : eyeSplits to the pieces.
-/// `diag` (optional) gets a once-per-run warning when the eye-split limit
-/// culls geometry.
+/// Decides whether `prim` (bounded as the camera sees it, cameraBound()) is
+/// culled, split or diced. `eyeSplits` is how many eye splits produced it;
+/// the caller passes result.eyeSplit ? eyeSplits + 1 : eyeSplits to the
+/// pieces. The limit (DiceParams::maxEyeSplits) does not stop a group of
+/// points, which comes down to single points. `diag` (optional) gets a
+/// once-per-run warning when geometry still across the eye plane is culled.
 DiceResult decide(const geometry::Primitive& prim, const DiceParams& p, int eyeSplits = 0,
                   Diagnostics* diag = nullptr);
 
