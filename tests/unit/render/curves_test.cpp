@@ -325,11 +325,9 @@ TEST(Points, ACloudAroundAPointLightLosesNoShadowToTheEyeSplitLimit) {
         const std::string world = "LightSource \"shadowpoint\" 1 \"from\" [0 0 -0.5] \"intensity\" [2] "
                                   "\"shadowname\" [\"auto\"]\nSurface \"matte\"\nPoints \"P\" [" + points +
                                   "] \"width\" [" + widths + "]\nPolygon \"P\" [-2 -2 1  2 -2 1  2 2 1  -2 2 1]\n";
-        test::renderRib(limit + "Option \"umbra\" \"shadowmapsize\" [256]\n" + orthoFrame(dir.file("out.exr"), world),
-                        diag);
-        Image img;
-        EXPECT_TRUE(test::readImage(dir.file("out.exr"), &img));
-        return img;
+        return test::renderImage(limit + "Option \"umbra\" \"shadowmapsize\" [256]\n" +
+                                     orthoFrame(dir.file("out.exr"), world),
+                                 dir.file("out.exr"), diag);
     };
     Diagnostics diag;
     diag.setRecord(true);
@@ -366,10 +364,8 @@ AttributeEnd
 Surface "matte" "Kd" [1] "Ka" [0]
 Polygon "P" [-2 -2 1  2 -2 1  2 2 1  -2 2 1]
 )";
-            test::renderRib("Option \"umbra\" \"shadowmapsize\" [1024]\n" + orthoFrame(dir.file("out.exr"), world), diag);
-            Image img;
-            EXPECT_TRUE(test::readImage(dir.file("out.exr"), &img));
-            return img;
+            return test::renderImage("Option \"umbra\" \"shadowmapsize\" [1024]\n" + orthoFrame(dir.file("out.exr"), world),
+                                     dir.file("out.exr"), diag);
         };
         Diagnostics diag;
         diag.setRecord(true);
