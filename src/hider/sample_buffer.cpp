@@ -275,15 +275,23 @@ void SampleBuffer::reset(const SampleBufferConfig& c) {
     m_strataEnd.clear();
     m_lensStrataSample.clear();
     m_lensStrataBox.clear();
-    if (c.motion && c.sampleStrata && perPixel > 1) {
-        tabulateStrata(&SamplePattern::timeStratumRow, m_strataSample, m_strataX, m_strataY, &m_strataTime);
-        for (int k = 0; k < perPixel; ++k) {
+    // One sample a pixel (a depth map) has its strata across a tile of
+    // pixels: without them a micropolygon was tested against every sample
+    // it sweeps over (a fast caster near a light, against most of the map).
+    if (c.motion && c.sampleStrata) {
+        const int strata = m_pattern->timeStrata();
+        m_strataGrid = strataGrid(m_pattern->timeCell());
+        tabulateStrata(&SamplePattern::timeStratumRow, strata, m_strataGrid, m_strataSample, m_strataX, m_strataY,
+                       &m_strataTime);
+        for (int k = 0; k < strata; ++k) {
             m_strataStart.push_back(m_pattern->stratumStart(k));
             m_strataEnd.push_back(m_pattern->stratumEnd(k));
         }
     }
     if (c.lens && c.sampleStrata && perPixel > 1) {
-        tabulateStrata(&SamplePattern::lensStratumRow, m_lensStrataSample, m_lensStrataX, m_lensStrataY);
+        m_lensStrataGrid = strataGrid(1);
+        tabulateStrata(&SamplePattern::lensStratumRow, perPixel, m_lensStrataGrid, m_lensStrataSample, m_lensStrataX,
+                       m_lensStrataY);
         for (int k = 0; k < perPixel; ++k)
             m_lensStrataBox.insert(m_lensStrataBox.end(), m_pattern->lensStratumBox(k), m_pattern->lensStratumBox(k) + 4);
     }
@@ -627,24 +635,34 @@ void clipKeyMotion(float lo, float hi, float dlo, float dhi, float r0, float r1,
 
 }  // namespace
 
-void SampleBuffer::tabulateStrata(const uint16_t* (SamplePattern::*row)(int) const,
-                                  std::vector<int32_t>& table, std::vector<float>& tableX,
+SampleBuffer::StrataGrid SampleBuffer::strataGrid(int cell) const {
+    StrataGrid grid;
+    while ((1 << grid.cellShift) < cell) ++grid.cellShift;
+    grid.x0 = m_rx0 >> grid.cellShift;
+    grid.y0 = m_ry0 >> grid.cellShift;
+    grid.w = ((m_rx0 + m_rw - 1) >> grid.cellShift) - grid.x0 + 1;
+    grid.h = ((m_ry0 + m_rh - 1) >> grid.cellShift) - grid.y0 + 1;
+    return grid;
+}
+
+void SampleBuffer::tabulateStrata(const uint16_t* (SamplePattern::*row)(int) const, int strata,
+                                  const StrataGrid& grid, std::vector<int32_t>& table, std::vector<float>& tableX,
                                   std::vector<float>& tableY, std::vector<float>* tableTime) const {
     const int xs = m_cfg.xSamples, ys = m_cfg.ySamples;
     const int columns = m_pattern->columns(), rows = m_pattern->rows();
-    const size_t plane = size_t(m_rw) * size_t(m_rh);
-    table.assign(size_t(xs * ys) * plane + 3, -1);  // read in groups of four
-    tableX.assign(size_t(xs * ys) * plane + 3, std::numeric_limits<float>::quiet_NaN());
-    tableY.assign(size_t(xs * ys) * plane + 3, std::numeric_limits<float>::quiet_NaN());
-    if (tableTime) tableTime->assign(size_t(xs * ys) * plane + 3, 0.0f);
+    const size_t plane = grid.plane();
+    table.assign(size_t(strata) * plane + 3, -1);  // read in groups of four
+    tableX.assign(size_t(strata) * plane + 3, std::numeric_limits<float>::quiet_NaN());
+    tableY.assign(size_t(strata) * plane + 3, std::numeric_limits<float>::quiet_NaN());
+    if (tableTime) tableTime->assign(size_t(strata) * plane + 3, 0.0f);
     for (int sy = 0; sy < m_sh; ++sy) {
         const uint16_t* stratum = (m_pattern.get()->*row)(positiveMod(m_sy0 + sy, rows));
-        const size_t pixelRow = size_t(sy / ys) * size_t(m_rw);
+        const size_t cellRow = size_t(grid.cellY(m_ry0 + sy / ys)) * size_t(grid.w);
         // The table's column and the pixel, counted rather than divided.
         int tx = positiveMod(m_sx0, columns);
-        size_t pixel = pixelRow;
+        int pixel = m_rx0;
         for (int sx = 0, i = 0; sx < m_sw; ++sx) {
-            const size_t at = size_t(stratum[tx]) * plane + pixel;
+            const size_t at = size_t(stratum[tx]) * plane + cellRow + size_t(grid.cellX(pixel));
             tx = tx + 1 == columns ? 0 : tx + 1;
             if (++i == xs) {
                 i = 0;
@@ -1112,7 +1130,6 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
 
     // The samples of one stratum (one a pixel, from `table`) inside the
     // raster box [x0, x1] x [y0, y1], clipped to the micropolygon's bound.
-    const size_t plane = size_t(m_rw) * size_t(m_rh);
     // Two keys: each sample is also tested against the micropolygon's
     // bound at its own time, [lo + f * dlo, hi + f * dhi] widened by a
     // margin (set below; see there), f its weight as testSample finds it.
@@ -1128,13 +1145,13 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
     // candidate() in the same order.
     constexpr int kListed = 256;
     int32_t listed[kListed];
-    auto visitPixels = [&](size_t offset, const std::vector<int32_t>& tableS, const std::vector<float>& tableX,
-                           const std::vector<float>& tableY, float x0, float y0, float x1, float y1, int px0,
-                           int py0, int px1, int py1) {
+    auto visitPixels = [&](size_t offset, const StrataGrid& grid, const std::vector<int32_t>& tableS,
+                           const std::vector<float>& tableX, const std::vector<float>& tableY, float x0, float y0,
+                           float x1, float y1, int px0, int py0, int px1, int py1) {
         int n = 0;
         const F4 zero = {0, 0, 0, 0}, one = {1, 1, 1, 1};
         for (int py = py0; py <= py1; ++py) {
-            const size_t rowAt = offset + size_t(py) * size_t(m_rw);
+            const size_t rowAt = offset + size_t(py) * size_t(grid.w);
             for (int px = px0; px <= px1; px += 4) {
                 const size_t at = rowAt + size_t(px);
                 const F4 sx = load4(&tableX[at]), sy = load4(&tableY[at]);
@@ -1166,17 +1183,18 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
         for (int k = 0; k < n; ++k) candidate(size_t(listed[k]));
     };
     // The samples of one stratum inside [x0, x1] x [y0, y1], clipped to the
-    // micropolygon's bound.
-    auto visitStratum = [&](size_t offset, const std::vector<int32_t>& tableS, const std::vector<float>& tableX,
-                            const std::vector<float>& tableY, float x0, float y0, float x1, float y1) {
+    // micropolygon's bound: those of the cells the box reaches.
+    auto visitStratum = [&](size_t offset, const StrataGrid& grid, const std::vector<int32_t>& tableS,
+                            const std::vector<float>& tableX, const std::vector<float>& tableY, float x0, float y0,
+                            float x1, float y1) {
         x0 = std::max(x0, minx);
         x1 = std::min(x1, maxx);
         y0 = std::max(y0, miny);
         y1 = std::min(y1, maxy);
         if (!(x0 <= x1 && y0 <= y1)) return;
-        const int px0 = std::max(0, floorToInt(x0) - m_rx0), px1 = std::min(m_rw - 1, floorToInt(x1) - m_rx0);
-        const int py0 = std::max(0, floorToInt(y0) - m_ry0), py1 = std::min(m_rh - 1, floorToInt(y1) - m_ry0);
-        visitPixels(offset, tableS, tableX, tableY, x0, y0, x1, y1, px0, py0, px1, py1);
+        const int px0 = std::max(0, grid.cellX(floorToInt(x0))), px1 = std::min(grid.w - 1, grid.cellX(floorToInt(x1)));
+        const int py0 = std::max(0, grid.cellY(floorToInt(y0))), py1 = std::min(grid.h - 1, grid.cellY(floorToInt(y1)));
+        visitPixels(offset, grid, tableS, tableX, tableY, x0, y0, x1, y1, px0, py0, px1, py1);
     };
     // A moving micropolygon seen through a lens: the lens strata bound it
     // by its whole sweep plus a stratum's share of the circle of
@@ -1195,6 +1213,13 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
         const float sweep = (sharpX1 - sharpX0) - (x1 - x0) + (sharpY1 - sharpY0) - (y1 - y0);
         lensFirst = padX + padY > sweep;
     }
+    // One sample a pixel: a micropolygon whose bound holds at most four
+    // samples a stratum is cheaper to test sample by sample than to walk
+    // the tile's 16 strata (which took twice the depth pass's time for
+    // casters moving a texel or two; docs/performance.md, "Depth maps of
+    // moving casters").
+    const bool sweepsFewSamples =
+        m_strataGrid.cellShift > 0 && size_t(sx1 - sx0 + 1) * size_t(sy1 - sy0 + 1) <= 4 * m_strataStart.size();
     const bool lensStrata = lens && lensFirst && !m_lensStrataSample.empty() && std::isfinite(blur0) &&
                             std::isfinite(blur1);
     if (lensStrata) {
@@ -1219,10 +1244,11 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
             // Margins for the ulps of interpolating and scaling per sample.
             const float ex = 1e-5f * (std::max(std::abs(sharpX0), std::abs(sharpX1)) + std::abs(ox0) + std::abs(ox1)) + 1e-3f;
             const float ey = 1e-5f * (std::max(std::abs(sharpY0), std::abs(sharpY1)) + std::abs(oy0) + std::abs(oy1)) + 1e-3f;
-            visitStratum(size_t(k) * plane, m_lensStrataSample, m_lensStrataX, m_lensStrataY, sharpX0 + ox0 - ex, sharpY0 + oy0 - ey,
+            visitStratum(size_t(k) * m_lensStrataGrid.plane(), m_lensStrataGrid, m_lensStrataSample, m_lensStrataX,
+                         m_lensStrataY, sharpX0 + ox0 - ex, sharpY0 + oy0 - ey,
                          sharpX1 + ox1 + ex, sharpY1 + oy1 + ey);
         }
-    } else if (m_strataSample.empty() || keys < 2) {
+    } else if (m_strataSample.empty() || keys < 2 || sweepsFewSamples) {
         for (int sy = sy0; sy <= sy1; ++sy)
             for (int sx = sx0; sx <= sx1; ++sx) candidate(size_t(sy) * size_t(m_sw) + size_t(sx));
     } else {
@@ -1351,9 +1377,11 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
                 while (live) {
                     const int l = __builtin_ctz(unsigned(live));
                     live &= live - 1;
-                    visitPixels(size_t(k + l) * plane, m_strataSample, m_strataX, m_strataY, bx0[l], by0[l], bx1[l],
-                                by1[l], std::max(0, ix0[l] - m_rx0), std::max(0, iy0[l] - m_ry0),
-                                std::min(m_rw - 1, ix1[l] - m_rx0), std::min(m_rh - 1, iy1[l] - m_ry0));
+                    const StrataGrid& grid = m_strataGrid;
+                    visitPixels(size_t(k + l) * grid.plane(), grid, m_strataSample, m_strataX, m_strataY, bx0[l],
+                                by0[l], bx1[l], by1[l], std::max(0, grid.cellX(ix0[l])),
+                                std::max(0, grid.cellY(iy0[l])), std::min(grid.w - 1, grid.cellX(ix1[l])),
+                                std::min(grid.h - 1, grid.cellY(iy1[l])));
                 }
             }
         } else
@@ -1391,7 +1419,8 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
             // margin covers the last ulps where segments meet, and the lens.
             const float ex = 1e-5f * std::max(std::abs(x0), std::abs(x1)) + 1e-3f + padX;
             const float ey = 1e-5f * std::max(std::abs(y0), std::abs(y1)) + 1e-3f + padY;
-            visitStratum(size_t(k) * plane, m_strataSample, m_strataX, m_strataY, x0 - ex, y0 - ey, x1 + ex, y1 + ey);
+            visitStratum(size_t(k) * m_strataGrid.plane(), m_strataGrid, m_strataSample, m_strataX, m_strataY, x0 - ex,
+                         y0 - ey, x1 + ex, y1 + ey);
         }
     }
     flush();

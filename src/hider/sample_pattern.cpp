@@ -182,8 +182,9 @@ void SamplePattern::prepare(const PatternSettings& settings) {
     m_y.resize(m_x.size());
     m_time.assign(settings.times ? m_x.size() : 0, 0.0f);
     m_timeStratum.assign(settings.times ? m_x.size() : 0, 0);
-    m_stratumStart.assign(settings.times ? size_t(xs * ys) : 0, 1.0f);
-    m_stratumEnd.assign(settings.times ? size_t(xs * ys) : 0, 0.0f);
+    const size_t timeStrata = xs * ys == 1 ? size_t(kTimeTile * kTimeTile) : size_t(xs * ys);
+    m_stratumStart.assign(settings.times ? timeStrata : 0, 1.0f);
+    m_stratumEnd.assign(settings.times ? timeStrata : 0, 0.0f);
     m_lensStratum.assign(settings.lens ? m_x.size() : 0, 0);
     m_lensBox.clear();
     for (int k = 0; settings.lens && k < xs * ys; ++k) m_lensBox.insert(m_lensBox.end(), {kInfinity, kInfinity, -kInfinity, -kInfinity});
@@ -205,8 +206,9 @@ void SamplePattern::prepare(const PatternSettings& settings) {
                 m_x[k] = o.x;
                 m_y[k] = o.y;
                 if (settings.times) {
-                    const int stratum = timeRank[size_t(s)];
-                    const float t = timeOf(s, stratum, fine, timeKey, settings);
+                    const float t = timeOf(s, timeRank[size_t(s)], fine, timeKey, settings);
+                    // One sample a pixel: its tile's fine strata (timeCell).
+                    const int stratum = xs * ys == 1 ? fine : timeRank[size_t(s)];
                     m_time[k] = t;
                     m_timeStratum[k] = uint16_t(stratum);
                     m_stratumStart[size_t(stratum)] = std::min(m_stratumStart[size_t(stratum)], t);

@@ -105,11 +105,17 @@ public:
     const float* timeRow(int ty) const { return &m_time[size_t(ty) * size_t(m_columns)]; }
     const float* lensXRow(int ty) const { return &m_lensX[size_t(ty) * size_t(m_columns)]; }
     const float* lensYRow(int ty) const { return &m_lensY[size_t(ty) * size_t(m_columns)]; }
-    /// Motion: each sample's coarse time stratum (0 .. xs*ys-1; every pixel
-    /// has one sample in each), and the earliest and latest time that any
-    /// sample of stratum k takes, so a micropolygon can be bounded over
-    /// the part of the shutter a stratum's samples see.
+    /// Motion: each sample's time stratum, and the earliest and latest time
+    /// that any sample of stratum k takes, so a micropolygon can be bounded
+    /// over the part of the shutter a stratum's samples see. Every *cell*
+    /// of timeCell() x timeCell() pixels (aligned to multiples of it) has
+    /// one sample in each of the timeStrata() strata: with several samples
+    /// a pixel, a cell is a pixel and the strata its xs * ys coarse ones;
+    /// with one (a depth map), a cell is a kTimeTile x kTimeTile tile and
+    /// the strata its pixels' fine ones.
     const uint16_t* timeStratumRow(int ty) const { return &m_timeStratum[size_t(ty) * size_t(m_columns)]; }
+    int timeStrata() const { return int(m_stratumStart.size()); }
+    int timeCell() const { return m_settings.xSamples * m_settings.ySamples == 1 ? kTimeTile : 1; }
     float stratumStart(int k) const { return m_stratumStart[size_t(k)]; }
     float stratumEnd(int k) const { return m_stratumEnd[size_t(k)]; }
     /// Depth of field likewise: each sample's lens stratum (every pixel has

@@ -310,11 +310,22 @@ private:
     /// no micropolygon of the grid can reach the region at such a time.
     bool boundMotion(const MicroGrid& g);
     void rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, int i, int j, const MotionBound* bound);
-    /// The sample of each region pixel in each stratum, [stratum][row][column],
-    /// and that sample's raster position alike (NaN where a pixel has none;
-    /// three floats of padding, read in groups of four).
-    void tabulateStrata(const uint16_t* (SamplePattern::*row)(int) const, std::vector<int32_t>& table,
-                        std::vector<float>& tableX, std::vector<float>& tableY,
+    /// The cells the strata tables are laid out by: `cell` x `cell` pixels
+    /// (1: pixels; a power of two), and the region's cells, x0 .. x0 + w - 1
+    /// by y0 .. y0 + h - 1 in cells of the whole frame.
+    struct StrataGrid {
+        int cellShift = 0;  // cell = 1 << cellShift
+        int x0 = 0, y0 = 0, w = 0, h = 0;
+        int cellX(int pixelX) const { return (pixelX >> cellShift) - x0; }  // an arithmetic shift: floor
+        int cellY(int pixelY) const { return (pixelY >> cellShift) - y0; }
+        size_t plane() const { return size_t(w) * size_t(h); }
+    };
+    StrataGrid strataGrid(int cell) const;
+    /// The sample of each region cell in each stratum, [stratum][row][column]
+    /// of `grid`, and that sample's raster position alike (NaN where a cell
+    /// has none; three floats of padding, read in groups of four).
+    void tabulateStrata(const uint16_t* (SamplePattern::*row)(int) const, int strata, const StrataGrid& grid,
+                        std::vector<int32_t>& table, std::vector<float>& tableX, std::vector<float>& tableY,
                         std::vector<float>* tableTime = nullptr) const;
     /// Records a hit of triangle t at sample s: depth z (within the clipping
     /// planes), barycentric weights b1, b2 of t's second and third vertices.
@@ -375,8 +386,9 @@ private:
     // Per sample (structure of arrays).
     std::vector<float> m_px, m_py;   // raster position
     std::vector<float> m_time;       // motion: time in [0, 1)
-    // Motion: the sample of each region pixel in each coarse time stratum,
-    // [stratum][pixel row][pixel column], and each stratum's time range.
+    // Motion: the sample of each region cell in each time stratum,
+    // [stratum][cell row][cell column], and each stratum's time range.
+    StrataGrid m_strataGrid, m_lensStrataGrid;  // the cells of the time and lens tables
     std::vector<int32_t> m_strataSample;
     std::vector<float> m_strataX, m_strataY, m_strataTime;  // those samples' positions and times, likewise
     std::vector<float> m_strataStart, m_strataEnd;

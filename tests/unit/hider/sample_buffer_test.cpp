@@ -832,6 +832,56 @@ TEST(SampleBuffer, TimeStrataHitWhatEverySampleWould) {
     }
 }
 
+/// One sample a pixel, as a depth map has: a pixel holds one time, so the
+/// strata are a kTimeTile x kTimeTile tile's fine ones, one sample of the
+/// tile in each. Bounding each of them on its own hits the same samples at
+/// the same depths as testing every sample the micropolygons sweep over,
+/// in a bucket that does not start on a tile: grids crossing most of it
+/// during the shutter (a caster close to its light), one moving a little,
+/// two keys and three, keys beyond the shutter.
+TEST(SampleBuffer, DepthMapTimeStrataHitWhatEverySampleWould) {
+    const float twoKeys[2] = {0.0f, 1.0f}, beyond[2] = {-0.5f, 1.5f}, threeKeys[3] = {0.0f, 0.4f, 1.0f};
+    struct Moving {
+        TestGrid grid;
+        const float* times;
+        int keys;
+    };
+    auto moving = [](TestGrid base, const float* times, const std::vector<Vec2>& offsets) {
+        Moving m{base, times, int(offsets.size())};
+        m.grid.P.clear();
+        for (size_t k = 0; k < offsets.size(); ++k)
+            for (const Vec3& p : base.P) m.grid.P.push_back({p.x + offsets[k].x, p.y + offsets[k].y, p.z + 0.1f * float(k)});
+        return m;
+    };
+    const std::vector<Moving> grids = {
+        moving(flatGrid(-30.0f, 6.0f, -10.0f, 14.0f, 12, 6, 2.0f, Color(0.5f), Color(1.0f), 1), twoKeys,
+               {{0, 0}, {70, 9}}),
+        moving(flatGrid(10.0f, 20.0f, 22.0f, 30.0f, 8, 8, 3.0f, Color(0.5f), Color(1.0f), 2), beyond,
+               {{-3, 0}, {5, -4}}),
+        moving(flatGrid(30.0f, -20.0f, 36.0f, -5.0f, 4, 10, 1.5f, Color(0.5f), Color(1.0f), 3), threeKeys,
+               {{0, 0}, {-20, 30}, {-5, 55}}),
+    };
+    for (HiderMode mode : {HiderMode::Depth, HiderMode::Colour}) {
+        SampleBuffer strata, every;
+        SampleBufferConfig c = config(3, 5, 40, 34, 1, 1, 1, true, mode);
+        c.motion = true;
+        strata.reset(c);
+        c.sampleStrata = false;
+        every.reset(c);
+        for (const Moving& m : grids) {
+            MicroGrid g = m.grid.view();
+            g.keyCount = m.keys;
+            g.keyTimes = m.times;
+            strata.sample(g);
+            every.sample(g);
+        }
+        expectSameHitsInFewerTests(strata, every, mode, 150);
+        // The fast grids sweep over tens of pixels in a row; a stratum's
+        // share of that is a few.
+        EXPECT_LT(strata.blurStats().sampleTests, every.blurStats().sampleTests / 4);
+    }
+}
+
 /// Per-grid motion bounds (SampleBuffer::boundMotion): a micropolygon is
 /// rasterized in a bucket only when its bound at some sample's time reaches
 /// the bucket's region. A grid sweeping diagonally across nine buckets (its
