@@ -1004,9 +1004,11 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
     // testSample (depth, clipping, dissolve, trim, record). Samples are distinct,
     // and a hit writes only its own sample, so the order of the tests, and
     // the pictures, are those of testing each in turn.
-    const bool batched = !g.discs && keys <= 2;
+    // Three keys or more: the samples queued together share a key segment
+    // (pendingSegment), whose two keys they are interpolated between.
+    const bool batched = !g.discs;
     size_t pending[4];
-    int pendingCount = 0;
+    int pendingCount = 0, pendingSegment = 0;
     auto select = [](I4 m, F4 a, F4 b) { return F4((I4(a) & m) | (I4(b) & ~m)); };
     auto flush = [&]() {
         if (!pendingCount) return;
@@ -1016,9 +1018,9 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
             const F4 t = m_time.empty() ? F4{0, 0, 0, 0}
                                         : F4{m_time[pending[0]], m_time[pending[1]], m_time[pending[2]],
                                              m_time[pending[3]]};
-            const float span = g.keyTimes[1] - g.keyTimes[0];
+            const float span = g.keyTimes[pendingSegment + 1] - g.keyTimes[pendingSegment];
             if (span > 0) {
-                const F4 u = (t - g.keyTimes[0]) / span;
+                const F4 u = (t - g.keyTimes[pendingSegment]) / span;
                 const F4 zero = {0, 0, 0, 0}, one = {1, 1, 1, 1};
                 f = select(u < zero, zero, select(one < u, one, u));  // std::clamp
             }
@@ -1032,7 +1034,7 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
         }
         F4 qx[4], qy[4], qd[4];
         for (int c = 0; c < 4; ++c) {
-            const size_t v0 = size_t(corner[c]);
+            const size_t v0 = size_t(pendingSegment) * size_t(nverts) + size_t(corner[c]);
             const Vec3& a = g.P[v0];
             const float d0 = depthAt(v0);
             F4 x = {a.x, a.x, a.x, a.x}, y = {a.y, a.y, a.y, a.y}, d = {d0, d0, d0, d0};
@@ -1123,6 +1125,16 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
     // A sample to test: at once, or queued for the four-wide test.
     auto candidate = [&](const size_t s) {
         if (!batched) return testSample(s);
+        if (keys > 2) {
+            // testSample's key segment.
+            const float t = m_time.empty() ? 0.0f : m_time[s];
+            int k = 0;
+            while (k + 2 < keys && t >= g.keyTimes[k + 1]) ++k;
+            if (k != pendingSegment) {
+                flush();
+                pendingSegment = k;
+            }
+        }
         pending[pendingCount] = s;  // kept only if not hidden (no branch)
         pendingCount += ctx.farthestUseful[s] >= nearest;
         if (pendingCount == 4) flush();
@@ -1130,8 +1142,8 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
 
     // The samples of one stratum (one a pixel, from `table`) inside the
     // raster box [x0, x1] x [y0, y1], clipped to the micropolygon's bound.
-    // Two keys: each sample is also tested against the micropolygon's
-    // bound at its own time, [lo + f * dlo, hi + f * dhi] widened by a
+    // Two keys (or a stratum inside one key segment of more): each sample
+    // is also tested against the micropolygon's bound at its own time, [lo + f * dlo, hi + f * dhi] widened by a
     // margin (set below; see there), f its weight as testSample finds it.
     bool timeBox = false;
     float boxLo[2] = {}, boxHi[2] = {}, boxDlo[2] = {}, boxDhi[2] = {};
@@ -1384,43 +1396,102 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
                                 std::min(grid.h - 1, grid.cellY(iy1[l])));
                 }
             }
-        } else
-        for (int k = 0; k < strata; ++k) {
-            const float t0 = m_strataStart[size_t(k)], t1 = m_strataEnd[size_t(k)];
-            if (t0 > t1) continue;
-            if (linear && (m_strataWeight[size_t(k) + 1] < fFirst || m_strataWeight[size_t(k)] > fLast)) continue;
-            float x0 = kInfinity, y0 = kInfinity, x1 = -kInfinity, y1 = -kInfinity;
-            auto include = [&](float x, float y) {
-                x0 = std::min(x0, x);
-                x1 = std::max(x1, x);
-                y0 = std::min(y0, y);
-                y1 = std::max(y1, y);
+        } else {
+            // Three keys or more (up to nine): each key segment's bound as two
+            // keys' above, which bounds the strata lying inside that segment
+            // and checks their samples at their own times. The same motion
+            // given as three keys tested 2.5 times the samples of two.
+            struct SegmentBox {
+                float lo[2], hi[2], dlo[2], dhi[2];
+                bool finite;
             };
-            if (linear) {
-                for (const float f : {m_strataWeight[size_t(k)], m_strataWeight[size_t(k) + 1]}) {
-                    include(lo[0] + f * dlo[0], lo[1] + f * dlo[1]);
-                    include(hi[0] + f * dhi[0], hi[1] + f * dhi[1]);
-                }
-            } else {
-                for (int c = 0; c < 4; ++c) {
-                    float x, y;
-                    cornerAt(c, t0, x, y);
-                    include(x, y);
-                    cornerAt(c, t1, x, y);
-                    include(x, y);
-                    for (int m = 1; m + 1 < keys; ++m)
-                        if (g.keyTimes[m] > t0 && g.keyTimes[m] < t1) {
-                            const Vec3& p = g.P[size_t(m) * size_t(nverts) + size_t(corner[c])];
-                            include(p.x, p.y);
-                        }
+            SegmentBox segments[8];
+            const int boxedSegments = !linear && keys > 2 && keys - 1 <= 8 && !m_strataTime.empty() ? keys - 1 : 0;
+            for (int seg = 0; seg < boxedSegments; ++seg) {
+                SegmentBox& b = segments[seg];
+                const size_t shifted[4] = {size_t(seg) * size_t(nverts) + size_t(corner[0]),
+                                           size_t(seg) * size_t(nverts) + size_t(corner[1]),
+                                           size_t(seg) * size_t(nverts) + size_t(corner[2]),
+                                           size_t(seg) * size_t(nverts) + size_t(corner[3])};
+                boundKeyMotion(g, shifted, size_t(nverts), b.lo, b.hi, b.dlo, b.dhi);
+                const float pad[2] = {padX, padY};
+                b.finite = g.keyTimes[seg + 1] - g.keyTimes[seg] > 0;
+                for (int axis = 0; axis < 2; ++axis) {
+                    const float margin = keyMotionMargin(b.lo[axis], b.hi[axis], b.dlo[axis], b.dhi[axis], pad[axis]);
+                    b.finite = b.finite && std::isfinite(b.lo[axis]) && std::isfinite(b.hi[axis]) &&
+                               std::isfinite(b.dlo[axis]) && std::isfinite(b.dhi[axis]) && std::isfinite(margin);
+                    b.lo[axis] -= margin;
+                    b.hi[axis] += margin;
                 }
             }
-            // Interpolation rounds monotonically within a key segment; the
-            // margin covers the last ulps where segments meet, and the lens.
-            const float ex = 1e-5f * std::max(std::abs(x0), std::abs(x1)) + 1e-3f + padX;
-            const float ey = 1e-5f * std::max(std::abs(y0), std::abs(y1)) + 1e-3f + padY;
-            visitStratum(size_t(k) * m_strataGrid.plane(), m_strataGrid, m_strataSample, m_strataX, m_strataY, x0 - ex,
-                         y0 - ey, x1 + ex, y1 + ey);
+            for (int k = 0; k < strata; ++k) {
+                const float t0 = m_strataStart[size_t(k)], t1 = m_strataEnd[size_t(k)];
+                if (t0 > t1) continue;
+                if (boxedSegments) {
+                    // The segment testSample finds for the stratum's first time,
+                    // if its last time finds the same one.
+                    auto segmentOf = [&](float t) {
+                        int seg = 0;
+                        while (seg + 2 < keys && t >= g.keyTimes[seg + 1]) ++seg;
+                        return seg;
+                    };
+                    const int seg = segmentOf(t0);
+                    const SegmentBox& b = segments[seg];
+                    timeBox = b.finite && segmentOf(t1) == seg;
+                    if (timeBox) {
+                        for (int axis = 0; axis < 2; ++axis) {
+                            boxLo[axis] = b.lo[axis];
+                            boxHi[axis] = b.hi[axis];
+                            boxDlo[axis] = b.dlo[axis];
+                            boxDhi[axis] = b.dhi[axis];
+                        }
+                        boxTime0 = g.keyTimes[seg];
+                        boxTimeScale = 1.0f / (g.keyTimes[seg + 1] - g.keyTimes[seg]);
+                        timeBox = std::isfinite(boxTimeScale);
+                    }
+                }
+                if (linear && (m_strataWeight[size_t(k) + 1] < fFirst || m_strataWeight[size_t(k)] > fLast)) continue;
+                float x0 = kInfinity, y0 = kInfinity, x1 = -kInfinity, y1 = -kInfinity;
+                auto include = [&](float x, float y) {
+                    x0 = std::min(x0, x);
+                    x1 = std::max(x1, x);
+                    y0 = std::min(y0, y);
+                    y1 = std::max(y1, y);
+                };
+                if (linear) {
+                    for (const float f : {m_strataWeight[size_t(k)], m_strataWeight[size_t(k) + 1]}) {
+                        include(lo[0] + f * dlo[0], lo[1] + f * dlo[1]);
+                        include(hi[0] + f * dhi[0], hi[1] + f * dhi[1]);
+                    }
+                } else if (boxedSegments && timeBox) {
+                    // Inside one key segment: its bound at the stratum's first
+                    // and last weights (margins included).
+                    for (const float t : {t0, t1}) {
+                        const float f = std::clamp((t - boxTime0) * boxTimeScale, 0.0f, 1.0f);
+                        include(boxLo[0] + f * boxDlo[0], boxLo[1] + f * boxDlo[1]);
+                        include(boxHi[0] + f * boxDhi[0], boxHi[1] + f * boxDhi[1]);
+                    }
+                } else {
+                    for (int c = 0; c < 4; ++c) {
+                        float x, y;
+                        cornerAt(c, t0, x, y);
+                        include(x, y);
+                        cornerAt(c, t1, x, y);
+                        include(x, y);
+                        for (int m = 1; m + 1 < keys; ++m)
+                            if (g.keyTimes[m] > t0 && g.keyTimes[m] < t1) {
+                                const Vec3& p = g.P[size_t(m) * size_t(nverts) + size_t(corner[c])];
+                                include(p.x, p.y);
+                            }
+                    }
+                }
+                // Interpolation rounds monotonically within a key segment; the
+                // margin covers the last ulps where segments meet, and the lens.
+                const float ex = 1e-5f * std::max(std::abs(x0), std::abs(x1)) + 1e-3f + padX;
+                const float ey = 1e-5f * std::max(std::abs(y0), std::abs(y1)) + 1e-3f + padY;
+                visitStratum(size_t(k) * m_strataGrid.plane(), m_strataGrid, m_strataSample, m_strataX, m_strataY, x0 - ex,
+                             y0 - ey, x1 + ex, y1 + ey);
+            }
         }
     }
     flush();
