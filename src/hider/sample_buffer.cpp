@@ -620,6 +620,21 @@ void boundKeyMotion(const MicroGrid& g, const Index (&corner)[4], size_t nverts,
 
 /// What such a bound is widened by on one axis: the ulps of testSample's
 /// interpolation, and `pad`, the lens's reach.
+/// The key segment a time falls in, between keys k and k + 1 of `keys`
+/// (the first before the keys, the last after them; testSample's rule,
+/// which every bound of a stratum or a queue of samples follows).
+int keySegment(const MicroGrid& g, int keys, float t) {
+    int k = 0;
+    while (k + 2 < keys && t >= g.keyTimes[k + 1]) ++k;
+    return k;
+}
+
+/// The weight of key k + 1 at time t in segment k, held at 0 and 1 outside.
+float segmentWeight(const MicroGrid& g, int k, float t) {
+    const float span = g.keyTimes[k + 1] - g.keyTimes[k];
+    return span > 0 ? std::clamp((t - g.keyTimes[k]) / span, 0.0f, 1.0f) : 0.0f;
+}
+
 float keyMotionMargin(float lo, float hi, float dlo, float dhi, float pad) {
     return 1e-3f + pad + 1e-5f * std::max({std::abs(lo), std::abs(hi), std::abs(lo + dlo), std::abs(hi + dhi)});
 }
@@ -932,9 +947,8 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
             float f = 0;
             if (keys > 1) {
                 const float t = m_time.empty() ? 0.0f : m_time[s];
-                while (k + 2 < keys && t >= g.keyTimes[k + 1]) ++k;
-                const float span = g.keyTimes[k + 1] - g.keyTimes[k];
-                f = span > 0 ? std::clamp((t - g.keyTimes[k]) / span, 0.0f, 1.0f) : 0.0f;
+                k = keySegment(g, keys, t);
+                f = segmentWeight(g, k, t);
             }
             for (int c = 0; c < 4; ++c) {
                 const size_t v0 = size_t(k) * size_t(nverts) + size_t(corner[c]);
@@ -1126,10 +1140,7 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
     auto candidate = [&](const size_t s) {
         if (!batched) return testSample(s);
         if (keys > 2) {
-            // testSample's key segment.
-            const float t = m_time.empty() ? 0.0f : m_time[s];
-            int k = 0;
-            while (k + 2 < keys && t >= g.keyTimes[k + 1]) ++k;
+            const int k = keySegment(g, keys, m_time.empty() ? 0.0f : m_time[s]);
             if (k != pendingSegment) {
                 flush();
                 pendingSegment = k;
@@ -1273,10 +1284,8 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
         // changes, not how: the pictures are those of testing every one.
         const int strata = int(m_strataStart.size());
         auto cornerAt = [&](int c, float t, float& x, float& y) {
-            int k = 0;
-            while (k + 2 < keys && t >= g.keyTimes[k + 1]) ++k;
-            const float span = g.keyTimes[k + 1] - g.keyTimes[k];
-            const float f = span > 0 ? std::clamp((t - g.keyTimes[k]) / span, 0.0f, 1.0f) : 0.0f;
+            const int k = keySegment(g, keys, t);
+            const float f = segmentWeight(g, k, t);
             const Vec3& a = g.P[size_t(k) * size_t(nverts) + size_t(corner[c])];
             const Vec3& b = g.P[size_t(k + 1) * size_t(nverts) + size_t(corner[c])];
             x = a.x + f * (b.x - a.x);
@@ -1428,16 +1437,11 @@ void SampleBuffer::rasterizeBlurred(const MicroGrid& g, const HitContext& ctx, i
                 const float t0 = m_strataStart[size_t(k)], t1 = m_strataEnd[size_t(k)];
                 if (t0 > t1) continue;
                 if (boxedSegments) {
-                    // The segment testSample finds for the stratum's first time,
-                    // if its last time finds the same one.
-                    auto segmentOf = [&](float t) {
-                        int seg = 0;
-                        while (seg + 2 < keys && t >= g.keyTimes[seg + 1]) ++seg;
-                        return seg;
-                    };
-                    const int seg = segmentOf(t0);
+                    // The segment of the stratum's first time, if its last
+                    // time falls in the same one.
+                    const int seg = keySegment(g, keys, t0);
                     const SegmentBox& b = segments[seg];
-                    timeBox = b.finite && segmentOf(t1) == seg;
+                    timeBox = b.finite && keySegment(g, keys, t1) == seg;
                     if (timeBox) {
                         for (int axis = 0; axis < 2; ++axis) {
                             boxLo[axis] = b.lo[axis];

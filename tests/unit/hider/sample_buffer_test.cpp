@@ -787,6 +787,33 @@ void expectSameHitsInFewerTests(SampleBuffer& strata, SampleBuffer& every, Hider
     EXPECT_LT(strata.blurStats().sampleTests, every.blurStats().sampleTests / 2);
 }
 
+/// Two buffers for `c` under motion: one that bounds each time stratum
+/// and one that tests every sample a micropolygon sweeps over.
+void resetStrataAndEvery(SampleBuffer& strata, SampleBuffer& every, SampleBufferConfig c) {
+    c.motion = true;
+    strata.reset(c);
+    c.sampleStrata = false;
+    every.reset(c);
+}
+
+/// `base` moved by offsets[k] (and 0.1 k deeper) at its k-th key.
+TestGrid keyedGrid(const TestGrid& base, const std::vector<Vec2>& offsets) {
+    TestGrid g = base;
+    g.P.clear();
+    for (size_t k = 0; k < offsets.size(); ++k)
+        for (const Vec3& p : base.P) g.P.push_back({p.x + offsets[k].x, p.y + offsets[k].y, p.z + 0.1f * float(k)});
+    return g;
+}
+
+/// Samples `grid`, keyed at `times` (one per key), into both buffers.
+void sampleBoth(SampleBuffer& strata, SampleBuffer& every, const TestGrid& grid, const float* times, int keys) {
+    MicroGrid g = grid.view();
+    g.keyCount = keys;
+    g.keyTimes = times;
+    strata.sample(g);
+    every.sample(g);
+}
+
 TEST(SampleBuffer, TimeStrataHitWhatEverySampleWould) {
     struct Moving {
         TestGrid grid;
@@ -816,18 +843,8 @@ TEST(SampleBuffer, TimeStrataHitWhatEverySampleWould) {
     };
     for (HiderMode mode : {HiderMode::Colour, HiderMode::Depth}) {
         SampleBuffer strata, every;
-        SampleBufferConfig c = config(0, 0, 16, 16, 1, 4, 4, true, mode);
-        c.motion = true;
-        strata.reset(c);
-        c.sampleStrata = false;
-        every.reset(c);
-        for (const Moving& m : grids) {
-            MicroGrid g = m.grid.view();
-            g.keyCount = int(m.times.size());
-            g.keyTimes = m.times.data();
-            strata.sample(g);
-            every.sample(g);
-        }
+        resetStrataAndEvery(strata, every, config(0, 0, 16, 16, 1, 4, 4, true, mode));
+        for (const Moving& m : grids) sampleBoth(strata, every, m.grid, m.times.data(), int(m.times.size()));
         expectSameHitsInFewerTests(strata, every, mode, 500);  // the grids cover a good part of the bucket
     }
 }
@@ -841,40 +858,21 @@ TEST(SampleBuffer, TimeStrataHitWhatEverySampleWould) {
 /// two keys and three, keys beyond the shutter.
 TEST(SampleBuffer, DepthMapTimeStrataHitWhatEverySampleWould) {
     const float twoKeys[2] = {0.0f, 1.0f}, beyond[2] = {-0.5f, 1.5f}, threeKeys[3] = {0.0f, 0.4f, 1.0f};
-    struct Moving {
-        TestGrid grid;
-        const float* times;
-        int keys;
-    };
-    auto moving = [](TestGrid base, const float* times, const std::vector<Vec2>& offsets) {
-        Moving m{base, times, int(offsets.size())};
-        m.grid.P.clear();
-        for (size_t k = 0; k < offsets.size(); ++k)
-            for (const Vec3& p : base.P) m.grid.P.push_back({p.x + offsets[k].x, p.y + offsets[k].y, p.z + 0.1f * float(k)});
-        return m;
-    };
-    const std::vector<Moving> grids = {
-        moving(flatGrid(-30.0f, 6.0f, -10.0f, 14.0f, 12, 6, 2.0f, Color(0.5f), Color(1.0f), 1), twoKeys,
-               {{0, 0}, {70, 9}}),
-        moving(flatGrid(10.0f, 20.0f, 22.0f, 30.0f, 8, 8, 3.0f, Color(0.5f), Color(1.0f), 2), beyond,
-               {{-3, 0}, {5, -4}}),
-        moving(flatGrid(30.0f, -20.0f, 36.0f, -5.0f, 4, 10, 1.5f, Color(0.5f), Color(1.0f), 3), threeKeys,
-               {{0, 0}, {-20, 30}, {-5, 55}}),
-    };
     for (HiderMode mode : {HiderMode::Depth, HiderMode::Colour}) {
         SampleBuffer strata, every;
-        SampleBufferConfig c = config(3, 5, 40, 34, 1, 1, 1, true, mode);
-        c.motion = true;
-        strata.reset(c);
-        c.sampleStrata = false;
-        every.reset(c);
-        for (const Moving& m : grids) {
-            MicroGrid g = m.grid.view();
-            g.keyCount = m.keys;
-            g.keyTimes = m.times;
-            strata.sample(g);
-            every.sample(g);
-        }
+        resetStrataAndEvery(strata, every, config(3, 5, 40, 34, 1, 1, 1, true, mode));
+        sampleBoth(strata, every,
+                   keyedGrid(flatGrid(-30.0f, 6.0f, -10.0f, 14.0f, 12, 6, 2.0f, Color(0.5f), Color(1.0f), 1),
+                             {{0, 0}, {70, 9}}),
+                   twoKeys, 2);
+        sampleBoth(strata, every,
+                   keyedGrid(flatGrid(10.0f, 20.0f, 22.0f, 30.0f, 8, 8, 3.0f, Color(0.5f), Color(1.0f), 2),
+                             {{-3, 0}, {5, -4}}),
+                   beyond, 2);
+        sampleBoth(strata, every,
+                   keyedGrid(flatGrid(30.0f, -20.0f, 36.0f, -5.0f, 4, 10, 1.5f, Color(0.5f), Color(1.0f), 3),
+                             {{0, 0}, {-20, 30}, {-5, 55}}),
+                   threeKeys, 3);
         expectSameHitsInFewerTests(strata, every, mode, 150);
         // The fast grids sweep over tens of pixels in a row; a stratum's
         // share of that is a few.
@@ -888,24 +886,12 @@ TEST(SampleBuffer, DepthMapTimeStrataHitWhatEverySampleWould) {
 /// hits as testing every sample, in a fraction of the exact tests.
 TEST(SampleBuffer, KeySegmentsBoundTheirStrataAsTwoKeysDo) {
     const float times[4] = {0.0f, 0.3f, 0.55f, 1.0f};
-    const Vec2 path[4] = {{0, 0}, {9, 3}, {14, 11}, {4, 17}};
-    TestGrid base = flatGrid(1.3f, 0.6f, 5.9f, 4.2f, 5, 4, 2.0f, Color(0.5f), Color(1.0f), 1);
-    TestGrid g = base;
-    g.P.clear();
-    for (int k = 0; k < 4; ++k)
-        for (const Vec3& p : base.P) g.P.push_back({p.x + path[k].x, p.y + path[k].y, p.z + 0.2f * float(k)});
+    const TestGrid g = keyedGrid(flatGrid(1.3f, 0.6f, 5.9f, 4.2f, 5, 4, 2.0f, Color(0.5f), Color(1.0f), 1),
+                                 {{0, 0}, {9, 3}, {14, 11}, {4, 17}});
     for (HiderMode mode : {HiderMode::Colour, HiderMode::Depth}) {
         SampleBuffer strata, every;
-        SampleBufferConfig c = config(0, 0, 24, 24, 1, 4, 4, true, mode);
-        c.motion = true;
-        strata.reset(c);
-        c.sampleStrata = false;
-        every.reset(c);
-        MicroGrid view = g.view();
-        view.keyCount = 4;
-        view.keyTimes = times;
-        strata.sample(view);
-        every.sample(view);
+        resetStrataAndEvery(strata, every, config(0, 0, 24, 24, 1, 4, 4, true, mode));
+        sampleBoth(strata, every, g, times, 4);
         expectSameHitsInFewerTests(strata, every, mode, 200);  // the grid covers about 16.5 pixels
         // Checked against its segment's bound at its own time, about 1.6
         // samples are tested a hit (5.7 by the strata's boxes alone).
